@@ -1,0 +1,48 @@
+// Reading an estimator's Options from YAML: every key must be known, every value well typed.
+//
+//   ConfigReader r(node, "tarrio-kf");
+//   r.Read("sigma_p_m", &opts.sigma_p_m);
+//   WG_RETURN_IF_ERROR(r.Finish());   // reports unknown keys and type errors with line numbers
+#ifndef WALKGRAPH_CONFIG_H_
+#define WALKGRAPH_CONFIG_H_
+
+#include <set>
+#include <string>
+
+#include <yaml-cpp/yaml.h>
+
+#include "walkgraph/status.h"
+
+namespace walkgraph {
+
+class ConfigReader {
+ public:
+  ConfigReader(YAML::Node node, std::string context);
+
+  // Reads `key` into `value` if present; the first failure is kept and reported by Finish().
+  void Read(const std::string& key, double* value);
+  void Read(const std::string& key, int* value);
+  void Read(const std::string& key, bool* value);
+  void Read(const std::string& key, std::string* value);
+  // A sub-map, for nested options; returns an undefined node when absent.
+  YAML::Node Child(const std::string& key);
+
+  // OK, or the first type error, or the first key that no Read() asked for.
+  Status Finish() const;
+
+ private:
+  template <typename T>
+  void ReadScalar(const std::string& key, T* value, const char* type_name);
+
+  YAML::Node node_;
+  std::string context_;
+  std::set<std::string> known_;
+  Status first_error_;
+};
+
+// Loads a YAML file; errors name the file and line.
+StatusOr<YAML::Node> LoadYamlFile(const std::string& path);
+
+}  // namespace walkgraph
+
+#endif  // WALKGRAPH_CONFIG_H_

@@ -1,0 +1,71 @@
+// The common estimator interface and the registry that finds estimators by a stable id.
+//
+// An estimator sees a Walk and its configuration, nothing global. Configuration is a YAML map
+// whose keys are the estimator's Options fields; absent keys keep the paper's defaults, unknown
+// keys are an error. The CLI and research code find estimators the same way:
+//
+//   auto est = walkgraph::EstimatorRegistry::Builtin().Create("fg-batch", config);
+//   if (!est.ok()) { ... est.status().message() ... }
+//   auto result = (*est)->Run(walk);
+#ifndef WALKGRAPH_ESTIMATOR_H_
+#define WALKGRAPH_ESTIMATOR_H_
+
+#include <functional>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <yaml-cpp/yaml.h>
+
+#include "walkgraph/status.h"
+#include "walkgraph/trajectory.h"
+#include "walkgraph/walk.h"
+
+namespace walkgraph {
+
+struct EstimateResult {
+  Trajectory trajectory;
+  // Normalized innovation squared of each accepted measurement update (filters), for
+  // consistency checks; empty where the estimator has no innovations.
+  std::vector<double> nis;
+  // Named figures an estimator wants to report (e.g. "ceres_iterations", "gated_updates").
+  std::map<std::string, double> diagnostics;
+};
+
+class Estimator {
+ public:
+  virtual ~Estimator() = default;
+  // Why this estimator cannot run on `walk` (missing sensors), or OK.
+  virtual Status CheckApplicable(const Walk& walk) const = 0;
+  // Runs on the whole walk. Never aborts: failure comes back as a Status.
+  virtual StatusOr<EstimateResult> Run(const Walk& walk) const = 0;
+};
+
+using EstimatorFactory =
+    std::function<StatusOr<std::unique_ptr<Estimator>>(const YAML::Node& config)>;
+
+struct EstimatorInfo {
+  std::string id;
+  std::string description;  // one line: paper, equations, sensors
+  EstimatorFactory factory;
+};
+
+class EstimatorRegistry {
+ public:
+  // Every estimator shipped with the library.
+  static const EstimatorRegistry& Builtin();
+
+  Status Register(EstimatorInfo info);
+  StatusOr<std::unique_ptr<Estimator>> Create(const std::string& id,
+                                              const YAML::Node& config = YAML::Node()) const;
+  const EstimatorInfo* Find(const std::string& id) const;
+  std::vector<std::string> Ids() const;  // in registration order
+
+ private:
+  std::vector<EstimatorInfo> entries_;
+};
+
+}  // namespace walkgraph
+
+#endif  // WALKGRAPH_ESTIMATOR_H_

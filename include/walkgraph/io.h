@@ -1,0 +1,51 @@
+// Reading, validating and writing walks (format version 1, documented in README.md).
+//
+// A walk is a directory: walk.yaml, anchors.csv and the optional streams imu.csv, rss.csv,
+// range.csv, odometry.csv, truth.csv, stance_truth.csv. Readers are strict: every problem is
+// reported as "file:line: what was expected". Writers are atomic: each file is written under a
+// temporary name and renamed, and a new walk directory appears only when complete.
+#ifndef WALKGRAPH_IO_H_
+#define WALKGRAPH_IO_H_
+
+#include <functional>
+#include <ostream>
+#include <string>
+
+#include "walkgraph/status.h"
+#include "walkgraph/trajectory.h"
+#include "walkgraph/walk.h"
+
+namespace walkgraph {
+
+// Physical plausibility limits applied by the readers.
+struct ValidationLimits {
+  double max_abs_acc_mps2 = 300.0;
+  double max_abs_gyro_radps = 50.0;
+  double min_rss_dbm = -150.0;
+  double max_rss_dbm = 30.0;
+  double max_range_m = 1.0e5;
+  double max_abs_coordinate_m = 1.0e7;
+};
+
+// Reads and validates the walk in `dir`.
+StatusOr<Walk> ReadWalk(const std::string& dir, const ValidationLimits& limits = {});
+
+// Checks the cross-file rules on an in-memory walk (anchor ids known and unique, timestamps
+// ordered, values plausible). ReadWalk applies it; writers apply it before writing.
+Status ValidateWalk(const Walk& walk, const ValidationLimits& limits = {});
+
+// Writes `walk` into `dir` (created if missing). Validates first; never leaves partial files.
+Status WriteWalk(const Walk& walk, const std::string& dir);
+
+// Writes a file atomically: `write` fills a stream opened on "<path>.tmp-<pid>"; if it returns
+// true and the stream is good the temporary file is renamed to `path`, else it is removed.
+Status WriteFileAtomically(const std::string& path,
+                           const std::function<bool(std::ostream&)>& write);
+
+// TUM trajectory format ("t x y z qx qy qz qw", heading as yaw about z), as read by evo.
+Status WriteTumTrajectory(const Trajectory& trajectory, const std::string& path);
+StatusOr<Trajectory> ReadTumTrajectory(const std::string& path);
+
+}  // namespace walkgraph
+
+#endif  // WALKGRAPH_IO_H_

@@ -1,0 +1,50 @@
+// Accuracy metrics of a trajectory against a walk's truth.
+//
+// Horizontal (2D) position error. With continuous truth the error is taken at every truth
+// sample; with checkpoints at each checkpoint. The estimate is linearly interpolated at the
+// truth time. Truth outside the estimate's time span is skipped (counted in n_skipped).
+#ifndef WALKGRAPH_METRICS_H_
+#define WALKGRAPH_METRICS_H_
+
+#include <vector>
+
+#include "walkgraph/status.h"
+#include "walkgraph/trajectory.h"
+#include "walkgraph/walk.h"
+
+namespace walkgraph {
+
+struct ErrorSeries {
+  std::vector<double> t_s;
+  std::vector<double> error_m;
+  int n_skipped = 0;
+};
+
+struct ErrorStats {
+  double rmse_m = 0.0;
+  double mean_m = 0.0;
+  double median_m = 0.0;
+  double p75_m = 0.0;  // the EvAAL/IPIN score
+  double p90_m = 0.0;
+  double max_m = 0.0;
+  double final_m = 0.0;       // error at the last scored truth point
+  double pct_distance = 0.0;  // final error as % of the truth path length
+  int n_points = 0;
+};
+
+enum class Alignment { kNone, kSE2 };
+
+// Errors of `trajectory` at the truth of `walk`. kSE2 first fits the rotation and translation
+// that best aligns the estimate to the truth (for dead-reckoning-only walks).
+StatusOr<ErrorSeries> ComputeErrors(const Walk& walk, const Trajectory& trajectory,
+                                    Alignment alignment = Alignment::kNone);
+
+// Statistics of an error series; `distance_m` is the path length for pct_distance.
+ErrorStats SummarizeErrors(const std::vector<double>& errors_m, double distance_m);
+
+// Linear-interpolation percentile (q in [0, 100]) of unsorted values; 0 for an empty vector.
+double Percentile(std::vector<double> values, double q);
+
+}  // namespace walkgraph
+
+#endif  // WALKGRAPH_METRICS_H_

@@ -1,0 +1,32 @@
+// What an estimator returns: timestamped planar poses with their covariances.
+#ifndef WALKGRAPH_TRAJECTORY_H_
+#define WALKGRAPH_TRAJECTORY_H_
+
+#include <optional>
+#include <vector>
+
+#include <Eigen/Core>
+
+namespace walkgraph {
+
+struct TrajectoryPoint {
+  double t_s = 0.0;
+  Eigen::Vector3d position_m = Eigen::Vector3d::Zero();  // z = 0 for planar estimators
+  double heading_rad = 0.0;
+  // Covariance of (x, y, heading); absent when the estimator has none (e.g. a raw fix).
+  std::optional<Eigen::Matrix3d> covariance;
+};
+
+struct Trajectory {
+  std::vector<TrajectoryPoint> points;  // strictly increasing t_s
+
+  bool empty() const { return points.empty(); }
+  size_t size() const { return points.size(); }
+  // Position at time t, linearly interpolated; clamped to the ends outside the span.
+  // Requires a non-empty trajectory.
+  Eigen::Vector3d PositionAt(double t_s) const;
+};
+
+}  // namespace walkgraph
+
+#endif  // WALKGRAPH_TRAJECTORY_H_

@@ -1,0 +1,138 @@
+// A recorded or simulated walk: the input every estimator sees.
+//
+// Simulated and real walks are the same type; only the truth differs (continuous samples or
+// surveyed checkpoints). Everything is SI inside: seconds, metres, m/s², rad/s, µT, dBm (or the
+// RFCode unit of 004, where larger is weaker), radians. Frame: local, x east, y north, z up.
+#ifndef WALKGRAPH_WALK_H_
+#define WALKGRAPH_WALK_H_
+
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+namespace walkgraph {
+
+enum class ImuPlacement { kNone, kFoot, kWaist, kHip, kHandheld };
+enum class TruthKind { kNone, kContinuous, kCheckpoints };
+enum class RadioKind { kNone, kRss, kRange };
+enum class RssUnits { kDbm, kRfcode };
+
+const char* ToString(ImuPlacement p);
+const char* ToString(TruthKind k);
+const char* ToString(RadioKind k);
+const char* ToString(RssUnits u);
+
+// Log-distance path loss: RSS = A − 10·η·log10(d/d0) + N(0, σ²)
+// (000 eq. 1, 001 eq. 13, 002 eq. 5, 004 eq. 4). In RFCode units (004) RSS grows as the signal
+// weakens, so there RSS = A + 10·η·log10(d/d0); `units` in RadioDefaults says which.
+struct PathLossParams {
+  double A_dbm = -60.0;   // RSS at d0 (RFCode: RSS0)
+  double eta = 2.5;       // path-loss exponent (> 0)
+  double d0_m = 1.0;      // reference distance
+  double sigma_db = 5.0;  // shadowing standard deviation
+};
+
+struct RadioDefaults {
+  RadioKind kind = RadioKind::kNone;
+  RssUnits units = RssUnits::kDbm;
+  PathLossParams path_loss;
+  double range_sigma_m = 1.0;  // for kind == kRange
+};
+
+// Optional known start (a surveyed start point): dead reckoning needs it to be in the anchors'
+// frame when nothing else fixes the gauge.
+struct InitialPose {
+  double x_m = 0.0;
+  double y_m = 0.0;
+  double heading_rad = 0.0;
+  double sigma_xy_m = 0.5;
+  double sigma_heading_rad = 0.1;
+};
+
+struct WalkMeta {
+  int format_version = 1;
+  std::string name;
+  std::string source;   // citation / where the data came from
+  std::string licence;
+  ImuPlacement imu_placement = ImuPlacement::kNone;
+  TruthKind truth_kind = TruthKind::kNone;
+  RadioDefaults radio;
+  std::optional<InitialPose> initial_pose;
+  // Free-form numeric facts a simulator or converter wants to keep (e.g. "sim.seed").
+  std::map<std::string, double> extra;
+};
+
+struct Anchor {
+  int id = 0;
+  Eigen::Vector3d position_m = Eigen::Vector3d::Zero();
+};
+
+struct ImuSample {
+  double t_s = 0.0;
+  Eigen::Vector3d acc_mps2 = Eigen::Vector3d::Zero();   // specific force, body frame
+  Eigen::Vector3d gyro_radps = Eigen::Vector3d::Zero(); // angular rate, body frame
+  bool has_mag = false;
+  Eigen::Vector3d mag_ut = Eigen::Vector3d::Zero();
+};
+
+struct RssSample {
+  double t_s = 0.0;
+  int anchor_id = 0;
+  double rss = 0.0;  // dBm or RFCode units (RadioDefaults::units)
+};
+
+struct RangeSample {
+  double t_s = 0.0;
+  int anchor_id = 0;
+  double range_m = 0.0;
+};
+
+// A step or wheel increment: move dist_m along the current heading, then turn dheading_rad.
+struct OdometrySample {
+  double t_s = 0.0;
+  double dist_m = 0.0;
+  double dheading_rad = 0.0;
+};
+
+struct TruthSample {
+  double t_s = 0.0;
+  Eigen::Vector3d position_m = Eigen::Vector3d::Zero();
+  bool has_z = false;
+};
+
+struct StanceSample {
+  double t_s = 0.0;
+  bool stance = false;
+};
+
+struct Walk {
+  WalkMeta meta;
+  std::vector<Anchor> anchors;
+  std::vector<ImuSample> imu;
+  std::vector<RssSample> rss;
+  std::vector<RangeSample> ranges;
+  std::vector<OdometrySample> odometry;
+  std::vector<TruthSample> truth;
+  std::vector<StanceSample> stance_truth;  // optional labels (e.g. PyShoe's zv_vicon)
+
+  bool has_imu() const { return !imu.empty(); }
+  bool has_rss() const { return !rss.empty(); }
+  bool has_ranges() const { return !ranges.empty(); }
+  bool has_odometry() const { return !odometry.empty(); }
+  bool has_truth() const { return !truth.empty(); }
+
+  // Index into `anchors` of the anchor with this id, or -1.
+  int AnchorIndex(int id) const;
+  // First and last timestamp over every stream (0, 0 for an empty walk).
+  double StartTime() const;
+  double EndTime() const;
+  // Horizontal length of the truth path, metres (0 without truth).
+  double TruthDistance() const;
+};
+
+}  // namespace walkgraph
+
+#endif  // WALKGRAPH_WALK_H_

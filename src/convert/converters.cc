@@ -1,0 +1,25 @@
+#include "walkgraph/convert.h"
+
+namespace walkgraph {
+
+const std::vector<ConverterInfo>& Converters() {
+  static const std::vector<ConverterInfo> converters = {
+      {"plaza", "DIR holding Plaza*_DR.txt, Plaza*_TD.txt, Plaza*_anchors.csv [, Plaza*_GT.csv]",
+       [](const std::vector<std::string>& src) -> StatusOr<Walk> {
+         if (src.size() != 1) return InvalidArgument("plaza: expected one source directory");
+         return ConvertPlaza(src[0]);
+       }},
+  };
+  return converters;
+}
+
+StatusOr<Walk> Convert(const std::string& format, const std::vector<std::string>& sources) {
+  std::string known;
+  for (const ConverterInfo& c : Converters()) {
+    if (c.format == format) return c.convert(sources);
+    known += (known.empty() ? "" : ", ") + c.format;
+  }
+  return NotFound("unknown format '" + format + "'; known: " + known);
+}
+
+}  // namespace walkgraph

@@ -1,0 +1,14 @@
+// Registration functions of the estimators shipped with walkgraph (internal). Each estimator
+// unit defines one; registry.cc calls them in order. Add one line in each file per new unit.
+#ifndef WALKGRAPH_SRC_ESTIMATORS_BUILTIN_H_
+#define WALKGRAPH_SRC_ESTIMATORS_BUILTIN_H_
+
+#include "walkgraph/estimator.h"
+
+namespace walkgraph::internal {
+
+void RegisterOdometryDeadReckoning(EstimatorRegistry* registry);
+
+}  // namespace walkgraph::internal
+
+#endif  // WALKGRAPH_SRC_ESTIMATORS_BUILTIN_H_

@@ -1,0 +1,46 @@
+#include "estimators/builtin.h"
+#include "walkgraph/estimator.h"
+
+namespace walkgraph {
+
+const EstimatorRegistry& EstimatorRegistry::Builtin() {
+  static const EstimatorRegistry* registry = [] {
+    auto* r = new EstimatorRegistry();
+    internal::RegisterOdometryDeadReckoning(r);
+    return r;
+  }();
+  return *registry;
+}
+
+Status EstimatorRegistry::Register(EstimatorInfo info) {
+  if (info.id.empty() || !info.factory) return InvalidArgument("estimator needs an id and a factory");
+  if (Find(info.id) != nullptr) return InvalidArgument("estimator id '" + info.id + "' registered twice");
+  entries_.push_back(std::move(info));
+  return Status::Ok();
+}
+
+const EstimatorInfo* EstimatorRegistry::Find(const std::string& id) const {
+  for (const EstimatorInfo& e : entries_) {
+    if (e.id == id) return &e;
+  }
+  return nullptr;
+}
+
+StatusOr<std::unique_ptr<Estimator>> EstimatorRegistry::Create(const std::string& id,
+                                                               const YAML::Node& config) const {
+  const EstimatorInfo* info = Find(id);
+  if (info == nullptr) {
+    std::string ids;
+    for (const EstimatorInfo& e : entries_) ids += (ids.empty() ? "" : ", ") + e.id;
+    return NotFound("unknown estimator '" + id + "'; known: " + ids);
+  }
+  return info->factory(config);
+}
+
+std::vector<std::string> EstimatorRegistry::Ids() const {
+  std::vector<std::string> ids;
+  for (const EstimatorInfo& e : entries_) ids.push_back(e.id);
+  return ids;
+}
+
+}  // namespace walkgraph

@@ -1,0 +1,212 @@
+#include "walkgraph/compare.h"
+
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <iomanip>
+#include <sstream>
+
+#include <nlohmann/json.hpp>
+
+#include "walkgraph/io.h"
+
+namespace walkgraph {
+
+namespace fs = std::filesystem;
+
+StatusOr<Comparison> CompareOnWalk(const Walk& walk, const CompareOptions& options,
+                                   const EstimatorRegistry& registry) {
+  if (walk.truth.empty()) {
+    return FailedPrecondition("walk '" + walk.meta.name + "' has no truth to compare against");
+  }
+  std::vector<std::string> ids = options.estimator_ids;
+  const bool explicit_list = !ids.empty();
+  if (!explicit_list) ids = registry.Ids();
+  Comparison c;
+  c.walk_name = walk.meta.name;
+  c.truth_kind = walk.meta.truth_kind;
+  c.anchors = walk.anchors;
+  c.truth = walk.truth;
+  const double distance = walk.TruthDistance();
+  for (const std::string& id : ids) {
+    auto it = options.configs.find(id);
+    const YAML::Node config = it != options.configs.end() ? it->second : YAML::Node();
+    WG_ASSIGN_OR_RETURN(std::unique_ptr<Estimator> est, registry.Create(id, config));
+    const Status applicable = est->CheckApplicable(walk);
+    if (!applicable.ok()) {
+      if (explicit_list) return FailedPrecondition(id + ": " + applicable.message());
+      continue;
+    }
+    EstimatorOutcome o;
+    o.id = id;
+    const auto start = std::chrono::steady_clock::now();
+    StatusOr<EstimateResult> r = est->Run(walk);
+    o.runtime_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    if (!r.ok()) {
+      o.status = r.status();
+    } else {
+      o.result = std::move(r).value();
+      StatusOr<ErrorSeries> e = ComputeErrors(walk, o.result.trajectory, options.alignment);
+      if (!e.ok()) {
+        o.status = e.status();
+      } else {
+        o.errors = std::move(e).value();
+        o.stats = SummarizeErrors(o.errors.error_m, distance);
+      }
+    }
+    c.outcomes.push_back(std::move(o));
+  }
+  if (c.outcomes.empty()) {
+    return FailedPrecondition("no estimator is applicable to walk '" + walk.meta.name + "'");
+  }
+  return c;
+}
+
+namespace {
+
+struct Column {
+  const char* name;
+  double ErrorStats::*field;
+  int precision;
+};
+
+const Column kColumns[] = {
+    {"rmse_m", &ErrorStats::rmse_m, 3},       {"mean_m", &ErrorStats::mean_m, 3},
+    {"median_m", &ErrorStats::median_m, 3},   {"p75_m", &ErrorStats::p75_m, 3},
+    {"p90_m", &ErrorStats::p90_m, 3},         {"max_m", &ErrorStats::max_m, 3},
+    {"final_m", &ErrorStats::final_m, 3},     {"pct_dist", &ErrorStats::pct_distance, 2},
+};
+
+std::string Fixed(double v, int precision) {
+  std::ostringstream s;
+  s << std::fixed << std::setprecision(precision) << v;
+  return s.str();
+}
+
+}  // namespace
+
+std::string FormatComparisonTable(const Comparison& c) {
+  const size_t ncol = std::size(kColumns);
+  std::vector<std::vector<std::string>> rows;
+  std::vector<std::string> header = {"estimator"};
+  for (const Column& col : kColumns) header.push_back(col.name);
+  header.push_back("runtime_s");
+  header.push_back("n");
+  // Best (smallest) per column among successful outcomes.
+  std::vector<double> best(ncol + 1, std::numeric_limits<double>::infinity());
+  for (const EstimatorOutcome& o : c.outcomes) {
+    if (!o.status.ok()) continue;
+    for (size_t j = 0; j < ncol; ++j) best[j] = std::min(best[j], o.stats.*(kColumns[j].field));
+    best[ncol] = std::min(best[ncol], o.runtime_s);
+  }
+  for (const EstimatorOutcome& o : c.outcomes) {
+    std::vector<std::string> row = {o.id};
+    if (!o.status.ok()) {
+      row.push_back("failed: " + o.status.message());
+      rows.push_back(row);
+      continue;
+    }
+    for (size_t j = 0; j < ncol; ++j) {
+      const double v = o.stats.*(kColumns[j].field);
+      row.push_back(Fixed(v, kColumns[j].precision) + (v == best[j] ? "*" : " "));
+    }
+    row.push_back(Fixed(o.runtime_s, 3) + (o.runtime_s == best[ncol] ? "*" : " "));
+    row.push_back(std::to_string(o.stats.n_points));
+    rows.push_back(row);
+  }
+  std::vector<size_t> width(header.size(), 0);
+  for (size_t j = 0; j < header.size(); ++j) width[j] = header[j].size();
+  for (const auto& row : rows) {
+    if (row.size() != header.size()) continue;
+    for (size_t j = 0; j < row.size(); ++j) width[j] = std::max(width[j], row[j].size());
+  }
+  std::ostringstream out;
+  out << "walk: " << c.walk_name << "  (truth: " << ToString(c.truth_kind)
+      << ", runs: " << c.runs << ")\n";
+  auto print_row = [&](const std::vector<std::string>& row) {
+    for (size_t j = 0; j < row.size(); ++j) {
+      if (j == 0) {
+        out << std::left << std::setw(static_cast<int>(width[j])) << row[j];
+      } else if (row.size() == header.size()) {
+        out << "  " << std::right << std::setw(static_cast<int>(width[j])) << row[j];
+      } else {
+        out << "  " << row[j];
+      }
+    }
+    out << "\n";
+  };
+  print_row(header);
+  for (const auto& row : rows) print_row(row);
+  if (c.pcrb_rmse_m) out << "PCRB (position RMSE bound): " << Fixed(*c.pcrb_rmse_m, 3) << " m\n";
+  out << "* best in column\n";
+  return out.str();
+}
+
+Status WriteComparison(const Comparison& c, const std::string& out_dir) {
+  const fs::path final_dir(out_dir);
+  const fs::path tmp = final_dir.string() + ".tmp-" + std::to_string(::getpid());
+  std::error_code ec;
+  fs::remove_all(tmp, ec);
+  if (!fs::create_directories(tmp / "trajectories", ec)) {
+    return IoError(out_dir + ": cannot create " + tmp.string() + ": " + ec.message());
+  }
+  auto fail = [&](Status s) {
+    fs::remove_all(tmp, ec);
+    return s;
+  };
+  nlohmann::ordered_json j;
+  j["walk"] = c.walk_name;
+  j["runs"] = c.runs;
+  j["truth_kind"] = ToString(c.truth_kind);
+  j["estimators"] = nlohmann::ordered_json::object();
+  for (const EstimatorOutcome& o : c.outcomes) {
+    nlohmann::ordered_json e;
+    if (!o.status.ok()) {
+      e["error"] = o.status.message();
+    } else {
+      for (const Column& col : kColumns) {
+        const std::string key = std::string(col.name) == "pct_dist" ? "pct_distance" : col.name;
+        e[key] = o.stats.*(col.field);
+      }
+      e["runtime_s"] = o.runtime_s;
+      e["n_points"] = o.stats.n_points;
+      for (const auto& [k, v] : o.result.diagnostics) e["diagnostics"][k] = v;
+    }
+    j["estimators"][o.id] = e;
+  }
+  j["pcrb_rmse_m"] = c.pcrb_rmse_m ? nlohmann::ordered_json(*c.pcrb_rmse_m) : nullptr;
+  Status s = WriteFileAtomically((tmp / "results.json").string(), [&](std::ostream& out) {
+    out << j.dump(2) << "\n";
+    return true;
+  });
+  if (!s.ok()) return fail(s);
+  s = WriteFileAtomically((tmp / "errors.csv").string(), [&](std::ostream& out) {
+    out << "t_s,estimator,error_m\n" << std::setprecision(10);
+    for (const EstimatorOutcome& o : c.outcomes) {
+      for (size_t i = 0; i < o.errors.t_s.size(); ++i) {
+        out << o.errors.t_s[i] << ',' << o.id << ',' << o.errors.error_m[i] << '\n';
+      }
+    }
+    return true;
+  });
+  if (!s.ok()) return fail(s);
+  for (const EstimatorOutcome& o : c.outcomes) {
+    if (!o.status.ok()) continue;
+    s = WriteTumTrajectory(o.result.trajectory, (tmp / "trajectories" / (o.id + ".tum")).string());
+    if (!s.ok()) return fail(s);
+  }
+  const std::string html = RenderHtmlReport(c);
+  s = WriteFileAtomically((tmp / "report.html").string(), [&](std::ostream& out) {
+    out << html;
+    return true;
+  });
+  if (!s.ok()) return fail(s);
+  if (fs::exists(final_dir, ec)) fs::remove_all(final_dir, ec);
+  fs::rename(tmp, final_dir, ec);
+  if (ec) return fail(IoError(out_dir + ": cannot rename " + tmp.string() + ": " + ec.message()));
+  return Status::Ok();
+}
+
+}  // namespace walkgraph

@@ -1,0 +1,77 @@
+#include "walkgraph/metrics.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include <Eigen/Geometry>
+
+namespace walkgraph {
+
+double Percentile(std::vector<double> values, double q) {
+  if (values.empty()) return 0.0;
+  std::sort(values.begin(), values.end());
+  const double pos = std::clamp(q, 0.0, 100.0) / 100.0 * static_cast<double>(values.size() - 1);
+  const size_t lo = static_cast<size_t>(std::floor(pos));
+  const size_t hi = std::min(lo + 1, values.size() - 1);
+  const double w = pos - static_cast<double>(lo);
+  return (1.0 - w) * values[lo] + w * values[hi];
+}
+
+StatusOr<ErrorSeries> ComputeErrors(const Walk& walk, const Trajectory& trajectory,
+                                    Alignment alignment) {
+  if (walk.truth.empty()) return FailedPrecondition("walk '" + walk.meta.name + "' has no truth");
+  if (trajectory.empty()) return FailedPrecondition("empty trajectory");
+  const double t0 = trajectory.points.front().t_s;
+  const double t1 = trajectory.points.back().t_s;
+  std::vector<double> t;
+  std::vector<Eigen::Vector2d> est, ref;
+  int skipped = 0;
+  for (const TruthSample& s : walk.truth) {
+    if (s.t_s < t0 || s.t_s > t1) {
+      ++skipped;
+      continue;
+    }
+    t.push_back(s.t_s);
+    est.push_back(trajectory.PositionAt(s.t_s).head<2>());
+    ref.push_back(s.position_m.head<2>());
+  }
+  if (t.empty()) return FailedPrecondition("no truth sample inside the trajectory's time span");
+  if (alignment == Alignment::kSE2 && t.size() >= 2) {
+    Eigen::Matrix2Xd src(2, est.size()), dst(2, ref.size());
+    for (size_t i = 0; i < est.size(); ++i) {
+      src.col(static_cast<Eigen::Index>(i)) = est[i];
+      dst.col(static_cast<Eigen::Index>(i)) = ref[i];
+    }
+    const Eigen::Matrix3d T = Eigen::umeyama(src, dst, /*with_scaling=*/false);
+    for (Eigen::Vector2d& e : est) e = T.topLeftCorner<2, 2>() * e + T.topRightCorner<2, 1>();
+  }
+  ErrorSeries out;
+  out.t_s = std::move(t);
+  out.n_skipped = skipped;
+  out.error_m.reserve(est.size());
+  for (size_t i = 0; i < est.size(); ++i) out.error_m.push_back((est[i] - ref[i]).norm());
+  return out;
+}
+
+ErrorStats SummarizeErrors(const std::vector<double>& e, double distance_m) {
+  ErrorStats s;
+  s.n_points = static_cast<int>(e.size());
+  if (e.empty()) return s;
+  double sum = 0.0, sum2 = 0.0;
+  for (double v : e) {
+    sum += v;
+    sum2 += v * v;
+    s.max_m = std::max(s.max_m, v);
+  }
+  const double n = static_cast<double>(e.size());
+  s.mean_m = sum / n;
+  s.rmse_m = std::sqrt(sum2 / n);
+  s.median_m = Percentile(e, 50.0);
+  s.p75_m = Percentile(e, 75.0);
+  s.p90_m = Percentile(e, 90.0);
+  s.final_m = e.back();
+  s.pct_distance = distance_m > 0.0 ? 100.0 * s.final_m / distance_m : 0.0;
+  return s;
+}
+
+}  // namespace walkgraph

@@ -1,0 +1,254 @@
+// The self-contained HTML report: inline SVG plots, no scripts, no network.
+#include <algorithm>
+#include <cmath>
+#include <iomanip>
+#include <limits>
+#include <sstream>
+
+#include "walkgraph/compare.h"
+
+namespace walkgraph {
+
+namespace {
+
+const char* const kPalette[] = {"#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd",
+                                "#8c564b", "#e377c2", "#17becf", "#bcbd22", "#7f7f7f"};
+
+const char* Color(size_t i) { return kPalette[i % std::size(kPalette)]; }
+
+std::string Escape(const std::string& s) {
+  std::string o;
+  for (char ch : s) {
+    switch (ch) {
+      case '<': o += "&lt;"; break;
+      case '>': o += "&gt;"; break;
+      case '&': o += "&amp;"; break;
+      case '"': o += "&quot;"; break;
+      default: o += ch;
+    }
+  }
+  return o;
+}
+
+// Maps data coordinates to an SVG viewport with margins.
+struct Axes {
+  double x0, x1, y0, y1;  // data range
+  double w = 640, h = 420, m = 48;
+  bool equal_aspect = false;
+
+  void Fix() {
+    if (!(x1 > x0)) { x0 -= 1; x1 += 1; }
+    if (!(y1 > y0)) { y0 -= 1; y1 += 1; }
+    if (equal_aspect) {
+      const double sx = (x1 - x0) / (w - 2 * m), sy = (y1 - y0) / (h - 2 * m);
+      const double s = std::max(sx, sy);
+      const double cx = 0.5 * (x0 + x1), cy = 0.5 * (y0 + y1);
+      x0 = cx - s * (w - 2 * m) / 2; x1 = cx + s * (w - 2 * m) / 2;
+      y0 = cy - s * (h - 2 * m) / 2; y1 = cy + s * (h - 2 * m) / 2;
+    }
+  }
+  double X(double x) const { return m + (x - x0) / (x1 - x0) * (w - 2 * m); }
+  double Y(double y) const { return h - m - (y - y0) / (y1 - y0) * (h - 2 * m); }
+};
+
+std::string Open(const Axes& a, const std::string& id, const std::string& title,
+                 const std::string& xlabel, const std::string& ylabel) {
+  std::ostringstream s;
+  s << std::fixed << std::setprecision(1);
+  s << "<svg id=\"" << id << "\" class=\"plot\" xmlns=\"http://www.w3.org/2000/svg\" width=\""
+    << a.w << "\" height=\"" << a.h << "\" viewBox=\"0 0 " << a.w << ' ' << a.h << "\">\n";
+  s << "<rect x=\"0\" y=\"0\" width=\"" << a.w << "\" height=\"" << a.h
+    << "\" fill=\"white\"/>\n";
+  s << "<rect x=\"" << a.m << "\" y=\"" << a.m << "\" width=\"" << a.w - 2 * a.m
+    << "\" height=\"" << a.h - 2 * a.m << "\" fill=\"none\" stroke=\"#444\"/>\n";
+  s << "<text x=\"" << a.w / 2 << "\" y=\"20\" text-anchor=\"middle\" font-size=\"15\">"
+    << Escape(title) << "</text>\n";
+  s << "<text x=\"" << a.w / 2 << "\" y=\"" << a.h - 8
+    << "\" text-anchor=\"middle\" font-size=\"12\">" << Escape(xlabel) << "</text>\n";
+  s << "<text x=\"14\" y=\"" << a.h / 2 << "\" text-anchor=\"middle\" font-size=\"12\" "
+    << "transform=\"rotate(-90 14 " << a.h / 2 << ")\">" << Escape(ylabel) << "</text>\n";
+  for (int i = 0; i <= 4; ++i) {
+    const double xv = a.x0 + (a.x1 - a.x0) * i / 4.0, yv = a.y0 + (a.y1 - a.y0) * i / 4.0;
+    s << "<text x=\"" << a.X(xv) << "\" y=\"" << a.h - a.m + 14
+      << "\" text-anchor=\"middle\" font-size=\"10\">" << std::setprecision(1) << xv << "</text>";
+    s << "<text x=\"" << a.m - 4 << "\" y=\"" << a.Y(yv) + 3
+      << "\" text-anchor=\"end\" font-size=\"10\">" << yv << "</text>\n";
+  }
+  return s.str();
+}
+
+template <typename Get>
+std::string Polyline(size_t n, Get get, const Axes& a, const std::string& color,
+                     const std::string& cls, double width = 1.5) {
+  std::ostringstream s;
+  s << std::fixed << std::setprecision(1);
+  s << "<polyline class=\"" << cls << "\" fill=\"none\" stroke=\"" << color
+    << "\" stroke-width=\"" << width << "\" points=\"";
+  const size_t stride = std::max<size_t>(1, n / 2000);  // keep the file small
+  for (size_t i = 0; i < n; i += stride) {
+    const auto [x, y] = get(i);
+    s << a.X(x) << ',' << a.Y(y) << ' ';
+  }
+  if (n > 0 && (n - 1) % stride != 0) {
+    const auto [x, y] = get(n - 1);
+    s << a.X(x) << ',' << a.Y(y);
+  }
+  s << "\"/>\n";
+  return s.str();
+}
+
+std::string Legend(const Comparison& c, const Axes& a, bool with_truth) {
+  std::ostringstream s;
+  double y = a.m + 14;
+  if (with_truth) {
+    s << "<text x=\"" << a.w - a.m - 4 << "\" y=\"" << y
+      << "\" text-anchor=\"end\" font-size=\"11\" fill=\"#000\">truth</text>\n";
+    y += 13;
+  }
+  for (size_t i = 0; i < c.outcomes.size(); ++i) {
+    if (!c.outcomes[i].status.ok()) continue;
+    s << "<text class=\"legend\" x=\"" << a.w - a.m - 4 << "\" y=\"" << y
+      << "\" text-anchor=\"end\" font-size=\"11\" fill=\"" << Color(i) << "\">"
+      << Escape(c.outcomes[i].id) << "</text>\n";
+    y += 13;
+  }
+  return s.str();
+}
+
+std::string TrajectoryPlot(const Comparison& c) {
+  Axes a{std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity(),
+         std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity()};
+  a.equal_aspect = true;
+  auto grow = [&](double x, double y) {
+    a.x0 = std::min(a.x0, x); a.x1 = std::max(a.x1, x);
+    a.y0 = std::min(a.y0, y); a.y1 = std::max(a.y1, y);
+  };
+  for (const TruthSample& t : c.truth) grow(t.position_m.x(), t.position_m.y());
+  for (const Anchor& an : c.anchors) grow(an.position_m.x(), an.position_m.y());
+  if (!std::isfinite(a.x0)) { a.x0 = a.y0 = 0; a.x1 = a.y1 = 1; }
+  const double pad = 0.05 * std::max(a.x1 - a.x0, a.y1 - a.y0) + 0.5;
+  a.x0 -= pad; a.x1 += pad; a.y0 -= pad; a.y1 += pad;
+  a.Fix();
+  std::ostringstream s;
+  s << Open(a, "trajectories", "Trajectories", "x east [m]", "y north [m]");
+  s << "<clipPath id=\"clip-traj\"><rect x=\"" << a.m << "\" y=\"" << a.m << "\" width=\""
+    << a.w - 2 * a.m << "\" height=\"" << a.h - 2 * a.m << "\"/></clipPath><g clip-path=\"url(#clip-traj)\">\n";
+  if (c.truth_kind == TruthKind::kCheckpoints) {
+    for (const TruthSample& t : c.truth) {
+      s << "<circle class=\"truth\" cx=\"" << a.X(t.position_m.x()) << "\" cy=\""
+        << a.Y(t.position_m.y()) << "\" r=\"3\" fill=\"#000\"/>\n";
+    }
+  } else {
+    s << Polyline(c.truth.size(), [&](size_t i) {
+      return std::pair(c.truth[i].position_m.x(), c.truth[i].position_m.y()); }, a, "#000",
+      "truth", 2.5);
+  }
+  for (size_t k = 0; k < c.outcomes.size(); ++k) {
+    const EstimatorOutcome& o = c.outcomes[k];
+    if (!o.status.ok()) continue;
+    const auto& pts = o.result.trajectory.points;
+    s << Polyline(pts.size(), [&](size_t i) {
+      return std::pair(pts[i].position_m.x(), pts[i].position_m.y()); }, a, Color(k),
+      "estimate");
+  }
+  for (const Anchor& an : c.anchors) {
+    const double x = a.X(an.position_m.x()), y = a.Y(an.position_m.y());
+    s << "<polygon class=\"anchor\" points=\"" << x << ',' << y - 6 << ' ' << x - 5 << ',' << y + 4
+      << ' ' << x + 5 << ',' << y + 4 << "\" fill=\"#f0c000\" stroke=\"#000\"/>"
+      << "<text x=\"" << x + 6 << "\" y=\"" << y - 4 << "\" font-size=\"9\">" << an.id
+      << "</text>\n";
+  }
+  s << "</g>" << Legend(c, a, true) << "</svg>\n";
+  return s.str();
+}
+
+std::string ErrorTimePlot(const Comparison& c) {
+  Axes a{std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity(), 0.0,
+         0.0};
+  for (const EstimatorOutcome& o : c.outcomes) {
+    if (!o.status.ok() || o.errors.t_s.empty()) continue;
+    a.x0 = std::min(a.x0, o.errors.t_s.front());
+    a.x1 = std::max(a.x1, o.errors.t_s.back());
+    a.y1 = std::max(a.y1, o.stats.p90_m * 1.5);
+  }
+  if (!std::isfinite(a.x0)) { a.x0 = 0; a.x1 = 1; }
+  a.Fix();
+  std::ostringstream s;
+  s << Open(a, "error-time", "Horizontal error vs time", "t [s]", "error [m]");
+  s << "<clipPath id=\"clip-et\"><rect x=\"" << a.m << "\" y=\"" << a.m << "\" width=\""
+    << a.w - 2 * a.m << "\" height=\"" << a.h - 2 * a.m << "\"/></clipPath><g clip-path=\"url(#clip-et)\">\n";
+  for (size_t k = 0; k < c.outcomes.size(); ++k) {
+    const EstimatorOutcome& o = c.outcomes[k];
+    if (!o.status.ok()) continue;
+    s << Polyline(o.errors.t_s.size(), [&](size_t i) {
+      return std::pair(o.errors.t_s[i], o.errors.error_m[i]); }, a, Color(k), "error-curve");
+  }
+  s << "</g>" << Legend(c, a, false) << "</svg>\n";
+  return s.str();
+}
+
+std::string CdfPlot(const Comparison& c) {
+  Axes a{0.0, 0.0, 0.0, 1.0};
+  for (const EstimatorOutcome& o : c.outcomes) {
+    if (o.status.ok()) a.x1 = std::max(a.x1, o.stats.p90_m * 1.5);
+  }
+  a.Fix();
+  std::ostringstream s;
+  s << Open(a, "error-cdf", "Error CDF", "error [m]", "fraction of points");
+  s << "<clipPath id=\"clip-cdf\"><rect x=\"" << a.m << "\" y=\"" << a.m << "\" width=\""
+    << a.w - 2 * a.m << "\" height=\"" << a.h - 2 * a.m << "\"/></clipPath><g clip-path=\"url(#clip-cdf)\">\n";
+  for (size_t k = 0; k < c.outcomes.size(); ++k) {
+    const EstimatorOutcome& o = c.outcomes[k];
+    if (!o.status.ok() || o.errors.error_m.empty()) continue;
+    std::vector<double> e = o.errors.error_m;
+    std::sort(e.begin(), e.end());
+    const double n = static_cast<double>(e.size());
+    s << Polyline(e.size(), [&](size_t i) { return std::pair(e[i], (i + 1) / n); }, a, Color(k),
+                  "cdf-curve");
+  }
+  s << "</g>" << Legend(c, a, false) << "</svg>\n";
+  return s.str();
+}
+
+std::string Table(const Comparison& c) {
+  std::ostringstream s;
+  s << std::fixed << std::setprecision(3);
+  s << "<table id=\"results\"><tr><th>estimator</th><th>RMSE [m]</th><th>mean</th><th>median</th>"
+       "<th>p75</th><th>p90</th><th>max</th><th>final</th><th>% dist</th><th>runtime [s]</th>"
+       "<th>n</th></tr>\n";
+  for (size_t k = 0; k < c.outcomes.size(); ++k) {
+    const EstimatorOutcome& o = c.outcomes[k];
+    s << "<tr><td style=\"color:" << Color(k) << "\">" << Escape(o.id) << "</td>";
+    if (!o.status.ok()) {
+      s << "<td colspan=\"10\">failed: " << Escape(o.status.message()) << "</td></tr>\n";
+      continue;
+    }
+    const ErrorStats& e = o.stats;
+    for (double v : {e.rmse_m, e.mean_m, e.median_m, e.p75_m, e.p90_m, e.max_m, e.final_m,
+                     e.pct_distance, o.runtime_s}) {
+      s << "<td>" << v << "</td>";
+    }
+    s << "<td>" << e.n_points << "</td></tr>\n";
+  }
+  s << "</table>\n";
+  if (c.pcrb_rmse_m) s << "<p>PCRB position RMSE bound: " << *c.pcrb_rmse_m << " m</p>\n";
+  return s.str();
+}
+
+}  // namespace
+
+std::string RenderHtmlReport(const Comparison& c) {
+  std::ostringstream s;
+  s << "<!DOCTYPE html>\n<html><head><meta charset=\"utf-8\"><title>walkgraph: "
+    << Escape(c.walk_name) << "</title>\n<style>body{font-family:sans-serif;margin:16px}"
+    << "table{border-collapse:collapse}td,th{border:1px solid #ccc;padding:3px 8px;"
+    << "text-align:right}td:first-child{text-align:left}svg{margin:4px}</style></head><body>\n";
+  s << "<h1>walkgraph comparison: " << Escape(c.walk_name) << "</h1>\n";
+  s << "<p>truth: " << ToString(c.truth_kind) << ", runs: " << c.runs << "</p>\n";
+  s << Table(c);
+  s << "<div>" << TrajectoryPlot(c) << ErrorTimePlot(c) << CdfPlot(c) << "</div>\n";
+  s << "</body></html>\n";
+  return s.str();
+}
+
+}  // namespace walkgraph

@@ -1,0 +1,84 @@
+#include "walkgraph/walk.h"
+
+#include <algorithm>
+#include <limits>
+
+#include "walkgraph/trajectory.h"
+
+namespace walkgraph {
+
+const char* ToString(ImuPlacement p) {
+  switch (p) {
+    case ImuPlacement::kNone: return "none";
+    case ImuPlacement::kFoot: return "foot";
+    case ImuPlacement::kWaist: return "waist";
+    case ImuPlacement::kHip: return "hip";
+    case ImuPlacement::kHandheld: return "handheld";
+  }
+  return "none";
+}
+const char* ToString(TruthKind k) {
+  switch (k) {
+    case TruthKind::kNone: return "none";
+    case TruthKind::kContinuous: return "continuous";
+    case TruthKind::kCheckpoints: return "checkpoints";
+  }
+  return "none";
+}
+const char* ToString(RadioKind k) {
+  switch (k) {
+    case RadioKind::kNone: return "none";
+    case RadioKind::kRss: return "rss";
+    case RadioKind::kRange: return "range";
+  }
+  return "none";
+}
+const char* ToString(RssUnits u) { return u == RssUnits::kDbm ? "dbm" : "rfcode"; }
+
+int Walk::AnchorIndex(int id) const {
+  for (size_t i = 0; i < anchors.size(); ++i) {
+    if (anchors[i].id == id) return static_cast<int>(i);
+  }
+  return -1;
+}
+
+double Walk::StartTime() const {
+  double t = std::numeric_limits<double>::infinity();
+  if (!imu.empty()) t = std::min(t, imu.front().t_s);
+  if (!rss.empty()) t = std::min(t, rss.front().t_s);
+  if (!ranges.empty()) t = std::min(t, ranges.front().t_s);
+  if (!odometry.empty()) t = std::min(t, odometry.front().t_s);
+  if (!truth.empty()) t = std::min(t, truth.front().t_s);
+  return std::isfinite(t) ? t : 0.0;
+}
+
+double Walk::EndTime() const {
+  double t = -std::numeric_limits<double>::infinity();
+  if (!imu.empty()) t = std::max(t, imu.back().t_s);
+  if (!rss.empty()) t = std::max(t, rss.back().t_s);
+  if (!ranges.empty()) t = std::max(t, ranges.back().t_s);
+  if (!odometry.empty()) t = std::max(t, odometry.back().t_s);
+  if (!truth.empty()) t = std::max(t, truth.back().t_s);
+  return std::isfinite(t) ? t : 0.0;
+}
+
+double Walk::TruthDistance() const {
+  double d = 0.0;
+  for (size_t i = 1; i < truth.size(); ++i) {
+    d += (truth[i].position_m - truth[i - 1].position_m).head<2>().norm();
+  }
+  return d;
+}
+
+Eigen::Vector3d Trajectory::PositionAt(double t_s) const {
+  if (t_s <= points.front().t_s) return points.front().position_m;
+  if (t_s >= points.back().t_s) return points.back().position_m;
+  const auto it = std::lower_bound(points.begin(), points.end(), t_s,
+                                   [](const TrajectoryPoint& p, double t) { return p.t_s < t; });
+  const TrajectoryPoint& b = *it;
+  const TrajectoryPoint& a = *(it - 1);
+  const double w = (t_s - a.t_s) / (b.t_s - a.t_s);
+  return (1.0 - w) * a.position_m + w * b.position_m;
+}
+
+}  // namespace walkgraph

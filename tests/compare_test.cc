@@ -1,0 +1,96 @@
+#include <filesystem>
+#include <fstream>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "walkgraph/compare.h"
+#include "walkgraph/io.h"
+
+namespace walkgraph {
+namespace {
+
+namespace fs = std::filesystem;
+using ::testing::HasSubstr;
+
+Walk SmallWalk() {
+  auto w = ReadWalk(std::string(WALKGRAPH_TEST_DATA_DIR) + "/walks/valid_small");
+  EXPECT_TRUE(w.ok());
+  return *w;
+}
+
+TEST(CompareOnWalk, RunsApplicableEstimatorsAndScoresThem) {
+  auto c = CompareOnWalk(SmallWalk(), {});
+  ASSERT_TRUE(c.ok()) << c.status().message();
+  ASSERT_FALSE(c->outcomes.empty());
+  const EstimatorOutcome& dr = c->outcomes.front();
+  EXPECT_EQ(dr.id, "odometry-dr");
+  ASSERT_TRUE(dr.status.ok());
+  // The fixture's odometry traces its truth exactly except the turn, which the truth takes
+  // one increment later than dead reckoning: errors are 0 up to t = 1.5 s.
+  EXPECT_NEAR(dr.errors.error_m[1], 0.0, 1e-12);
+  EXPECT_GT(dr.stats.n_points, 0);
+}
+
+TEST(CompareOnWalk, UnknownOrInapplicableEstimatorIsAnError) {
+  CompareOptions o;
+  o.estimator_ids = {"no-such-estimator"};
+  EXPECT_FALSE(CompareOnWalk(SmallWalk(), o).ok());
+  Walk w = SmallWalk();
+  w.odometry.clear();
+  o.estimator_ids = {"odometry-dr"};
+  auto c = CompareOnWalk(w, o);
+  ASSERT_FALSE(c.ok());
+  EXPECT_THAT(c.status().message(), HasSubstr("odometry"));
+}
+
+TEST(WriteComparison, WritesEveryFileWithTheDocumentedSchema) {
+  auto c = CompareOnWalk(SmallWalk(), {});
+  ASSERT_TRUE(c.ok());
+  const fs::path out = fs::temp_directory_path() / ("wg_compare_" + std::to_string(::getpid()));
+  fs::remove_all(out);
+  ASSERT_TRUE(WriteComparison(*c, out.string()).ok());
+  for (const char* f : {"results.json", "errors.csv", "report.html",
+                        "trajectories/odometry-dr.tum"}) {
+    EXPECT_TRUE(fs::exists(out / f)) << f;
+  }
+  std::ifstream in(out / "results.json");
+  const nlohmann::json j = nlohmann::json::parse(in);
+  EXPECT_EQ(j["walk"], "valid_small");
+  EXPECT_EQ(j["runs"], 1);
+  EXPECT_EQ(j["truth_kind"], "continuous");
+  const auto& e = j["estimators"]["odometry-dr"];
+  for (const char* key : {"rmse_m", "mean_m", "median_m", "p75_m", "p90_m", "max_m", "final_m",
+                          "pct_distance", "runtime_s", "n_points"}) {
+    EXPECT_TRUE(e.contains(key)) << key;
+  }
+  EXPECT_TRUE(j.contains("pcrb_rmse_m"));
+  std::ifstream html(out / "report.html");
+  const std::string page((std::istreambuf_iterator<char>(html)), {});
+  EXPECT_THAT(page, HasSubstr("id=\"trajectories\""));
+  EXPECT_THAT(page, HasSubstr("id=\"error-cdf\""));
+  EXPECT_THAT(page, HasSubstr("class=\"anchor\""));
+  EXPECT_THAT(page, ::testing::Not(HasSubstr("http://www.w3.org/2000/svg\" src")));
+  fs::remove_all(out);
+}
+
+TEST(FormatComparisonTable, MarksTheBestValuePerColumn) {
+  Comparison c;
+  c.walk_name = "w";
+  EstimatorOutcome a, b;
+  a.id = "a";
+  a.stats.rmse_m = 2.0;
+  a.stats.mean_m = 1.0;
+  b.id = "b";
+  b.stats.rmse_m = 1.5;
+  b.stats.mean_m = 3.0;
+  c.outcomes = {a, b};
+  const std::string t = FormatComparisonTable(c);
+  EXPECT_THAT(t, HasSubstr("1.500*"));
+  EXPECT_THAT(t, HasSubstr("1.000*"));
+  EXPECT_THAT(t, HasSubstr("2.000 "));
+}
+
+}  // namespace
+}  // namespace walkgraph

@@ -1,0 +1,201 @@
+// Walk format readers and writers: the malformed-input corpus, atomic writes, round trips.
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include "walkgraph/io.h"
+
+namespace walkgraph {
+namespace {
+
+namespace fs = std::filesystem;
+using ::testing::HasSubstr;
+
+const std::string kData = WALKGRAPH_TEST_DATA_DIR;
+
+fs::path TempDir(const std::string& name) {
+  fs::path p = fs::temp_directory_path() / ("walkgraph_io_test_" + name + "_" +
+                                            std::to_string(::getpid()));
+  fs::remove_all(p);
+  return p;
+}
+
+TEST(ReadWalk, AcceptsTheValidFixture) {
+  auto walk = ReadWalk(kData + "/walks/valid_small");
+  ASSERT_TRUE(walk.ok()) << walk.status().message();
+  EXPECT_EQ(walk->meta.name, "valid_small");
+  EXPECT_EQ(walk->meta.imu_placement, ImuPlacement::kWaist);
+  EXPECT_EQ(walk->meta.radio.kind, RadioKind::kRss);
+  EXPECT_DOUBLE_EQ(walk->meta.radio.path_loss.eta, 2.5);
+  ASSERT_EQ(walk->anchors.size(), 3u);
+  EXPECT_EQ(walk->anchors[1].id, 2);
+  EXPECT_DOUBLE_EQ(walk->anchors[1].position_m.x(), 10.0);
+  EXPECT_EQ(walk->imu.size(), 4u);
+  EXPECT_FALSE(walk->imu[0].has_mag);
+  EXPECT_DOUBLE_EQ(walk->imu[1].acc_mps2.z(), 9.70);
+  EXPECT_EQ(walk->rss.size(), 4u);
+  EXPECT_EQ(walk->odometry.size(), 4u);
+  EXPECT_EQ(walk->truth.size(), 5u);
+  ASSERT_TRUE(walk->meta.initial_pose.has_value());
+  EXPECT_NEAR(walk->TruthDistance(), 2.8, 1e-12);
+}
+
+TEST(ReadWalk, AcceptsCrlfAndBom) {
+  auto walk = ReadWalk(kData + "/accepted/crlf_and_bom");
+  ASSERT_TRUE(walk.ok()) << walk.status().message();
+  auto ref = ReadWalk(kData + "/walks/valid_small");
+  ASSERT_TRUE(ref.ok());
+  ASSERT_EQ(walk->imu.size(), ref->imu.size());
+  EXPECT_EQ(walk->imu.back().gyro_radps, ref->imu.back().gyro_radps);
+  EXPECT_EQ(walk->anchors.size(), ref->anchors.size());
+}
+
+struct MalformedCase {
+  const char* name;
+  const char* file_and_line;  // what the message must point at
+  const char* expected;       // and what it must say was expected or wrong
+};
+
+// Every case in tests/data/malformed is listed here; CorpusIsFullyListed checks that.
+const MalformedCase kCases[] = {
+    {"missing_column", "imu.csv:3:", "expected 7 comma-separated columns, found 6"},
+    {"extra_column", "rss.csv:2:", "expected 3 comma-separated columns, found 4"},
+    {"non_numeric", "truth.csv:3:", "column 'x_m': expected a finite number, found 'abc'"},
+    {"nan_value", "imu.csv:2:", "column 'ax': expected a finite number, found 'nan'"},
+    {"inf_value", "rss.csv:3:", "expected a finite number, found 'inf'"},
+    {"empty_file", "odometry.csv:1:", "empty file"},
+    {"header_only", "truth.csv:2:", "no samples"},
+    {"time_backwards", "imu.csv:5:", "goes backwards"},
+    {"time_repeats", "odometry.csv:3:", "repeats the previous one"},
+    {"rss_repeat_same_anchor", "rss.csv:4:", "repeats for anchor 1"},
+    {"unknown_anchor", "rss.csv:4:", "unknown anchor_id 9"},
+    {"fractional_anchor_id", "rss.csv:4:", "anchor_id must be an integer"},
+    {"duplicate_anchor", "anchors.csv:3:", "duplicate anchor id 1"},
+    {"absurd_acceleration", "imu.csv:4:", "acceleration component over 300"},
+    {"absurd_gyro", "imu.csv:5:", "angular rate component over 50"},
+    {"rss_out_of_range", "rss.csv:5:", "outside [-150"},
+    {"negative_range", "odometry.csv:5:", "dist_m -0.7"},
+    {"wrong_header", "imu.csv:1:", "expected 't_s,ax,ay,az,gx,gy,gz'"},
+    {"bad_yaml", "walk.yaml:", ""},
+    {"unknown_yaml_key", "walk.yaml (line 5)", "unknown option 'colour'"},
+    {"bad_enum", "walk.yaml: imu_placement", "'wrist' is not one of"},
+    {"truth_missing", "walk.yaml", "truth.csv is missing"},
+    {"walk_yaml_missing", "walk.yaml", "missing"},
+    {"blank_line_inside", "imu.csv:4:", "empty line inside the data"},
+    {"no_measurements", "no_measurements", "no measurements"},
+    {"bad_eta", "walk.yaml: radio", "must be > 0"},
+};
+
+TEST(ReadWalk, RejectsEveryMalformedCaseWithFileLineAndExpectation) {
+  for (const MalformedCase& c : kCases) {
+    SCOPED_TRACE(c.name);
+    auto walk = ReadWalk(kData + "/malformed/" + c.name);
+    ASSERT_FALSE(walk.ok());
+    EXPECT_EQ(walk.status().code(), c.name == std::string("walk_yaml_missing")
+                                        ? StatusCode::kNotFound
+                                        : StatusCode::kInvalidArgument);
+    EXPECT_THAT(walk.status().message(), HasSubstr(c.file_and_line));
+    EXPECT_THAT(walk.status().message(), HasSubstr(c.expected));
+  }
+}
+
+TEST(ReadWalk, CorpusIsFullyListed) {
+  size_t n = 0;
+  for (const auto& entry : fs::directory_iterator(kData + "/malformed")) {
+    const std::string name = entry.path().filename().string();
+    bool listed = false;
+    for (const MalformedCase& c : kCases) listed |= name == c.name;
+    EXPECT_TRUE(listed) << name << " has no expectation in kCases";
+    ++n;
+  }
+  EXPECT_EQ(n, std::size(kCases));
+}
+
+TEST(ReadWalk, MissingDirectoryIsNotFound) {
+  auto walk = ReadWalk(kData + "/does_not_exist");
+  ASSERT_FALSE(walk.ok());
+  EXPECT_EQ(walk.status().code(), StatusCode::kNotFound);
+}
+
+TEST(WriteWalk, RoundTripsExactly) {
+  auto walk = ReadWalk(kData + "/walks/valid_small");
+  ASSERT_TRUE(walk.ok());
+  walk->meta.extra["sim.seed"] = 7;
+  walk->imu[2].acc_mps2.x() = 0.1 + 1e-13;  // needs full precision to survive
+  const fs::path out = TempDir("roundtrip");
+  ASSERT_TRUE(WriteWalk(*walk, out.string()).ok());
+  auto back = ReadWalk(out.string());
+  ASSERT_TRUE(back.ok()) << back.status().message();
+  EXPECT_EQ(back->imu[2].acc_mps2, walk->imu[2].acc_mps2);
+  EXPECT_EQ(back->rss.size(), walk->rss.size());
+  EXPECT_EQ(back->meta.extra.at("sim.seed"), 7.0);
+  EXPECT_EQ(back->truth.back().position_m, walk->truth.back().position_m);
+  EXPECT_DOUBLE_EQ(back->meta.initial_pose->x_m, walk->meta.initial_pose->x_m);
+  // Writing again over the same directory gives identical bytes.
+  std::ifstream a(out / "imu.csv");
+  const std::string first((std::istreambuf_iterator<char>(a)), {});
+  ASSERT_TRUE(WriteWalk(*back, out.string()).ok());
+  std::ifstream b(out / "imu.csv");
+  const std::string second((std::istreambuf_iterator<char>(b)), {});
+  EXPECT_EQ(first, second);
+  fs::remove_all(out);
+}
+
+TEST(WriteWalk, InvalidWalkWritesNothing) {
+  auto walk = ReadWalk(kData + "/walks/valid_small");
+  ASSERT_TRUE(walk.ok());
+  walk->rss[1].anchor_id = 42;
+  const fs::path out = TempDir("invalid");
+  const Status s = WriteWalk(*walk, out.string());
+  EXPECT_FALSE(s.ok());
+  EXPECT_THAT(s.message(), HasSubstr("unknown anchor_id"));
+  EXPECT_FALSE(fs::exists(out));
+}
+
+TEST(WriteFileAtomically, FailedWriterLeavesNoFile) {
+  const fs::path dir = TempDir("atomic");
+  fs::create_directories(dir);
+  const std::string path = (dir / "x.txt").string();
+  Status s = WriteFileAtomically(path, [](std::ostream& o) {
+    o << "partial";
+    return false;
+  });
+  EXPECT_FALSE(s.ok());
+  EXPECT_TRUE(fs::is_empty(dir));
+  s = WriteFileAtomically(path, [](std::ostream& o) {
+    o << "done";
+    return true;
+  });
+  EXPECT_TRUE(s.ok());
+  EXPECT_TRUE(fs::exists(path));
+  fs::remove_all(dir);
+}
+
+TEST(Tum, RoundTripsPositionAndHeading) {
+  Trajectory t;
+  for (int i = 0; i < 5; ++i) {
+    TrajectoryPoint p;
+    p.t_s = i * 0.5;
+    p.position_m = Eigen::Vector3d(i, -i, 0.25);
+    p.heading_rad = -3.0 + 1.4 * i;
+    t.points.push_back(p);
+  }
+  const fs::path dir = TempDir("tum");
+  fs::create_directories(dir);
+  const std::string path = (dir / "t.tum").string();
+  ASSERT_TRUE(WriteTumTrajectory(t, path).ok());
+  auto back = ReadTumTrajectory(path);
+  ASSERT_TRUE(back.ok()) << back.status().message();
+  ASSERT_EQ(back->size(), t.size());
+  for (size_t i = 0; i < t.size(); ++i) {
+    EXPECT_NEAR(back->points[i].heading_rad, t.points[i].heading_rad, 1e-9);
+    EXPECT_EQ(back->points[i].position_m, t.points[i].position_m);
+  }
+  fs::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace walkgraph

@@ -1,0 +1,154 @@
+// walkgraph: the command-line shell over the library. Parses arguments, calls the library,
+// prints. Every failure prints "walkgraph: <message>" on stderr and exits non-zero.
+#include <cstdio>
+#include <iostream>
+#include <string>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+
+#include "walkgraph/compare.h"
+#include "walkgraph/config.h"
+#include "walkgraph/convert.h"
+#include "walkgraph/estimator.h"
+#include "walkgraph/io.h"
+#include "walkgraph/logging.h"
+
+namespace {
+
+using walkgraph::Status;
+
+int Fail(const Status& s) {
+  std::cerr << "walkgraph: " << s.message() << "\n";
+  return 1;
+}
+
+// Reads --config FILE.yaml: either the options of one estimator, or (for compare) a map from
+// estimator id to its options.
+walkgraph::StatusOr<YAML::Node> LoadConfig(const std::string& path) {
+  if (path.empty()) return YAML::Node();
+  return walkgraph::LoadYamlFile(path);
+}
+
+int RunValidate(const std::string& walk_dir) {
+  auto walk = walkgraph::ReadWalk(walk_dir);
+  if (!walk.ok()) return Fail(walk.status());
+  std::cout << walk_dir << ": OK (" << walk->anchors.size() << " anchors, " << walk->imu.size()
+            << " IMU, " << walk->rss.size() << " RSS, " << walk->ranges.size() << " range, "
+            << walk->odometry.size() << " odometry, " << walk->truth.size() << " truth samples; "
+            << walk->EndTime() - walk->StartTime() << " s)\n";
+  return 0;
+}
+
+int RunConvert(const std::string& format, const std::vector<std::string>& sources,
+               const std::string& out) {
+  auto walk = walkgraph::Convert(format, sources);
+  if (!walk.ok()) return Fail(walk.status());
+  const Status s = walkgraph::WriteWalk(*walk, out);
+  if (!s.ok()) return Fail(s);
+  std::cout << "wrote " << out << "\n";
+  return 0;
+}
+
+int RunSmooth(const std::string& walk_dir, const std::string& id, const std::string& config_path,
+              const std::string& out) {
+  auto walk = walkgraph::ReadWalk(walk_dir);
+  if (!walk.ok()) return Fail(walk.status());
+  auto config = LoadConfig(config_path);
+  if (!config.ok()) return Fail(config.status());
+  auto est = walkgraph::EstimatorRegistry::Builtin().Create(id, *config);
+  if (!est.ok()) return Fail(est.status());
+  const Status applicable = (*est)->CheckApplicable(*walk);
+  if (!applicable.ok()) return Fail(applicable);
+  auto result = (*est)->Run(*walk);
+  if (!result.ok()) return Fail(result.status());
+  const Status s = walkgraph::WriteTumTrajectory(result->trajectory, out);
+  if (!s.ok()) return Fail(s);
+  std::cout << "wrote " << out << " (" << result->trajectory.size() << " poses)\n";
+  return 0;
+}
+
+int RunCompare(const std::string& walk_dir, const std::vector<std::string>& ids,
+               const std::string& config_path, bool align_se2, const std::string& out) {
+  auto walk = walkgraph::ReadWalk(walk_dir);
+  if (!walk.ok()) return Fail(walk.status());
+  walkgraph::CompareOptions options;
+  options.estimator_ids = ids;
+  options.alignment = align_se2 ? walkgraph::Alignment::kSE2 : walkgraph::Alignment::kNone;
+  auto config = LoadConfig(config_path);
+  if (!config.ok()) return Fail(config.status());
+  if (config->IsMap()) {
+    for (const auto& kv : *config) options.configs[kv.first.as<std::string>()] = kv.second;
+  }
+  auto comparison = walkgraph::CompareOnWalk(*walk, options);
+  if (!comparison.ok()) return Fail(comparison.status());
+  std::cout << walkgraph::FormatComparisonTable(*comparison);
+  const Status s = walkgraph::WriteComparison(*comparison, out);
+  if (!s.ok()) return Fail(s);
+  std::cout << "wrote " << out << "/{results.json,errors.csv,trajectories/,report.html}\n";
+  return 0;
+}
+
+int RunList() {
+  std::cout << "estimators:\n";
+  const auto& registry = walkgraph::EstimatorRegistry::Builtin();
+  for (const std::string& id : registry.Ids()) {
+    std::cout << "  " << id << "  — " << registry.Find(id)->description << "\n";
+  }
+  std::cout << "formats (walkgraph convert FORMAT SRC...):\n";
+  for (const auto& c : walkgraph::Converters()) {
+    std::cout << "  " << c.format << "  — " << c.description << "\n";
+  }
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  walkgraph::InitLogging(argv[0]);
+  CLI::App app{"walkgraph: factor-graph smoothing and Kalman-filter comparison for pedestrian "
+               "navigation walks"};
+  app.require_subcommand(1);
+  int verbosity = 0;
+  app.add_option("-v,--verbosity", verbosity, "library diagnostics level (0 = quiet)");
+
+  std::string walk_dir, out, id, config_path, format;
+  std::vector<std::string> sources, ids;
+  bool align_se2 = false;
+  int rc = 0;
+
+  CLI::App* validate = app.add_subcommand("validate", "check a walk directory strictly");
+  validate->add_option("WALK", walk_dir, "walk directory")->required();
+  validate->callback([&] { rc = RunValidate(walk_dir); });
+
+  CLI::App* convert = app.add_subcommand("convert", "convert a recording to a walk directory");
+  convert->add_option("FORMAT", format, "source format (see walkgraph list)")->required();
+  convert->add_option("SRC", sources, "source files or directories")->required();
+  convert->add_option("--out", out, "walk directory to write")->required();
+  convert->callback([&] { rc = RunConvert(format, sources, out); });
+
+  CLI::App* smooth = app.add_subcommand("smooth", "run one estimator, write a TUM trajectory");
+  smooth->add_option("WALK", walk_dir, "walk directory")->required();
+  smooth->add_option("--estimator", id, "estimator id (see walkgraph list)")->required();
+  smooth->add_option("--config", config_path, "YAML file with the estimator's options");
+  smooth->add_option("--out", out, "output trajectory (TUM format)")->required();
+  smooth->callback([&] { rc = RunSmooth(walk_dir, id, config_path, out); });
+
+  CLI::App* compare = app.add_subcommand("compare", "run estimators side by side on a walk");
+  compare->add_option("WALK", walk_dir, "walk directory")->required();
+  compare->add_option("--estimators", ids, "comma-separated ids (default: all applicable)")
+      ->delimiter(',');
+  compare->add_option("--config", config_path, "YAML file: {estimator id: {option: value}}");
+  compare->add_flag("--align-se2", align_se2,
+                    "align each estimate to the truth by a best-fit rotation + translation "
+                    "(for dead-reckoning-only walks)");
+  compare->add_option("--out", out, "report folder")->required();
+  compare->callback([&] { rc = RunCompare(walk_dir, ids, config_path, align_se2, out); });
+
+  CLI::App* list = app.add_subcommand("list", "list estimators and converter formats");
+  list->callback([&] { rc = RunList(); });
+
+  app.parse_complete_callback([&] { walkgraph::InitLogging(argv[0], verbosity); });
+  CLI11_PARSE(app, argc, argv);
+  return rc;
+}
