@@ -1,0 +1,54 @@
+// Pre-processed measurements shared by every estimator: the front ends (pdr.h, stance.h,
+// radio.h) produce them once, and the papers' filters and the factor graphs consume the same
+// values, so a comparison differs only in the estimator.
+//
+// Headings are ENU angles: from x (east) counter-clockwise, radians, wrapped by NormalizeAngle.
+#ifndef WALKGRAPH_MEASUREMENTS_H_
+#define WALKGRAPH_MEASUREMENTS_H_
+
+#include <vector>
+
+#include <Eigen/Core>
+
+namespace walkgraph {
+
+// One detected step (or one odometry increment).
+struct Step {
+  double t_s = 0.0;              // time the step ends
+  double duration_s = 0.0;       // time since the previous step (0 for the first)
+  double length_m = 0.0;
+  double heading_rad = 0.0;      // absolute direction of the displacement
+  double dheading_rad = 0.0;     // heading change since the previous step (gyro-integrated)
+  double sigma_length_m = 0.1;
+  double sigma_heading_rad = 0.2;   // of heading_rad (absolute: magnetometer-aided or integrated)
+  double sigma_dheading_rad = 0.02; // of dheading_rad
+  double a_max_mps2 = 0.0;       // detector features (Weinberg): 0 when not from an IMU
+  double a_min_mps2 = 0.0;
+};
+
+struct StepSequence {
+  std::vector<Step> steps;
+  // True when heading_rad is absolute (magnetometer/compass or a known start); false when it
+  // is only integrated from an arbitrary start.
+  bool absolute_heading = false;
+};
+
+// Zero-velocity (stance) decision per IMU sample of a foot-mounted walk.
+struct StanceMask {
+  std::vector<double> t_s;
+  std::vector<double> statistic;  // detector statistic (GLRT T_k, variance, ...)
+  std::vector<bool> stance;       // statistic below threshold (after any filtering)
+  std::vector<bool> still;        // ZARU: the whole body still (no rotation); may be empty
+};
+
+// A position fix from radio positioning (LS/WLS on ranges, hyperbolic RSS, ...).
+struct PositionFix {
+  double t_s = 0.0;
+  Eigen::Vector2d position_m = Eigen::Vector2d::Zero();
+  Eigen::Matrix2d covariance = Eigen::Matrix2d::Identity();
+  int num_anchors = 0;
+};
+
+}  // namespace walkgraph
+
+#endif  // WALKGRAPH_MEASUREMENTS_H_
