@@ -1,5 +1,6 @@
 // walkgraph: the command-line shell over the library. Parses arguments, calls the library,
 // prints. Every failure prints "walkgraph: <message>" on stderr and exits non-zero.
+#include <cstdint>
 #include <cstdio>
 #include <iostream>
 #include <string>
@@ -13,6 +14,7 @@
 #include "walkgraph/estimator.h"
 #include "walkgraph/io.h"
 #include "walkgraph/logging.h"
+#include "walkgraph/simulate.h"
 
 namespace {
 
@@ -89,6 +91,20 @@ int RunCompare(const std::string& walk_dir, const std::vector<std::string>& ids,
   return 0;
 }
 
+int RunSimulate(const std::string& scenario, uint64_t seed, const std::string& config_path,
+                const std::string& out) {
+  auto config = LoadConfig(config_path);
+  if (!config.ok()) return Fail(config.status());
+  auto walk = walkgraph::SimulateScenario(scenario, seed, *config);
+  if (!walk.ok()) return Fail(walk.status());
+  const Status s = walkgraph::WriteWalk(*walk, out);
+  if (!s.ok()) return Fail(s);
+  std::cout << "wrote " << out << " (" << walk->imu.size() << " IMU, " << walk->rss.size()
+            << " RSS, " << walk->ranges.size() << " range, " << walk->odometry.size()
+            << " odometry samples; " << walk->EndTime() - walk->StartTime() << " s)\n";
+  return 0;
+}
+
 int RunList() {
   std::cout << "estimators:\n";
   const auto& registry = walkgraph::EstimatorRegistry::Builtin();
@@ -98,6 +114,10 @@ int RunList() {
   std::cout << "formats (walkgraph convert FORMAT SRC...):\n";
   for (const auto& c : walkgraph::Converters()) {
     std::cout << "  " << c.format << "  — " << c.description << "\n";
+  }
+  std::cout << "scenarios (walkgraph simulate --scenario NAME):\n";
+  for (const auto& s : walkgraph::Scenarios()) {
+    std::cout << "  " << s.name << "  — " << s.description << "\n";
   }
   return 0;
 }
@@ -145,7 +165,17 @@ int main(int argc, char** argv) {
   compare->add_option("--out", out, "report folder")->required();
   compare->callback([&] { rc = RunCompare(walk_dir, ids, config_path, align_se2, out); });
 
-  CLI::App* list = app.add_subcommand("list", "list estimators and converter formats");
+  std::string scenario;
+  uint64_t seed = 0;
+  CLI::App* simulate = app.add_subcommand("simulate", "simulate a paper's scenario as a walk");
+  simulate->add_option("--scenario", scenario, "scenario name (see walkgraph list)")->required();
+  simulate->add_option("--seed", seed, "random seed (same seed, same walk)")->required();
+  simulate->add_option("--config", config_path, "YAML file with scenario overrides");
+  simulate->add_option("--out", out, "walk directory to write")->required();
+  simulate->callback([&] { rc = RunSimulate(scenario, seed, config_path, out); });
+
+  CLI::App* list =
+      app.add_subcommand("list", "list estimators, converter formats and scenarios");
   list->callback([&] { rc = RunList(); });
 
   app.parse_complete_callback([&] { walkgraph::InitLogging(argv[0], verbosity); });
