@@ -32,11 +32,11 @@ NavState TrueState(const sim::ImuTruth& s) {
 }
 
 TEST(QuaternionExpLog, RoundTripAndSmallAngles) {
-  for (const Eigen::Vector3d phi : {Eigen::Vector3d(0.3, -0.2, 1.1), Eigen::Vector3d(1e-9, 0, 0),
-                                    Eigen::Vector3d(0, 0, 3.0)}) {
+  for (const Eigen::Vector3d phi :
+       {Eigen::Vector3d(0.3, -0.2, 1.1), Eigen::Vector3d(1e-9, 0, 0), Eigen::Vector3d(0, 0, 3.0)}) {
     EXPECT_LT((QuaternionLog(QuaternionExp(phi)) - phi).norm(), 1e-12);
-    const Eigen::AngleAxisd aa(phi.norm(), phi.norm() > 0 ? phi.normalized()
-                                                          : Eigen::Vector3d::UnitX());
+    const Eigen::AngleAxisd aa(phi.norm(),
+                               phi.norm() > 0 ? phi.normalized() : Eigen::Vector3d::UnitX());
     EXPECT_LT((QuaternionExp(phi).toRotationMatrix() - aa.toRotationMatrix()).norm(), 1e-12);
   }
   const Eigen::Vector3d v(1, 2, 3), w(-0.5, 0.1, 2);

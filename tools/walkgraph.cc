@@ -126,8 +126,9 @@ int RunList() {
 
 int main(int argc, char** argv) {
   walkgraph::InitLogging(argv[0]);
-  CLI::App app{"walkgraph: factor-graph smoothing and Kalman-filter comparison for pedestrian "
-               "navigation walks"};
+  CLI::App app{
+      "walkgraph: factor-graph smoothing and Kalman-filter comparison for pedestrian "
+      "navigation walks"};
   app.require_subcommand(1);
   int verbosity = 0;
   app.add_option("-v,--verbosity", verbosity, "library diagnostics level (0 = quiet)");
@@ -174,8 +175,7 @@ int main(int argc, char** argv) {
   simulate->add_option("--out", out, "walk directory to write")->required();
   simulate->callback([&] { rc = RunSimulate(scenario, seed, config_path, out); });
 
-  CLI::App* list =
-      app.add_subcommand("list", "list estimators, converter formats and scenarios");
+  CLI::App* list = app.add_subcommand("list", "list estimators, converter formats and scenarios");
   list->callback([&] { rc = RunList(); });
 
   app.parse_complete_callback([&] { walkgraph::InitLogging(argv[0], verbosity); });

@@ -102,7 +102,7 @@ double PolylineLength(const std::vector<Eigen::Vector2d>& waypoints);
 struct BodyState {
   double t_s = 0.0;
   Eigen::Vector2d position_m = Eigen::Vector2d::Zero();
-  double heading_rad = 0.0;     // direction of travel (continuous, not wrapped)
+  double heading_rad = 0.0;  // direction of travel (continuous, not wrapped)
   double speed_mps = 0.0;
   double accel_mps2 = 0.0;      // dv/dt along the heading
   double yaw_rate_radps = 0.0;  // dψ/dt
@@ -156,9 +156,9 @@ class MotionPlan {
 
 // ------------------------------------------------------------------ gait
 struct GaitOptions {
-  double step_length_a_m = 0.32;   // l = a + b·v (000 Sec. IV)
+  double step_length_a_m = 0.32;  // l = a + b·v (000 Sec. IV)
   double step_length_b_s = 0.26;
-  double weinberg_k = 0.45;        // K of 000 eq. 3 (000 Sec. IV: 0.45)
+  double weinberg_k = 0.45;            // K of 000 eq. 3 (000 Sec. IV: 0.45)
   double walking_speed_min_mps = 0.3;  // below this the step amplitude fades out smoothly
 };
 double StepLength(const GaitOptions& g, double speed_mps);
@@ -174,12 +174,12 @@ struct StepEvent {
 
 // ------------------------------------------------------------------ IMU error model
 struct ImuNoiseOptions {
-  double acc_noise_mps2 = 0.0;     // white, per sample, each axis
+  double acc_noise_mps2 = 0.0;  // white, per sample, each axis
   double gyro_noise_radps = 0.0;
   double acc_bias_sigma_mps2 = 0.0;  // turn-on bias ~ N(0, σ²) per axis
   double gyro_bias_sigma_radps = 0.0;
   Eigen::Vector3d gyro_bias_fixed_radps = Eigen::Vector3d::Zero();  // added deterministically
-  double acc_bias_rw_mps2_sqrts = 0.0;    // bias random walk density
+  double acc_bias_rw_mps2_sqrts = 0.0;                              // bias random walk density
   double gyro_bias_rw_radps_sqrts = 0.0;
   double mag_noise_ut = 0.0;
   double gyro_rate_hz = 0.0;  // > 0: gyro sampled at this rate and held (001: 15 Hz)
@@ -188,10 +188,10 @@ struct ImuNoiseOptions {
 
 // Earth field plus indoor disturbances: Gaussian blobs of random direction around fixed points.
 struct MagneticFieldOptions {
-  double field_ut = 45.0;          // total intensity (Madrid ≈ 45 µT)
-  double inclination_deg = 58.0;   // dip, positive downwards
-  double declination_deg = 0.0;    // magnetic north east of true north (y)
-  double disturbance_ut = 0.0;     // peak magnitude of each disturbance blob
+  double field_ut = 45.0;         // total intensity (Madrid ≈ 45 µT)
+  double inclination_deg = 58.0;  // dip, positive downwards
+  double declination_deg = 0.0;   // magnetic north east of true north (y)
+  double disturbance_ut = 0.0;    // peak magnitude of each disturbance blob
   int disturbance_count = 0;
   double disturbance_radius_m = 2.0;
   Eigen::Vector2d area_min = Eigen::Vector2d::Zero();  // blob centres drawn in this box
@@ -234,12 +234,12 @@ std::vector<ImuSample> ApplyImuErrors(const std::vector<ImuTruth>& truth,
 struct WaistImuOptions {
   double rate_hz = 50.0;
   GaitOptions gait;
-  double lateral_sway_m = 0.02;     // pelvis side-to-side amplitude, at stride frequency f/2
-  double yaw_sway_rad = 0.05;       // pelvis yaw oscillation amplitude, at f/2
-  double height_m = 1.0;            // truth z (unused when the truth is planar)
+  double lateral_sway_m = 0.02;  // pelvis side-to-side amplitude, at stride frequency f/2
+  double yaw_sway_rad = 0.05;    // pelvis yaw oscillation amplitude, at f/2
+  double height_m = 1.0;         // truth z (unused when the truth is planar)
 };
 struct WaistImuResult {
-  std::vector<ImuTruth> truth;   // pose of the walker (the path), noiseless sensor readings
+  std::vector<ImuTruth> truth;  // pose of the walker (the path), noiseless sensor readings
   std::vector<StepEvent> steps;
 };
 WaistImuResult SimulateWaistImu(const MotionPlan& plan, const WaistImuOptions& options);
@@ -248,10 +248,10 @@ WaistImuResult SimulateWaistImu(const MotionPlan& plan, const WaistImuOptions& o
 struct FootImuOptions {
   double rate_hz = 100.0;
   GaitOptions gait;
-  double stance_fraction = 0.35;   // of each stride's time, foot flat and still
-  double lift_m = 0.10;            // peak foot height in swing
+  double stance_fraction = 0.35;  // of each stride's time, foot flat and still
+  double lift_m = 0.10;           // peak foot height in swing
   double pitch_amplitude_deg = 30.0;
-  double max_pivot_deg = 90.0;     // turns in place: at most this much yaw per pivot swing
+  double max_pivot_deg = 90.0;  // turns in place: at most this much yaw per pivot swing
 };
 struct Footprint {
   Eigen::Vector2d position = Eigen::Vector2d::Zero();
@@ -285,16 +285,16 @@ std::vector<ImuTruth> SampleFootImu(const FootMotion& foot, double rate_hz,
 // ------------------------------------------------------------------ radio
 struct DetectionModel {
   double p_max = 1.0;
-  double d50_m = 0.0;    // <= 0: no range dependence (p = p_max)
+  double d50_m = 0.0;  // <= 0: no range dependence (p = p_max)
   double width_m = 4.0;
   double At(double d_m) const;
 };
 
 struct NlosOptions {
-  double fraction = 0.0;           // long-run share of time an anchor is NLOS
-  double mean_episode_s = 10.0;    // mean NLOS episode length
-  double rss_bias_db = 8.0;        // mean extra attenuation (exponential) while NLOS
-  double range_bias_m = 3.0;       // mean positive TOA bias (exponential) while NLOS
+  double fraction = 0.0;         // long-run share of time an anchor is NLOS
+  double mean_episode_s = 10.0;  // mean NLOS episode length
+  double rss_bias_db = 8.0;      // mean extra attenuation (exponential) while NLOS
+  double range_bias_m = 3.0;     // mean positive TOA bias (exponential) while NLOS
 };
 
 struct RadioOptions {
@@ -307,8 +307,8 @@ struct RadioOptions {
   DetectionModel detection;
   NlosOptions nlos;
   std::vector<std::pair<double, double>> outages_s;  // no reception inside [t0, t1)
-  double period_s = 1.0;       // beacon period of each anchor (random phase per anchor)
-  double jitter_s = 0.0;       // uniform ± jitter of each emission (kept inside the period)
+  double period_s = 1.0;         // beacon period of each anchor (random phase per anchor)
+  double jitter_s = 0.0;         // uniform ± jitter of each emission (kept inside the period)
   double report_period_s = 0.0;  // > 0: timestamps rounded up to the reader's polling grid
   double rss_quantum = 0.0;      // > 0: readings rounded to this step
   // TOA (002 eq. 6): z = alpha + beta·d + N(0, sigma²) (+ NLOS bias)

@@ -97,11 +97,11 @@ StatusOr<Walk> SimulateScenario(const std::string& name, uint64_t seed,
 // The walk plus what the simulator knows beyond it (for statistics tests and studies).
 struct Simulation {
   Walk walk;
-  std::vector<sim::ImuTruth> imu_truth;       // noiseless readings and pose per IMU sample
-  std::vector<sim::StepEvent> steps;          // waist/hip: true step events
-  std::vector<sim::Emission> rss_emissions;   // every beacon, detected or not
+  std::vector<sim::ImuTruth> imu_truth;      // noiseless readings and pose per IMU sample
+  std::vector<sim::StepEvent> steps;         // waist/hip: true step events
+  std::vector<sim::Emission> rss_emissions;  // every beacon, detected or not
   std::vector<sim::Emission> range_emissions;
-  std::vector<PathLossParams> per_anchor;     // true per-anchor path loss (anchor order)
+  std::vector<PathLossParams> per_anchor;  // true per-anchor path loss (anchor order)
 };
 StatusOr<Simulation> SimulateScenarioDetailed(const std::string& name, uint64_t seed,
                                               const YAML::Node& overrides = YAML::Node());

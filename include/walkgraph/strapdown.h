@@ -40,8 +40,8 @@ enum class ImuSampling { kIntervalAverage, kInstantaneous };
 struct StrapdownOptions {
   double gravity_mps2 = 9.81;
   ImuSampling sampling = ImuSampling::kIntervalAverage;
-  bool coning_correction = true;  // kInstantaneous only
-  Eigen::Vector3d acc_bias_mps2 = Eigen::Vector3d::Zero();   // subtracted from every sample
+  bool coning_correction = true;                            // kInstantaneous only
+  Eigen::Vector3d acc_bias_mps2 = Eigen::Vector3d::Zero();  // subtracted from every sample
   Eigen::Vector3d gyro_bias_radps = Eigen::Vector3d::Zero();
 };
 

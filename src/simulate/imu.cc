@@ -56,9 +56,8 @@ Eigen::Vector3d MagneticField::At(const Eigen::Vector3d& p) const {
 
 // ------------------------------------------------------------------ IMU errors
 
-std::vector<ImuSample> ApplyImuErrors(const std::vector<ImuTruth>& truth,
-                                      const ImuNoiseOptions& n, const MagneticField* field,
-                                      Rng rng, ImuBiasTrace* biases) {
+std::vector<ImuSample> ApplyImuErrors(const std::vector<ImuTruth>& truth, const ImuNoiseOptions& n,
+                                      const MagneticField* field, Rng rng, ImuBiasTrace* biases) {
   Rng acc_rng = rng.Fork(1), gyro_rng = rng.Fork(2), mag_rng = rng.Fork(3), bias_rng = rng.Fork(4);
   Eigen::Vector3d ba, bg;
   for (int i = 0; i < 3; ++i) ba[i] = bias_rng.Gaussian(0.0, n.acc_bias_sigma_mps2);
@@ -242,8 +241,8 @@ FootMotion::FootMotion(const MotionPlan& plan, const FootImuOptions& options) : 
       }
     } else if (p.kind == MotionPlan::PhaseKind::kTurn) {
       const int n = std::max(
-          1, static_cast<int>(std::ceil(std::fabs(p.dheading_rad) /
-                                        DegToRad(o_.max_pivot_deg) - 1e-9)));
+          1, static_cast<int>(
+                 std::ceil(std::fabs(p.dheading_rad) / DegToRad(o_.max_pivot_deg) - 1e-9)));
       const double gap = (p.t1_s - p.t0_s) / n;
       for (int j = 0; j < n; ++j) {
         FootSwing s;
@@ -311,19 +310,17 @@ ImuTruth FootMotion::At(double t_s) const {
   const double su = std::sin(2.0 * kPi * u), cu = std::cos(2.0 * kPi * u);
   const double theta = amp * b * su;
   const double theta_rate = amp * (db * su + 2.0 * kPi * b * cu) / T;
-  const Eigen::Matrix3d R =
-      Rz(psi) * Eigen::AngleAxisd(theta, Eigen::Vector3d::UnitY()).matrix();
+  const Eigen::Matrix3d R = Rz(psi) * Eigen::AngleAxisd(theta, Eigen::Vector3d::UnitY()).matrix();
   s.q_nb = Eigen::Quaterniond(R);
   s.specific_force_b = R.transpose() * (a_n + g_up);
   // R = Rz(ψ)·Ry(θ)  ⇒  ω_b = Ry(θ)ᵀ·(0, 0, ψ̇) + (0, θ̇, 0).
-  s.angular_rate_b = Eigen::Vector3d(-std::sin(theta) * psi_rate, theta_rate,
-                                     std::cos(theta) * psi_rate);
+  s.angular_rate_b =
+      Eigen::Vector3d(-std::sin(theta) * psi_rate, theta_rate, std::cos(theta) * psi_rate);
   s.stance = false;
   return s;
 }
 
-std::vector<ImuTruth> SampleFootImu(const FootMotion& foot, double rate_hz,
-                                    bool interval_average) {
+std::vector<ImuTruth> SampleFootImu(const FootMotion& foot, double rate_hz, bool interval_average) {
   const long n = static_cast<long>(std::floor(foot.duration() * rate_hz + 1e-9)) + 1;
   std::vector<ImuTruth> out;
   out.reserve(n);

@@ -78,8 +78,8 @@ void SortByTime(std::vector<Sample>* v) {
 
 }  // namespace
 
-RadioResult SimulateRss(const std::vector<Anchor>& anchors, const ReceiverTrack& rx,
-                        double t0, double t1, const RadioOptions& o, Rng rng) {
+RadioResult SimulateRss(const std::vector<Anchor>& anchors, const ReceiverTrack& rx, double t0,
+                        double t1, const RadioOptions& o, Rng rng) {
   RadioResult r;
   const double sign = o.units == RssUnits::kDbm ? 1.0 : -1.0;
   for (const Anchor& anchor : anchors) {
@@ -104,9 +104,9 @@ RadioResult SimulateRss(const std::vector<Anchor>& anchors, const ReceiverTrack&
       const double extra = noise.Exponential(o.nlos.rss_bias_db);
       const double u = noise.Uniform();
       e.value = RoundTo(e.expected + shadow - (e.nlos ? sign * extra : 0.0), o.rss_quantum);
-      const bool sensed = !o.use_sensitivity || (o.units == RssUnits::kDbm
-                                                     ? e.value >= o.sensitivity
-                                                     : e.value <= o.sensitivity);
+      const bool sensed =
+          !o.use_sensitivity ||
+          (o.units == RssUnits::kDbm ? e.value >= o.sensitivity : e.value <= o.sensitivity);
       e.detected = !e.in_outage && u < o.detection.At(e.distance_m) && sensed;
       if (e.detected) r.rss.push_back({t, anchor.id, e.value});
       r.emissions.push_back(e);
@@ -116,8 +116,8 @@ RadioResult SimulateRss(const std::vector<Anchor>& anchors, const ReceiverTrack&
   return r;
 }
 
-RadioResult SimulateToa(const std::vector<Anchor>& anchors, const ReceiverTrack& rx,
-                        double t0, double t1, const RadioOptions& o, Rng rng) {
+RadioResult SimulateToa(const std::vector<Anchor>& anchors, const ReceiverTrack& rx, double t0,
+                        double t1, const RadioOptions& o, Rng rng) {
   RadioResult r;
   for (const Anchor& anchor : anchors) {
     Rng base = rng.Fork(static_cast<uint64_t>(anchor.id));

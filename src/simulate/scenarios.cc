@@ -125,8 +125,8 @@ struct Preset {
 // Loops: enough laps to cover duration_s when it is set.
 int LapsFor(const Params& p, double loop_length_m) {
   if (p.duration_s <= 0.0) return p.laps;
-  return std::max(p.laps, static_cast<int>(std::ceil(p.duration_s * p.speed_mps /
-                                                     loop_length_m)) + 1);
+  return std::max(p.laps,
+                  static_cast<int>(std::ceil(p.duration_s * p.speed_mps / loop_length_m)) + 1);
 }
 
 std::vector<Anchor> PickAnchors(const Params& p, std::vector<Anchor> all) {
@@ -190,9 +190,8 @@ const std::vector<Preset>& Presets() {
        [](Params* p, std::vector<Anchor>* anchors, sim::MotionPlan* plan) {
          const double W = 14.552, H = 10.648;
          std::vector<Anchor> all;
-         const std::vector<Eigen::Vector2d> spots = {{0, 0},         {W, 0},     {W, H},
-                                                     {0, H},         {W / 2, 0}, {W, H / 2},
-                                                     {W / 2, H},     {0, H / 2}};
+         const std::vector<Eigen::Vector2d> spots = {
+             {0, 0}, {W, 0}, {W, H}, {0, H}, {W / 2, 0}, {W, H / 2}, {W / 2, H}, {0, H / 2}};
          for (size_t i = 0; i < spots.size(); ++i) {
            all.push_back({static_cast<int>(i) + 1,
                           Eigen::Vector3d(Q(spots[i].x(), 1e-3), Q(spots[i].y(), 1e-3), 0.0)});
@@ -228,9 +227,8 @@ const std::vector<Preset>& Presets() {
        },
        [](Params* p, std::vector<Anchor>* anchors, sim::MotionPlan* plan) {
          std::vector<Anchor> all;
-         const std::vector<Eigen::Vector2d> spots = {{0, 2},     {0, 16},    {0, 30},
-                                                     {0, 45.6},  {11.2, 9},  {11.2, 23},
-                                                     {11.2, 37}, {5.6, 47.6}};
+         const std::vector<Eigen::Vector2d> spots = {
+             {0, 2}, {0, 16}, {0, 30}, {0, 45.6}, {11.2, 9}, {11.2, 23}, {11.2, 37}, {5.6, 47.6}};
          for (size_t i = 0; i < spots.size(); ++i) {
            all.push_back({static_cast<int>(i) + 1, Eigen::Vector3d(spots[i].x(), spots[i].y(), 0)});
          }
@@ -308,10 +306,8 @@ const std::vector<Preset>& Presets() {
          p->radio.toa_sigma_m = 1.5;
        },
        [](Params* p, std::vector<Anchor>* anchors, sim::MotionPlan* plan) {
-         *anchors = PickAnchors(*p, {{1, {-3, -3, 0}},
-                                     {2, {43, -3, 0}},
-                                     {3, {43, 20.2, 0}},
-                                     {4, {-3, 20.2, 0}}});
+         *anchors = PickAnchors(
+             *p, {{1, {-3, -3, 0}}, {2, {43, -3, 0}}, {3, {43, 20.2, 0}}, {4, {-3, 20.2, 0}}});
          const auto rect = sim::RectangleLoop(0, 0, 40, 17.2);
          const int laps = LapsFor(*p, 114.4);
          *plan = sim::MotionPlan(rect[0], 0.0);
@@ -465,8 +461,9 @@ Status ReadOverrides(const YAML::Node& node, Params* p) {
   if (!(p->run_length_m >= 10.0 && p->run_length_m <= 20000.0) ||
       !(0.0 <= p->outage_start_frac && p->outage_start_frac <= p->outage_end_frac &&
         p->outage_end_frac <= 1.0)) {
-    return InvalidArgument(ctx + "run_length_m in [10, 20000], 0 <= outage_start_frac <= "
-                                 "outage_end_frac <= 1");
+    return InvalidArgument(ctx +
+                           "run_length_m in [10, 20000], 0 <= outage_start_frac <= "
+                           "outage_end_frac <= 1");
   }
   if (!(p->stance_fraction >= 0.1 && p->stance_fraction <= 0.7)) {
     return InvalidArgument(ctx + "stance_fraction must be in [0.1, 0.7]");
@@ -489,11 +486,11 @@ StatusOr<Simulation> SimulateLinearGaussian(uint64_t seed, const YAML::Node& ove
   r.Read("range_every", &range_every);
   WG_RETURN_IF_ERROR(r.Finish());
   if (!(duration_s >= 1.0 && duration_s <= 3600.0) || !(step_period_s >= 0.1) ||
-      !(step_sigma_m > 0.0 && step_sigma_m <= 0.1) || !(range_sigma_m > 0.0) ||
-      range_every < 1) {
-    return InvalidArgument("simulate linear-gaussian: need 1 <= duration_s <= 3600, "
-                           "step_period_s >= 0.1, 0 < step_sigma_m <= 0.1, range_sigma_m > 0, "
-                           "range_every >= 1");
+      !(step_sigma_m > 0.0 && step_sigma_m <= 0.1) || !(range_sigma_m > 0.0) || range_every < 1) {
+    return InvalidArgument(
+        "simulate linear-gaussian: need 1 <= duration_s <= 3600, "
+        "step_period_s >= 0.1, 0 < step_sigma_m <= 0.1, range_sigma_m > 0, "
+        "range_every >= 1");
   }
   Rng rng(seed);
   Rng step_rng = rng.Fork(1), range_rng = rng.Fork(2);
@@ -578,8 +575,8 @@ StatusOr<Simulation> SimulateScenarioDetailed(const std::string& name, uint64_t 
   std::vector<Anchor> anchors;
   sim::MotionPlan plan(Eigen::Vector2d::Zero(), 0.0);
   WG_RETURN_IF_ERROR(preset->build(&p, &anchors, &plan));
-  const double t_end = p.duration_s > 0.0 ? std::min(p.duration_s, plan.duration())
-                                           : plan.duration();
+  const double t_end =
+      p.duration_s > 0.0 ? std::min(p.duration_s, plan.duration()) : plan.duration();
 
   Rng rng(seed);
   Simulation s;
@@ -633,7 +630,9 @@ StatusOr<Simulation> SimulateScenarioDetailed(const std::string& name, uint64_t 
   if (p.foot) {
     const sim::FootMotion* f = foot.get();
     const double dz = p.rx_height_offset_m;
-    rx = [f, dz](double t) { return Eigen::Vector3d(f->At(t).position_n + Eigen::Vector3d(0, 0, dz)); };
+    rx = [f, dz](double t) {
+      return Eigen::Vector3d(f->At(t).position_n + Eigen::Vector3d(0, 0, dz));
+    };
   } else {
     const sim::MotionPlan* pl = &plan;
     rx = [pl](double t) {
@@ -670,10 +669,9 @@ StatusOr<Simulation> SimulateScenarioDetailed(const std::string& name, uint64_t 
   m.radio.path_loss = p.radio.path_loss;
   m.radio.range_sigma_m = p.radio.toa_sigma_m;
   const sim::BodyState b0 = plan.At(0.0);
-  m.initial_pose = InitialPose{Q(s.imu_truth.front().position_n.x(), 1e-6),
-                               Q(s.imu_truth.front().position_n.y(), 1e-6),
-                               NormalizeAngle(b0.heading_rad), p.sigma_xy_m,
-                               DegToRad(p.sigma_heading_deg)};
+  m.initial_pose = InitialPose{
+      Q(s.imu_truth.front().position_n.x(), 1e-6), Q(s.imu_truth.front().position_n.y(), 1e-6),
+      NormalizeAngle(b0.heading_rad), p.sigma_xy_m, DegToRad(p.sigma_heading_deg)};
   auto& x = m.extra;
   x = p.extra;
   x["sim.seed"] = static_cast<double>(seed);

@@ -33,8 +33,8 @@ Eigen::Vector2d PathSegment::PositionAt(double s) const {
 std::vector<PathSegment> CirclePath(const Eigen::Vector2d& center, double radius_m,
                                     double start_angle_rad, double laps, bool ccw) {
   PathSegment arc;
-  arc.start = center + radius_m * Eigen::Vector2d(std::cos(start_angle_rad),
-                                                  std::sin(start_angle_rad));
+  arc.start =
+      center + radius_m * Eigen::Vector2d(std::cos(start_angle_rad), std::sin(start_angle_rad));
   arc.heading0_rad = start_angle_rad + (ccw ? 0.5 : -0.5) * kPi;
   arc.length_m = 2.0 * kPi * radius_m * laps;
   arc.curvature_1pm = (ccw ? 1.0 : -1.0) / radius_m;
@@ -72,8 +72,7 @@ std::vector<PathSegment> PolylinePath(const std::vector<Eigen::Vector2d>& waypoi
     const Eigen::Vector2d dout = (w[i + 1] - w[i]).normalized();
     const double alpha = TurnAngle(din, dout);
     if (std::fabs(alpha) < 1e-9) continue;
-    const double max_tangent =
-        0.5 * std::min((w[i] - w[i - 1]).norm(), (w[i + 1] - w[i]).norm());
+    const double max_tangent = 0.5 * std::min((w[i] - w[i - 1]).norm(), (w[i + 1] - w[i]).norm());
     double r = corner_radius_m;
     double tangent = r * std::tan(0.5 * std::fabs(alpha));
     if (tangent > max_tangent) {
@@ -249,8 +248,8 @@ BodyState MotionPlan::At(double t_s) const {
   } else if (p.kind == PhaseKind::kLeg) {
     double s, v, a;
     LegProfile(p, tau, &s, &v, &a);
-    size_t i = std::upper_bound(p.cumulative_m.begin(), p.cumulative_m.end(), s) -
-               p.cumulative_m.begin();
+    size_t i =
+        std::upper_bound(p.cumulative_m.begin(), p.cumulative_m.end(), s) - p.cumulative_m.begin();
     i = i == 0 ? 0 : i - 1;
     const PathSegment& seg = p.segments[i];
     const double ls = std::min(s - p.cumulative_m[i], seg.length_m);

@@ -1,0 +1,333 @@
+#include "walkgraph/simulate.h"
+
+#include <unistd.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include <gtest/gtest.h>
+
+#include "walkgraph/angle.h"
+#include "walkgraph/io.h"
+#include "walkgraph/path_loss.h"
+
+namespace walkgraph {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::string ReadBytes(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+// Mean and standard deviation.
+std::pair<double, double> Stats(const std::vector<double>& v) {
+  double m = 0.0;
+  for (double x : v) m += x;
+  m /= v.size();
+  double q = 0.0;
+  for (double x : v) q += (x - m) * (x - m);
+  return {m, std::sqrt(q / (v.size() - 1))};
+}
+
+// Truth position at t (linear interpolation).
+Eigen::Vector3d TruthAt(const Walk& w, double t) {
+  auto it = std::lower_bound(w.truth.begin(), w.truth.end(), t,
+                             [](const TruthSample& s, double x) { return s.t_s < x; });
+  if (it == w.truth.begin()) return it->position_m;
+  if (it == w.truth.end()) return w.truth.back().position_m;
+  const TruthSample& b = *it;
+  const TruthSample& a = *(it - 1);
+  const double u = (t - a.t_s) / (b.t_s - a.t_s);
+  return a.position_m + u * (b.position_m - a.position_m);
+}
+
+TEST(Simulate, EveryPresetSimulatesAndValidates) {
+  ASSERT_EQ(Scenarios().size(), 8u);
+  for (const ScenarioInfo& info : Scenarios()) {
+    SCOPED_TRACE(info.name);
+    auto w = SimulateScenario(info.name, 7);
+    ASSERT_TRUE(w.ok()) << w.status().message();
+    EXPECT_TRUE(ValidateWalk(*w).ok()) << ValidateWalk(*w).message();
+    ASSERT_TRUE(w->meta.initial_pose.has_value());
+    EXPECT_NEAR(w->meta.initial_pose->x_m, w->truth.front().position_m.x(), 1e-6);
+    EXPECT_NEAR(w->meta.initial_pose->y_m, w->truth.front().position_m.y(), 1e-6);
+    EXPECT_EQ(w->meta.extra.at("sim.seed"), 7.0);
+    EXPECT_TRUE(w->has_rss() || w->has_ranges());
+  }
+}
+
+TEST(Simulate, SameSeedGivesByteIdenticalFilesAndOtherSeedDiffers) {
+  const fs::path root = fs::temp_directory_path() / ("wg_sim_" + std::to_string(::getpid()));
+  fs::remove_all(root);
+  for (const ScenarioInfo& info : Scenarios()) {
+    SCOPED_TRACE(info.name);
+    const YAML::Node o = YAML::Load("{duration_s: 40}");
+    for (int run = 0; run < 2; ++run) {
+      auto w = SimulateScenario(info.name, 11, o);
+      ASSERT_TRUE(w.ok()) << w.status().message();
+      ASSERT_TRUE(WriteWalk(*w, (root / (info.name + std::to_string(run))).string()).ok());
+    }
+    auto other = SimulateScenario(info.name, 12, o);
+    ASSERT_TRUE(other.ok());
+    ASSERT_TRUE(WriteWalk(*other, (root / (info.name + "x")).string()).ok());
+    int files = 0;
+    bool any_difference = false;
+    for (const auto& e : fs::directory_iterator(root / (info.name + "0"))) {
+      const std::string a = ReadBytes(e.path());
+      EXPECT_EQ(a, ReadBytes(root / (info.name + "1") / e.path().filename()))
+          << e.path().filename();
+      const fs::path px = root / (info.name + "x") / e.path().filename();
+      if (e.path().filename() != "anchors.csv" && fs::exists(px) && ReadBytes(px) != a) {
+        any_difference = true;
+      }
+      ++files;
+    }
+    EXPECT_GE(files, 3);
+    EXPECT_TRUE(any_difference);
+    auto reread = ReadWalk((root / (info.name + "0")).string());
+    EXPECT_TRUE(reread.ok()) << reread.status().message();
+  }
+  fs::remove_all(root);
+}
+
+TEST(Simulate, RejectsUnknownScenarioAndKeys) {
+  EXPECT_EQ(SimulateScenario("no-such", 1).status().code(), StatusCode::kNotFound);
+  auto bad = SimulateScenario("tarrio-circle", 1, YAML::Load("{etaa: 3}"));
+  ASSERT_FALSE(bad.ok());
+  EXPECT_NE(bad.status().message().find("etaa"), std::string::npos);
+  EXPECT_FALSE(SimulateScenario("tarrio-circle", 1, YAML::Load("{eta: -1}")).ok());
+  // TOA keys only exist where TOA is simulated.
+  EXPECT_FALSE(SimulateScenario("tarrio-circle", 1, YAML::Load("{toa_sigma_m: 1}")).ok());
+  auto ok = SimulateScenario("tarrio-circle", 1, YAML::Load("{eta: 3.0, num_anchors: 4}"));
+  ASSERT_TRUE(ok.ok());
+  EXPECT_EQ(ok->meta.radio.path_loss.eta, 3.0);
+  EXPECT_EQ(ok->anchors.size(), 4u);
+}
+
+// RSS residuals against the configured model (000: A = −60, η = 2.5, σ = 5 dB), close to the
+// anchors where the −95 dBm sensitivity cannot truncate the distribution (≥ 3.5σ margin).
+TEST(Simulate, RssResidualsMatchThePathLossModel) {
+  std::vector<double> res;
+  for (uint64_t seed = 1; seed <= 3; ++seed) {
+    auto w = SimulateScenario("tarrio-circle", seed);
+    ASSERT_TRUE(w.ok());
+    const PathLossModel model(w->meta.radio.path_loss, w->meta.radio.units);
+    EXPECT_EQ(model.params().A_dbm, -60.0);
+    for (const RssSample& s : w->rss) {
+      const Eigen::Vector3d a = w->anchors[w->AnchorIndex(s.anchor_id)].position_m;
+      const double d = (TruthAt(*w, s.t_s) - a).norm();
+      if (d < 5.0) res.push_back(s.rss - model.ExpectedRss(d));
+    }
+  }
+  ASSERT_GT(res.size(), 500u);
+  const auto [mean, sigma] = Stats(res);
+  std::printf("RSS residual (d < 5 m, n = %zu): mean %.3f dB, sigma %.3f dB\n", res.size(), mean,
+              sigma);
+  EXPECT_NEAR(mean, 0.0, 4.0 * 5.0 / std::sqrt(res.size()));
+  EXPECT_NEAR(sigma, 5.0, 0.25);
+}
+
+TEST(Simulate, StepFrequencyLengthAndAmplitudeFollow000) {
+  auto s = SimulateScenarioDetailed("tarrio-circle", 5);
+  ASSERT_TRUE(s.ok());
+  const double l = 0.32 + 0.26 * 1.0;  // 000 Sec. IV at v = 1 m/s
+  std::vector<double> len, dur;
+  for (const auto& e : s->steps) {
+    if (e.t_s > 1.0) {
+      len.push_back(e.length_m);
+      dur.push_back(e.duration_s);
+    }
+  }
+  const auto [ml, sl] = Stats(len);
+  const auto [md, sd] = Stats(dur);
+  std::printf("steps: %zu, length %.4f m (model %.4f), frequency %.4f Hz (model %.4f)\n",
+              len.size(), ml, l, 1.0 / md, 1.0 / l);
+  EXPECT_NEAR(ml, l, 0.002);
+  EXPECT_NEAR(1.0 / md, 1.0 / l, 0.005);
+  EXPECT_NEAR(s->steps.size(), 201.06 / l, 2.0);
+  // Vertical specific force swings by (l/K)⁴ per step (000 eq. 3 inverted, K = 0.45).
+  double lo = 1e9, hi = -1e9;
+  for (const auto& t : s->imu_truth) {
+    if (t.t_s > 10.0 && t.t_s < 20.0) {
+      lo = std::min(lo, t.specific_force_b.z());
+      hi = std::max(hi, t.specific_force_b.z());
+    }
+  }
+  EXPECT_NEAR(hi - lo, std::pow(l / 0.45, 4.0), 0.01);
+  // A simple detector on the noisy walk finds the same number of steps: peaks of the
+  // 5-sample moving average of a_z above g + A/2, at least 0.3 s apart.
+  const auto& imu = s->walk.imu;
+  int peaks = 0;
+  double last = -1.0;
+  std::vector<double> smooth(imu.size(), 0.0);
+  for (size_t k = 2; k + 2 < imu.size(); ++k) {
+    for (int j = -2; j <= 2; ++j) smooth[k] += imu[k + j].acc_mps2.z() / 5.0;
+  }
+  const double thr = 9.81 + 0.25 * std::pow(l / 0.45, 4.0);
+  for (size_t k = 3; k + 3 < imu.size(); ++k) {
+    if (smooth[k] > thr && smooth[k] >= smooth[k - 1] && smooth[k] > smooth[k + 1] &&
+        imu[k].t_s - last > 0.3) {
+      ++peaks;
+      last = imu[k].t_s;
+    }
+  }
+  EXPECT_NEAR(peaks, static_cast<double>(s->steps.size()), 3.0);
+}
+
+TEST(Simulate, ImuNoiseAndBiasMatchConfiguration) {
+  auto s = SimulateScenarioDetailed("tarrio-circle", 9);
+  ASSERT_TRUE(s.ok());
+  std::vector<double> acc, gz;
+  for (size_t k = 0; k < s->imu_truth.size(); ++k) {
+    for (int i = 0; i < 3; ++i) {
+      acc.push_back(s->walk.imu[k].acc_mps2[i] - s->imu_truth[k].specific_force_b[i]);
+    }
+    gz.push_back(s->walk.imu[k].gyro_radps.z() - s->imu_truth[k].angular_rate_b.z());
+  }
+  const auto [ma, sa] = Stats(acc);
+  const auto [mg, sg] = Stats(gz);
+  std::printf("acc noise sigma %.5f (configured 0.057575), mean %.5f; gyro z bias %.4g rad/s\n", sa,
+              ma, mg);
+  EXPECT_NEAR(sa, 5.7575e-2, 0.02 * 5.7575e-2);
+  EXPECT_NEAR(ma, 0.0, 1e-3);
+  EXPECT_NEAR(mg, DegToRad(10.0) / 3600.0, 2e-7);  // 10 °/h (000 Sec. IV), 1e-7 resolution
+  EXPECT_LT(sg, 1e-6);
+}
+
+TEST(Simulate, CorreaGyroAndMagAreHeldAt15Hz) {
+  auto w = SimulateScenario("correa-corridor", 3, YAML::Load("{duration_s: 30}"));
+  ASSERT_TRUE(w.ok());
+  int changes = 0;
+  for (size_t k = 1; k < w->imu.size(); ++k) {
+    if (w->imu[k].gyro_radps != w->imu[k - 1].gyro_radps) ++changes;
+    EXPECT_TRUE(w->imu[k].has_mag);
+  }
+  EXPECT_NEAR(changes, 30.0 * 15.0, 2.0);
+  EXPECT_NEAR(w->imu.size(), 30.0 * 100.0 + 1.0, 1.0);
+}
+
+// 004 Fig. 5: detection probability falls with range, few detections beyond 25 m.
+TEST(Simulate, DetectionProbabilityFollowsRange) {
+  auto s = SimulateScenarioDetailed("jimenez-building", 2, YAML::Load("{laps: 3}"));
+  ASSERT_TRUE(s.ok());
+  const double edges[] = {0, 5, 10, 15, 20, 25, 35};
+  for (int b = 0; b + 1 < 7; ++b) {
+    double n = 0, hits = 0, expected = 0;
+    for (const auto& e : s->rss_emissions) {
+      if (e.distance_m < edges[b] || e.distance_m >= edges[b + 1]) continue;
+      n += 1;
+      hits += e.detected;
+      expected += 0.95 / (1.0 + std::exp((e.distance_m - 15.0) / 4.0));
+    }
+    ASSERT_GT(n, 200) << b;
+    const double p = expected / n;
+    std::printf("d in [%g, %g) m: detected %.3f, model %.3f (n = %.0f)\n", edges[b], edges[b + 1],
+                hits / n, p, n);
+    EXPECT_NEAR(hits / n, p, 4.0 * std::sqrt(p * (1 - p) / n) + 0.01);
+  }
+  double far = 0, all = 0;
+  for (const auto& e : s->rss_emissions) {
+    all += e.detected;
+    far += e.detected && e.distance_m > 25.0;
+  }
+  EXPECT_LT(far / all, 0.10);
+  // Readings are RFCode units: RSS0 = 60 at 1 m, larger is weaker, quantum 0.5.
+  for (const RssSample& r : s->walk.rss) {
+    EXPECT_EQ(std::fmod(r.rss * 2.0, 1.0), 0.0);
+    EXPECT_LE(r.rss, 110.0);
+  }
+  EXPECT_EQ(s->walk.meta.radio.units, RssUnits::kRfcode);
+}
+
+TEST(Simulate, GadekeOutageSilencesTheNetwork) {
+  auto w = SimulateScenario("gadeke-outage", 4, YAML::Load("{run_length_m: 400}"));
+  ASSERT_TRUE(w.ok());
+  const double T = w->meta.extra.at("sim.duration_s");
+  // run_length_m is the waypoint polyline; rounded corners (r = 0.6 m) shorten it by ~1 %.
+  EXPECT_NEAR(w->TruthDistance(), 400.0, 8.0);
+  int before = 0, inside = 0, after = 0;
+  for (const RssSample& s : w->rss) {
+    if (s.t_s < 0.3 * T)
+      ++before;
+    else if (s.t_s < 0.8 * T)
+      ++inside;
+    else
+      ++after;
+  }
+  EXPECT_EQ(inside, 0);
+  EXPECT_GT(before, 1000);
+  EXPECT_GT(after, 1000);
+  EXPECT_EQ(w->meta.extra.at("sim.imu_rate_hz"), 10.0);
+}
+
+// 002 eq. 6 TOA: LOS residuals N(0, 1.5²), NLOS ones biased by +3 m on average.
+TEST(Simulate, ToaRangesHaveLosNoiseAndNlosBias) {
+  auto s = SimulateScenarioDetailed("prieto-laps", 6, YAML::Load("{laps: 3}"));
+  ASSERT_TRUE(s.ok());
+  std::vector<double> los, nlos;
+  for (const auto& e : s->range_emissions) {
+    (e.nlos ? nlos : los).push_back(e.value - e.distance_m);
+  }
+  const auto [ml, sl] = Stats(los);
+  const auto [mn, sn] = Stats(nlos);
+  const double share = nlos.size() / double(los.size() + nlos.size());
+  std::printf("TOA LOS mean %.3f sigma %.3f; NLOS mean %.3f; NLOS share %.2f\n", ml, sl, mn, share);
+  EXPECT_NEAR(ml, 0.0, 0.15);
+  EXPECT_NEAR(sl, 1.5, 0.12);
+  EXPECT_NEAR(mn, 3.0, 0.6);
+  EXPECT_NEAR(share, 0.3, 0.15);
+  EXPECT_GT(s->walk.ranges.size(), 1000u);
+}
+
+TEST(Simulate, FootWalkHasStancePhasesOfConfiguredShare) {
+  auto w = SimulateScenario("jimenez-building", 8, YAML::Load("{laps: 2}"));
+  ASSERT_TRUE(w.ok());
+  ASSERT_EQ(w->stance_truth.size(), w->imu.size());
+  // While walking steadily (after the 10 s still start), stance is ≈35 % of the time.
+  double n = 0, st = 0;
+  for (const auto& s : w->stance_truth) {
+    if (s.t_s > 15.0 && s.t_s < 55.0) {
+      n += 1;
+      st += s.stance;
+    }
+  }
+  EXPECT_NEAR(st / n, 0.35, 0.05);
+  // The foot is still and level during stance: the accelerometer reads ≈ g (+ bias, noise).
+  for (size_t k = 0; k < 500; ++k) EXPECT_NEAR(w->imu[k].acc_mps2.norm(), 9.81, 0.15);
+}
+
+TEST(Simulate, LinearGaussianIsCollinearAndHasConfiguredNoise) {
+  auto w = SimulateScenario("linear-gaussian", 3, YAML::Load("{duration_s: 600}"));
+  ASSERT_TRUE(w.ok());
+  const Eigen::Vector2d a1 = w->anchors[0].position_m.head<2>();
+  const Eigen::Vector2d a2 = w->anchors[1].position_m.head<2>();
+  const Eigen::Vector2d u = (a2 - a1).normalized();
+  const double h = w->meta.initial_pose->heading_rad;
+  EXPECT_LT((u - Eigen::Vector2d(std::cos(h), std::sin(h))).norm(), 1e-9);
+  for (const auto& t : w->truth) {
+    const Eigen::Vector2d d = t.position_m.head<2>() - a1;
+    EXPECT_LT(std::fabs(u.x() * d.y() - u.y() * d.x()), 1e-6);
+  }
+  std::vector<double> rr, od;
+  for (const auto& r : w->ranges) {
+    const Eigen::Vector2d a = w->anchors[w->AnchorIndex(r.anchor_id)].position_m.head<2>();
+    rr.push_back(r.range_m - (TruthAt(*w, r.t_s).head<2>() - a).norm());
+  }
+  for (size_t k = 0; k < w->odometry.size(); ++k) {
+    EXPECT_EQ(w->odometry[k].dheading_rad, 0.0);
+    od.push_back(w->odometry[k].dist_m -
+                 (w->truth[k + 1].position_m - w->truth[k].position_m).norm());
+  }
+  EXPECT_NEAR(Stats(rr).second, 0.3, 0.03);
+  EXPECT_NEAR(Stats(od).second, 0.05, 0.005);
+  EXPECT_NEAR(Stats(od).first, 0.0, 0.006);
+}
+
+}  // namespace
+}  // namespace walkgraph
