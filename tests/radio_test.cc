@@ -1,6 +1,7 @@
 #include "walkgraph/radio.h"
 
 #include <cmath>
+#include <cstdio>
 #include <fstream>
 #include <map>
 #include <random>
@@ -236,6 +237,123 @@ TEST(RadioTest, ScmtThresholdMatchesMonteCarloFalseAlarmRate) {
   ASSERT_TRUE(t2.ok());
   EXPECT_GT(t2->p_th, t->p_th);
   EXPECT_FALSE(ComputeScmtThreshold(p, 0.0, d_max).ok());
+}
+
+std::vector<std::string> SplitCsv(const std::string& line) {
+  std::vector<std::string> out;
+  std::stringstream ss(line);
+  std::string field;
+  while (std::getline(ss, field, ',')) out.push_back(field);
+  if (!line.empty() && line.back() == ',') out.emplace_back();
+  return out;
+}
+
+void PrintFits(const char* name, const PathLossFit& global, const std::vector<PathLossFit>& per) {
+  std::printf("%s global: A = %.2f dBm, eta = %.3f, sigma = %.2f dB (n = %d)\n", name,
+              global.params.A_dbm, global.params.eta, global.params.sigma_db,
+              global.num_observations);
+  for (const PathLossFit& f : per) {
+    std::printf("%s anchor %d: A = %.2f dBm, eta = %.3f, sigma = %.2f dB (n = %d)\n", name,
+                f.anchor_id, f.params.A_dbm, f.params.eta, f.params.sigma_db, f.num_observations);
+  }
+}
+
+// Real data (Kolakowski 2021): 6 BLE anchors, a robot-carried receiver at LiDAR-SLAM positions.
+// The receiver height is not documented; 0.3 m (a small robot) is assumed.
+TEST(RadioRealData, BleCalib2021PathLoss) {
+  const std::string dir = std::string(WALKGRAPH_SHARED_DATASETS) + "/ble_calib2021";
+  std::ifstream anchors_in(dir + "/anchors.csv"), df(dir + "/calibration/calibration_df.csv");
+  if (!anchors_in || !df) GTEST_SKIP() << dir << " not present";
+  std::map<int, Eigen::Vector3d> anchors;
+  std::string line;
+  std::getline(anchors_in, line);
+  while (std::getline(anchors_in, line)) {
+    const auto f = SplitCsv(line);
+    ASSERT_EQ(f.size(), 4u) << line;
+    anchors[std::stoi(f[0])] = Eigen::Vector3d(std::stod(f[1]), std::stod(f[2]), std::stod(f[3]));
+  }
+  std::getline(df, line);
+  const auto header = SplitCsv(line);
+  ASSERT_EQ(header.size(), 11u);
+  ASSERT_EQ(header[2], "x");
+  ASSERT_EQ(header[4], "y");
+  std::vector<PathLossObservation> obs;
+  while (std::getline(df, line)) {
+    const auto f = SplitCsv(line);
+    ASSERT_EQ(f.size(), 11u) << line;
+    const Eigen::Vector3d rx(std::stod(f[2]), std::stod(f[4]), 0.3);
+    for (int a = 1; a <= 6; ++a) {
+      if (f[4 + a].empty()) continue;
+      obs.push_back({a, (anchors.at(a) - rx).norm(), std::stod(f[4 + a])});
+    }
+  }
+  auto global = FitPathLoss(obs, RssUnits::kDbm);
+  auto per = FitPathLossPerAnchor(obs, RssUnits::kDbm);
+  ASSERT_TRUE(global.ok() && per.ok());
+  PrintFits("ble_calib2021", *global, *per);
+  EXPECT_EQ(per->size(), 6u);
+  // Indoor BLE: exponent between free space-ish and heavy loss, shadowing of a few dB.
+  EXPECT_GT(global->params.eta, 1.0);
+  EXPECT_LT(global->params.eta, 4.0);
+  EXPECT_GT(global->params.sigma_db, 3.0);
+  EXPECT_LT(global->params.sigma_db, 10.0);
+  for (const PathLossFit& f : *per) {
+    EXPECT_GT(f.params.eta, 0.5) << f.anchor_id;
+    EXPECT_LT(f.params.eta, 5.0) << f.anchor_id;
+    EXPECT_LT(f.params.sigma_db, 10.0) << f.anchor_id;
+  }
+}
+
+// Real data (Daniş et al. 2022): a carried beacon heard by 12 receivers; AR-tag positions.
+TEST(RadioRealData, BleTracksPathLoss) {
+  const std::string dir = std::string(WALKGRAPH_SHARED_DATASETS) + "/ble_tracks";
+  std::ifstream dev(dir + "/cnf/tetam.dev");
+  if (!dev) GTEST_SKIP() << dir << " not present";
+  // Dongles:{"b827eb4521b4": [[7.00, 7.09, 1.22], 16711680, "sensor10"], ...}
+  std::map<std::string, std::pair<int, Eigen::Vector3d>> receivers;
+  std::string line;
+  while (std::getline(dev, line)) {
+    if (line.rfind("Dongles:", 0) != 0) continue;
+    size_t pos = 0;
+    while ((pos = line.find('"', pos)) != std::string::npos) {
+      const size_t end = line.find('"', pos + 1);
+      const std::string key = line.substr(pos + 1, end - pos - 1);
+      const size_t open = line.find("[[", end);
+      if (open == std::string::npos) break;
+      double x, y, z;
+      ASSERT_EQ(std::sscanf(line.c_str() + open, "[[%lf, %lf, %lf]", &x, &y, &z), 3) << key;
+      const size_t alias = line.find("\"sensor", open);
+      const int id = std::stoi(line.substr(alias + 7, 2));
+      receivers[key] = {id, Eigen::Vector3d(x, y, z)};
+      pos = line.find('"', alias + 1) + 1;
+    }
+  }
+  ASSERT_EQ(receivers.size(), 12u);
+  std::vector<PathLossObservation> obs;
+  for (const char* trk :
+       {"rectangular_without_rotation_all_sensors.mbd", "straight_01_all_sensors.mbd",
+        "straight_02_all_sensors.mbd", "straight_03_all_sensors.mbd", "straight_04_all_sensors.mbd",
+        "zigzagging_without_rotation_all_sensors.mbd"}) {
+    std::ifstream in(dir + "/trk/" + trk);
+    ASSERT_TRUE(in) << trk;
+    while (std::getline(in, line)) {
+      const auto f = SplitCsv(line);
+      ASSERT_GE(f.size(), 7u) << trk << ": " << line;
+      const auto it = receivers.find(f[1]);
+      ASSERT_NE(it, receivers.end()) << trk << ": unknown receiver " << f[1];
+      const Eigen::Vector3d beacon(std::stod(f[4]), std::stod(f[5]), std::stod(f[6]));
+      obs.push_back({it->second.first, (beacon - it->second.second).norm(), std::stod(f[3])});
+    }
+  }
+  auto global = FitPathLoss(obs, RssUnits::kDbm);
+  auto per = FitPathLossPerAnchor(obs, RssUnits::kDbm);
+  ASSERT_TRUE(global.ok() && per.ok());
+  PrintFits("ble_tracks", *global, *per);
+  EXPECT_EQ(per->size(), 12u);
+  EXPECT_GT(global->params.eta, 0.5);
+  EXPECT_LT(global->params.eta, 4.0);
+  EXPECT_GT(global->params.sigma_db, 3.0);
+  EXPECT_LT(global->params.sigma_db, 10.0);
 }
 
 }  // namespace
