@@ -87,6 +87,8 @@ const MalformedCase kCases[] = {
     {"blank_line_inside", "imu.csv:4:", "empty line inside the data"},
     {"no_measurements", "no_measurements", "no measurements"},
     {"bad_eta", "walk.yaml: radio", "must be > 0"},
+    // Found by fuzz_readers: a mapping used as a key made yaml-cpp throw through the reader.
+    {"complex_yaml_key", "walk.yaml: radio (line 15)", "option names must be plain words"},
 };
 
 TEST(ReadWalk, RejectsEveryMalformedCaseWithFileLineAndExpectation) {

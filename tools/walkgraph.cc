@@ -79,7 +79,12 @@ int RunCompare(const std::string& walk_dir, const std::vector<std::string>& ids,
   auto config = LoadConfig(config_path);
   if (!config.ok()) return Fail(config.status());
   if (config->IsMap()) {
-    for (const auto& kv : *config) options.configs[kv.first.as<std::string>()] = kv.second;
+    for (const auto& kv : *config) {
+      if (!kv.first.IsScalar()) {
+        return Fail(walkgraph::InvalidArgument(config_path + ": keys must be estimator ids"));
+      }
+      options.configs[kv.first.Scalar()] = kv.second;
+    }
   }
   auto comparison = walkgraph::CompareOnWalk(*walk, options);
   if (!comparison.ok()) return Fail(comparison.status());

@@ -54,7 +54,10 @@ Status ConfigReader::Finish() const {
   if (!first_error_.ok()) return first_error_;
   if (!node_.IsMap()) return Status::Ok();
   for (const auto& kv : node_) {
-    const std::string key = kv.first.as<std::string>();
+    if (!kv.first.IsScalar()) {
+      return InvalidArgument(context_ + LineOf(kv.first) + ": option names must be plain words");
+    }
+    const std::string key = kv.first.Scalar();
     if (known_.count(key) == 0) {
       std::string list;
       for (const auto& k : known_) list += (list.empty() ? "" : ", ") + k;

@@ -183,11 +183,16 @@ Status ReadMeta(const std::string& path, WalkMeta* meta) {
   if (extra.IsDefined() && !extra.IsNull()) {
     if (!extra.IsMap()) return InvalidArgument(path + ": extra must be a map of numbers");
     for (const auto& kv : extra) {
+      const std::string line = std::to_string(kv.first.Mark().line + 1);
+      if (!kv.first.IsScalar()) {
+        return InvalidArgument(path + ":" + line + ": extra: keys must be plain words");
+      }
       try {
-        meta->extra[kv.first.as<std::string>()] = kv.second.as<double>();
+        if (!kv.second.IsScalar()) throw YAML::Exception(kv.second.Mark(), "not a scalar");
+        meta->extra[kv.first.Scalar()] = kv.second.as<double>();
       } catch (const YAML::Exception&) {
-        return InvalidArgument(path + ":" + std::to_string(kv.second.Mark().line + 1) +
-                               ": extra." + kv.first.as<std::string>() + " must be a number");
+        return InvalidArgument(path + ":" + line + ": extra." + kv.first.Scalar() +
+                               " must be a number");
       }
     }
   }
