@@ -15,6 +15,7 @@
 #include "walkgraph/io.h"
 #include "walkgraph/logging.h"
 #include "walkgraph/simulate.h"
+#include "walkgraph/stance.h"
 
 namespace {
 
@@ -110,6 +111,32 @@ int RunSimulate(const std::string& scenario, uint64_t seed, const std::string& c
   return 0;
 }
 
+int RunStanceSearch(const std::string& walk_dir, const std::string& detector,
+                    const std::string& config_path, const std::vector<double>& thresholds) {
+  auto walk = walkgraph::ReadWalk(walk_dir);
+  if (!walk.ok()) return Fail(walk.status());
+  auto config = LoadConfig(config_path);
+  if (!config.ok()) return Fail(config.status());
+  auto options = walkgraph::StanceOptions::FromYaml(*config);
+  if (!options.ok()) return Fail(options.status());
+  auto type = walkgraph::StanceDetectorFromString(detector);
+  if (!type.ok()) return Fail(type.status());
+  options->detector = *type;
+  auto scores = walkgraph::StanceThresholdSearch(*walk, *options, thresholds);
+  if (!scores.ok()) return Fail(scores.status());
+  std::printf("# %s, detector %s, window %d: stance precision/recall vs stance_truth\n",
+              walk_dir.c_str(), detector.c_str(), options->window);
+  std::printf("%12s %9s %9s %9s %9s %9s %9s\n", "threshold", "precision", "recall", "F1", "TP",
+              "FP", "FN");
+  for (const auto& s : *scores) {
+    const double p = s.precision(), r = s.recall();
+    const double f1 = p + r > 0 ? 2 * p * r / (p + r) : 0.0;
+    std::printf("%12.5g %9.4f %9.4f %9.4f %9ld %9ld %9ld\n", s.threshold, p, r, f1, s.true_positive,
+                s.false_positive, s.false_negative);
+  }
+  return 0;
+}
+
 int RunList() {
   std::cout << "estimators:\n";
   const auto& registry = walkgraph::EstimatorRegistry::Builtin();
@@ -179,6 +206,19 @@ int main(int argc, char** argv) {
   simulate->add_option("--config", config_path, "YAML file with scenario overrides");
   simulate->add_option("--out", out, "walk directory to write")->required();
   simulate->callback([&] { rc = RunSimulate(scenario, seed, config_path, out); });
+
+  std::string detector = "glrt";
+  std::vector<double> thresholds;
+  CLI::App* stance = app.add_subcommand(
+      "stance-search", "stance detector precision/recall per threshold vs labelled stance");
+  stance->add_option("WALK", walk_dir, "walk directory with stance_truth.csv")->required();
+  stance->add_option("--detector", detector, "glrt|mv|mag|are|multi-condition");
+  stance->add_option("--config", config_path, "YAML file with stance options");
+  stance
+      ->add_option("--thresholds", thresholds,
+                   "comma-separated thresholds (default: 40 log-spaced over the statistic)")
+      ->delimiter(',');
+  stance->callback([&] { rc = RunStanceSearch(walk_dir, detector, config_path, thresholds); });
 
   CLI::App* list = app.add_subcommand("list", "list estimators, converter formats and scenarios");
   list->callback([&] { rc = RunList(); });

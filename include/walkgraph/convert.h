@@ -33,6 +33,11 @@ StatusOr<Walk> Convert(const std::string& format, const std::vector<std::string>
 // ground-truth sample (as GTSAM's Plaza example does).
 StatusOr<Walk> ConvertPlaza(const std::string& dir);
 
+// PyShoe VICON set (Wagstaff et al.; CSV with header t_s, ax/ay/az_mps2, gx/gy/gz_radps,
+// gt_x/y/z_m, zv_vicon): a foot-mounted 200 Hz IMU → imu.csv, the Vicon foot position → truth
+// (continuous, with z), zv_vicon → stance_truth. Time must increase; zv_vicon must be 0 or 1.
+StatusOr<Walk> ConvertPyshoe(const std::string& csv_path);
+
 }  // namespace walkgraph
 
 #endif  // WALKGRAPH_CONVERT_H_

@@ -9,6 +9,11 @@ const std::vector<ConverterInfo>& Converters() {
          if (src.size() != 1) return InvalidArgument("plaza: expected one source directory");
          return ConvertPlaza(src[0]);
        }},
+      {"pyshoe", "CSV of the PyShoe VICON set (t_s, acc, gyro, gt_x/y/z_m, zv_vicon)",
+       [](const std::vector<std::string>& src) -> StatusOr<Walk> {
+         if (src.size() != 1) return InvalidArgument("pyshoe: expected one CSV file");
+         return ConvertPyshoe(src[0]);
+       }},
   };
   return converters;
 }

@@ -1,0 +1,90 @@
+// Zero-velocity (stance) and still (ZARU) detection for a foot-mounted IMU.
+//
+// OpenShoe detectors (Skog et al. 2010), over windows Ω_k of W samples, ȳ_a the window mean:
+//   GLRT (SHOE)  T_k = (1/W) Σ_{Ω_k} [ ‖y_a − g·ȳ_a/‖ȳ_a‖‖²/σ_a² + ‖y_ω‖²/σ_g² ]
+//   MV           T_k = (1/(σ_a² W)) Σ_{Ω_k} ‖y_a − ȳ_a‖²
+//   MAG          T_k = (1/(σ_a² W)) Σ_{Ω_k} (‖y_a‖ − g)²
+//   ARE          T_k = (1/(σ_g² W)) Σ_{Ω_k} ‖y_ω‖²
+// As in OpenShoe, every sample of a window with T_k < γ is stance; the per-sample statistic is
+// the smallest T_k over the windows holding the sample, so stance ⇔ statistic < γ.
+//
+// Jiménez's multi-condition detector (Jiménez et al. 2009, used by 002 Sec. III-C and 004):
+//   C1: a_min < ‖a‖ < a_max,  C2: σ_‖a‖ (local std over s samples) < th_σ,
+//   C3: ‖ω‖ < ω_max;  stance = median filter (m samples) of C1 ∧ C2 ∧ C3.
+// Its statistic is the local std σ_‖a‖ (th_σ is the threshold the search varies).
+//
+// ZARU "still" (004): the whole foot at rest — over a centred window of still_window_s,
+// max ‖ω‖ < still_gyro_radps and the std of ‖a‖ < still_acc_std_mps2.
+#ifndef WALKGRAPH_STANCE_H_
+#define WALKGRAPH_STANCE_H_
+
+#include <string>
+#include <vector>
+
+#include <yaml-cpp/yaml.h>
+
+#include "walkgraph/measurements.h"
+#include "walkgraph/status.h"
+#include "walkgraph/walk.h"
+
+namespace walkgraph {
+
+enum class StanceDetector { kGlrt, kMv, kMag, kAre, kMultiCondition };
+const char* ToString(StanceDetector d);
+StatusOr<StanceDetector> StanceDetectorFromString(const std::string& name);
+
+struct StanceOptions {
+  StanceDetector detector = StanceDetector::kGlrt;
+  int window = 5;                // W (OpenShoe default 3; PyShoe uses 5 at 200 Hz)
+  double sigma_acc_mps2 = 0.01;  // OpenShoe σ_a
+  double sigma_gyro_radps = 0.1 * 3.14159265358979323846 / 180.0;  // OpenShoe σ_g = 0.1 °/s
+  double gravity_mps2 = 9.81;
+  // γ per detector (OpenShoe's GLRT default 3e5 for these σ; the others set to typical values,
+  // tune them with StanceThresholdSearch).
+  double glrt_threshold = 3e5;
+  double mv_threshold = 5e3;
+  double mag_threshold = 5e3;
+  double are_threshold = 5e3;
+  // Multi-condition (Jiménez et al. 2009 values).
+  double mc_acc_min_mps2 = 9.0;
+  double mc_acc_max_mps2 = 11.0;
+  double mc_acc_std_max_mps2 = 3.0;
+  int mc_std_window = 15;
+  double mc_gyro_max_radps = 50.0 * 3.14159265358979323846 / 180.0;
+  int mc_median_window = 11;
+  // ZARU still detection.
+  double still_window_s = 1.0;
+  double still_gyro_radps = 0.05;
+  double still_acc_std_mps2 = 0.1;
+
+  // The threshold of the selected detector (γ, or th_σ for the multi-condition detector).
+  double threshold() const;
+  void set_threshold(double value);
+
+  // Keys: detector (glrt|mv|mag|are|multi-condition) and every numeric field by its name.
+  static StatusOr<StanceOptions> FromYaml(const YAML::Node& node);
+};
+
+// Statistic, stance decision and still decision for every IMU sample of the walk.
+StatusOr<StanceMask> DetectStance(const Walk& walk, const StanceOptions& options);
+
+// The walk's stance labels at each IMU sample (nearest label in time, at most max_gap_s away).
+StatusOr<std::vector<bool>> StanceLabelsAtImu(const Walk& walk, double max_gap_s = 0.05);
+
+struct StanceScore {
+  double threshold = 0.0;
+  long true_positive = 0, false_positive = 0, false_negative = 0, true_negative = 0;
+  double precision() const;  // of "stance" decisions (1 when nothing was declared)
+  double recall() const;     // of labelled stance samples
+};
+StanceScore ScoreStance(const std::vector<bool>& detected, const std::vector<bool>& labels);
+
+// Precision/recall per threshold against the walk's stance labels. With no thresholds given,
+// 40 values log-spaced between the 1st and 99th percentile of the detector's statistic.
+StatusOr<std::vector<StanceScore>> StanceThresholdSearch(const Walk& walk,
+                                                         const StanceOptions& base,
+                                                         std::vector<double> thresholds = {});
+
+}  // namespace walkgraph
+
+#endif  // WALKGRAPH_STANCE_H_

@@ -1,0 +1,462 @@
+#include "walkgraph/pdr.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+
+#include <Eigen/Eigenvalues>
+
+#include "walkgraph/angle.h"
+#include "walkgraph/config.h"
+
+namespace walkgraph {
+
+namespace {
+
+template <typename E>
+bool ParseEnum(const std::string& text, const std::vector<std::pair<std::string, E>>& names,
+               E* out) {
+  for (const auto& [name, value] : names) {
+    if (name == text) {
+      *out = value;
+      return true;
+    }
+  }
+  return false;
+}
+
+template <typename E>
+std::string EnumChoices(const std::vector<std::pair<std::string, E>>& names) {
+  std::string s;
+  for (const auto& n : names) s += (s.empty() ? "" : "|") + n.first;
+  return s;
+}
+
+const std::vector<std::pair<std::string, StepDetector>> kDetectorNames = {
+    {"vertical-peak", StepDetector::kVerticalPeak},
+    {"fir-magnitude", StepDetector::kFirMagnitude},
+    {"energy", StepDetector::kEnergy}};
+const std::vector<std::pair<std::string, StepLengthModel>> kLengthNames = {
+    {"weinberg", StepLengthModel::kWeinberg},
+    {"constant", StepLengthModel::kConstant},
+    {"linear", StepLengthModel::kLinearFrequency}};
+const std::vector<std::pair<std::string, HeadingMethod>> kHeadingNames = {
+    {"gyro", HeadingMethod::kGyro}, {"complementary", HeadingMethod::kComplementary}};
+const std::vector<std::pair<std::string, ForwardAxisMethod>> kForwardNames = {
+    {"body-x", ForwardAxisMethod::kBodyX}, {"pca", ForwardAxisMethod::kPca}};
+
+double MedianRateHz(const std::vector<ImuSample>& imu) {
+  std::vector<double> dt;
+  dt.reserve(imu.size());
+  for (size_t i = 1; i < imu.size(); ++i) dt.push_back(imu[i].t_s - imu[i - 1].t_s);
+  std::nth_element(dt.begin(), dt.begin() + dt.size() / 2, dt.end());
+  return 1.0 / dt[dt.size() / 2];
+}
+
+// Yaw of a body-to-ENU rotation: the ENU angle of the body x axis projected on the horizontal.
+double Yaw(const Eigen::Matrix3d& r) { return std::atan2(r(1, 0), r(0, 0)); }
+
+// Local maxima of x above `threshold`, at least `min_gap` samples apart (the larger kept).
+std::vector<size_t> PeaksWithGap(const std::vector<double>& x, double threshold, size_t min_gap) {
+  std::vector<size_t> peaks;
+  for (size_t i = 1; i + 1 < x.size(); ++i) {
+    if (!(x[i] > threshold && x[i] > x[i - 1] && x[i] >= x[i + 1])) continue;
+    if (!peaks.empty() && i - peaks.back() < min_gap) {
+      if (x[i] > x[peaks.back()]) peaks.back() = i;
+      continue;
+    }
+    peaks.push_back(i);
+  }
+  return peaks;
+}
+
+// Signals every detector and the heading share.
+struct ImuSignals {
+  double rate_hz = 0.0;
+  std::vector<Eigen::Quaterniond> attitude;
+  std::vector<double> vertical_lp;  // low-pass a_z^n − g
+  std::vector<double> yaw_rate;     // ω_z^n = (R ω)_z
+};
+
+StatusOr<ImuSignals> ComputeSignals(const Walk& walk, const PdrOptions& o) {
+  ImuSignals s;
+  s.rate_hz = MedianRateHz(walk.imu);
+  WG_ASSIGN_OR_RETURN(s.attitude, EstimateAttitude(walk.imu, o));
+  std::vector<double> vertical(walk.imu.size());
+  s.yaw_rate.resize(walk.imu.size());
+  for (size_t i = 0; i < walk.imu.size(); ++i) {
+    const Eigen::Matrix3d r = s.attitude[i].toRotationMatrix();
+    vertical[i] = (r * walk.imu[i].acc_mps2).z() - o.gravity_mps2;
+    s.yaw_rate[i] = (r * walk.imu[i].gyro_radps).z();  // 000 eq. 4: ω projected on the vertical
+  }
+  // A long filter (transition ≈ 3.3·rate/order) so that step frequencies pass undamped.
+  const int order =
+      std::max(20, 2 * static_cast<int>(std::lround(2.0 * s.rate_hz / o.vertical_cutoff_hz)));
+  s.vertical_lp =
+      FilterZeroDelay(vertical, DesignLowPassFir(order, o.vertical_cutoff_hz, s.rate_hz));
+  return s;
+}
+
+std::vector<StepEvent> EventsFromPeaks(const Walk& walk, const ImuSignals& s,
+                                       const std::vector<size_t>& peaks, double min_swing) {
+  std::vector<StepEvent> events;
+  size_t prev = 0;
+  for (size_t p : peaks) {
+    StepEvent e;
+    e.imu_index = p;
+    e.t_s = walk.imu[p].t_s;
+    const auto begin = s.vertical_lp.begin() + static_cast<long>(events.empty() ? 0 : prev);
+    const auto end = s.vertical_lp.begin() + static_cast<long>(p) + 1;
+    e.a_max_mps2 = *std::max_element(begin, end);
+    e.a_min_mps2 = *std::min_element(begin, end);
+    if (e.a_max_mps2 - e.a_min_mps2 < min_swing) continue;
+    e.duration_s = events.empty() ? 0.0 : e.t_s - events.back().t_s;
+    events.push_back(e);
+    prev = p;
+  }
+  return events;
+}
+
+StatusOr<std::vector<StepEvent>> DetectWithSignals(const Walk& walk, const ImuSignals& s,
+                                                   const PdrOptions& o) {
+  const size_t gap = static_cast<size_t>(std::lround(o.min_step_interval_s * s.rate_hz));
+  switch (o.detector) {
+    case StepDetector::kVerticalPeak: {
+      // 000 Sec. III-B: local maxima of the smoothed vertical acceleration.
+      return EventsFromPeaks(walk, s, PeaksWithGap(s.vertical_lp, o.vertical_peak_mps2, gap),
+                             o.vertical_min_swing_mps2);
+    }
+    case StepDetector::kFirMagnitude: {
+      // 001 eq. 6: FIR (order 20, 3 Hz) on ‖a‖, local maxima above a threshold.
+      std::vector<double> mag(walk.imu.size());
+      for (size_t i = 0; i < mag.size(); ++i) mag[i] = walk.imu[i].acc_mps2.norm() - o.gravity_mps2;
+      const std::vector<double> f =
+          FilterZeroDelay(mag, DesignLowPassFir(o.fir_order, o.fir_cutoff_hz, s.rate_hz));
+      return EventsFromPeaks(walk, s, PeaksWithGap(f, o.fir_peak_mps2, gap), 0.0);
+    }
+    case StepDetector::kEnergy: {
+      // 003 eq. 1: E = ‖a^n − g‖² above 10 (m/s²)², maxima within 300 ms of a step rejected.
+      std::vector<double> energy(walk.imu.size());
+      for (size_t i = 0; i < energy.size(); ++i) {
+        Eigen::Vector3d a = s.attitude[i] * walk.imu[i].acc_mps2;
+        a.z() -= o.gravity_mps2;
+        energy[i] = a.squaredNorm();
+      }
+      std::vector<size_t> peaks;
+      for (size_t i = 1; i + 1 < energy.size(); ++i) {
+        if (!(energy[i] > o.energy_threshold_m2ps4 && energy[i] > energy[i - 1] &&
+              energy[i] >= energy[i + 1])) {
+          continue;
+        }
+        if (!peaks.empty() && walk.imu[i].t_s - walk.imu[peaks.back()].t_s < o.energy_lockout_s) {
+          continue;
+        }
+        peaks.push_back(i);
+      }
+      return EventsFromPeaks(walk, s, peaks, 0.0);
+    }
+  }
+  return InternalError("pdr: unknown detector");
+}
+
+Status CheckImu(const Walk& walk) {
+  if (walk.imu.size() < 10) return FailedPrecondition("pdr: the walk needs an IMU (imu.csv)");
+  for (size_t i = 1; i < walk.imu.size(); ++i) {
+    if (!(walk.imu[i].t_s > walk.imu[i - 1].t_s)) {
+      return InvalidArgument("pdr: IMU time does not increase at sample " + std::to_string(i));
+    }
+  }
+  return Status::Ok();
+}
+
+// Forward axis angle φ in the levelled body frame by PCA of the horizontal acceleration
+// (003 eq. 3–5) over the first pca_window_s of walking; the sign makes the forward
+// acceleration lead the vertical one by less than half a step.
+double PcaForwardAngle(const Walk& walk, const ImuSignals& s, const std::vector<StepEvent>& ev,
+                       const PdrOptions& o) {
+  if (ev.size() < 4) return 0.0;
+  const size_t begin = ev.front().imu_index;
+  size_t end = begin;
+  while (end + 1 < walk.imu.size() && walk.imu[end].t_s - walk.imu[begin].t_s < o.pca_window_s) {
+    ++end;
+  }
+  std::vector<Eigen::Vector2d> h;
+  for (size_t i = begin; i <= end; ++i) {
+    const Eigen::Matrix3d r = s.attitude[i].toRotationMatrix();
+    Eigen::Vector3d a = r * walk.imu[i].acc_mps2;  // a^n: g and a_z^n drop with the z part
+    const double yaw = Yaw(r);
+    const Eigen::Vector2d an(a.x(), a.y());
+    h.push_back(Eigen::Rotation2Dd(-yaw) * an);  // levelled body frame
+  }
+  Eigen::Vector2d mean = Eigen::Vector2d::Zero();
+  for (const auto& v : h) mean += v;
+  mean /= static_cast<double>(h.size());
+  Eigen::Matrix2d c = Eigen::Matrix2d::Zero();
+  for (const auto& v : h) c += (v - mean) * (v - mean).transpose();
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eig(c);
+  const Eigen::Vector2d axis = eig.eigenvectors().col(1);
+  // Disambiguation: correlate forward and vertical acceleration for lags up to half a step.
+  const double step_s = (ev.back().t_s - ev.front().t_s) / static_cast<double>(ev.size() - 1);
+  const int max_lag = std::max(1, static_cast<int>(0.5 * step_s * s.rate_hz));
+  double lead = 0.0, lag = 0.0;
+  for (int k = 1; k <= max_lag; ++k) {
+    for (size_t i = 0; i + static_cast<size_t>(k) < h.size(); ++i) {
+      const double f_i = (h[i] - mean).dot(axis);
+      const double f_k = (h[i + k] - mean).dot(axis);
+      lead += f_i * s.vertical_lp[begin + i + k];  // forward now, vertical later
+      lag += f_k * s.vertical_lp[begin + i];
+    }
+  }
+  const Eigen::Vector2d fwd = lead >= lag ? axis : Eigen::Vector2d(-axis);
+  return std::atan2(fwd.y(), fwd.x());
+}
+
+// Heading of the body x axis from the tilt-compensated magnetometer (ENU, from east).
+double MagHeading(const ImuSample& m, const Eigen::Quaterniond& q, double declination) {
+  const Eigen::Matrix3d r = q.toRotationMatrix();
+  const Eigen::Vector3d mn = r * m.mag_ut;
+  const Eigen::Vector2d ml = Eigen::Rotation2Dd(-Yaw(r)) * Eigen::Vector2d(mn.x(), mn.y());
+  // Levelled-frame field of a body at yaw ψ: (B sin ψ, B cos ψ) for a field pointing north (+y).
+  return NormalizeAngle(std::atan2(ml.x(), ml.y()) - declination);
+}
+
+}  // namespace
+
+StatusOr<PdrOptions> PdrOptions::FromYaml(const YAML::Node& node) {
+  PdrOptions o;
+  ConfigReader r(node, "pdr");
+  std::string detector, length, heading, forward;
+  r.Read("detector", &detector);
+  r.Read("length_model", &length);
+  r.Read("heading", &heading);
+  r.Read("forward_axis", &forward);
+  r.Read("vertical_cutoff_hz", &o.vertical_cutoff_hz);
+  r.Read("vertical_peak_mps2", &o.vertical_peak_mps2);
+  r.Read("vertical_min_swing_mps2", &o.vertical_min_swing_mps2);
+  r.Read("fir_order", &o.fir_order);
+  r.Read("fir_cutoff_hz", &o.fir_cutoff_hz);
+  r.Read("fir_peak_mps2", &o.fir_peak_mps2);
+  r.Read("energy_threshold_m2ps4", &o.energy_threshold_m2ps4);
+  r.Read("energy_lockout_s", &o.energy_lockout_s);
+  r.Read("min_step_interval_s", &o.min_step_interval_s);
+  r.Read("weinberg_k", &o.weinberg_k);
+  r.Read("constant_length_m", &o.constant_length_m);
+  r.Read("linear_c0_m", &o.linear_c0_m);
+  r.Read("linear_c1_m_s", &o.linear_c1_m_s);
+  r.Read("sigma_length_frac", &o.sigma_length_frac);
+  r.Read("sigma_length_m", &o.sigma_length_m);
+  r.Read("complementary_w", &o.complementary_w);
+  r.Read("mag_declination_rad", &o.mag_declination_rad);
+  r.Read("pca_window_s", &o.pca_window_s);
+  r.Read("sigma_dheading_rad", &o.sigma_dheading_rad);
+  r.Read("sigma_heading0_rad", &o.sigma_heading0_rad);
+  r.Read("attitude_gain", &o.attitude_gain);
+  r.Read("attitude_acc_gate_mps2", &o.attitude_acc_gate_mps2);
+  r.Read("gravity_mps2", &o.gravity_mps2);
+  WG_RETURN_IF_ERROR(r.Finish());
+  if (!detector.empty() && !ParseEnum(detector, kDetectorNames, &o.detector)) {
+    return InvalidArgument("pdr: detector must be " + EnumChoices(kDetectorNames));
+  }
+  if (!length.empty() && !ParseEnum(length, kLengthNames, &o.length_model)) {
+    return InvalidArgument("pdr: length_model must be " + EnumChoices(kLengthNames));
+  }
+  if (!heading.empty() && !ParseEnum(heading, kHeadingNames, &o.heading)) {
+    return InvalidArgument("pdr: heading must be " + EnumChoices(kHeadingNames));
+  }
+  if (!forward.empty() && !ParseEnum(forward, kForwardNames, &o.forward_axis)) {
+    return InvalidArgument("pdr: forward_axis must be " + EnumChoices(kForwardNames));
+  }
+  if (o.fir_order < 2 || o.fir_cutoff_hz <= 0 || o.vertical_cutoff_hz <= 0 ||
+      o.complementary_w < 0 || o.complementary_w > 1 || o.weinberg_k <= 0 ||
+      o.min_step_interval_s < 0 || o.energy_lockout_s < 0 || o.gravity_mps2 <= 0) {
+    return InvalidArgument(
+        "pdr: need fir_order >= 2, cut-offs > 0, 0 <= complementary_w <= 1, weinberg_k > 0, "
+        "intervals >= 0, gravity_mps2 > 0");
+  }
+  return o;
+}
+
+std::vector<double> DesignLowPassFir(int order, double cutoff_hz, double rate_hz) {
+  const int n = std::max(order, 0) + 1;
+  const double fc = std::min(cutoff_hz / rate_hz, 0.5);
+  const double mid = 0.5 * order;
+  std::vector<double> taps(n);
+  for (int i = 0; i < n; ++i) {
+    const double x = i - mid;
+    const double sinc = std::fabs(x) < 1e-12 ? 2.0 * fc : std::sin(2.0 * kPi * fc * x) / (kPi * x);
+    const double window = order == 0 ? 1.0 : 0.54 - 0.46 * std::cos(2.0 * kPi * i / order);
+    taps[i] = sinc * window;
+  }
+  const double sum = std::accumulate(taps.begin(), taps.end(), 0.0);
+  for (double& t : taps) t /= sum;
+  return taps;
+}
+
+std::vector<double> FilterZeroDelay(const std::vector<double>& x, const std::vector<double>& taps) {
+  std::vector<double> y(x.size(), 0.0);
+  if (x.empty()) return y;
+  const long half = static_cast<long>(taps.size() / 2);
+  const long n = static_cast<long>(x.size());
+  for (long i = 0; i < n; ++i) {
+    double acc = 0.0;
+    for (long k = 0; k < static_cast<long>(taps.size()); ++k) {
+      const long j = std::clamp(i + half - k, 0L, n - 1);
+      acc += taps[k] * x[j];
+    }
+    y[i] = acc;
+  }
+  return y;
+}
+
+StatusOr<std::vector<Eigen::Quaterniond>> EstimateAttitude(const std::vector<ImuSample>& imu,
+                                                           const PdrOptions& o) {
+  if (imu.empty()) return FailedPrecondition("attitude: no IMU samples");
+  // Initial tilt from the mean specific force of the first 0.5 s (it points up at rest).
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  size_t n = 0;
+  for (const ImuSample& s : imu) {
+    if (s.t_s - imu.front().t_s > 0.5 && n > 0) break;
+    mean += s.acc_mps2;
+    ++n;
+  }
+  if (mean.norm() < 1e-6) return FailedPrecondition("attitude: zero specific force at start");
+  std::vector<Eigen::Quaterniond> q(imu.size());
+  q[0] = Eigen::Quaterniond::FromTwoVectors(mean.normalized(), Eigen::Vector3d::UnitZ());
+  for (size_t i = 1; i < imu.size(); ++i) {
+    const double dt = imu[i].t_s - imu[i - 1].t_s;
+    Eigen::Vector3d w = 0.5 * (imu[i].gyro_radps + imu[i - 1].gyro_radps);
+    const Eigen::Vector3d& a = imu[i].acc_mps2;
+    if (std::fabs(a.norm() - o.gravity_mps2) < o.attitude_acc_gate_mps2) {
+      const Eigen::Vector3d up_body = q[i - 1].conjugate() * Eigen::Vector3d::UnitZ();
+      w += o.attitude_gain * a.normalized().cross(up_body);  // Mahony tilt correction
+    }
+    const double angle = w.norm() * dt;
+    const Eigen::Quaterniond dq = angle > 1e-15
+                                      ? Eigen::Quaterniond(Eigen::AngleAxisd(angle, w.normalized()))
+                                      : Eigen::Quaterniond::Identity();
+    q[i] = (q[i - 1] * dq).normalized();
+  }
+  return q;
+}
+
+StatusOr<std::vector<StepEvent>> DetectSteps(const Walk& walk, const PdrOptions& options) {
+  WG_RETURN_IF_ERROR(CheckImu(walk));
+  WG_ASSIGN_OR_RETURN(const ImuSignals s, ComputeSignals(walk, options));
+  return DetectWithSignals(walk, s, options);
+}
+
+StatusOr<StepSequence> ComputeSteps(const Walk& walk, const PdrOptions& o) {
+  WG_RETURN_IF_ERROR(CheckImu(walk));
+  WG_ASSIGN_OR_RETURN(const ImuSignals s, ComputeSignals(walk, o));
+  WG_ASSIGN_OR_RETURN(const std::vector<StepEvent> events, DetectWithSignals(walk, s, o));
+
+  // Integrated yaw ψ_i (000 eq. 4) at every sample.
+  std::vector<double> psi(walk.imu.size(), 0.0);
+  for (size_t i = 1; i < psi.size(); ++i) {
+    const double dt = walk.imu[i].t_s - walk.imu[i - 1].t_s;
+    psi[i] = psi[i - 1] + dt * 0.5 * (s.yaw_rate[i] + s.yaw_rate[i - 1]);
+  }
+  const bool have_mag = walk.imu.front().has_mag;
+  const bool use_mag = o.heading == HeadingMethod::kComplementary;
+  if (use_mag && !have_mag) {
+    return FailedPrecondition("pdr: heading 'complementary' needs magnetometer samples");
+  }
+  const double phi =
+      o.forward_axis == ForwardAxisMethod::kPca ? PcaForwardAngle(walk, s, events, o) : 0.0;
+  auto mag_walk_heading = [&](size_t from, size_t to) {
+    // Circular mean of the magnetometer heading over [from, to] (body x, then forward axis).
+    double c = 0.0, sn = 0.0;
+    for (size_t i = from; i <= to; ++i) {
+      const double h = MagHeading(walk.imu[i], s.attitude[i], o.mag_declination_rad);
+      c += std::cos(h);
+      sn += std::sin(h);
+    }
+    return NormalizeAngle(std::atan2(sn, c) + phi);
+  };
+
+  StepSequence out;
+  double theta = 0.0, var = o.sigma_heading0_rad * o.sigma_heading0_rad;
+  if (walk.meta.initial_pose) {
+    theta = walk.meta.initial_pose->heading_rad;
+    var = walk.meta.initial_pose->sigma_heading_rad * walk.meta.initial_pose->sigma_heading_rad;
+    out.absolute_heading = true;
+  } else if (use_mag && !events.empty()) {
+    theta = mag_walk_heading(0, events.front().imu_index);
+    out.absolute_heading = true;
+  }
+  // θ is the walking direction at the walk's start (the first IMU sample).
+  const double sigma_mag = std::max(o.sigma_heading0_rad, 1e-3);
+  size_t prev = 0;
+  for (const StepEvent& e : events) {
+    Step st;
+    st.t_s = e.t_s;
+    st.duration_s = e.duration_s;
+    st.a_max_mps2 = e.a_max_mps2;
+    st.a_min_mps2 = e.a_min_mps2;
+    switch (o.length_model) {
+      case StepLengthModel::kWeinberg:  // 000 eq. 3, 003 eq. 2
+        st.length_m = o.weinberg_k * std::pow(std::max(e.a_max_mps2 - e.a_min_mps2, 0.0), 0.25);
+        break;
+      case StepLengthModel::kConstant:  // 001: constant per-user step length
+        st.length_m = o.constant_length_m;
+        break;
+      case StepLengthModel::kLinearFrequency: {
+        const double f = e.duration_s > 0 ? 1.0 / e.duration_s : 0.0;
+        st.length_m = f > 0 ? o.linear_c0_m + o.linear_c1_m_s * f : o.constant_length_m;
+        break;
+      }
+    }
+    st.sigma_length_m = o.sigma_length_frac * st.length_m + o.sigma_length_m;
+    const double dpsi = psi[e.imu_index] - psi[prev];
+    st.dheading_rad = NormalizeAngle(dpsi);
+    st.sigma_dheading_rad = o.sigma_dheading_rad;
+    theta += dpsi;
+    var += o.sigma_dheading_rad * o.sigma_dheading_rad;
+    if (use_mag) {
+      // 001 eq. 7: θ = (1 − W)(θ + ω̄T) + W·θ_mag, blended on the circle.
+      const double m = mag_walk_heading(e.imu_index, e.imu_index);
+      theta += o.complementary_w * NormalizeAngle(m - theta);
+      const double w = o.complementary_w;
+      var = (1 - w) * (1 - w) * var + w * w * sigma_mag * sigma_mag;
+    }
+    theta = NormalizeAngle(theta);
+    st.heading_rad = theta;
+    st.sigma_heading_rad = std::sqrt(var);
+    out.steps.push_back(st);
+    prev = e.imu_index;
+  }
+  return out;
+}
+
+StepSequence StepsFromOdometry(const Walk& walk) {
+  StepSequence out;
+  double theta = 0.0;
+  double var = 0.0;
+  if (walk.meta.initial_pose) {
+    theta = walk.meta.initial_pose->heading_rad;
+    var = walk.meta.initial_pose->sigma_heading_rad * walk.meta.initial_pose->sigma_heading_rad;
+    out.absolute_heading = true;
+  }
+  // Same noise model as the odometry-dr estimator's defaults.
+  constexpr double kSigmaDistFrac = 0.05, kSigmaDistM = 0.001, kSigmaDheading = 0.01;
+  double prev_turn = 0.0;
+  for (size_t i = 0; i < walk.odometry.size(); ++i) {
+    const OdometrySample& o = walk.odometry[i];
+    Step st;
+    st.t_s = o.t_s;
+    st.duration_s = i == 0 ? 0.0 : o.t_s - walk.odometry[i - 1].t_s;
+    st.length_m = o.dist_m;
+    st.sigma_length_m = kSigmaDistFrac * std::fabs(o.dist_m) + kSigmaDistM;
+    st.dheading_rad = NormalizeAngle(prev_turn);
+    st.sigma_dheading_rad = kSigmaDheading;
+    theta = NormalizeAngle(theta + prev_turn);
+    if (i > 0) var += kSigmaDheading * kSigmaDheading;
+    st.heading_rad = theta;
+    st.sigma_heading_rad = std::sqrt(var);
+    out.steps.push_back(st);
+    prev_turn = o.dheading_rad;
+  }
+  return out;
+}
+
+}  // namespace walkgraph

@@ -1,0 +1,304 @@
+#include "walkgraph/stance.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "walkgraph/config.h"
+
+namespace walkgraph {
+
+namespace {
+
+const std::vector<std::pair<std::string, StanceDetector>> kNames = {
+    {"glrt", StanceDetector::kGlrt},
+    {"mv", StanceDetector::kMv},
+    {"mag", StanceDetector::kMag},
+    {"are", StanceDetector::kAre},
+    {"multi-condition", StanceDetector::kMultiCondition}};
+
+// T_k of the OpenShoe detectors for the window starting at k (k = 0..n−W).
+std::vector<double> WindowStatistic(const std::vector<ImuSample>& imu, const StanceOptions& o) {
+  const size_t w = static_cast<size_t>(o.window);
+  const double sa2 = o.sigma_acc_mps2 * o.sigma_acc_mps2;
+  const double sg2 = o.sigma_gyro_radps * o.sigma_gyro_radps;
+  std::vector<double> t(imu.size() - w + 1, 0.0);
+  for (size_t k = 0; k + w <= imu.size(); ++k) {
+    Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+    for (size_t i = k; i < k + w; ++i) mean += imu[i].acc_mps2;
+    mean /= static_cast<double>(w);
+    double sum = 0.0;
+    for (size_t i = k; i < k + w; ++i) {
+      const Eigen::Vector3d& a = imu[i].acc_mps2;
+      const Eigen::Vector3d& g = imu[i].gyro_radps;
+      switch (o.detector) {
+        case StanceDetector::kGlrt: {
+          const Eigen::Vector3d up =
+              mean.norm() > 0 ? Eigen::Vector3d(mean.normalized()) : Eigen::Vector3d::UnitZ();
+          sum += (a - o.gravity_mps2 * up).squaredNorm() / sa2 + g.squaredNorm() / sg2;
+          break;
+        }
+        case StanceDetector::kMv:
+          sum += (a - mean).squaredNorm() / sa2;
+          break;
+        case StanceDetector::kMag: {
+          const double d = a.norm() - o.gravity_mps2;
+          sum += d * d / sa2;
+          break;
+        }
+        case StanceDetector::kAre:
+          sum += g.squaredNorm() / sg2;
+          break;
+        case StanceDetector::kMultiCondition:
+          break;
+      }
+    }
+    t[k] = sum / static_cast<double>(w);
+  }
+  return t;
+}
+
+// Centred local standard deviation of x over `window` samples (shrinking at the ends).
+std::vector<double> LocalStd(const std::vector<double>& x, int window) {
+  const long n = static_cast<long>(x.size()), h = window / 2;
+  std::vector<double> out(x.size());
+  for (long i = 0; i < n; ++i) {
+    const long a = std::max(0L, i - h), b = std::min(n - 1, i + h);
+    double m = 0.0;
+    for (long j = a; j <= b; ++j) m += x[j];
+    m /= static_cast<double>(b - a + 1);
+    double v = 0.0;
+    for (long j = a; j <= b; ++j) v += (x[j] - m) * (x[j] - m);
+    out[i] = std::sqrt(v / static_cast<double>(b - a + 1));
+  }
+  return out;
+}
+
+std::vector<bool> MedianFilter(const std::vector<bool>& x, int window) {
+  const long n = static_cast<long>(x.size()), h = window / 2;
+  std::vector<bool> out(x.size());
+  for (long i = 0; i < n; ++i) {
+    const long a = std::max(0L, i - h), b = std::min(n - 1, i + h);
+    long ones = 0;
+    for (long j = a; j <= b; ++j) ones += x[j] ? 1 : 0;
+    out[i] = 2 * ones > (b - a + 1);
+  }
+  return out;
+}
+
+Status CheckImu(const Walk& walk, const StanceOptions& o) {
+  if (walk.imu.size() < static_cast<size_t>(std::max(o.window, 2))) {
+    return FailedPrecondition("stance: the walk needs at least W IMU samples");
+  }
+  return Status::Ok();
+}
+
+}  // namespace
+
+const char* ToString(StanceDetector d) {
+  for (const auto& [name, value] : kNames) {
+    if (value == d) return name.c_str();
+  }
+  return "?";
+}
+
+StatusOr<StanceDetector> StanceDetectorFromString(const std::string& name) {
+  for (const auto& [n, value] : kNames) {
+    if (n == name) return value;
+  }
+  return InvalidArgument("stance: unknown detector '" + name +
+                         "' (glrt|mv|mag|are|multi-condition)");
+}
+
+double StanceOptions::threshold() const {
+  switch (detector) {
+    case StanceDetector::kGlrt:
+      return glrt_threshold;
+    case StanceDetector::kMv:
+      return mv_threshold;
+    case StanceDetector::kMag:
+      return mag_threshold;
+    case StanceDetector::kAre:
+      return are_threshold;
+    case StanceDetector::kMultiCondition:
+      return mc_acc_std_max_mps2;
+  }
+  return 0.0;
+}
+
+void StanceOptions::set_threshold(double value) {
+  switch (detector) {
+    case StanceDetector::kGlrt:
+      glrt_threshold = value;
+      break;
+    case StanceDetector::kMv:
+      mv_threshold = value;
+      break;
+    case StanceDetector::kMag:
+      mag_threshold = value;
+      break;
+    case StanceDetector::kAre:
+      are_threshold = value;
+      break;
+    case StanceDetector::kMultiCondition:
+      mc_acc_std_max_mps2 = value;
+      break;
+  }
+}
+
+StatusOr<StanceOptions> StanceOptions::FromYaml(const YAML::Node& node) {
+  StanceOptions o;
+  ConfigReader r(node, "stance");
+  std::string detector;
+  r.Read("detector", &detector);
+  r.Read("window", &o.window);
+  r.Read("sigma_acc_mps2", &o.sigma_acc_mps2);
+  r.Read("sigma_gyro_radps", &o.sigma_gyro_radps);
+  r.Read("gravity_mps2", &o.gravity_mps2);
+  r.Read("glrt_threshold", &o.glrt_threshold);
+  r.Read("mv_threshold", &o.mv_threshold);
+  r.Read("mag_threshold", &o.mag_threshold);
+  r.Read("are_threshold", &o.are_threshold);
+  r.Read("mc_acc_min_mps2", &o.mc_acc_min_mps2);
+  r.Read("mc_acc_max_mps2", &o.mc_acc_max_mps2);
+  r.Read("mc_acc_std_max_mps2", &o.mc_acc_std_max_mps2);
+  r.Read("mc_std_window", &o.mc_std_window);
+  r.Read("mc_gyro_max_radps", &o.mc_gyro_max_radps);
+  r.Read("mc_median_window", &o.mc_median_window);
+  r.Read("still_window_s", &o.still_window_s);
+  r.Read("still_gyro_radps", &o.still_gyro_radps);
+  r.Read("still_acc_std_mps2", &o.still_acc_std_mps2);
+  WG_RETURN_IF_ERROR(r.Finish());
+  if (!detector.empty()) {
+    WG_ASSIGN_OR_RETURN(o.detector, StanceDetectorFromString(detector));
+  }
+  if (o.window < 1 || o.mc_std_window < 1 || o.mc_median_window < 1 || o.sigma_acc_mps2 <= 0 ||
+      o.sigma_gyro_radps <= 0 || o.still_window_s < 0) {
+    return InvalidArgument("stance: windows must be >= 1 and sigmas > 0");
+  }
+  return o;
+}
+
+StatusOr<StanceMask> DetectStance(const Walk& walk, const StanceOptions& o) {
+  WG_RETURN_IF_ERROR(CheckImu(walk, o));
+  if (o.window < 1 || o.mc_std_window < 1 || o.mc_median_window < 1) {
+    return InvalidArgument("stance: windows must be >= 1");
+  }
+  const size_t n = walk.imu.size();
+  StanceMask m;
+  m.t_s.resize(n);
+  for (size_t i = 0; i < n; ++i) m.t_s[i] = walk.imu[i].t_s;
+  std::vector<double> acc_norm(n);
+  for (size_t i = 0; i < n; ++i) acc_norm[i] = walk.imu[i].acc_mps2.norm();
+
+  if (o.detector == StanceDetector::kMultiCondition) {
+    m.statistic = LocalStd(acc_norm, o.mc_std_window);
+    std::vector<bool> c(n);
+    for (size_t i = 0; i < n; ++i) {
+      const bool c1 = acc_norm[i] > o.mc_acc_min_mps2 && acc_norm[i] < o.mc_acc_max_mps2;
+      const bool c2 = m.statistic[i] < o.mc_acc_std_max_mps2;
+      const bool c3 = walk.imu[i].gyro_radps.norm() < o.mc_gyro_max_radps;
+      c[i] = c1 && c2 && c3;
+    }
+    m.stance = MedianFilter(c, o.mc_median_window);
+  } else {
+    const std::vector<double> t = WindowStatistic(walk.imu, o);
+    const size_t w = static_cast<size_t>(o.window);
+    m.statistic.assign(n, std::numeric_limits<double>::infinity());
+    for (size_t k = 0; k < t.size(); ++k) {
+      for (size_t i = k; i < k + w; ++i) m.statistic[i] = std::min(m.statistic[i], t[k]);
+    }
+    const double gamma = o.threshold();
+    m.stance.resize(n);
+    for (size_t i = 0; i < n; ++i) m.stance[i] = m.statistic[i] < gamma;
+  }
+
+  // ZARU: centred window of still_window_s.
+  double dt = (walk.imu.back().t_s - walk.imu.front().t_s) / static_cast<double>(n - 1);
+  const int still_w = std::max(1, static_cast<int>(std::lround(o.still_window_s / dt)));
+  const std::vector<double> sd = LocalStd(acc_norm, still_w);
+  const long h = still_w / 2;
+  m.still.resize(n);
+  for (long i = 0; i < static_cast<long>(n); ++i) {
+    const long a = std::max(0L, i - h), b = std::min(static_cast<long>(n) - 1, i + h);
+    double max_w = 0.0;
+    for (long j = a; j <= b; ++j) max_w = std::max(max_w, walk.imu[j].gyro_radps.norm());
+    m.still[i] = max_w < o.still_gyro_radps && sd[i] < o.still_acc_std_mps2;
+  }
+  return m;
+}
+
+StatusOr<std::vector<bool>> StanceLabelsAtImu(const Walk& walk, double max_gap_s) {
+  if (walk.stance_truth.empty()) return FailedPrecondition("stance: the walk has no stance labels");
+  const auto& st = walk.stance_truth;
+  std::vector<bool> out(walk.imu.size());
+  for (size_t i = 0; i < walk.imu.size(); ++i) {
+    const double t = walk.imu[i].t_s;
+    auto it = std::lower_bound(st.begin(), st.end(), t,
+                               [](const StanceSample& s, double v) { return s.t_s < v; });
+    const StanceSample* best = nullptr;
+    if (it != st.end()) best = &*it;
+    if (it != st.begin() && (!best || t - std::prev(it)->t_s < best->t_s - t))
+      best = &*std::prev(it);
+    if (std::fabs(best->t_s - t) > max_gap_s) {
+      return FailedPrecondition("stance: no label within " + std::to_string(max_gap_s) +
+                                " s of IMU time " + std::to_string(t));
+    }
+    out[i] = best->stance;
+  }
+  return out;
+}
+
+double StanceScore::precision() const {
+  const long d = true_positive + false_positive;
+  return d == 0 ? 1.0 : static_cast<double>(true_positive) / static_cast<double>(d);
+}
+
+double StanceScore::recall() const {
+  const long d = true_positive + false_negative;
+  return d == 0 ? 1.0 : static_cast<double>(true_positive) / static_cast<double>(d);
+}
+
+StanceScore ScoreStance(const std::vector<bool>& detected, const std::vector<bool>& labels) {
+  StanceScore s;
+  const size_t n = std::min(detected.size(), labels.size());
+  for (size_t i = 0; i < n; ++i) {
+    if (detected[i] && labels[i]) ++s.true_positive;
+    if (detected[i] && !labels[i]) ++s.false_positive;
+    if (!detected[i] && labels[i]) ++s.false_negative;
+    if (!detected[i] && !labels[i]) ++s.true_negative;
+  }
+  return s;
+}
+
+StatusOr<std::vector<StanceScore>> StanceThresholdSearch(const Walk& walk,
+                                                         const StanceOptions& base,
+                                                         std::vector<double> thresholds) {
+  WG_ASSIGN_OR_RETURN(const std::vector<bool> labels, StanceLabelsAtImu(walk));
+  if (thresholds.empty()) {
+    WG_ASSIGN_OR_RETURN(const StanceMask m, DetectStance(walk, base));
+    std::vector<double> v;
+    for (double x : m.statistic) {
+      if (std::isfinite(x) && x > 0) v.push_back(x);
+    }
+    if (v.empty()) return FailedPrecondition("stance: the statistic is zero everywhere");
+    std::sort(v.begin(), v.end());
+    const double lo = v[v.size() / 100], hi = v[v.size() * 99 / 100];
+    const int count = 40;
+    for (int i = 0; i < count; ++i) {
+      thresholds.push_back(lo * std::pow(hi / lo, static_cast<double>(i) / (count - 1)));
+    }
+  }
+  std::vector<StanceScore> out;
+  for (double th : thresholds) {
+    StanceOptions o = base;
+    o.set_threshold(th);
+    WG_ASSIGN_OR_RETURN(const StanceMask m, DetectStance(walk, o));
+    StanceScore s = ScoreStance(m.stance, labels);
+    s.threshold = th;
+    out.push_back(s);
+  }
+  return out;
+}
+
+}  // namespace walkgraph

@@ -1,0 +1,226 @@
+#include "walkgraph/pdr.h"
+
+#include <cmath>
+#include <random>
+
+#include <gtest/gtest.h>
+
+#include "walkgraph/angle.h"
+
+namespace walkgraph {
+namespace {
+
+// A synthetic hip IMU (independent of the code under test): the wearer walks a circle of radius
+// r at speed v, the body x axis forward, the sensor pitched by `pitch`; the vertical acceleration
+// is a sinusoid with one period per step (000 Sec. IV's step model), plus white noise.
+struct CircleWalk {
+  double radius_m = 8.0;
+  double speed_mps = 1.0;
+  double step_hz = 2.0;
+  double vertical_amp_mps2 = 0.762;  // Weinberg K = 0.45 → 0.5 m steps
+  double pitch_rad = 0.15;
+  double duration_s = 60.0;
+  double rate_hz = 100.0;
+  double acc_noise = 0.05;
+  double gyro_noise = 0.002;
+  double heading0_rad = 0.3;
+  bool with_mag = false;
+};
+
+Walk MakeCircleWalk(const CircleWalk& c, uint64_t seed) {
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> n01(0.0, 1.0);
+  Walk w;
+  w.meta.imu_placement = ImuPlacement::kHip;
+  InitialPose p0;
+  p0.heading_rad = c.heading0_rad;
+  w.meta.initial_pose = p0;
+  const double omega = c.speed_mps / c.radius_m;
+  const Eigen::Matrix3d tilt = Eigen::AngleAxisd(c.pitch_rad, Eigen::Vector3d::UnitY()).matrix();
+  const int n = static_cast<int>(c.duration_s * c.rate_hz);
+  for (int i = 0; i < n; ++i) {
+    const double t = i / c.rate_hz;
+    const double yaw = c.heading0_rad + omega * std::max(t - 1.0, 0.0);
+    const Eigen::Matrix3d r = Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()).matrix() * tilt;
+    // Nav-frame acceleration: centripetal + vertical step oscillation (starting after 1 s still).
+    Eigen::Vector3d a_n(0, 0, 0);
+    if (t > 1.0) {
+      a_n.head<2>() = c.speed_mps * omega * Eigen::Vector2d(-std::sin(yaw), std::cos(yaw));
+      a_n.z() = c.vertical_amp_mps2 * std::sin(2 * kPi * c.step_hz * (t - 1.0));
+    }
+    ImuSample s;
+    s.t_s = t;
+    s.acc_mps2 = r.transpose() * (a_n + Eigen::Vector3d(0, 0, 9.81));
+    s.gyro_radps = r.transpose() * Eigen::Vector3d(0, 0, t > 1.0 ? omega : 0.0);
+    for (int k = 0; k < 3; ++k) {
+      s.acc_mps2[k] += c.acc_noise * n01(rng);
+      s.gyro_radps[k] += c.gyro_noise * n01(rng);
+    }
+    if (c.with_mag) {
+      s.has_mag = true;
+      s.mag_ut = r.transpose() * Eigen::Vector3d(0.0, 20.0, -40.0);
+    }
+    w.imu.push_back(s);
+  }
+  return w;
+}
+
+TEST(PdrTest, FirIsLowPassWithUnitGain) {
+  const std::vector<double> taps = DesignLowPassFir(20, 3.0, 100.0);
+  ASSERT_EQ(taps.size(), 21u);
+  double sum = 0.0;
+  for (double t : taps) sum += t;
+  EXPECT_NEAR(sum, 1.0, 1e-12);
+  for (size_t i = 0; i < taps.size(); ++i) EXPECT_NEAR(taps[i], taps[20 - i], 1e-15);
+  // A 1 Hz sine passes nearly unchanged and in phase, a 30 Hz sine is strongly attenuated.
+  std::vector<double> slow(1000), fast(1000);
+  for (int i = 0; i < 1000; ++i) {
+    slow[i] = std::sin(2 * kPi * 1.0 * i / 100.0);
+    fast[i] = std::sin(2 * kPi * 30.0 * i / 100.0);
+  }
+  const auto ys = FilterZeroDelay(slow, taps), yf = FilterZeroDelay(fast, taps);
+  for (int i = 100; i < 900; ++i) {
+    EXPECT_NEAR(ys[i], slow[i], 0.1);
+    EXPECT_LT(std::fabs(yf[i]), 0.1);
+  }
+}
+
+TEST(PdrTest, EveryDetectorCountsSyntheticSteps) {
+  CircleWalk c;
+  c.vertical_amp_mps2 = 4.0;  // strong enough for the 10 (m/s²)² energy threshold of 003
+  const Walk w = MakeCircleWalk(c, 1);
+  const double expected = (c.duration_s - 1.0) * c.step_hz;  // 118 steps
+  for (StepDetector d :
+       {StepDetector::kVerticalPeak, StepDetector::kFirMagnitude, StepDetector::kEnergy}) {
+    PdrOptions o;
+    o.detector = d;
+    auto events = DetectSteps(w, o);
+    ASSERT_TRUE(events.ok()) << events.status().ToString();
+    EXPECT_NEAR(static_cast<double>(events->size()), expected, 0.02 * expected)
+        << "detector " << static_cast<int>(d);
+  }
+}
+
+TEST(PdrTest, WeinbergLengthAndGyroHeadingOnCircle) {
+  CircleWalk c;  // 0.5 m steps by construction, K = 0.45
+  const Walk w = MakeCircleWalk(c, 2);
+  auto seq = ComputeSteps(w, PdrOptions());
+  ASSERT_TRUE(seq.ok()) << seq.status().ToString();
+  ASSERT_TRUE(seq->absolute_heading);
+  const double expected_steps = (c.duration_s - 1.0) * c.step_hz;
+  EXPECT_NEAR(static_cast<double>(seq->steps.size()), expected_steps, 0.02 * expected_steps);
+  double distance = 0.0;
+  for (const Step& s : seq->steps) distance += s.length_m;
+  const double truth = c.speed_mps * (c.duration_s - 1.0);
+  EXPECT_NEAR(distance, truth, 0.05 * truth);
+  // Heading of each step vs the true heading at that time (tilted sensor: needs projection).
+  double max_err = 0.0;
+  for (const Step& s : seq->steps) {
+    const double truth_heading =
+        c.heading0_rad + c.speed_mps / c.radius_m * std::max(s.t_s - 1.0, 0.0);
+    max_err = std::max(max_err, std::fabs(NormalizeAngle(s.heading_rad - truth_heading)));
+  }
+  EXPECT_LT(max_err, 0.05);
+  // Increments add up to the heading change.
+  double sum = 0.0;
+  for (const Step& s : seq->steps) sum += s.dheading_rad;
+  EXPECT_NEAR(NormalizeAngle(seq->steps.front().heading_rad + sum -
+                             seq->steps.front().dheading_rad - seq->steps.back().heading_rad),
+              0.0, 1e-9);
+}
+
+TEST(PdrTest, ComplementaryHeadingFollowsMagnetometerWithoutInitialPose) {
+  CircleWalk c;
+  c.with_mag = true;
+  c.heading0_rad = -1.2;
+  Walk w = MakeCircleWalk(c, 3);
+  w.meta.initial_pose.reset();
+  // A gyro z bias that pure integration would turn into 0.02·59 ≈ 1.2 rad of drift.
+  for (ImuSample& s : w.imu) s.gyro_radps.z() += 0.02;
+  PdrOptions o;
+  o.heading = HeadingMethod::kComplementary;
+  o.complementary_w = 0.2;
+  auto seq = ComputeSteps(w, o);
+  ASSERT_TRUE(seq.ok()) << seq.status().ToString();
+  EXPECT_TRUE(seq->absolute_heading);
+  const Step& last = seq->steps.back();
+  const double truth_heading = c.heading0_rad + c.speed_mps / c.radius_m * (last.t_s - 1.0);
+  EXPECT_LT(std::fabs(NormalizeAngle(last.heading_rad - truth_heading)), 0.08);
+
+  o.heading = HeadingMethod::kGyro;
+  auto gyro = ComputeSteps(w, o);
+  ASSERT_TRUE(gyro.ok());
+  EXPECT_FALSE(gyro->absolute_heading);
+}
+
+TEST(PdrTest, PcaFindsTheForwardAxis) {
+  // Sensor yawed by 1.0 rad on the body; forward acceleration leads vertical by a quarter step.
+  CircleWalk c;
+  c.radius_m = 1e6;  // straight line
+  c.pitch_rad = 0.0;
+  c.with_mag = true;
+  c.heading0_rad = 0.0;
+  Walk w = MakeCircleWalk(c, 4);
+  const double mount = 1.0;
+  const Eigen::Matrix3d m = Eigen::AngleAxisd(mount, Eigen::Vector3d::UnitZ()).matrix();
+  for (size_t i = 0; i < w.imu.size(); ++i) {
+    const double t = w.imu[i].t_s;
+    if (t > 1.0) {  // forward oscillation a_f = 1.5·cos(2π f (t − 1)): leads a_z = sin(...)
+      w.imu[i].acc_mps2.x() += 1.5 * std::cos(2 * kPi * c.step_hz * (t - 1.0));
+    }
+    // Body x forward → sensor axes rotated by −mount about z.
+    w.imu[i].acc_mps2 = m.transpose() * w.imu[i].acc_mps2;
+    w.imu[i].gyro_radps = m.transpose() * w.imu[i].gyro_radps;
+    w.imu[i].mag_ut = m.transpose() * w.imu[i].mag_ut;
+  }
+  w.meta.initial_pose.reset();
+  PdrOptions o;
+  o.heading = HeadingMethod::kComplementary;
+  o.forward_axis = ForwardAxisMethod::kPca;
+  auto seq = ComputeSteps(w, o);
+  ASSERT_TRUE(seq.ok()) << seq.status().ToString();
+  ASSERT_GT(seq->steps.size(), 50u);
+  EXPECT_LT(std::fabs(NormalizeAngle(seq->steps[60].heading_rad - 0.0)), 0.1);
+  o.forward_axis = ForwardAxisMethod::kBodyX;
+  auto raw = ComputeSteps(w, o);
+  ASSERT_TRUE(raw.ok());
+  EXPECT_LT(std::fabs(NormalizeAngle(raw->steps[60].heading_rad - mount)), 0.1);
+}
+
+TEST(PdrTest, StepsFromOdometryFollowTheIncrementConvention) {
+  Walk w;
+  InitialPose p0;
+  p0.heading_rad = 0.5;
+  w.meta.initial_pose = p0;
+  w.odometry = {{1.0, 1.0, 0.1}, {2.0, 2.0, -0.3}, {3.5, 0.5, 0.0}};
+  const StepSequence seq = StepsFromOdometry(w);
+  ASSERT_EQ(seq.steps.size(), 3u);
+  EXPECT_TRUE(seq.absolute_heading);
+  EXPECT_DOUBLE_EQ(seq.steps[0].heading_rad, 0.5);
+  EXPECT_DOUBLE_EQ(seq.steps[1].heading_rad, 0.6);
+  EXPECT_NEAR(seq.steps[2].heading_rad, 0.3, 1e-12);
+  EXPECT_NEAR(seq.steps[2].dheading_rad, -0.3, 1e-12);
+  EXPECT_DOUBLE_EQ(seq.steps[1].length_m, 2.0);
+  EXPECT_DOUBLE_EQ(seq.steps[2].duration_s, 1.5);
+}
+
+TEST(PdrTest, OptionsFromYamlAreStrict) {
+  auto ok =
+      PdrOptions::FromYaml(YAML::Load("{detector: energy, length_model: constant, "
+                                      "constant_length_m: 0.65, heading: complementary}"));
+  ASSERT_TRUE(ok.ok()) << ok.status().ToString();
+  EXPECT_EQ(ok->detector, StepDetector::kEnergy);
+  EXPECT_EQ(ok->length_model, StepLengthModel::kConstant);
+  EXPECT_DOUBLE_EQ(ok->constant_length_m, 0.65);
+  EXPECT_FALSE(PdrOptions::FromYaml(YAML::Load("{detector: peaks}")).ok());
+  EXPECT_FALSE(PdrOptions::FromYaml(YAML::Load("{weinberg: 0.4}")).ok());
+  EXPECT_FALSE(PdrOptions::FromYaml(YAML::Load("{complementary_w: 2.0}")).ok());
+}
+
+TEST(PdrTest, NoImuIsAnError) {
+  Walk w;
+  EXPECT_FALSE(ComputeSteps(w, PdrOptions()).ok());
+}
+
+}  // namespace
+}  // namespace walkgraph

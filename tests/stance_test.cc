@@ -1,0 +1,165 @@
+#include "walkgraph/stance.h"
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <random>
+
+#include <gtest/gtest.h>
+
+#include "walkgraph/angle.h"
+#include "walkgraph/convert.h"
+
+namespace walkgraph {
+namespace {
+
+// A synthetic foot IMU at 200 Hz: 1 s gait cycles, the first 0.4 s of each flat on the floor
+// (specific force = g up, no rotation, sensor noise), the rest swinging (a rotating foot with
+// large accelerations); after 10 cycles a 3 s standstill. Labels are the true stance phases.
+Walk MakeFootWalk(uint64_t seed) {
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> n01(0.0, 1.0);
+  Walk w;
+  w.meta.imu_placement = ImuPlacement::kFoot;
+  const double rate = 200.0;
+  for (int i = 0; i < static_cast<int>(13.0 * rate); ++i) {
+    const double t = i / rate;
+    const double phase = std::fmod(t, 1.0);
+    const bool stance = t >= 10.0 || phase < 0.4;
+    ImuSample s;
+    s.t_s = t;
+    s.acc_mps2 = Eigen::Vector3d(0, 0, 9.81);
+    if (!stance) {
+      const double u = (phase - 0.4) / 0.6;  // 0..1 through the swing
+      const double bump = std::sin(kPi * u);
+      s.acc_mps2 += Eigen::Vector3d(15.0 * std::sin(2 * kPi * u), 0.0, 8.0 * bump);
+      s.gyro_radps = Eigen::Vector3d(0.0, 4.0 * std::sin(2 * kPi * u) + 1.0 * bump, 0.0);
+    }
+    for (int k = 0; k < 3; ++k) {
+      s.acc_mps2[k] += 0.03 * n01(rng);
+      s.gyro_radps[k] += 0.003 * n01(rng);
+    }
+    w.imu.push_back(s);
+    w.stance_truth.push_back({t, stance});
+  }
+  return w;
+}
+
+TEST(StanceTest, EveryDetectorFindsSyntheticStance) {
+  const Walk w = MakeFootWalk(1);
+  auto labels = StanceLabelsAtImu(w);
+  ASSERT_TRUE(labels.ok());
+  for (StanceDetector d : {StanceDetector::kGlrt, StanceDetector::kMv, StanceDetector::kMag,
+                           StanceDetector::kAre, StanceDetector::kMultiCondition}) {
+    StanceOptions o;
+    o.detector = d;
+    auto m = DetectStance(w, o);
+    ASSERT_TRUE(m.ok()) << m.status().ToString();
+    ASSERT_EQ(m->stance.size(), w.imu.size());
+    ASSERT_EQ(m->statistic.size(), w.imu.size());
+    const StanceScore s = ScoreStance(m->stance, *labels);
+    EXPECT_GE(s.recall(), 0.95) << ToString(d);
+    // MV and MAG see only the accelerometer, and this swing's acceleration has smooth turning
+    // points (locally constant a, or ‖a‖ crossing g) that they must take for stance; the
+    // detectors that also use the gyro do not.
+    const bool acc_only = d == StanceDetector::kMv || d == StanceDetector::kMag;
+    EXPECT_GE(s.precision(), acc_only ? 0.6 : 0.9) << ToString(d);
+  }
+}
+
+TEST(StanceTest, GlrtStatisticMatchesTheFormulaAtRest) {
+  // A perfectly still sensor with only gyro offset ω: T = ‖ω‖²/σ_g² exactly.
+  Walk w;
+  for (int i = 0; i < 50; ++i) {
+    ImuSample s;
+    s.t_s = i * 0.005;
+    s.acc_mps2 = Eigen::Vector3d(0.0, 3.0, 9.0).normalized() * 9.81;
+    s.gyro_radps = Eigen::Vector3d(0.001, 0.0, 0.0);
+    w.imu.push_back(s);
+  }
+  StanceOptions o;
+  auto m = DetectStance(w, o);
+  ASSERT_TRUE(m.ok());
+  const double expected = 1e-6 / (o.sigma_gyro_radps * o.sigma_gyro_radps);
+  for (double t : m->statistic) EXPECT_NEAR(t, expected, 1e-6 * expected);
+  EXPECT_TRUE(m->stance[10]);
+  EXPECT_TRUE(m->still[25]);
+}
+
+TEST(StanceTest, StillOnlyDuringTheStandstill) {
+  const Walk w = MakeFootWalk(2);
+  auto m = DetectStance(w, StanceOptions());
+  ASSERT_TRUE(m.ok());
+  int still_walking = 0, still_standing = 0, standing = 0;
+  for (size_t i = 0; i < w.imu.size(); ++i) {
+    const double t = w.imu[i].t_s;
+    if (t < 9.5 && m->still[i]) ++still_walking;
+    if (t > 10.6 && t < 12.4) {
+      ++standing;
+      if (m->still[i]) ++still_standing;
+    }
+  }
+  EXPECT_EQ(still_walking, 0);
+  EXPECT_EQ(still_standing, standing);
+}
+
+TEST(StanceTest, ThresholdSearchTradesPrecisionForRecall) {
+  const Walk w = MakeFootWalk(3);
+  StanceOptions o;
+  auto scores = StanceThresholdSearch(w, o, {1.0, 1e4, 1e6, 1e8});
+  ASSERT_TRUE(scores.ok()) << scores.status().ToString();
+  ASSERT_EQ(scores->size(), 4u);
+  for (size_t i = 1; i < scores->size(); ++i) {
+    EXPECT_GE((*scores)[i].recall(), (*scores)[i - 1].recall());
+  }
+  EXPECT_LT(scores->front().recall(), 0.5);    // γ = 1 is below the noise floor (≈ 36)
+  EXPECT_LT(scores->back().precision(), 0.7);  // γ = 1e8 calls swing stance
+  auto automatic = StanceThresholdSearch(w, o);
+  ASSERT_TRUE(automatic.ok());
+  EXPECT_EQ(automatic->size(), 40u);
+  Walk unlabelled = w;
+  unlabelled.stance_truth.clear();
+  EXPECT_FALSE(StanceThresholdSearch(unlabelled, o).ok());
+}
+
+TEST(StanceTest, OptionsFromYaml) {
+  auto o = StanceOptions::FromYaml(YAML::Load("{detector: are, window: 7, are_threshold: 1e4}"));
+  ASSERT_TRUE(o.ok()) << o.status().ToString();
+  EXPECT_EQ(o->detector, StanceDetector::kAre);
+  EXPECT_EQ(o->window, 7);
+  EXPECT_DOUBLE_EQ(o->threshold(), 1e4);
+  EXPECT_FALSE(StanceOptions::FromYaml(YAML::Load("{detector: shoe}")).ok());
+  EXPECT_FALSE(StanceOptions::FromYaml(YAML::Load("{window: 0}")).ok());
+  EXPECT_FALSE(StanceOptions::FromYaml(YAML::Load("{gamma: 3}")).ok());
+}
+
+// Real data: PyShoe VICON trials against zv_vicon. Prints the best-F1 threshold per detector
+// (the closing note reports these) and checks the GLRT reaches a useful operating point.
+TEST(StanceTest, PyshoeTrialsAgainstViconLabels) {
+  const std::string dir = std::string(WALKGRAPH_SHARED_DATASETS) + "/pyshoe_vicon";
+  if (!std::filesystem::exists(dir)) GTEST_SKIP() << dir << " not present";
+  for (const char* trial : {"2017-11-22-11-22-03.csv", "2017-11-22-11-48-35.csv"}) {
+    auto w = Convert("pyshoe", {dir + "/" + trial});
+    ASSERT_TRUE(w.ok()) << w.status().ToString();
+    for (StanceDetector d : {StanceDetector::kGlrt, StanceDetector::kMv, StanceDetector::kMag,
+                             StanceDetector::kAre, StanceDetector::kMultiCondition}) {
+      StanceOptions o;
+      o.detector = d;
+      auto scores = StanceThresholdSearch(*w, o);
+      ASSERT_TRUE(scores.ok()) << scores.status().ToString();
+      const StanceScore* best = &scores->front();
+      auto f1 = [](const StanceScore& s) {
+        return 2 * s.precision() * s.recall() / std::max(s.precision() + s.recall(), 1e-12);
+      };
+      for (const StanceScore& s : *scores) {
+        if (f1(s) > f1(*best)) best = &s;
+      }
+      std::printf("pyshoe %s %-15s best threshold %.4g precision %.3f recall %.3f F1 %.3f\n", trial,
+                  ToString(d), best->threshold, best->precision(), best->recall(), f1(*best));
+      if (d == StanceDetector::kGlrt) EXPECT_GT(f1(*best), 0.8) << trial;
+    }
+  }
+}
+
+}  // namespace
+}  // namespace walkgraph
