@@ -1,0 +1,210 @@
+#include "walkgraph/filters/tarrio.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "walkgraph/config.h"
+#include "walkgraph/filters/kalman.h"
+
+namespace walkgraph {
+
+StatusOr<TarrioKfOptions> TarrioKfOptions::FromYaml(const YAML::Node& node,
+                                                    const std::string& context) {
+  TarrioKfOptions o;
+  ConfigReader r(node, context);
+  r.Read("sigma_a_mps2", &o.sigma_a_mps2);
+  r.Read("sigma_v_mps", &o.sigma_v_mps);
+  r.Read("sigma_p_m", &o.sigma_p_m);
+  r.Read("prediction", &o.prediction);
+  r.Read("gate_probability", &o.gate_probability);
+  r.Read("smooth", &o.smooth);
+  WG_RETURN_IF_ERROR(r.Finish());
+  if (o.sigma_a_mps2 < 0 || o.sigma_v_mps < 0 || !(o.sigma_p_m > 0)) {
+    return InvalidArgument(context + ": sigma_a_mps2, sigma_v_mps must be >= 0, sigma_p_m > 0");
+  }
+  if (o.prediction != "last-velocity" && o.prediction != "pdr-displacement") {
+    return InvalidArgument(context + ": prediction must be 'last-velocity' or 'pdr-displacement'");
+  }
+  if (o.gate_probability < 0 || o.gate_probability >= 1) {
+    return InvalidArgument(context + ": gate_probability must be in [0, 1)");
+  }
+  return o;
+}
+
+namespace {
+
+// Q of eq. 6 for an interval dt.
+Eigen::Matrix2d ProcessNoise(const TarrioKfOptions& o, double dt) {
+  const double a = 0.5 * o.sigma_a_mps2 * dt * dt, v = o.sigma_v_mps * dt;
+  return Eigen::Matrix2d::Identity() * (a * a + v * v);
+}
+
+struct Output {
+  double t_s;
+  Eigen::Vector2d p;
+  Eigen::Matrix2d P;
+  double heading;
+  double sigma_heading;
+  int epoch;  // index of the last RSS epoch at or before t (−1 before the first)
+  Eigen::Vector2d pdr_since_epoch;  // eq. 13 displacement since that epoch
+};
+
+}  // namespace
+
+StatusOr<EstimateResult> RunTarrio(const StepSequence& steps, const std::vector<PositionFix>& fixes,
+                                   const TarrioKfOptions& options, TarrioMode mode,
+                                   std::optional<Eigen::Vector2d> start) {
+  const bool uses_fixes = mode != TarrioMode::kPdrOnly;
+  if (fixes.empty() && !(mode == TarrioMode::kPdrOnly && start)) {
+    return FailedPrecondition("tarrio: no RSS position fix (needed to start)");
+  }
+  if (mode != TarrioMode::kRssOnly && steps.steps.empty()) {
+    return FailedPrecondition("tarrio: no steps from the PDR front end");
+  }
+  for (size_t i = 1; i < fixes.size(); ++i) {
+    if (fixes[i].t_s <= fixes[i - 1].t_s) return InvalidArgument("tarrio: fixes not increasing");
+  }
+  for (size_t i = 1; i < steps.steps.size(); ++i) {
+    if (steps.steps[i].t_s < steps.steps[i - 1].t_s) {
+      return InvalidArgument("tarrio: steps not sorted");
+    }
+  }
+  const bool last_velocity = options.prediction == "last-velocity";
+  const Eigen::Matrix2d R = Eigen::Matrix2d::Identity() * options.sigma_p_m * options.sigma_p_m;
+
+  // Event times: every step and every fix, from the start time on.
+  if (mode == TarrioMode::kPdrOnly && !start) start = fixes.front().position_m;
+  const double t0 =
+      mode == TarrioMode::kPdrOnly && (fixes.empty() || steps.steps.front().t_s < fixes.front().t_s)
+          ? steps.steps.front().t_s
+          : fixes.front().t_s;
+  std::vector<double> times;
+  for (const PositionFix& f : fixes) {
+    if (f.t_s >= t0) times.push_back(f.t_s);
+  }
+  for (const Step& s : steps.steps) {
+    if (s.t_s >= t0) times.push_back(s.t_s);
+  }
+  std::sort(times.begin(), times.end());
+  times.erase(std::unique(times.begin(), times.end()), times.end());
+
+  EstimateResult result;
+  std::vector<FilterEpoch> epochs;
+  std::vector<Output> outputs;
+  std::vector<Eigen::Vector2d> interval_pdr;    // eq. 13 displacement over each epoch interval
+  Eigen::Vector2d v = Eigen::Vector2d::Zero();  // current PDR velocity (eq. 5)
+  double heading = 0.0, sigma_heading = M_PI;
+  Eigen::Vector2d p = Eigen::Vector2d::Zero(), p_epoch = p, pdr_since_epoch = p;
+  Eigen::Matrix2d P = R, P_epoch = R;
+  double t_prev = t0, t_epoch = t0;
+  size_t si = 0, fi = 0;
+  // Steps before the start only set the initial velocity.
+  auto take_step = [&](const Step& s) {
+    if (s.duration_s > 0) {
+      v = s.length_m / s.duration_s *
+          Eigen::Vector2d(std::cos(s.heading_rad), std::sin(s.heading_rad));
+    }
+    heading = s.heading_rad;
+    sigma_heading = s.sigma_heading_rad;
+  };
+  while (si < steps.steps.size() && steps.steps[si].t_s < t0) take_step(steps.steps[si++]);
+  bool started = false;
+  int epoch = -1;
+  for (double t : times) {
+    const double dt = t - t_prev;
+    // eq. 13: PDR propagation with the velocity held since the last step.
+    if (started) {
+      p += dt * v;
+      pdr_since_epoch += dt * v;
+      if (mode != TarrioMode::kRssOnly) P = P_epoch + ProcessNoise(options, t - t_epoch);
+    }
+    t_prev = t;
+    while (si < steps.steps.size() && steps.steps[si].t_s <= t) take_step(steps.steps[si++]);
+    if (uses_fixes && fi < fixes.size() && fixes[fi].t_s == t) {
+      const PositionFix& f = fixes[fi++];
+      if (!started) {
+        p = f.position_m;
+        P = mode == TarrioMode::kKalman ? R : f.covariance;
+        started = true;
+      } else if (mode == TarrioMode::kKalman) {
+        const double dT = t - t_epoch;
+        FilterEpoch e;
+        e.t_s = t;
+        e.F = Eigen::Matrix2d::Identity();
+        e.x_prior = last_velocity ? Eigen::Vector2d(p_epoch + dT * v) : p;  // eq. 8
+        e.P_prior = P_epoch + ProcessNoise(options, dT);                    // eq. 9, eq. 6
+        Eigen::VectorXd x = e.x_prior;
+        Eigen::MatrixXd Pk = e.P_prior;
+        WG_ASSIGN_OR_RETURN(UpdateOutcome u,  // eq. 10–12 (Joseph form)
+                            KalmanUpdate(f.position_m - x, Eigen::Matrix2d::Identity(), R,
+                                         options.gate_probability, &x, &Pk));
+        if (u.accepted) {
+          result.nis.push_back(u.nis);
+        } else {
+          result.diagnostics["gated_updates"] += 1;
+        }
+        e.x_post = x;
+        e.P_post = Pk;
+        epochs.push_back(e);
+        p = x;
+        P = Pk;
+      } else {
+        p = f.position_m;  // both baselines: reset to the new fix
+        P = f.covariance;
+      }
+      if (mode == TarrioMode::kKalman && epochs.empty()) {
+        FilterEpoch e;
+        e.t_s = t;
+        e.x_prior = e.x_post = p;
+        e.P_prior = e.P_post = P;
+        epochs.push_back(e);
+      }
+      interval_pdr.push_back(pdr_since_epoch);
+      p_epoch = p;
+      P_epoch = P;
+      t_epoch = t;
+      pdr_since_epoch.setZero();
+      ++epoch;
+    } else if (!started && !uses_fixes) {
+      p = *start;
+      P = R;
+      P_epoch = P;
+      t_epoch = t;
+      started = true;
+    }
+    if (!started) continue;
+    const Eigen::Vector2d shown = mode == TarrioMode::kRssOnly ? p_epoch : p;
+    outputs.push_back({t, shown, P, heading, sigma_heading, epoch, pdr_since_epoch});
+  }
+
+  if (options.smooth && mode == TarrioMode::kKalman) {
+    WG_ASSIGN_OR_RETURN(std::vector<SmoothedState> sm, RtsSmooth(epochs));
+    for (Output& o : outputs) {
+      const int k = o.epoch;
+      const double tk = sm[k].t_s;
+      o.p = sm[k].x + o.pdr_since_epoch;
+      o.P = sm[k].P;
+      if (size_t(k + 1) < sm.size() && o.t_s > tk) {
+        // Spread the mismatch at the next smoothed epoch linearly over the interval.
+        const double alpha = (o.t_s - tk) / (sm[k + 1].t_s - tk);
+        o.p += alpha * (sm[k + 1].x - sm[k].x - interval_pdr[k + 1]);
+        o.P = (1 - alpha) * sm[k].P + alpha * sm[k + 1].P;
+      }
+    }
+  }
+
+  for (const Output& o : outputs) {
+    TrajectoryPoint pt;
+    pt.t_s = o.t_s;
+    pt.position_m = Eigen::Vector3d(o.p.x(), o.p.y(), 0.0);
+    pt.heading_rad = o.heading;
+    Eigen::Matrix3d C = Eigen::Matrix3d::Zero();
+    C.topLeftCorner<2, 2>() = o.P;
+    C(2, 2) = o.sigma_heading * o.sigma_heading;
+    pt.covariance = C;
+    result.trajectory.points.push_back(pt);
+  }
+  return result;
+}
+
+}  // namespace walkgraph

@@ -1,0 +1,145 @@
+#include "walkgraph/filters/correa.h"
+
+#include <cmath>
+#include <random>
+
+#include <gtest/gtest.h>
+
+namespace walkgraph {
+namespace {
+
+// Classroom-like walk (001 Sec. IV): a 14.2 m × 9.0 m rectangle (46.4 m) at 1 m/s, ten rounds;
+// 8 anchors beside the path; LS fixes at 1 Hz with 3 m time-correlated error (standing in for the
+// radio front end); steps every 0.5 s of 0.5 m with a 0.15 rad heading bias; RSS at 1 Hz per
+// anchor, A = −60 dBm, η = 2.5, σ = 4 dB.
+Eigen::Vector2d RectPoint(double s) {
+  s = std::fmod(s, 46.4);
+  if (s < 14.2) return {s, 0};
+  if (s < 23.2) return {14.2, s - 14.2};
+  if (s < 37.4) return {14.2 - (s - 23.2), 9.0};
+  return {0, 9.0 - (s - 37.4)};
+}
+
+struct Synth {
+  CorreaInputs in;
+  double duration = 464.0;
+};
+
+Synth MakeClassroom(uint64_t seed) {
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> n01(0.0, 1.0);
+  Synth s;
+  s.in.model = PathLossModel({-60.0, 2.5, 1.0, 4.0}, RssUnits::kDbm);
+  const std::vector<Eigen::Vector2d> anchors = {{0, -0.5},   {7, -0.5}, {14.7, 0}, {14.7, 4.5},
+                                                {14.2, 9.5}, {7, 9.5},  {-0.5, 9}, {-0.5, 4.5}};
+  s.in.anchor_xy = anchors;
+  Eigen::Vector2d err = Eigen::Vector2d::Zero();
+  for (double t = 1.0; t <= s.duration; t += 1.0) {
+    PositionFix f;
+    f.t_s = t;
+    // Shadowing makes LS errors correlated in time: AR(1), 20 s correlation time, σ = 3 m.
+    err = 0.95 * err + std::sqrt(1 - 0.95 * 0.95) * 3.0 * Eigen::Vector2d(n01(rng), n01(rng));
+    f.position_m = RectPoint(t) + err;
+    s.in.fixes.push_back(f);
+    for (size_t i = 0; i < anchors.size(); ++i) {
+      RangeMeasurement m;
+      m.t_s = t - 0.5;
+      m.anchor_id = i;
+      m.anchor_m = Eigen::Vector3d(anchors[i].x(), anchors[i].y(), 0.0);
+      m.from_rss = true;
+      m.rss = s.in.model.ExpectedRss((RectPoint(m.t_s) - anchors[i]).norm()) + 4.0 * n01(rng);
+      s.in.rss.push_back(m);
+    }
+  }
+  for (double t = 0.5; t <= s.duration; t += 0.5) {
+    const Eigen::Vector2d d = RectPoint(t) - RectPoint(t - 0.5);
+    Step st;
+    st.t_s = t;
+    st.duration_s = 0.5;
+    st.length_m = 0.5;
+    st.heading_rad = std::atan2(d.y(), d.x()) + 0.15 + 0.05 * n01(rng);
+    s.in.steps.steps.push_back(st);
+  }
+  return s;
+}
+
+double Rmse(const Trajectory& traj, double t0, double t1) {
+  double sum = 0.0;
+  int n = 0;
+  for (double t = t0; t <= t1; t += 0.5, ++n) {
+    sum += (traj.PositionAt(t).head<2>() - RectPoint(t)).squaredNorm();
+  }
+  return std::sqrt(sum / n);
+}
+
+TEST(CorreaTest, PredictionJacobianMatchesCentralDifferences) {
+  const Eigen::Vector4d x(1.0, -2.0, 1.3, 0.7);
+  Eigen::Matrix4d M;
+  CorreaPredict(x, 0.9, &M);
+  for (int j = 0; j < 4; ++j) {
+    Eigen::Vector4d dx = Eigen::Vector4d::Zero();
+    dx[j] = 1e-6;
+    const Eigen::Vector4d col =
+        (CorreaPredict(x + dx, 0.9, nullptr) - CorreaPredict(x - dx, 0.9, nullptr)) / 2e-6;
+    EXPECT_LT((col - M.col(j)).norm(), 1e-8) << j;
+  }
+}
+
+TEST(CorreaTest, PowerThresholdGivesFivePercentFalseAlarmsByMonteCarlo) {
+  const PathLossModel model({-60.0, 2.5, 1.0, 4.0}, RssUnits::kDbm);
+  const double d_max = 16.9;
+  auto p_th = CorreaPowerThreshold(model, 0.05, d_max);
+  ASSERT_TRUE(p_th.ok());
+  // Independent check of eq. 19: d ~ U(1, d_max], P ~ N(μ(d), σ²).
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> ud(1.0, d_max);
+  std::normal_distribution<double> n01(0.0, 1.0);
+  int hits = 0;
+  const int n = 200000;
+  for (int i = 0; i < n; ++i) hits += model.ExpectedRss(ud(rng)) + 4.0 * n01(rng) >= *p_th;
+  EXPECT_NEAR(double(hits) / n, 0.05, 0.003);
+  // Above the 1 m mean minus a little: a reading this strong is a near-anchor reading.
+  EXPECT_GT(*p_th, -60.0 - 10.0);
+  EXPECT_LT(*p_th, -60.0 + 10.0);
+  EXPECT_FALSE(CorreaPowerThreshold(model, 0.05, 0.5).ok());
+}
+
+TEST(CorreaTest, ScmtBeatsEkfBeatsLsOnClassroomWalk) {
+  const Synth s = MakeClassroom(17);
+  CorreaEkfOptions o;
+  o.step_length_m = 0.5;
+  auto ekf = RunCorreaEkf(s.in, o);
+  o.scmt = true;
+  auto scmt = RunCorreaEkf(s.in, o);
+  ASSERT_TRUE(ekf.ok() && scmt.ok()) << ekf.status().message();
+  Trajectory ls;
+  for (const PositionFix& f : s.in.fixes)
+    ls.points.push_back({f.t_s, {f.position_m.x(), f.position_m.y(), 0}});
+  const double r_ls = Rmse(ls, 5, s.duration), r_ekf = Rmse(ekf->trajectory, 5, s.duration),
+               r_scmt = Rmse(scmt->trajectory, 5, s.duration);
+  RecordProperty("rmse_ls", std::to_string(r_ls));
+  RecordProperty("rmse_ekf", std::to_string(r_ekf));
+  RecordProperty("rmse_scmt", std::to_string(r_scmt));
+  EXPECT_LT(r_ekf, r_ls);
+  EXPECT_LT(r_scmt, 0.8 * r_ekf);
+  EXPECT_GT(scmt->diagnostics.at("scmt_epochs"), 10);
+  EXPECT_EQ(ekf->diagnostics.at("scmt_epochs"), 0);
+  EXPECT_EQ(ekf->nis.size(), s.in.fixes.size() - 1);
+  // RTS over the EKF epochs (angle state wrapped) does not hurt.
+  o.smooth = true;
+  auto sm = RunCorreaEkf(s.in, o);
+  ASSERT_TRUE(sm.ok());
+  EXPECT_LT(Rmse(sm->trajectory, 5, s.duration), r_scmt * 1.05);
+}
+
+TEST(CorreaEkfOptionsTest, DefaultsAndValidation) {
+  auto o = CorreaEkfOptions::FromYaml(YAML::Node(), "correa-ekf");
+  ASSERT_TRUE(o.ok());
+  EXPECT_EQ(o->p_fa, 0.05);
+  EXPECT_FALSE(o->scmt);
+  EXPECT_FALSE(CorreaEkfOptions::FromYaml(YAML::Load("{p_fa: 1.0}"), "c").ok());
+  EXPECT_FALSE(CorreaEkfOptions::FromYaml(YAML::Load("{foo: 1.0}"), "c").ok());
+}
+
+}  // namespace
+}  // namespace walkgraph
