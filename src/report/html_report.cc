@@ -180,7 +180,13 @@ std::string ErrorTimePlot(const Comparison& c) {
   for (size_t k = 0; k < c.outcomes.size(); ++k) {
     const EstimatorOutcome& o = c.outcomes[k];
     if (!o.status.ok()) continue;
-    s << Polyline(o.errors.t_s.size(), [&](size_t i) {
+    // Monte Carlo: the pooled errors hold every run; the curve shows the first run's.
+    size_t n = o.errors.t_s.size();
+    if (o.error_run.size() == n) {
+      n = static_cast<size_t>(std::count(o.error_run.begin(), o.error_run.end(),
+                                         o.error_run.empty() ? 0 : o.error_run.front()));
+    }
+    s << Polyline(n, [&](size_t i) {
       return std::pair(o.errors.t_s[i], o.errors.error_m[i]); }, a, Color(k), "error-curve");
   }
   s << "</g>" << Legend(c, a, false) << "</svg>\n";
