@@ -3,6 +3,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <iomanip>
 #include <random>
 #include <set>
 #include <sstream>
@@ -97,6 +98,11 @@ TEST(CompareMonteCarlo, AggregatesMeanStdAndPooledPercentiles) {
   EXPECT_NEAR(agg.stats.p75_m, Percentile(pooled, 75.0), 1e-12);
   EXPECT_EQ(agg.error_run.size(), pooled.size());
   EXPECT_EQ(agg.error_run.back(), 5);
+  // The table shows mean+-std of each figure.
+  std::ostringstream cell;
+  cell << std::fixed << std::setprecision(3) << mean << "+-" << std::sqrt(var);
+  EXPECT_THAT(FormatComparisonTable(*c), HasSubstr(cell.str()));
+  EXPECT_THAT(RenderHtmlReport(*c), HasSubstr("&plusmn;"));
 }
 
 TEST(CompareMonteCarlo, ResultsJsonIsIdenticalForOneAndTwoThreads) {

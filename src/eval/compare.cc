@@ -110,7 +110,10 @@ std::string FormatComparisonTable(const Comparison& c) {
     }
     for (size_t j = 0; j < ncol; ++j) {
       const double v = o.stats.*(kColumns[j].field);
-      row.push_back(Fixed(v, kColumns[j].precision) + (v == best[j] ? "*" : " "));
+      std::string cell = Fixed(v, kColumns[j].precision);
+      if (o.stats_std)
+        cell += "+-" + Fixed((*o.stats_std).*(kColumns[j].field), kColumns[j].precision);
+      row.push_back(cell + (v == best[j] ? "*" : " "));
     }
     row.push_back(Fixed(o.runtime_s, 3) + (o.runtime_s == best[ncol] ? "*" : " "));
     row.push_back(std::to_string(o.stats.n_points));

@@ -230,10 +230,16 @@ std::string Table(const Comparison& c) {
       continue;
     }
     const ErrorStats& e = o.stats;
-    for (double v : {e.rmse_m, e.mean_m, e.median_m, e.p75_m, e.p90_m, e.max_m, e.final_m,
-                     e.pct_distance, o.runtime_s}) {
-      s << "<td>" << v << "</td>";
+    const double ErrorStats::*fields[] = {&ErrorStats::rmse_m, &ErrorStats::mean_m,
+                                          &ErrorStats::median_m, &ErrorStats::p75_m,
+                                          &ErrorStats::p90_m, &ErrorStats::max_m,
+                                          &ErrorStats::final_m, &ErrorStats::pct_distance};
+    for (const auto f : fields) {
+      s << "<td>" << e.*f;
+      if (o.stats_std) s << " &plusmn; " << (*o.stats_std).*f;  // Monte Carlo spread
+      s << "</td>";
     }
+    s << "<td>" << o.runtime_s << "</td>";
     s << "<td>" << e.n_points << "</td></tr>\n";
   }
   s << "</table>\n";
