@@ -1,5 +1,7 @@
 // walkgraph: the command-line shell over the library. Parses arguments, calls the library,
 // prints. Every failure prints "walkgraph: <message>" on stderr and exits non-zero.
+#include <unistd.h>
+
 #include <cstdint>
 #include <cstdio>
 #include <iostream>
@@ -71,29 +73,82 @@ int RunSmooth(const std::string& walk_dir, const std::string& id, const std::str
   return 0;
 }
 
-int RunCompare(const std::string& walk_dir, const std::vector<std::string>& ids,
-               const std::string& config_path, bool align_se2, const std::string& out) {
-  auto walk = walkgraph::ReadWalk(walk_dir);
-  if (!walk.ok()) return Fail(walk.status());
+struct CompareArgs {
+  std::string walk_dir;
+  std::string scenario;
+  int runs = 1;
+  uint64_t seed = 1;
+  int threads = 1;
+  std::vector<std::string> ids;
+  std::string config_path;
+  bool align_se2 = false;
+  std::string out;
+};
+
+// A seeded walk of the named simulated scenario.
+walkgraph::StatusOr<walkgraph::WalkGenerator> ScenarioGenerator(const std::string& name,
+                                                                 const YAML::Node& overrides) {
+  bool known = false;
+  for (const auto& s : walkgraph::Scenarios()) known |= s.name == name;
+  if (!known) return walkgraph::NotFound("--scenario " + name + ": unknown (see walkgraph list)");
+  return walkgraph::WalkGenerator([name, overrides](uint64_t seed) {
+    return walkgraph::SimulateScenario(name, seed, overrides);
+  });
+}
+
+// "[#####-----] done/total" on stderr, redrawn in place; only when stderr is a terminal.
+void DrawProgress(int done, int total) {
+  constexpr int kWidth = 40;
+  const int filled = total > 0 ? done * kWidth / total : kWidth;
+  std::string bar(filled, '#');
+  bar.append(kWidth - filled, '-');
+  std::fprintf(stderr, "\r[%s] %d/%d runs", bar.c_str(), done, total);
+  if (done == total) std::fprintf(stderr, "\n");
+  std::fflush(stderr);
+}
+
+int RunCompare(const CompareArgs& args) {
+  if (args.walk_dir.empty() == args.scenario.empty()) {
+    return Fail(walkgraph::InvalidArgument("compare: give either WALK or --scenario NAME"));
+  }
+  if (!args.walk_dir.empty() && args.runs != 1) {
+    return Fail(walkgraph::InvalidArgument(
+        "compare: --runs needs --scenario (a recorded walk is the same on every run)"));
+  }
   walkgraph::CompareOptions options;
-  options.estimator_ids = ids;
-  options.alignment = align_se2 ? walkgraph::Alignment::kSE2 : walkgraph::Alignment::kNone;
-  auto config = LoadConfig(config_path);
+  options.estimator_ids = args.ids;
+  options.alignment = args.align_se2 ? walkgraph::Alignment::kSE2 : walkgraph::Alignment::kNone;
+  auto config = LoadConfig(args.config_path);
   if (!config.ok()) return Fail(config.status());
   if (config->IsMap()) {
     for (const auto& kv : *config) {
       if (!kv.first.IsScalar()) {
-        return Fail(walkgraph::InvalidArgument(config_path + ": keys must be estimator ids"));
+        return Fail(walkgraph::InvalidArgument(args.config_path + ": keys must be estimator ids"));
       }
       options.configs[kv.first.Scalar()] = kv.second;
     }
   }
-  auto comparison = walkgraph::CompareOnWalk(*walk, options);
+  walkgraph::StatusOr<walkgraph::Comparison> comparison =
+      walkgraph::FailedPrecondition("compare: nothing to compare");
+  if (!args.walk_dir.empty()) {
+    auto walk = walkgraph::ReadWalk(args.walk_dir);
+    if (!walk.ok()) return Fail(walk.status());
+    comparison = walkgraph::CompareOnWalk(*walk, options);
+  } else {
+    auto generator = ScenarioGenerator(args.scenario, YAML::Node());
+    if (!generator.ok()) return Fail(generator.status());
+    walkgraph::MonteCarloOptions mc;
+    mc.runs = args.runs;
+    mc.seed = args.seed;
+    mc.threads = args.threads;
+    if (::isatty(STDERR_FILENO)) mc.progress = DrawProgress;
+    comparison = walkgraph::CompareMonteCarlo(*generator, options, mc);
+  }
   if (!comparison.ok()) return Fail(comparison.status());
   std::cout << walkgraph::FormatComparisonTable(*comparison);
-  const Status s = walkgraph::WriteComparison(*comparison, out);
+  const Status s = walkgraph::WriteComparison(*comparison, args.out);
   if (!s.ok()) return Fail(s);
-  std::cout << "wrote " << out << "/{results.json,errors.csv,trajectories/,report.html}\n";
+  std::cout << "wrote " << args.out << "/{results.json,errors.csv,trajectories/,report.html}\n";
   return 0;
 }
 
@@ -166,8 +221,7 @@ int main(int argc, char** argv) {
   app.add_option("-v,--verbosity", verbosity, "library diagnostics level (0 = quiet)");
 
   std::string walk_dir, out, id, config_path, format;
-  std::vector<std::string> sources, ids;
-  bool align_se2 = false;
+  std::vector<std::string> sources;
   int rc = 0;
 
   CLI::App* validate = app.add_subcommand("validate", "check a walk directory strictly");
@@ -187,16 +241,24 @@ int main(int argc, char** argv) {
   smooth->add_option("--out", out, "output trajectory (TUM format)")->required();
   smooth->callback([&] { rc = RunSmooth(walk_dir, id, config_path, out); });
 
-  CLI::App* compare = app.add_subcommand("compare", "run estimators side by side on a walk");
-  compare->add_option("WALK", walk_dir, "walk directory")->required();
-  compare->add_option("--estimators", ids, "comma-separated ids (default: all applicable)")
+  CompareArgs cargs;
+  CLI::App* compare = app.add_subcommand(
+      "compare", "run estimators side by side on a walk, or Monte Carlo on a scenario");
+  compare->add_option("WALK", cargs.walk_dir, "walk directory");
+  compare->add_option("--scenario", cargs.scenario, "simulated scenario (instead of WALK)");
+  compare->add_option("--runs", cargs.runs, "Monte Carlo runs of the scenario")
+      ->check(CLI::PositiveNumber);
+  compare->add_option("--seed", cargs.seed, "base seed S (run i uses a seed derived from S, i)");
+  compare->add_option("--threads", cargs.threads, "worker threads (0 = all cores)")
+      ->check(CLI::NonNegativeNumber);
+  compare->add_option("--estimators", cargs.ids, "comma-separated ids (default: all applicable)")
       ->delimiter(',');
-  compare->add_option("--config", config_path, "YAML file: {estimator id: {option: value}}");
-  compare->add_flag("--align-se2", align_se2,
+  compare->add_option("--config", cargs.config_path, "YAML file: {estimator id: {option: value}}");
+  compare->add_flag("--align-se2", cargs.align_se2,
                     "align each estimate to the truth by a best-fit rotation + translation "
                     "(for dead-reckoning-only walks)");
-  compare->add_option("--out", out, "report folder")->required();
-  compare->callback([&] { rc = RunCompare(walk_dir, ids, config_path, align_se2, out); });
+  compare->add_option("--out", cargs.out, "report folder")->required();
+  compare->callback([&] { rc = RunCompare(cargs); });
 
   std::string scenario;
   uint64_t seed = 0;

@@ -3,9 +3,19 @@
 // The comparison differs only in the estimator: every estimator sees the same Walk. Results
 // are written as results.json, errors.csv, trajectories/<id>.tum and a self-contained
 // report.html (see WriteComparison).
+//
+// Monte Carlo (CompareMonteCarlo): N walks drawn from a seeded generator, run i with
+// seed_i = MonteCarloSeed(S, i), compared on a pool of threads. Per estimator the figures of
+// the N runs are aggregated as
+//   rmse, mean, max, final, pct_distance, runtime: mean over the runs, *_std = sample std
+//   median, p75, p90: percentiles of the pooled errors of all runs, *_std = sample std of the
+//                     per-run percentiles.
+// Runs are aggregated in run order, so the result does not depend on the thread count.
 #ifndef WALKGRAPH_COMPARE_H_
 #define WALKGRAPH_COMPARE_H_
 
+#include <cstdint>
+#include <functional>
 #include <map>
 #include <optional>
 #include <string>
@@ -35,11 +45,19 @@ struct EstimatorOutcome {
   double runtime_s = 0.0;
   EstimateResult result;
   ErrorSeries errors;
+  // Monte Carlo only (runs > 1): spread of the per-run figures (see the top of this file), the
+  // runs the estimator failed on (excluded from the figures), and for each entry of `errors`
+  // the run it comes from (`errors` pools every run; `result` is the first successful run).
+  std::optional<ErrorStats> stats_std;
+  double runtime_std_s = 0.0;
+  int failed_runs = 0;
+  std::vector<int> error_run;
 };
 
 struct Comparison {
   std::string walk_name;
   int runs = 1;
+  std::optional<uint64_t> seed;  // Monte Carlo base seed S
   TruthKind truth_kind = TruthKind::kNone;
   std::vector<EstimatorOutcome> outcomes;
   std::optional<double> pcrb_rmse_m;
@@ -50,14 +68,45 @@ struct Comparison {
 
 // Runs the estimators on `walk`. Fails only when the request itself is invalid (unknown id, no
 // truth); an estimator that fails is kept as an outcome with its Status.
-StatusOr<Comparison> CompareOnWalk(const Walk& walk, const CompareOptions& options,
-                                   const EstimatorRegistry& registry =
-                                       EstimatorRegistry::Builtin());
+StatusOr<Comparison> CompareOnWalk(
+    const Walk& walk, const CompareOptions& options,
+    const EstimatorRegistry& registry = EstimatorRegistry::Builtin());
+
+// Makes the walk of one Monte Carlo run from its seed. Called concurrently from several
+// threads with different seeds: it must not share mutable state between calls.
+using WalkGenerator = std::function<StatusOr<Walk>(uint64_t seed)>;
+
+struct MonteCarloOptions {
+  int runs = 1;
+  uint64_t seed = 0;  // S
+  int threads = 1;    // <= 0: std::thread::hardware_concurrency()
+  // Called after each finished run with (runs done, runs); calls are serialized.
+  std::function<void(int done, int total)> progress;
+};
+
+// seed_i: the SplitMix64 output for state S + (i + 1)·0x9E3779B97F4A7C15 (i = 0, 1, ...):
+// distinct, well-mixed seeds from consecutive indices, the same on every platform.
+uint64_t MonteCarloSeed(uint64_t seed, int run);
+
+// Runs the comparison on options.runs generated walks and aggregates them (see the top of this
+// file). Fails if a walk cannot be generated or a run's request is invalid (e.g. no applicable
+// estimator); an estimator failing on some runs is counted in failed_runs.
+StatusOr<Comparison> CompareMonteCarlo(
+    const WalkGenerator& generate, const CompareOptions& options,
+    const MonteCarloOptions& monte_carlo,
+    const EstimatorRegistry& registry = EstimatorRegistry::Builtin());
+
+// The aggregation step alone: `runs` are single-walk comparisons in run order.
+StatusOr<Comparison> AggregateRuns(const std::vector<Comparison>& runs);
 
 // An aligned text table, one row per estimator; '*' marks the best value of each column.
 std::string FormatComparisonTable(const Comparison& comparison);
 
 // Writes results.json, errors.csv, trajectories/<id>.tum and report.html into `out_dir`.
+// With runs > 1, results.json gains "seed", the "*_std" fields and "failed_runs"; its
+// "runtime_s" is null (timings differ from run to run and would make results.json depend on
+// the machine and the thread count) and the timings go to timing.json instead; errors.csv gains
+// a "run" column.
 // The folder appears complete or not at all (written under a temporary name, then renamed).
 Status WriteComparison(const Comparison& comparison, const std::string& out_dir);
 

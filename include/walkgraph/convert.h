@@ -37,6 +37,36 @@ StatusOr<Walk> ConvertPlaza(const std::string& dir);
 // gt_x/y/z_m, zv_vicon): a foot-mounted 200 Hz IMU → imu.csv, the Vicon foot position → truth
 // (continuous, with z), zv_vicon → stance_truth. Time must increase; zv_vicon must be 0 or 1.
 StatusOr<Walk> ConvertPyshoe(const std::string& csv_path);
+// IPIN 2023 Track 3 "GetSensorData" logfile (technical annex v2) + BLE_Locations.csv (bleID,
+// Lat, Lon, floor; looked for beside the log when `ble_locations_csv` is empty) → a walk with
+// a handheld IMU, BLE RSS to the beacons and POSI landmarks as checkpoint truth.
+// - Frame: WGS84 latitude/longitude → east/north metres in the local tangent plane (ENU) at the
+//   first POSI landmark of the log (origin kept in meta.extra "ipin.origin_lat_deg"/"_lon_deg").
+// - IMU time base: the accelerometer samples. Each ACCE SensorTimestamp is mapped to the
+//   app clock (the one of POSI and BLE4) by t = SensorTS + min_k(AppTS_k − SensorTS_k) over the
+//   ACCE lines (the fastest delivery taken as zero latency); GYRO and MAGN, which share the
+//   sensor clock, are linearly interpolated at each ACCE SensorTimestamp. ACCE samples outside
+//   the GYRO (and MAGN) span are dropped (counted in "convert.imu_samples_outside_span").
+// - RSS: BLE4 iBeacon lines, t = AppTimestamp, anchor id = the BLE number of BLE_Locations.csv
+//   found for the iBeacon Minor by IpinMinorToBleId (see there: NOT Minor N = BLE N).
+// - Floors: 2D positions; the floor of checkpoint k is kept in meta.extra
+//   "ipin.checkpoint_floor.<k>" (k = 0, 1, ... in time order) and the floor of beacon N in
+//   "ipin.anchor_floor.<N>".
+StatusOr<Walk> ConvertIpin(const std::string& log_path, const std::string& ble_locations_csv);
+
+// The BLE id (row "BLEn" of BLE_Locations.csv) of the beacon broadcasting iBeacon Minor `minor`
+// (MAC BE:AC:20:23:00:0<minor>), or -1 for a minor not deployed. Verified from the 2023
+// training logs, not documented by the organisers (see src/convert/ipin.cc).
+int IpinMinorToBleId(int minor);
+
+// Position-annotated BLE RSSI tracks (Daniş et al., PMC 2022): `track_mbd` is a merged
+// trk/*_all_sensors.mbd file (ts_unix, receiver MAC, beacon MAC, RSSI, x, y, z, 3×3 rotation),
+// `devices_dev` the cnf/tetam.dev file (looked for at ../cnf/tetam.dev from the track when
+// empty). The 12 fixed receivers become anchors with id = the number of their alias
+// ("sensor10" → 10, ..., "sensor42" → 42); RSS is the receiver's reading of the carried beacon;
+// the beacon's camera position on every line is continuous truth. No IMU. t = ts − ts of the
+// first line (kept in meta.extra "bletracks.t0_unix_s").
+StatusOr<Walk> ConvertBleTracks(const std::string& track_mbd, const std::string& devices_dev);
 
 }  // namespace walkgraph
 

@@ -14,6 +14,20 @@ const std::vector<ConverterInfo>& Converters() {
          if (src.size() != 1) return InvalidArgument("pyshoe: expected one CSV file");
          return ConvertPyshoe(src[0]);
        }},
+      {"ipin", "IPIN 2023 Track 3 GetSensorData LOG.txt [BLE_Locations.csv]",
+       [](const std::vector<std::string>& src) -> StatusOr<Walk> {
+         if (src.empty() || src.size() > 2) {
+           return InvalidArgument("ipin: expected LOG.txt [BLE_Locations.csv]");
+         }
+         return ConvertIpin(src[0], src.size() == 2 ? src[1] : std::string());
+       }},
+      {"bletracks", "BLE RSSI track TRACK.mbd [tetam.dev] (Danis et al. 2022)",
+       [](const std::vector<std::string>& src) -> StatusOr<Walk> {
+         if (src.empty() || src.size() > 2) {
+           return InvalidArgument("bletracks: expected TRACK.mbd [tetam.dev]");
+         }
+         return ConvertBleTracks(src[0], src.size() == 2 ? src[1] : std::string());
+       }},
   };
   return converters;
 }

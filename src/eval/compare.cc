@@ -73,10 +73,10 @@ struct Column {
 };
 
 const Column kColumns[] = {
-    {"rmse_m", &ErrorStats::rmse_m, 3},       {"mean_m", &ErrorStats::mean_m, 3},
-    {"median_m", &ErrorStats::median_m, 3},   {"p75_m", &ErrorStats::p75_m, 3},
-    {"p90_m", &ErrorStats::p90_m, 3},         {"max_m", &ErrorStats::max_m, 3},
-    {"final_m", &ErrorStats::final_m, 3},     {"pct_dist", &ErrorStats::pct_distance, 2},
+    {"rmse_m", &ErrorStats::rmse_m, 3},     {"mean_m", &ErrorStats::mean_m, 3},
+    {"median_m", &ErrorStats::median_m, 3}, {"p75_m", &ErrorStats::p75_m, 3},
+    {"p90_m", &ErrorStats::p90_m, 3},       {"max_m", &ErrorStats::max_m, 3},
+    {"final_m", &ErrorStats::final_m, 3},   {"pct_dist", &ErrorStats::pct_distance, 2},
 };
 
 std::string Fixed(double v, int precision) {
@@ -110,7 +110,10 @@ std::string FormatComparisonTable(const Comparison& c) {
     }
     for (size_t j = 0; j < ncol; ++j) {
       const double v = o.stats.*(kColumns[j].field);
-      row.push_back(Fixed(v, kColumns[j].precision) + (v == best[j] ? "*" : " "));
+      std::string cell = Fixed(v, kColumns[j].precision);
+      if (o.stats_std)
+        cell += "+-" + Fixed((*o.stats_std).*(kColumns[j].field), kColumns[j].precision);
+      row.push_back(cell + (v == best[j] ? "*" : " "));
     }
     row.push_back(Fixed(o.runtime_s, 3) + (o.runtime_s == best[ncol] ? "*" : " "));
     row.push_back(std::to_string(o.stats.n_points));
@@ -123,8 +126,8 @@ std::string FormatComparisonTable(const Comparison& c) {
     for (size_t j = 0; j < row.size(); ++j) width[j] = std::max(width[j], row[j].size());
   }
   std::ostringstream out;
-  out << "walk: " << c.walk_name << "  (truth: " << ToString(c.truth_kind)
-      << ", runs: " << c.runs << ")\n";
+  out << "walk: " << c.walk_name << "  (truth: " << ToString(c.truth_kind) << ", runs: " << c.runs
+      << ")\n";
   auto print_row = [&](const std::vector<std::string>& row) {
     for (size_t j = 0; j < row.size(); ++j) {
       if (j == 0) {
@@ -159,19 +162,33 @@ Status WriteComparison(const Comparison& c, const std::string& out_dir) {
   nlohmann::ordered_json j;
   j["walk"] = c.walk_name;
   j["runs"] = c.runs;
+  if (c.seed) j["seed"] = *c.seed;
   j["truth_kind"] = ToString(c.truth_kind);
   j["estimators"] = nlohmann::ordered_json::object();
+  const bool monte_carlo = c.runs > 1;
+  nlohmann::ordered_json timing;
+  timing["runs"] = c.runs;
+  timing["estimators"] = nlohmann::ordered_json::object();
   for (const EstimatorOutcome& o : c.outcomes) {
     nlohmann::ordered_json e;
     if (!o.status.ok()) {
       e["error"] = o.status.message();
+      if (monte_carlo) e["failed_runs"] = o.failed_runs;
     } else {
       for (const Column& col : kColumns) {
         const std::string key = std::string(col.name) == "pct_dist" ? "pct_distance" : col.name;
         e[key] = o.stats.*(col.field);
+        if (o.stats_std) e[key + "_std"] = (*o.stats_std).*(col.field);
       }
-      e["runtime_s"] = o.runtime_s;
+      if (monte_carlo) {
+        e["runtime_s"] = nullptr;
+        timing["estimators"][o.id] = {{"runtime_s", o.runtime_s},
+                                      {"runtime_s_std", o.runtime_std_s}};
+      } else {
+        e["runtime_s"] = o.runtime_s;
+      }
       e["n_points"] = o.stats.n_points;
+      if (monte_carlo) e["failed_runs"] = o.failed_runs;
       for (const auto& [k, v] : o.result.diagnostics) e["diagnostics"][k] = v;
     }
     j["estimators"][o.id] = e;
@@ -182,11 +199,21 @@ Status WriteComparison(const Comparison& c, const std::string& out_dir) {
     return true;
   });
   if (!s.ok()) return fail(s);
+  if (monte_carlo) {
+    s = WriteFileAtomically((tmp / "timing.json").string(), [&](std::ostream& out) {
+      out << timing.dump(2) << "\n";
+      return true;
+    });
+    if (!s.ok()) return fail(s);
+  }
   s = WriteFileAtomically((tmp / "errors.csv").string(), [&](std::ostream& out) {
-    out << "t_s,estimator,error_m\n" << std::setprecision(10);
+    out << "t_s,estimator,error_m" << (monte_carlo ? ",run\n" : "\n") << std::setprecision(10);
     for (const EstimatorOutcome& o : c.outcomes) {
+      const bool with_run = monte_carlo && o.error_run.size() == o.errors.t_s.size();
       for (size_t i = 0; i < o.errors.t_s.size(); ++i) {
-        out << o.errors.t_s[i] << ',' << o.id << ',' << o.errors.error_m[i] << '\n';
+        out << o.errors.t_s[i] << ',' << o.id << ',' << o.errors.error_m[i];
+        if (monte_carlo) out << ',' << (with_run ? o.error_run[i] : 0);
+        out << '\n';
       }
     }
     return true;

@@ -180,7 +180,13 @@ std::string ErrorTimePlot(const Comparison& c) {
   for (size_t k = 0; k < c.outcomes.size(); ++k) {
     const EstimatorOutcome& o = c.outcomes[k];
     if (!o.status.ok()) continue;
-    s << Polyline(o.errors.t_s.size(), [&](size_t i) {
+    // Monte Carlo: the pooled errors hold every run; the curve shows the first run's.
+    size_t n = o.errors.t_s.size();
+    if (o.error_run.size() == n) {
+      n = static_cast<size_t>(std::count(o.error_run.begin(), o.error_run.end(),
+                                         o.error_run.empty() ? 0 : o.error_run.front()));
+    }
+    s << Polyline(n, [&](size_t i) {
       return std::pair(o.errors.t_s[i], o.errors.error_m[i]); }, a, Color(k), "error-curve");
   }
   s << "</g>" << Legend(c, a, false) << "</svg>\n";
@@ -224,10 +230,16 @@ std::string Table(const Comparison& c) {
       continue;
     }
     const ErrorStats& e = o.stats;
-    for (double v : {e.rmse_m, e.mean_m, e.median_m, e.p75_m, e.p90_m, e.max_m, e.final_m,
-                     e.pct_distance, o.runtime_s}) {
-      s << "<td>" << v << "</td>";
+    const double ErrorStats::*fields[] = {&ErrorStats::rmse_m, &ErrorStats::mean_m,
+                                          &ErrorStats::median_m, &ErrorStats::p75_m,
+                                          &ErrorStats::p90_m, &ErrorStats::max_m,
+                                          &ErrorStats::final_m, &ErrorStats::pct_distance};
+    for (const auto f : fields) {
+      s << "<td>" << e.*f;
+      if (o.stats_std) s << " &plusmn; " << (*o.stats_std).*f;  // Monte Carlo spread
+      s << "</td>";
     }
+    s << "<td>" << o.runtime_s << "</td>";
     s << "<td>" << e.n_points << "</td></tr>\n";
   }
   s << "</table>\n";

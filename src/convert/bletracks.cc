@@ -1,0 +1,182 @@
+// Position-annotated BLE RSSI tracks converter (see ConvertBleTracks in walkgraph/convert.h).
+//
+// Receiver ids: tetam.dev names each receiver "sensorRK" (R = room quadrant 1..4, K = 0..2);
+// the anchor id is the number RK, so the 12 receivers are anchors 10, 11, 12, 20, ..., 42:
+//   10 b827eb4521b4  11 000000000101  12 000000000102   20 b827eb917e19  21 000000000201
+//   22 000000000202  30 b827ebf7d096  31 000000000301   32 000000000302  40 b827ebfd7811
+//   41 000000000401  42 000000000402
+// (K = 0 are the Raspberry Pi receivers at 1.22 m, K = 1, 2 the dongles at 2.30 m.)
+// The merged track files are "merged respecting the time order" but a few lines step back by
+// less than a millisecond: they are sorted stably by time and counted in
+// meta.extra "convert.lines_out_of_order"; a repeated (time, receiver) reading keeps the first
+// ("convert.rss_duplicates_dropped"), and truth keeps one sample per distinct time.
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <set>
+
+#include <nlohmann/json.hpp>
+
+#include "convert/line_fields.h"
+#include "walkgraph/convert.h"
+
+namespace walkgraph {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+struct Devices {
+  std::map<std::string, Anchor> receivers;  // by lower-case MAC without separators
+  std::set<std::string> beacons;
+};
+
+std::string NormalizeMac(std::string mac) {
+  mac.erase(std::remove(mac.begin(), mac.end(), ':'), mac.end());
+  std::transform(mac.begin(), mac.end(), mac.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  return mac;
+}
+
+StatusOr<Devices> ReadDevices(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) return NotFound(path + ": cannot open");
+  Devices d;
+  std::string line;
+  int n = 0;
+  bool saw_dongles = false;
+  std::set<int> ids;
+  while (std::getline(in, line)) {
+    ++n;
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    if (line.empty()) continue;
+    const std::string where = path + ":" + std::to_string(n) + ": ";
+    const size_t colon = line.find(':');
+    const std::string key = colon == std::string::npos ? "" : line.substr(0, colon);
+    if (key != "Dongles" && key != "Beacons") {
+      return InvalidArgument(where + "expected 'Dongles:{...}' or 'Beacons:{...}'");
+    }
+    const nlohmann::json j = nlohmann::json::parse(line.substr(colon + 1), nullptr, false);
+    if (j.is_discarded() || !j.is_object()) {
+      return InvalidArgument(where + "expected a dictionary {MAC: [position, colour, alias]}");
+    }
+    for (const auto& [mac, dev] : j.items()) {
+      if (!dev.is_array() || dev.size() != 3 || !dev[0].is_array() || !dev[2].is_string()) {
+        return InvalidArgument(where + mac + ": expected [[x, y, z], colour, alias]");
+      }
+      if (key == "Beacons") {
+        d.beacons.insert(NormalizeMac(mac));
+        continue;
+      }
+      saw_dongles = true;
+      const std::string alias = dev[2].get<std::string>();
+      if (alias.rfind("sensor", 0) != 0 || alias.size() == 6 ||
+          alias.find_first_not_of("0123456789", 6) != std::string::npos || alias.size() > 12) {
+        return InvalidArgument(where + mac + ": alias '" + alias + "'; expected sensor<number>");
+      }
+      if (dev[0].size() != 3 || !dev[0][0].is_number() || !dev[0][1].is_number() ||
+          !dev[0][2].is_number()) {
+        return InvalidArgument(where + mac + ": position must be [x, y, z] in metres");
+      }
+      Anchor a;
+      a.id = std::stoi(alias.substr(6));
+      a.position_m = Eigen::Vector3d(dev[0][0].get<double>(), dev[0][1].get<double>(),
+                                     dev[0][2].get<double>());
+      if (!ids.insert(a.id).second) return InvalidArgument(where + "duplicate alias " + alias);
+      d.receivers[NormalizeMac(mac)] = a;
+    }
+  }
+  if (!saw_dongles || d.receivers.empty()) return InvalidArgument(path + ": no Dongles line");
+  if (d.beacons.empty()) return InvalidArgument(path + ": no Beacons line");
+  return d;
+}
+
+}  // namespace
+
+StatusOr<Walk> ConvertBleTracks(const std::string& track_mbd, const std::string& devices_dev) {
+  std::string dev_path = devices_dev;
+  if (dev_path.empty()) {
+    dev_path = (fs::path(track_mbd).parent_path().parent_path() / "cnf" / "tetam.dev").string();
+  }
+  WG_ASSIGN_OR_RETURN(const Devices devices, ReadDevices(dev_path));
+
+  std::ifstream in(track_mbd);
+  if (!in) return NotFound(track_mbd + ": cannot open");
+  struct Line {
+    double t_unix;
+    int anchor_id;
+    double rss;
+    Eigen::Vector3d position;
+  };
+  std::vector<Line> lines;
+  std::string text;
+  int n = 0, out_of_order = 0;
+  while (std::getline(in, text)) {
+    ++n;
+    internal::LineFields f(track_mbd, n, text, ',');
+    if (f.size() == 1 && f.field(0).empty()) return f.Error("empty line");
+    WG_RETURN_IF_ERROR(f.ExpectCount(16));
+    Line l;
+    WG_ASSIGN_OR_RETURN(l.t_unix, f.Number(0));
+    auto it = devices.receivers.find(NormalizeMac(f.field(1)));
+    if (it == devices.receivers.end()) {
+      return f.Error("receiver MAC '" + f.field(1) + "' is not a Dongle in " + dev_path);
+    }
+    l.anchor_id = it->second.id;
+    if (devices.beacons.count(NormalizeMac(f.field(2))) == 0) {
+      return f.Error("beacon MAC '" + f.field(2) + "' is not a Beacon in " + dev_path);
+    }
+    WG_ASSIGN_OR_RETURN(l.rss, f.Number(3));
+    for (int k = 0; k < 3; ++k) {
+      WG_ASSIGN_OR_RETURN(l.position[k], f.Number(4 + k));
+    }
+    for (size_t k = 7; k < 16; ++k) WG_RETURN_IF_ERROR(f.Number(k).status());
+    if (!lines.empty() && l.t_unix < lines.back().t_unix) ++out_of_order;
+    lines.push_back(l);
+  }
+  if (lines.empty()) return InvalidArgument(track_mbd + ": no readings");
+  std::stable_sort(lines.begin(), lines.end(),
+                   [](const Line& a, const Line& b) { return a.t_unix < b.t_unix; });
+
+  Walk walk;
+  walk.meta.name = fs::path(track_mbd).stem().string();
+  walk.meta.source =
+      "Danis, Naskali, Cemgil, Ersoy: An indoor localization dataset and data collection "
+      "framework with high precision position annotation, Pervasive and Mobile Computing 81, "
+      "2022 (philotuxo/Position-Annotated-BLE-RSSI-Dataset @77474b69), track " +
+      fs::path(track_mbd).filename().string();
+  walk.meta.licence = "CC0-1.0";
+  walk.meta.imu_placement = ImuPlacement::kNone;
+  walk.meta.truth_kind = TruthKind::kContinuous;
+  walk.meta.radio.kind = RadioKind::kRss;
+  walk.meta.radio.units = RssUnits::kDbm;
+  for (const auto& [mac, a] : devices.receivers) walk.anchors.push_back(a);
+  std::sort(walk.anchors.begin(), walk.anchors.end(),
+            [](const Anchor& a, const Anchor& b) { return a.id < b.id; });
+
+  const double t0 = lines.front().t_unix;
+  walk.meta.extra["bletracks.t0_unix_s"] = t0;
+  std::set<std::pair<double, int>> seen;
+  int duplicates = 0;
+  for (const Line& l : lines) {
+    const double t = l.t_unix - t0;
+    if (!seen.insert({t, l.anchor_id}).second) {
+      ++duplicates;
+    } else {
+      walk.rss.push_back({t, l.anchor_id, l.rss});
+    }
+    if (walk.truth.empty() || t > walk.truth.back().t_s) {
+      TruthSample s;
+      s.t_s = t;
+      s.position_m = l.position;
+      s.has_z = true;
+      walk.truth.push_back(s);
+    }
+  }
+  walk.meta.extra["convert.lines_out_of_order"] = out_of_order;
+  walk.meta.extra["convert.rss_duplicates_dropped"] = duplicates;
+  return walk;
+}
+
+}  // namespace walkgraph

@@ -1,0 +1,67 @@
+#include "convert/line_fields.h"
+
+#include <cerrno>
+#include <cmath>
+#include <cstdlib>
+
+namespace walkgraph::internal {
+
+namespace {
+
+std::string Trim(const std::string& s) {
+  const size_t b = s.find_first_not_of(" \t");
+  if (b == std::string::npos) return "";
+  const size_t e = s.find_last_not_of(" \t");
+  return s.substr(b, e - b + 1);
+}
+
+}  // namespace
+
+LineFields::LineFields(std::string path, int line_number, std::string_view line, char separator)
+    : path_(std::move(path)), line_number_(line_number) {
+  if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
+  size_t start = 0;
+  while (true) {
+    const size_t pos = line.find(separator, start);
+    if (pos == std::string_view::npos) {
+      fields_.emplace_back(line.substr(start));
+      break;
+    }
+    fields_.emplace_back(line.substr(start, pos - start));
+    start = pos + 1;
+  }
+}
+
+std::string LineFields::Where() const { return path_ + ":" + std::to_string(line_number_) + ": "; }
+
+Status LineFields::Error(const std::string& what) const { return InvalidArgument(Where() + what); }
+
+Status LineFields::ExpectCount(size_t n, size_t n_alt) const {
+  if (fields_.size() == n || (n_alt != 0 && fields_.size() == n_alt)) return Status::Ok();
+  std::string expected = std::to_string(n);
+  if (n_alt != 0) expected += " or " + std::to_string(n_alt);
+  return Error("expected " + expected + " fields, found " + std::to_string(fields_.size()));
+}
+
+StatusOr<double> LineFields::Number(size_t i) const {
+  if (i >= fields_.size()) return Error("field " + std::to_string(i + 1) + " missing");
+  const std::string t = Trim(fields_[i]);
+  const char* begin = t.c_str();
+  char* end = nullptr;
+  errno = 0;
+  const double v = std::strtod(begin, &end);
+  if (t.empty() || end != begin + t.size() || errno == ERANGE || !std::isfinite(v)) {
+    return Error("field " + std::to_string(i + 1) + " '" + fields_[i] + "' is not a finite number");
+  }
+  return v;
+}
+
+StatusOr<long long> LineFields::Integer(size_t i) const {
+  WG_ASSIGN_OR_RETURN(const double v, Number(i));
+  if (std::floor(v) != v || std::fabs(v) > 9.0e15) {
+    return Error("field " + std::to_string(i + 1) + " '" + fields_[i] + "' is not an integer");
+  }
+  return static_cast<long long>(v);
+}
+
+}  // namespace walkgraph::internal

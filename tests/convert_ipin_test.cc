@@ -1,0 +1,259 @@
+#include <unistd.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <sstream>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include "walkgraph/convert.h"
+#include "walkgraph/io.h"
+
+namespace walkgraph {
+namespace {
+
+namespace fs = std::filesystem;
+using ::testing::HasSubstr;
+
+const fs::path kIpin = fs::path(WALKGRAPH_SHARED_DATASETS) / "ipin2023_t3";
+
+std::vector<fs::path> Logs() {
+  std::vector<fs::path> logs;
+  for (const auto& e : fs::directory_iterator(kIpin)) {
+    const std::string name = e.path().filename().string();
+    if (name.rfind("IPIN", 0) == 0 && e.path().extension() == ".txt") logs.push_back(e.path());
+  }
+  std::sort(logs.begin(), logs.end());
+  return logs;
+}
+
+fs::path Scratch(const std::string& name) {
+  const fs::path p = fs::temp_directory_path() / ("wg_ipin_" + name + std::to_string(::getpid()));
+  fs::remove_all(p);
+  fs::create_directories(p);
+  return p;
+}
+
+// Counts of the record types in a log (or its lines with AppTimestamp in [t0, t1]), read
+// independently of the converter.
+struct Counts {
+  int acce = 0, posi = 0, ble = 0;
+  std::vector<std::pair<double, double>> posi_lat_lon;
+};
+
+Counts Count(const fs::path& log, double t0 = -1.0, double t1 = 1e9,
+             const fs::path& slice_out = {}) {
+  std::ifstream in(log);
+  std::ofstream out;
+  if (!slice_out.empty()) out.open(slice_out);
+  Counts c;
+  std::string line;
+  while (std::getline(in, line)) {
+    if (line.empty() || line[0] == '%') {
+      if (out.is_open()) out << line << "\n";
+      continue;
+    }
+    const double t = std::stod(line.substr(5, line.find(';', 5) - 5));
+    if (t < t0 || t > t1) continue;
+    if (out.is_open()) out << line << "\n";
+    const std::string type = line.substr(0, 4);
+    if (type == "ACCE") ++c.acce;
+    if (type == "BLE4") ++c.ble;
+    if (type == "POSI") {
+      ++c.posi;
+      std::stringstream s(line);
+      std::string f[7];
+      for (auto& x : f) std::getline(s, x, ';');
+      c.posi_lat_lon.push_back({std::stod(f[3]), std::stod(f[4])});
+    }
+  }
+  return c;
+}
+
+// East/north by the equirectangular approximation (an independent check of the tangent plane:
+// the two agree to millimetres over the 60 m of the venue).
+Eigen::Vector2d Equirectangular(double lat, double lon, double lat0, double lon0) {
+  constexpr double kDeg = 3.14159265358979323846 / 180.0;
+  const double r_n = 6378137.0 * (1 - 0.00669438) /
+                     std::pow(1 - 0.00669438 * std::sin(lat0 * kDeg) * std::sin(lat0 * kDeg), 1.5);
+  const double r_e =
+      6378137.0 / std::sqrt(1 - 0.00669438 * std::sin(lat0 * kDeg) * std::sin(lat0 * kDeg));
+  return {(lon - lon0) * kDeg * r_e * std::cos(lat0 * kDeg), (lat - lat0) * kDeg * r_n};
+}
+
+TEST(ConvertIpin, ConvertsEveryLogCompletely) {
+  if (!fs::exists(kIpin)) GTEST_SKIP() << kIpin << " not present";
+  const auto logs = Logs();
+  ASSERT_FALSE(logs.empty());
+  for (const fs::path& log : logs) {
+    SCOPED_TRACE(log.string());
+    const Counts c = Count(log);
+    auto walk = Convert("ipin", {log.string()});
+    ASSERT_TRUE(walk.ok()) << walk.status().message();
+    EXPECT_TRUE(ValidateWalk(*walk).ok());
+    EXPECT_EQ(walk->anchors.size(), 6u);
+    EXPECT_EQ(walk->meta.truth_kind, TruthKind::kCheckpoints);
+    EXPECT_EQ(walk->meta.imu_placement, ImuPlacement::kHandheld);
+    ASSERT_EQ(walk->truth.size(), static_cast<size_t>(c.posi));
+    EXPECT_EQ(walk->rss.size(), static_cast<size_t>(c.ble));
+    // A few ACCE lines at the ends fall outside the GYRO/MAGN span.
+    EXPECT_GE(walk->imu.size() + 3, static_cast<size_t>(c.acce));
+    EXPECT_LE(walk->imu.size(), static_cast<size_t>(c.acce));
+    ASSERT_TRUE(walk->imu.front().has_mag);
+    // ~50 Hz accelerometer time base.
+    const double rate = (walk->imu.size() - 1) / (walk->imu.back().t_s - walk->imu.front().t_s);
+    EXPECT_NEAR(rate, 50.0, 1.0);
+    const auto& o = c.posi_lat_lon.front();
+    for (size_t k = 0; k < walk->truth.size(); ++k) {
+      const Eigen::Vector2d en =
+          Equirectangular(c.posi_lat_lon[k].first, c.posi_lat_lon[k].second, o.first, o.second);
+      EXPECT_NEAR(walk->truth[k].position_m.x(), en.x(), 0.01);
+      EXPECT_NEAR(walk->truth[k].position_m.y(), en.y(), 0.01);
+      EXPECT_TRUE(walk->meta.extra.count("ipin.checkpoint_floor." + std::to_string(k)));
+    }
+    EXPECT_EQ(walk->meta.extra.at("ipin.anchor_floor.3"), -2.0);
+  }
+}
+
+TEST(ConvertIpin, ConvertsSlicesOfEveryLog) {
+  if (!fs::exists(kIpin)) GTEST_SKIP() << kIpin << " not present";
+  const fs::path dir = Scratch("slice");
+  fs::copy_file(kIpin / "BLE_Locations.csv", dir / "BLE_Locations.csv");
+  for (const fs::path& log : Logs()) {
+    SCOPED_TRACE(log.string());
+    const fs::path slice = dir / log.filename();
+    const Counts c = Count(log, 60.0, 90.0, slice);
+    ASSERT_GT(c.posi, 0);
+    auto walk = Convert("ipin", {slice.string()});
+    ASSERT_TRUE(walk.ok()) << walk.status().message();
+    EXPECT_TRUE(ValidateWalk(*walk).ok());
+    EXPECT_EQ(walk->truth.size(), static_cast<size_t>(c.posi));
+    EXPECT_EQ(walk->rss.size(), static_cast<size_t>(c.ble));
+    EXPECT_NEAR(static_cast<double>(walk->imu.size()), c.acce, 3.0);
+    EXPECT_EQ(walk->truth.front().position_m.head<2>().norm(), 0.0);  // origin: 1st landmark
+    const Status s = WriteWalk(*walk, (dir / "walk").string());
+    EXPECT_TRUE(s.ok()) << s.message();
+    auto back = ReadWalk((dir / "walk").string());
+    ASSERT_TRUE(back.ok()) << back.status().message();
+    EXPECT_EQ(back->imu.size(), walk->imu.size());
+    fs::remove_all(dir / "walk");
+  }
+  fs::remove_all(dir);
+}
+
+// The Minor → BLE mapping, checked on the data: in TrainingTrial21 (level −2) the first
+// landmark is 2 m from BLE3, and the beacon heard loudest around it is Minor 2.
+TEST(ConvertIpin, MinorTwoIsTheBeaconAtBle3) {
+  const fs::path log = kIpin / "IPIN2023_T3_TrainingTrial21_repetition01.txt";
+  if (!fs::exists(log)) GTEST_SKIP() << log << " not present";
+  auto walk = Convert("ipin", {log.string()});
+  ASSERT_TRUE(walk.ok()) << walk.status().message();
+  const TruthSample& lm = walk->truth.front();
+  const Anchor& ble3 = walk->anchors[walk->AnchorIndex(3)];
+  EXPECT_LT((ble3.position_m - lm.position_m).head<2>().norm(), 3.0);
+  double best = -1e9;
+  int best_id = -1;
+  for (const RssSample& s : walk->rss) {
+    if (std::fabs(s.t_s - lm.t_s) <= 2.0 && s.rss > best) {
+      best = s.rss;
+      best_id = s.anchor_id;
+    }
+  }
+  EXPECT_EQ(best_id, 3);
+  EXPECT_GT(best, -75.0);
+  EXPECT_EQ(IpinMinorToBleId(2), 3);
+  EXPECT_EQ(IpinMinorToBleId(3), 2);
+  EXPECT_EQ(IpinMinorToBleId(1), 1);
+  EXPECT_EQ(IpinMinorToBleId(7), -1);
+}
+
+class ConvertIpinMalformed : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = Scratch("bad");
+    std::ofstream(dir_ / "BLE_Locations.csv")
+        << "bleID,Lat,Lon,floor\n\"BLE1\",49.46129,11.11120,00\n\"BLE2\",49.46107,11.11121,00\n"
+           "\"BLE3\",49.46129,11.11152,-2\n";
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+  StatusOr<Walk> ConvertText(const std::string& body) {
+    std::ofstream(dir_ / "log.txt")
+        << "% header\n"
+        << "ACCE;0.01;100.00;0.1;0.2;9.8;3\nGYRO;0.01;100.00;0.0;0.0;0.1;3\n"
+        << "MAGN;0.01;100.00;10;20;30;3\n"
+        << "ACCE;0.03;100.02;0.1;0.2;9.8;3\nGYRO;0.03;100.02;0.0;0.0;0.1;3\n"
+        << "MAGN;0.03;100.02;10;20;30;3\n"
+        << "POSI;0.5;1;49.46128;11.11110;0;100\n"
+        << body;
+    return Convert("ipin", {(dir_ / "log.txt").string()});
+  }
+  fs::path dir_;
+};
+
+TEST_F(ConvertIpinMalformed, MinimalLogConverts) {
+  auto walk = ConvertText("BLE4;0.6;iBeacon;BE:AC:20:23:00:02;-70;0;1;2;UUID\n");
+  ASSERT_TRUE(walk.ok()) << walk.status().message();
+  EXPECT_EQ(walk->imu.size(), 2u);
+  ASSERT_EQ(walk->rss.size(), 1u);
+  EXPECT_EQ(walk->rss[0].anchor_id, 3);
+}
+
+TEST_F(ConvertIpinMalformed, BadNumberNamesFileLineAndField) {
+  auto walk = ConvertText("ACCE;0.05;100.04;0.1;oops;9.8;3\n");
+  ASSERT_FALSE(walk.ok());
+  EXPECT_THAT(walk.status().message(), HasSubstr("log.txt:9: field 5 'oops'"));
+}
+
+TEST_F(ConvertIpinMalformed, WrongFieldCount) {
+  auto walk = ConvertText("GYRO;0.05;100.04;0.1;9.8;3\n");
+  ASSERT_FALSE(walk.ok());
+  EXPECT_THAT(walk.status().message(), HasSubstr("log.txt:9: expected 7 fields, found 6"));
+}
+
+TEST_F(ConvertIpinMalformed, GarbageLine) {
+  auto walk = ConvertText("hello world\n");
+  ASSERT_FALSE(walk.ok());
+  EXPECT_THAT(walk.status().message(), HasSubstr("log.txt:9: expected a '%' comment"));
+}
+
+TEST_F(ConvertIpinMalformed, UnknownMinorAndMismatchedMac) {
+  auto walk = ConvertText("BLE4;0.6;iBeacon;BE:AC:20:23:00:05;-70;0;1;5;UUID\n");
+  ASSERT_FALSE(walk.ok());  // BLE5 is not in this BLE_Locations.csv
+  EXPECT_THAT(walk.status().message(), HasSubstr("log.txt:9: iBeacon Minor 5"));
+  walk = ConvertText("BLE4;0.6;iBeacon;BE:AC:20:23:00:01;-70;0;1;2;UUID\n");
+  ASSERT_FALSE(walk.ok());
+  EXPECT_THAT(walk.status().message(), HasSubstr("log.txt:9: MAC 'BE:AC:20:23:00:01'"));
+}
+
+TEST_F(ConvertIpinMalformed, TimeGoingBackwards) {
+  auto walk = ConvertText("ACCE;0.05;100.01;0.1;0.2;9.8;3\n");
+  ASSERT_FALSE(walk.ok());
+  EXPECT_THAT(walk.status().message(), HasSubstr("log.txt:9: ACCE SensorTimestamp"));
+  walk = ConvertText("POSI;0.4;2;49.46128;11.11110;0;100\n");
+  ASSERT_FALSE(walk.ok());
+  EXPECT_THAT(walk.status().message(), HasSubstr("log.txt:9: POSI timestamp"));
+}
+
+TEST_F(ConvertIpinMalformed, BadLocationsFile) {
+  std::ofstream(dir_ / "BLE_Locations.csv") << "bleID,Lat,Lon,floor\n\"BLE1\",49.4,north,0\n";
+  auto walk = ConvertText("");
+  ASSERT_FALSE(walk.ok());
+  EXPECT_THAT(walk.status().message(), HasSubstr("BLE_Locations.csv:2: field 3 'north'"));
+  std::ofstream(dir_ / "BLE_Locations.csv") << "bleID,Lat,Lon,floor\n\"Beacon\",49.4,11.1,0\n";
+  walk = ConvertText("");
+  ASSERT_FALSE(walk.ok());
+  EXPECT_THAT(walk.status().message(), HasSubstr("BLE_Locations.csv:2: bleID"));
+}
+
+TEST_F(ConvertIpinMalformed, NoGroundTruth) {
+  std::ofstream(dir_ / "log.txt") << "ACCE;0.01;100.00;0.1;0.2;9.8;3\n";
+  auto walk = Convert("ipin", {(dir_ / "log.txt").string()});
+  ASSERT_FALSE(walk.ok());
+  EXPECT_THAT(walk.status().message(), HasSubstr("no POSI"));
+}
+
+}  // namespace
+}  // namespace walkgraph
