@@ -22,12 +22,12 @@ std::vector<Eigen::Vector2d> GridAnchors() {  // 000 Sec. IV: 9 anchors on a gri
   return a;
 }
 
-std::vector<RangeMeasurement> Ranges(const std::vector<Eigen::Vector2d>& anchors,
-                                     const Eigen::Vector2d& x, double sigma, std::mt19937_64* rng) {
+std::vector<AnchorRange> Ranges(const std::vector<Eigen::Vector2d>& anchors,
+                                const Eigen::Vector2d& x, double sigma, std::mt19937_64* rng) {
   std::normal_distribution<double> n(0.0, sigma);
-  std::vector<RangeMeasurement> out;
+  std::vector<AnchorRange> out;
   for (size_t i = 0; i < anchors.size(); ++i) {
-    RangeMeasurement m;
+    AnchorRange m;
     m.anchor_id = static_cast<int>(i);
     m.anchor_m = anchors[i];
     m.range_m = std::max((x - anchors[i]).norm() + n(*rng), 0.0);
@@ -93,10 +93,10 @@ TEST(RadioTest, LogNormalRangesMatchTheHyperbolicModel) {
   std::vector<double> err;
   for (int k = 0; k < trials; ++k) {
     const Eigen::Vector2d x(u(rng), u(rng));
-    std::vector<RangeMeasurement> r;
+    std::vector<AnchorRange> r;
     for (size_t i = 0; i < anchors.size(); ++i) {
       const double rss = model.ExpectedRss((x - anchors[i]).norm()) + shadow(rng);
-      RangeMeasurement m;
+      AnchorRange m;
       m.anchor_id = static_cast<int>(i);
       m.anchor_m = anchors[i];
       m.range_m = model.MlRange(rss);

@@ -123,6 +123,11 @@ StatusOr<StepSequence> ComputeSteps(const Walk& walk, const PdrOptions& options)
 // θ0 is initial_pose.heading_rad when present (absolute_heading = true), else 0.
 StepSequence StepsFromOdometry(const Walk& walk);
 
+// The steps every step-level estimator consumes, so that a comparison differs only in the
+// estimator: the odometry increments when the walk has odometry.csv, else ComputeSteps on a
+// waist/hip/handheld IMU. Fails for a walk with neither (or with only a foot-mounted IMU).
+StatusOr<StepSequence> StepsForWalk(const Walk& walk, const PdrOptions& options);
+
 }  // namespace walkgraph
 
 #endif  // WALKGRAPH_PDR_H_

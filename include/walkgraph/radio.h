@@ -32,7 +32,9 @@
 
 namespace walkgraph {
 
-struct RangeMeasurement {
+// One horizontal range to an anchor, as the positioning solvers consume it (the time-stamped
+// 3-D measurement stream the filters fuse is RangeMeasurement in filters/ranges.h).
+struct AnchorRange {
   int anchor_id = 0;
   Eigen::Vector2d anchor_m = Eigen::Vector2d::Zero();
   double range_m = 0.0;  // horizontal range
@@ -42,7 +44,7 @@ struct RangeMeasurement {
 // Readings grouped into one positioning epoch.
 struct RangeEpoch {
   double t_s = 0.0;  // mean reading time of the group
-  std::vector<RangeMeasurement> ranges;
+  std::vector<AnchorRange> ranges;
   double max_rss = 0.0;  // strongest averaged RSS (SCMT's P_max); 0 for range walks
 };
 
@@ -64,10 +66,10 @@ struct PositioningOptions {
 };
 
 // 000 eq. 2.
-FixResult HyperbolicFix(const std::vector<RangeMeasurement>& ranges,
+FixResult HyperbolicFix(const std::vector<AnchorRange>& ranges,
                         const PositioningOptions& options = {});
 // 001 eq. 5 (Gauss–Newton started at the hyperbolic fix, or at the anchors' centroid).
-FixResult NonlinearLsFix(const std::vector<RangeMeasurement>& ranges,
+FixResult NonlinearLsFix(const std::vector<AnchorRange>& ranges,
                          const PositioningOptions& options = {});
 
 struct EpochOptions {

@@ -459,4 +459,16 @@ StepSequence StepsFromOdometry(const Walk& walk) {
   return out;
 }
 
+StatusOr<StepSequence> StepsForWalk(const Walk& walk, const PdrOptions& options) {
+  if (walk.has_odometry()) return StepsFromOdometry(walk);
+  if (!walk.has_imu()) {
+    return FailedPrecondition("walk '" + walk.meta.name + "' has neither odometry nor an IMU");
+  }
+  if (walk.meta.imu_placement == ImuPlacement::kFoot) {
+    return FailedPrecondition("walk '" + walk.meta.name +
+                              "' has a foot-mounted IMU: step-level PDR needs waist/hip/handheld");
+  }
+  return ComputeSteps(walk, options);
+}
+
 }  // namespace walkgraph

@@ -18,12 +18,12 @@ FixResult NoFix(FixStatus status, std::string reason) {
 }
 
 // Distinct anchors (the first reading of each) and a geometry check.
-FixResult CheckGeometry(const std::vector<RangeMeasurement>& in, const PositioningOptions& o,
-                        std::vector<RangeMeasurement>* out) {
+FixResult CheckGeometry(const std::vector<AnchorRange>& in, const PositioningOptions& o,
+                        std::vector<AnchorRange>* out) {
   out->clear();
-  for (const RangeMeasurement& m : in) {
+  for (const AnchorRange& m : in) {
     if (!std::isfinite(m.range_m) || m.range_m < 0 || !m.anchor_m.allFinite()) continue;
-    const bool seen = std::any_of(out->begin(), out->end(), [&](const RangeMeasurement& x) {
+    const bool seen = std::any_of(out->begin(), out->end(), [&](const AnchorRange& x) {
       return x.anchor_id == m.anchor_id || (x.anchor_m - m.anchor_m).norm() < 1e-6;
     });
     if (!seen) out->push_back(m);
@@ -91,8 +91,8 @@ const char* ToString(FixStatus s) {
   return "?";
 }
 
-FixResult HyperbolicFix(const std::vector<RangeMeasurement>& ranges, const PositioningOptions& o) {
-  std::vector<RangeMeasurement> m;
+FixResult HyperbolicFix(const std::vector<AnchorRange>& ranges, const PositioningOptions& o) {
+  std::vector<AnchorRange> m;
   FixResult g = CheckGeometry(ranges, o, &m);
   if (!g.ok()) return g;
   const int n = static_cast<int>(m.size()) - 1;
@@ -103,7 +103,7 @@ FixResult HyperbolicFix(const std::vector<RangeMeasurement>& ranges, const Posit
   Eigen::VectorXd b(n);
   Eigen::MatrixXd s = Eigen::MatrixXd::Constant(n, n, 4.0 * d1 * d1 * s1 * s1);
   for (int i = 0; i < n; ++i) {
-    const RangeMeasurement& r = m[i + 1];
+    const AnchorRange& r = m[i + 1];
     const Eigen::Vector2d p = r.anchor_m - p1;
     const double si = std::max(r.sigma_m, o.min_sigma_m);
     h.row(i) = 2.0 * p.transpose();
@@ -132,8 +132,8 @@ FixResult HyperbolicFix(const std::vector<RangeMeasurement>& ranges, const Posit
   return r;
 }
 
-FixResult NonlinearLsFix(const std::vector<RangeMeasurement>& ranges, const PositioningOptions& o) {
-  std::vector<RangeMeasurement> m;
+FixResult NonlinearLsFix(const std::vector<AnchorRange>& ranges, const PositioningOptions& o) {
+  std::vector<AnchorRange> m;
   FixResult g = CheckGeometry(ranges, o, &m);
   if (!g.ok()) return g;
   Eigen::Vector2d x = Eigen::Vector2d::Zero();
@@ -247,7 +247,7 @@ StatusOr<std::vector<RangeEpoch>> BuildRangeEpochs(const Walk& walk, const Epoch
         return InvalidArgument("radio: reading from unknown anchor " + std::to_string(id));
       const Eigen::Vector3d& a = walk.anchors[idx].position_m;
       const double v = acc.first / acc.second;
-      RangeMeasurement r;
+      AnchorRange r;
       r.anchor_id = id;
       r.anchor_m = a.head<2>();
       double range;
