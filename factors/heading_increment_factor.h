@@ -1,7 +1,9 @@
 // HeadingIncrementFactor: the gyro-integrated heading change between two step poses.
 //
-//   r = NormalizeAngle(θ_k − θ_{k−1} − Δθ) / σ_Δθ
-// Δθ is Step::dheading_rad (000 eq. 4: θ_i = θ_{i−1} + δT·ω_z summed over the step).
+//   r = NormalizeAngle(θ_k − θ_{k−1} − (Δθ − b·Δt)) / σ_Δθ
+// Δθ is Step::dheading_rad (000 eq. 4: θ_i = θ_{i−1} + δT·ω_z summed over the step), Δt the
+// time between the poses and b an optional constant vertical gyro bias block (rad/s), which
+// the smoother can estimate: MEMS turn-on biases of 0.1–1 °/s otherwise bend long walks.
 #ifndef WALKGRAPH_FACTORS_HEADING_INCREMENT_FACTOR_H_
 #define WALKGRAPH_FACTORS_HEADING_INCREMENT_FACTOR_H_
 
@@ -13,23 +15,35 @@ namespace walkgraph {
 
 class HeadingIncrementFactor {
  public:
-  HeadingIncrementFactor(double dheading_rad, double sigma_rad)
-      : dheading_rad_(dheading_rad), inv_sigma_(1.0 / sigma_rad) {}
+  HeadingIncrementFactor(double dheading_rad, double dt_s, double sigma_rad)
+      : dheading_rad_(dheading_rad), dt_s_(dt_s), inv_sigma_(1.0 / sigma_rad) {}
 
   template <typename T>
   bool operator()(const T* theta_prev, const T* theta, T* residual) const {
     residual[0] = NormalizeAngle(theta[0] - theta_prev[0] - T(dheading_rad_)) * T(inv_sigma_);
     return true;
   }
+  template <typename T>
+  bool operator()(const T* theta_prev, const T* theta, const T* gyro_bias, T* residual) const {
+    residual[0] =
+        NormalizeAngle(theta[0] - theta_prev[0] - T(dheading_rad_) + gyro_bias[0] * T(dt_s_)) *
+        T(inv_sigma_);
+    return true;
+  }
 
   // Blocks: θ_{k−1} (1), θ_k (1).
   static ceres::CostFunction* Create(double dheading_rad, double sigma_rad) {
     return new ceres::AutoDiffCostFunction<HeadingIncrementFactor, 1, 1, 1>(
-        new HeadingIncrementFactor(dheading_rad, sigma_rad));
+        new HeadingIncrementFactor(dheading_rad, 0.0, sigma_rad));
+  }
+  // Blocks: θ_{k−1} (1), θ_k (1), b (1).
+  static ceres::CostFunction* CreateWithBias(double dheading_rad, double dt_s, double sigma_rad) {
+    return new ceres::AutoDiffCostFunction<HeadingIncrementFactor, 1, 1, 1, 1>(
+        new HeadingIncrementFactor(dheading_rad, dt_s, sigma_rad));
   }
 
  private:
-  double dheading_rad_, inv_sigma_;
+  double dheading_rad_, dt_s_, inv_sigma_;
 };
 
 }  // namespace walkgraph

@@ -67,6 +67,12 @@ TEST(HeadingFactorsTest, ResidualsWrapAcrossPi) {
   const double a[1] = {3.1}, b[1] = {-3.1};  // true change 2π − 6.2 ≈ 0.0832
   EXPECT_NEAR(Residuals(*inc, {a, b})[0], (2 * kPi - 6.2 - 0.1) / 0.02, 1e-9);
   ExpectGradientsMatch(*inc, {a, b}, {0, 1});
+  // A gyro bias of 0.01 rad/s over 2 s explains 0.02 rad of the measured increment.
+  std::unique_ptr<ceres::CostFunction> biased(
+      HeadingIncrementFactor::CreateWithBias(0.1, 2.0, 0.02));
+  const double bias[1] = {0.01};
+  EXPECT_NEAR(Residuals(*biased, {a, b, bias})[0], (2 * kPi - 6.2 - 0.08) / 0.02, 1e-9);
+  ExpectGradientsMatch(*biased, {a, b, bias}, {0, 1});
   std::unique_ptr<ceres::CostFunction> abs(HeadingFactor::Create(-3.1, 0.1));
   EXPECT_NEAR(Residuals(*abs, {a})[0], (6.2 - 2 * kPi) / 0.1, 1e-9);
   ExpectGradientsMatch(*abs, {a}, {0});
@@ -155,6 +161,21 @@ TEST(RangeFactorTest, BiasIsAdditive) {
   const double pa[3] = {0.0, 0.0, 0.0}, pb[3] = {4.0, 0.0, 0.0};  // received at (1, 0, 0)
   EXPECT_NEAR(Residuals(*fi, {pa, pb, b0})[0], 4.0, 1e-6);
   ExpectGradientsMatch(*fi, {pa, pb, b});
+}
+
+TEST(RangeFactorTest, ScaledRangeIsTheAffineToaModel) {
+  // ρ = (1 + s)·d + b (002 eq. 6): d = 5, s = 0.07, b = 0.9 → ρ = 6.25.
+  std::unique_ptr<ceres::CostFunction> f(
+      ScaledRangeFactor<2>::Create(6.25, Eigen::Vector3d(3.0, 4.0, 0.0), 0.5));
+  const double p[2] = {0.0, 0.0}, b[1] = {0.9}, sc[1] = {0.07}, zero[1] = {0.0};
+  EXPECT_NEAR(Residuals(*f, {p, b, sc})[0], 0.0, 1e-6);
+  EXPECT_NEAR(Residuals(*f, {p, b, zero})[0], 0.35 / 0.5, 1e-6);
+  ExpectGradientsMatch(*f, {p, b, sc});
+  std::unique_ptr<ceres::CostFunction> fi(
+      ScaledRangeFactor<3>::CreateInterpolated(5.0, Eigen::Vector3d::Zero(), 1.0, 0.5));
+  const double pa[3] = {1.0, 0.0, 0.0}, pb[3] = {3.0, 0.0, 0.0};  // received at (2, 0, 0)
+  EXPECT_NEAR(Residuals(*fi, {pa, pb, b, sc})[0], 5.0 - 1.07 * 2.0 - 0.9, 1e-6);
+  ExpectGradientsMatch(*fi, {pa, pb, b, sc});
 }
 
 }  // namespace

@@ -107,6 +107,7 @@ void RunEstimator(benchmark::State& state, const std::string& id, const WalkSpec
       return;
     }
     diagnostics = result->diagnostics;
+    for (const auto& [k, v] : result->timings) diagnostics[k] = v;
     benchmark::DoNotOptimize(result->trajectory.points.data());
   }
   const double walk_s = walk->EndTime() - walk->StartTime();

@@ -29,8 +29,12 @@ struct EstimateResult {
   // Normalized innovation squared of each accepted measurement update (filters), for
   // consistency checks; empty where the estimator has no innovations.
   std::vector<double> nis;
-  // Named figures an estimator wants to report (e.g. "ceres_iterations", "gated_updates").
+  // Named figures an estimator wants to report (e.g. "ceres_iterations", "gated_updates"):
+  // deterministic for a given walk and configuration.
   std::map<std::string, double> diagnostics;
+  // Wall-clock figures in seconds (e.g. "update_latency_p99_s"): machine-dependent, so compare
+  // keeps them out of a Monte Carlo results.json (they go to timing.json).
+  std::map<std::string, double> timings;
 };
 
 class Estimator {

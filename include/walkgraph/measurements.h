@@ -14,16 +14,21 @@ namespace walkgraph {
 
 // One detected step (or one odometry increment).
 struct Step {
-  double t_s = 0.0;              // time the step ends
-  double duration_s = 0.0;       // time since the previous step (0 for the first)
+  double t_s = 0.0;         // time the step ends
+  double duration_s = 0.0;  // time since the previous step (0 for the first)
   double length_m = 0.0;
-  double heading_rad = 0.0;      // absolute direction of the displacement
-  double dheading_rad = 0.0;     // heading change since the previous step (gyro-integrated)
+  double heading_rad = 0.0;   // absolute direction of the displacement
+  double dheading_rad = 0.0;  // heading change since the previous step (gyro-integrated)
   double sigma_length_m = 0.1;
-  double sigma_heading_rad = 0.2;   // of heading_rad (absolute: magnetometer-aided or integrated)
-  double sigma_dheading_rad = 0.02; // of dheading_rad
-  double a_max_mps2 = 0.0;       // detector features (Weinberg): 0 when not from an IMU
+  double sigma_heading_rad = 0.2;    // of heading_rad (absolute: magnetometer-aided or integrated)
+  double sigma_dheading_rad = 0.02;  // of dheading_rad
+  double a_max_mps2 = 0.0;           // detector features (Weinberg): 0 when not from an IMU
   double a_min_mps2 = 0.0;
+  // The tilt-compensated magnetometer's walking direction over this step alone (circular mean
+  // of its samples), an independent absolute heading for smoothers; false without a
+  // magnetometer. Indoors it carries magnetic disturbances: use it with a robust loss.
+  bool has_mag_heading = false;
+  double mag_heading_rad = 0.0;
 };
 
 struct StepSequence {

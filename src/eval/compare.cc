@@ -184,8 +184,10 @@ Status WriteComparison(const Comparison& c, const std::string& out_dir) {
         e["runtime_s"] = nullptr;
         timing["estimators"][o.id] = {{"runtime_s", o.runtime_s},
                                       {"runtime_s_std", o.runtime_std_s}};
+        for (const auto& [k, v] : o.result.timings) timing["estimators"][o.id][k] = v;
       } else {
         e["runtime_s"] = o.runtime_s;
+        for (const auto& [k, v] : o.result.timings) e["timings"][k] = v;
       }
       e["n_points"] = o.stats.n_points;
       if (monte_carlo) e["failed_runs"] = o.failed_runs;

@@ -407,6 +407,10 @@ StatusOr<StepSequence> ComputeSteps(const Walk& walk, const PdrOptions& o) {
       }
     }
     st.sigma_length_m = o.sigma_length_frac * st.length_m + o.sigma_length_m;
+    if (have_mag) {
+      st.has_mag_heading = true;
+      st.mag_heading_rad = mag_walk_heading(prev, e.imu_index);
+    }
     const double dpsi = psi[e.imu_index] - psi[prev];
     st.dheading_rad = NormalizeAngle(dpsi);
     st.sigma_dheading_rad = o.sigma_dheading_rad;

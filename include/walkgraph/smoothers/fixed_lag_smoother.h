@@ -1,0 +1,139 @@
+// A fixed-lag smoother over Ceres cost functions, with the shape of GTSAM's
+// BatchFixedLagSmoother:
+//
+//   FixedLagSmoother s(options);                      // lag in seconds
+//   s.Update(new_states, new_factors);                // add, solve, marginalize
+//   s.Estimate(key);  s.MarginalCovariance(key);
+//
+// States are parameter blocks identified by a StateKey, each with a timestamp (or none: a
+// "static" state such as a path-loss or bias block, which stays in the window for the whole
+// run) and an optional ceres::Manifold. Factors are cost functions over states by key, with an
+// optional robust loss.
+//
+// Update(): adds the new states and factors to one persistent ceres::Problem (built once and
+// edited in place, never rebuilt), solves it, then marginalizes every timed state older than
+// t_newest − lag: the factors touching those states (including the previous prior) are
+// linearized at the just-solved estimate and replaced by one MarginalizationPrior on their
+// Markov blanket (smoothers/marginalization.h). A marginalized state's estimate at that moment
+// is its lagged (smoothed with `lag` seconds of future data) estimate; it is handed to
+// `on_marginalize`, and the state and its factors are freed, so memory stays bounded.
+//
+// Linearization-point policy: the prior's Jacobian is fixed at its linearization point (first
+// estimate, in each block's tangent space); every other factor is relinearized at each solve,
+// including those on the blanket states (so the prior and the remaining factors can be
+// linearized at slightly different points — the usual sliding-window approximation, exact for
+// linear-Gaussian problems, where fixed-lag equals batch on the data seen so far).
+// Guards: an update with nothing old enough marginalizes nothing; a window that stops moving
+// (no new states) keeps its states; factors on an unknown or already-marginalized key are an
+// error; a marginalized state with only a prior just moves that prior to its blanket (or drops
+// it if it had none).
+#ifndef WALKGRAPH_SMOOTHERS_FIXED_LAG_SMOOTHER_H_
+#define WALKGRAPH_SMOOTHERS_FIXED_LAG_SMOOTHER_H_
+
+#include <functional>
+#include <map>
+#include <memory>
+#include <optional>
+#include <set>
+#include <vector>
+
+#include <ceres/ceres.h>
+#include <Eigen/Core>
+
+#include "walkgraph/smoothers/marginalization.h"
+#include "walkgraph/status.h"
+
+namespace walkgraph {
+
+struct SmootherState {
+  StateKey key = 0;
+  std::optional<double> t_s;                        // none: static, never marginalized
+  std::vector<double> value;                        // initial estimate (ambient)
+  std::shared_ptr<const ceres::Manifold> manifold;  // nullptr = Euclidean
+  bool constant = false;                            // held fixed by the solver
+};
+
+struct SmootherFactor {
+  std::unique_ptr<ceres::CostFunction> cost;
+  std::shared_ptr<const ceres::LossFunction> loss;  // nullptr = squared loss
+  std::vector<StateKey> keys;                       // in the cost function's block order
+};
+
+class FixedLagSmoother {
+ public:
+  struct Options {
+    double lag_s = 10.0;
+    int max_iterations = 10;
+    double function_tolerance = 1e-6;
+    double parameter_tolerance = 1e-8;
+    ceres::LinearSolverType linear_solver = ceres::SPARSE_NORMAL_CHOLESKY;
+    int num_threads = 1;
+    double eigenvalue_tolerance = 1e-12;  // marginalization (see marginalization.h)
+  };
+  struct UpdateResult {
+    int ceres_iterations = 0;
+    int marginalized_states = 0;
+    double final_cost = 0.0;
+    bool converged = true;
+  };
+  // Called for each state as it leaves the window: key, time, final (lagged) estimate.
+  using MarginalizeCallback =
+      std::function<void(StateKey key, double t_s, const std::vector<double>& value)>;
+
+  explicit FixedLagSmoother(Options options);
+  ~FixedLagSmoother();
+  FixedLagSmoother(const FixedLagSmoother&) = delete;
+  FixedLagSmoother& operator=(const FixedLagSmoother&) = delete;
+
+  void set_on_marginalize(MarginalizeCallback cb) { on_marginalize_ = std::move(cb); }
+  // Called with the keys about to be marginalized while they are still in the window (before
+  // on_marginalize), e.g. to query their MarginalCovariance.
+  void set_before_marginalize(std::function<void(const std::vector<StateKey>& keys)> cb) {
+    before_marginalize_ = std::move(cb);
+  }
+
+  StatusOr<UpdateResult> Update(std::vector<SmootherState> new_states,
+                                std::vector<SmootherFactor> new_factors);
+
+  // Current estimate of a state in the window (or a static state).
+  StatusOr<std::vector<double>> Estimate(StateKey key) const;
+  // Marginal covariance of a state in its tangent space, given everything in the window
+  // (including the marginalization prior). Fails (never aborts) when it is not positive
+  // definite, e.g. an unobservable direction.
+  StatusOr<Eigen::MatrixXd> MarginalCovariance(StateKey key);
+  // Joint marginal covariance of several states (tangent spaces stacked in `keys` order).
+  StatusOr<Eigen::MatrixXd> MarginalCovariance(const std::vector<StateKey>& keys);
+  // Timed states still in the window, oldest first.
+  std::vector<StateKey> WindowKeys() const;
+  bool Contains(StateKey key) const { return states_.count(key) > 0; }
+  // Finishes a run: hands every timed state still in the window to on_marginalize (oldest
+  // first, with its current estimate) without removing it.
+  void Flush() const;
+
+ private:
+  struct State {
+    SmootherState spec;
+    std::vector<double> value;  // the solver's parameter block (stable address)
+    std::set<int> factors;      // ids of factors touching it
+  };
+  struct Factor {
+    SmootherFactor spec;
+    ceres::ResidualBlockId residual = nullptr;
+  };
+
+  Status AddFactor(SmootherFactor f);
+  Status MarginalizeOlderThan(double cutoff_s, int* count);
+
+  Options options_;
+  std::unique_ptr<ceres::Problem> problem_;
+  std::map<StateKey, State> states_;
+  std::map<int, Factor> factors_;
+  int next_factor_id_ = 0;
+  std::optional<double> newest_t_;
+  MarginalizeCallback on_marginalize_;
+  std::function<void(const std::vector<StateKey>&)> before_marginalize_;
+};
+
+}  // namespace walkgraph
+
+#endif  // WALKGRAPH_SMOOTHERS_FIXED_LAG_SMOOTHER_H_

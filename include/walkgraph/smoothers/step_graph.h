@@ -1,0 +1,165 @@
+// The step-level factor graph and its smoothers: fg-batch, fg-batch-selfcal, fg-window.
+//
+// Graph. Node k = 0..N at time t_k: position p_k ∈ R² and heading θ_k (AngleManifold). Node 0
+// is the walk's start; node k ≥ 1 ends step k−1 of the shared StepSequence (StepsForWalk:
+// PDR steps, foot-IMU strides or odometry increments). Factors:
+//   StepFactor(p_{k−1}, p_k, θ_k)            step length along the step's heading
+//   HeadingIncrementFactor(θ_{k−1}, θ_k [, b_g])  gyro heading change, optional constant gyro
+//                                                 bias b_g (estimated, weak prior)
+//   HeadingFactor(θ_k)                        per-step magnetometer heading (robust), optional
+//   OdometryFactor(p_{k−1}, θ_{k−1}, p_k, θ_k)  instead of the two above for odometry walks
+//   RssFactor / RssRangeFactor / ScaledRangeFactor  every radio reading, received at the position
+//                                             interpolated between the two nodes around it
+//   priors                                    initial pose (walk.yaml initial_pose), path loss,
+//                                             range bias, gyro bias (ceres::NormalPrior)
+// A step moves the walker only during the last max_step_duration_s before its node; a reading
+// in the pause before that is received at the previous node (stops are not smeared).
+// Path loss: a constant (A, η) block (the walk's radio model) — or, self-calibrating, one free
+// block for the walk or one per anchor with a weak prior. Ranges: ρ = (1 + s)·d + b (002 eq. 6)
+// with a bias block b per anchor and a scale block s for the walk (Plaza-style ranging radios
+// read long, and longer with distance) — each free with a weak prior, or held at 0.
+// Robust losses per factor type (none | huber | cauchy | soft-l1 | arctan | tukey, scale in σ).
+//
+// Gauge: with a known start (initial_pose) its prior fixes position and heading softly; with
+// no start but radio anchors the anchors fix the frame; with neither, node 0 is held constant
+// (the only gauge freedom of a dead-reckoning graph is its start pose).
+// Initialization: dead reckoning from the known start; without one, dead reckoning aligned by
+// the best rotation + translation (Umeyama) to the radio position fixes of the first
+// align_window_s seconds.
+//
+// fg-batch: every node and reading in one Ceres problem (SPARSE_NORMAL_CHOLESKY, SuiteSparse),
+// marginal covariances of (x, y, θ) per node by ceres::Covariance (when that fails — rank
+// deficiency — the trajectory comes back without covariances and diagnostics say so).
+// fg-window: the same factors fed node by node to FixedLagSmoother (lag in seconds); the
+// "lagged" output is each node's estimate when it leaves the window, the "online" output each
+// node's estimate right after the update that added it (data up to its own time only).
+#ifndef WALKGRAPH_SMOOTHERS_STEP_GRAPH_H_
+#define WALKGRAPH_SMOOTHERS_STEP_GRAPH_H_
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <yaml-cpp/yaml.h>
+
+#include "walkgraph/estimator.h"
+#include "walkgraph/pdr.h"
+#include "walkgraph/smoothers/fixed_lag_smoother.h"
+
+namespace walkgraph {
+
+struct StepGraphOptions {
+  PdrOptions pdr;  // the shared front end (YAML child "pdr")
+
+  // Motion model.
+  double sigma_cross_m = 0.05;        // StepFactor lateral σ per step
+  double step_sigma_scale = 1.0;      // × Step::sigma_length_m
+  double dheading_sigma_scale = 1.0;  // × Step::sigma_dheading_rad
+  double min_sigma_length_m = 0.01;   // floors
+  double min_sigma_dheading_rad = 1e-3;
+  double max_step_duration_s = 1.0;  // motion interval of one step (see the top)
+  bool estimate_gyro_bias = true;    // constant vertical gyro bias in heading increments
+  double gyro_bias_prior_sigma_radps = 0.02;
+  bool use_mag_heading = true;  // HeadingFactor per step when the steps carry it
+  double mag_heading_sigma_rad = 0.35;
+  std::string mag_heading_loss = "cauchy";
+  double mag_heading_loss_scale = 1.0;
+  // Odometry walks: OdometryFactor σ (the odometry-dr defaults).
+  double odometry_sigma_dist_frac = 0.05;
+  double odometry_sigma_dist_m = 0.001;
+  double odometry_sigma_cross_m = 0.01;
+  double odometry_sigma_dheading_rad = 0.01;
+
+  // Radio.
+  std::string rss_residual = "db";  // db (RssFactor) | range (RssRangeFactor, 004 eq. 7)
+  std::string rss_loss = "huber";
+  double rss_loss_scale = 2.0;  // in σ (residuals are whitened)
+  std::string range_loss = "cauchy";
+  double range_loss_scale = 2.0;
+  double receiver_height_m = 0.0;  // receiver z for the planar graph
+  double range_sigma_m = 0.0;      // > 0: overrides walk.meta.radio.range_sigma_m
+  // Self-calibration: fixed | global | per-anchor.
+  std::string path_loss = "fixed";
+  double A_prior_sigma_db = 10.0;
+  double eta_prior_sigma = 1.0;
+  std::string range_bias = "per-anchor";  // none | global | per-anchor
+  double range_bias_prior_sigma_m = 5.0;
+  std::string range_scale = "global";  // none | global | per-anchor: ρ = (1 + s)·d + b
+  double range_scale_prior_sigma = 0.1;
+
+  // Initialization and solver.
+  double align_window_s = 30.0;
+  int max_iterations = 100;
+  double function_tolerance = 1e-6;  // Ceres' relative cost-change stop (both smoothers)
+  double parameter_tolerance = 1e-8;
+  int num_threads = 1;
+  bool covariance = true;
+
+  // fg-window.
+  double lag_s = 10.0;
+  int window_max_iterations = 10;
+  std::string window_output = "lagged";  // lagged | online
+
+  // Keys: every field by its name, `pdr` a PdrOptions map; absent keys keep `defaults`.
+  static StatusOr<StepGraphOptions> FromYaml(const YAML::Node& node, const std::string& context,
+                                             StepGraphOptions defaults);
+};
+
+// Builds the graph of one walk, node by node (shared by the batch and the window smoother).
+class StepGraph {
+ public:
+  static StatusOr<std::unique_ptr<StepGraph>> Build(const Walk& walk,
+                                                    const StepGraphOptions& options);
+  ~StepGraph();
+
+  int num_nodes() const { return static_cast<int>(node_t_.size()); }
+  double node_time(int k) const { return node_t_[k]; }
+  static StateKey PositionKey(int k) { return 2 * static_cast<StateKey>(k); }
+  static StateKey HeadingKey(int k) { return 2 * static_cast<StateKey>(k) + 1; }
+
+  // Static (untimed) states: path loss, range bias, gyro bias blocks.
+  std::vector<SmootherState> StaticStates() const;
+  // Node k's two states, initialized from node k−1's (p, θ) by its step (dead reckoning);
+  // node 0 from the start.
+  std::vector<SmootherState> NodeStates(int k, const Eigen::Vector2d& prev_p,
+                                        double prev_theta) const;
+  // The initial (p, θ) of every node (dead reckoning from the start).
+  const std::vector<Eigen::Vector3d>& initial_nodes() const { return init_; }
+  // Every factor whose newest node is k (priors on static states come with k = 0).
+  std::vector<SmootherFactor> FactorsAt(int k) const;
+  // Whether node 0 must be held constant (no prior and no anchors: see the top of this file).
+  bool fix_first_node() const { return fix_first_node_; }
+
+ private:
+  StepGraph() = default;
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+  std::vector<double> node_t_;
+  std::vector<Eigen::Vector3d> init_;
+  bool fix_first_node_ = false;
+};
+
+// The estimators (registered as fg-batch, fg-batch-selfcal, fg-window, fg-window-online).
+class StepGraphBatch : public Estimator {
+ public:
+  explicit StepGraphBatch(StepGraphOptions options) : options_(std::move(options)) {}
+  Status CheckApplicable(const Walk& walk) const override;
+  StatusOr<EstimateResult> Run(const Walk& walk) const override;
+
+ private:
+  StepGraphOptions options_;
+};
+
+class StepGraphWindow : public Estimator {
+ public:
+  explicit StepGraphWindow(StepGraphOptions options) : options_(std::move(options)) {}
+  Status CheckApplicable(const Walk& walk) const override;
+  StatusOr<EstimateResult> Run(const Walk& walk) const override;
+
+ private:
+  StepGraphOptions options_;
+};
+
+}  // namespace walkgraph
+
+#endif  // WALKGRAPH_SMOOTHERS_STEP_GRAPH_H_

@@ -1,0 +1,234 @@
+#include "walkgraph/smoothers/fixed_lag_smoother.h"
+
+#include <algorithm>
+#include <string>
+
+namespace walkgraph {
+
+namespace {
+
+ceres::Problem::Options ProblemOptions() {
+  ceres::Problem::Options o;
+  // The smoother owns every cost function, loss and manifold, and frees them as states leave
+  // the window (a Problem that owned them would keep them until it is destroyed).
+  o.cost_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  o.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  o.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  o.enable_fast_removal = true;
+  return o;
+}
+
+std::string KeyName(StateKey k) { return "state " + std::to_string(k); }
+
+}  // namespace
+
+FixedLagSmoother::FixedLagSmoother(Options options)
+    : options_(options), problem_(std::make_unique<ceres::Problem>(ProblemOptions())) {}
+
+FixedLagSmoother::~FixedLagSmoother() {
+  problem_.reset();  // before the cost functions and manifolds it points to
+}
+
+Status FixedLagSmoother::AddFactor(SmootherFactor f) {
+  if (!f.cost) return InvalidArgument("fixed-lag smoother: factor without a cost function");
+  if (f.cost->parameter_block_sizes().size() != f.keys.size()) {
+    return InvalidArgument("fixed-lag smoother: factor has " +
+                           std::to_string(f.cost->parameter_block_sizes().size()) +
+                           " parameter blocks but " + std::to_string(f.keys.size()) + " keys");
+  }
+  std::vector<double*> blocks;
+  for (size_t i = 0; i < f.keys.size(); ++i) {
+    auto it = states_.find(f.keys[i]);
+    if (it == states_.end()) {
+      return InvalidArgument("fixed-lag smoother: factor on " + KeyName(f.keys[i]) +
+                             ", which is not in the window (unknown or already marginalized)");
+    }
+    if (static_cast<int>(it->second.value.size()) != f.cost->parameter_block_sizes()[i]) {
+      return InvalidArgument("fixed-lag smoother: block size mismatch on " + KeyName(f.keys[i]));
+    }
+    blocks.push_back(it->second.value.data());
+  }
+  const int id = next_factor_id_++;
+  Factor& stored = factors_[id];
+  stored.spec = std::move(f);
+  stored.residual = problem_->AddResidualBlock(
+      stored.spec.cost.get(), const_cast<ceres::LossFunction*>(stored.spec.loss.get()), blocks);
+  for (StateKey k : stored.spec.keys) states_[k].factors.insert(id);
+  return Status::Ok();
+}
+
+StatusOr<FixedLagSmoother::UpdateResult> FixedLagSmoother::Update(
+    std::vector<SmootherState> new_states, std::vector<SmootherFactor> new_factors) {
+  for (SmootherState& s : new_states) {
+    if (states_.count(s.key)) {
+      return InvalidArgument("fixed-lag smoother: " + KeyName(s.key) + " added twice");
+    }
+    if (s.value.empty()) return InvalidArgument("fixed-lag smoother: empty " + KeyName(s.key));
+    if (s.manifold && s.manifold->AmbientSize() != static_cast<int>(s.value.size())) {
+      return InvalidArgument("fixed-lag smoother: manifold size mismatch on " + KeyName(s.key));
+    }
+    State& st = states_[s.key];
+    st.value = s.value;
+    st.spec = std::move(s);
+    problem_->AddParameterBlock(st.value.data(), static_cast<int>(st.value.size()),
+                                const_cast<ceres::Manifold*>(st.spec.manifold.get()));
+    if (st.spec.constant) problem_->SetParameterBlockConstant(st.value.data());
+    if (st.spec.t_s) newest_t_ = std::max(newest_t_.value_or(*st.spec.t_s), *st.spec.t_s);
+  }
+  for (SmootherFactor& f : new_factors) WG_RETURN_IF_ERROR(AddFactor(std::move(f)));
+
+  UpdateResult result;
+  if (problem_->NumResidualBlocks() > 0) {
+    ceres::Solver::Options so;
+    so.linear_solver_type = options_.linear_solver;
+    so.max_num_iterations = options_.max_iterations;
+    so.function_tolerance = options_.function_tolerance;
+    so.parameter_tolerance = options_.parameter_tolerance;
+    so.num_threads = options_.num_threads;
+    so.logging_type = ceres::SILENT;
+    ceres::Solver::Summary summary;
+    ceres::Solve(so, problem_.get(), &summary);
+    if (summary.termination_type == ceres::FAILURE) {
+      return NumericalError("fixed-lag smoother: Ceres failed: " + summary.message);
+    }
+    result.ceres_iterations = static_cast<int>(summary.iterations.size());
+    result.final_cost = summary.final_cost;
+    result.converged = summary.termination_type == ceres::CONVERGENCE;
+  }
+  if (newest_t_) {
+    WG_RETURN_IF_ERROR(
+        MarginalizeOlderThan(*newest_t_ - options_.lag_s, &result.marginalized_states));
+  }
+  return result;
+}
+
+Status FixedLagSmoother::MarginalizeOlderThan(double cutoff_s, int* count) {
+  std::set<StateKey> old;
+  for (const auto& [key, st] : states_) {
+    if (st.spec.t_s && *st.spec.t_s < cutoff_s) old.insert(key);
+  }
+  *count = static_cast<int>(old.size());
+  if (old.empty()) return Status::Ok();
+
+  std::set<int> touching;
+  for (StateKey k : old) touching.insert(states_[k].factors.begin(), states_[k].factors.end());
+  std::vector<FactorRef> refs;
+  for (int id : touching) {
+    const Factor& f = factors_[id];
+    FactorRef r;
+    r.cost = f.spec.cost.get();
+    r.loss = f.spec.loss.get();
+    for (StateKey k : f.spec.keys) {
+      State& st = states_[k];
+      BlockRef b;
+      b.key = k;
+      b.values = st.value.data();
+      b.ambient_size = static_cast<int>(st.value.size());
+      b.manifold = st.spec.manifold.get();
+      b.constant = st.spec.constant;
+      r.blocks.push_back(b);
+    }
+    refs.push_back(std::move(r));
+  }
+  WG_ASSIGN_OR_RETURN(MarginalPrior prior, Marginalize(refs, old, options_.eigenvalue_tolerance));
+
+  if (before_marginalize_) before_marginalize_(std::vector<StateKey>(old.begin(), old.end()));
+  for (StateKey k : old) {
+    const State& st = states_[k];
+    if (on_marginalize_) on_marginalize_(k, *st.spec.t_s, st.value);
+  }
+  for (int id : touching) {
+    problem_->RemoveResidualBlock(factors_[id].residual);
+    for (StateKey k : factors_[id].spec.keys) {
+      auto it = states_.find(k);
+      if (it != states_.end()) it->second.factors.erase(id);
+    }
+    factors_.erase(id);
+  }
+  for (StateKey k : old) {
+    problem_->RemoveParameterBlock(states_[k].value.data());
+    states_.erase(k);
+  }
+  if (!prior.empty()) {
+    SmootherFactor f;
+    for (const BlockRef& b : prior.blocks) f.keys.push_back(b.key);
+    f.cost = prior.MakeCostFunction();
+    WG_RETURN_IF_ERROR(AddFactor(std::move(f)));
+  }
+  return Status::Ok();
+}
+
+StatusOr<std::vector<double>> FixedLagSmoother::Estimate(StateKey key) const {
+  auto it = states_.find(key);
+  if (it == states_.end())
+    return NotFound("fixed-lag smoother: " + KeyName(key) + " not in window");
+  return it->second.value;
+}
+
+StatusOr<Eigen::MatrixXd> FixedLagSmoother::MarginalCovariance(StateKey key) {
+  return MarginalCovariance(std::vector<StateKey>{key});
+}
+
+StatusOr<Eigen::MatrixXd> FixedLagSmoother::MarginalCovariance(const std::vector<StateKey>& keys) {
+  std::vector<const double*> blocks;
+  std::vector<int> offsets;
+  int n = 0;
+  for (StateKey key : keys) {
+    auto it = states_.find(key);
+    if (it == states_.end()) {
+      return NotFound("fixed-lag smoother: " + KeyName(key) + " not in window");
+    }
+    const double* block = it->second.value.data();
+    if (problem_->IsParameterBlockConstant(block)) {
+      return FailedPrecondition("fixed-lag smoother: " + KeyName(key) + " is held constant");
+    }
+    blocks.push_back(block);
+    offsets.push_back(n);
+    n += problem_->ParameterBlockTangentSize(block);
+  }
+  std::vector<std::pair<const double*, const double*>> pairs;
+  for (size_t i = 0; i < blocks.size(); ++i) {
+    for (size_t j = i; j < blocks.size(); ++j) pairs.emplace_back(blocks[i], blocks[j]);
+  }
+  ceres::Covariance::Options co;
+  co.algorithm_type = ceres::SPARSE_QR;
+  ceres::Covariance cov(co);
+  if (!cov.Compute(pairs, problem_.get())) {
+    return NumericalError("fixed-lag smoother: covariance not computable (rank-deficient window)");
+  }
+  Eigen::MatrixXd out(n, n);
+  for (size_t i = 0; i < blocks.size(); ++i) {
+    for (size_t j = i; j < blocks.size(); ++j) {
+      const int ni = problem_->ParameterBlockTangentSize(blocks[i]);
+      const int nj = problem_->ParameterBlockTangentSize(blocks[j]);
+      Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> c(ni, nj);
+      if (!cov.GetCovarianceBlockInTangentSpace(blocks[i], blocks[j], c.data())) {
+        return NumericalError("fixed-lag smoother: covariance block missing");
+      }
+      out.block(offsets[i], offsets[j], ni, nj) = c;
+      out.block(offsets[j], offsets[i], nj, ni) = c.transpose();
+    }
+  }
+  return out;
+}
+
+std::vector<StateKey> FixedLagSmoother::WindowKeys() const {
+  std::vector<std::pair<double, StateKey>> timed;
+  for (const auto& [key, st] : states_) {
+    if (st.spec.t_s) timed.emplace_back(*st.spec.t_s, key);
+  }
+  std::sort(timed.begin(), timed.end());
+  std::vector<StateKey> keys;
+  for (const auto& tk : timed) keys.push_back(tk.second);
+  return keys;
+}
+
+void FixedLagSmoother::Flush() const {
+  if (!on_marginalize_) return;
+  for (StateKey k : WindowKeys()) {
+    const State& st = states_.at(k);
+    on_marginalize_(k, *st.spec.t_s, st.value);
+  }
+}
+
+}  // namespace walkgraph

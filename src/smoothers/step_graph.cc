@@ -1,0 +1,822 @@
+#include "walkgraph/smoothers/step_graph.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <map>
+#include <set>
+
+#include <ceres/ceres.h>
+#include <ceres/normal_prior.h>
+#include <Eigen/Geometry>
+
+#include "estimators/builtin.h"
+#include "factors/angle_manifold.h"
+#include "factors/heading_factor.h"
+#include "factors/heading_increment_factor.h"
+#include "factors/odometry_factor.h"
+#include "factors/range_factor.h"
+#include "factors/rss_factor.h"
+#include "factors/rss_range_factor.h"
+#include "factors/step_factor.h"
+#include "walkgraph/angle.h"
+#include "walkgraph/config.h"
+#include "walkgraph/path_loss.h"
+#include "walkgraph/radio.h"
+#include "walkgraph/smoothers/chain_covariance.h"
+
+namespace walkgraph {
+
+namespace {
+
+bool OneOf(const std::string& v, std::initializer_list<const char*> allowed) {
+  for (const char* a : allowed) {
+    if (v == a) return true;
+  }
+  return false;
+}
+
+constexpr const char* kLosses = "none|huber|cauchy|soft-l1|arctan|tukey";
+
+bool IsLoss(const std::string& v) {
+  return OneOf(v, {"none", "huber", "cauchy", "soft-l1", "arctan", "tukey"});
+}
+
+// A robust loss on whitened residuals (scale in σ); nullptr for "none".
+std::shared_ptr<const ceres::LossFunction> MakeLoss(const std::string& name, double scale) {
+  if (name == "huber") return std::make_shared<ceres::HuberLoss>(scale);
+  if (name == "cauchy") return std::make_shared<ceres::CauchyLoss>(scale);
+  if (name == "soft-l1") return std::make_shared<ceres::SoftLOneLoss>(scale);
+  if (name == "arctan") return std::make_shared<ceres::ArctanLoss>(scale);
+  if (name == "tukey") return std::make_shared<ceres::TukeyLoss>(scale);
+  return nullptr;
+}
+
+// σ-whitened Gaussian prior r = diag(1/σ)(x − μ) (Ceres' NormalPrior).
+std::unique_ptr<ceres::CostFunction> DiagonalPrior(const Eigen::VectorXd& mean,
+                                                   const Eigen::VectorXd& sigma) {
+  ceres::Matrix A = sigma.cwiseInverse().asDiagonal();
+  return std::make_unique<ceres::NormalPrior>(A, mean);
+}
+
+}  // namespace
+
+StatusOr<StepGraphOptions> StepGraphOptions::FromYaml(const YAML::Node& node,
+                                                      const std::string& context,
+                                                      StepGraphOptions o) {
+  ConfigReader r(node, context);
+  const YAML::Node pdr = r.Child("pdr");
+  r.Read("sigma_cross_m", &o.sigma_cross_m);
+  r.Read("step_sigma_scale", &o.step_sigma_scale);
+  r.Read("dheading_sigma_scale", &o.dheading_sigma_scale);
+  r.Read("min_sigma_length_m", &o.min_sigma_length_m);
+  r.Read("min_sigma_dheading_rad", &o.min_sigma_dheading_rad);
+  r.Read("max_step_duration_s", &o.max_step_duration_s);
+  r.Read("estimate_gyro_bias", &o.estimate_gyro_bias);
+  r.Read("gyro_bias_prior_sigma_radps", &o.gyro_bias_prior_sigma_radps);
+  r.Read("use_mag_heading", &o.use_mag_heading);
+  r.Read("mag_heading_sigma_rad", &o.mag_heading_sigma_rad);
+  r.Read("mag_heading_loss", &o.mag_heading_loss);
+  r.Read("mag_heading_loss_scale", &o.mag_heading_loss_scale);
+  r.Read("odometry_sigma_dist_frac", &o.odometry_sigma_dist_frac);
+  r.Read("odometry_sigma_dist_m", &o.odometry_sigma_dist_m);
+  r.Read("odometry_sigma_cross_m", &o.odometry_sigma_cross_m);
+  r.Read("odometry_sigma_dheading_rad", &o.odometry_sigma_dheading_rad);
+  r.Read("rss_residual", &o.rss_residual);
+  r.Read("rss_loss", &o.rss_loss);
+  r.Read("rss_loss_scale", &o.rss_loss_scale);
+  r.Read("range_loss", &o.range_loss);
+  r.Read("range_loss_scale", &o.range_loss_scale);
+  r.Read("receiver_height_m", &o.receiver_height_m);
+  r.Read("range_sigma_m", &o.range_sigma_m);
+  r.Read("path_loss", &o.path_loss);
+  r.Read("A_prior_sigma_db", &o.A_prior_sigma_db);
+  r.Read("eta_prior_sigma", &o.eta_prior_sigma);
+  r.Read("range_bias", &o.range_bias);
+  r.Read("range_bias_prior_sigma_m", &o.range_bias_prior_sigma_m);
+  r.Read("range_scale", &o.range_scale);
+  r.Read("range_scale_prior_sigma", &o.range_scale_prior_sigma);
+  r.Read("align_window_s", &o.align_window_s);
+  r.Read("max_iterations", &o.max_iterations);
+  r.Read("function_tolerance", &o.function_tolerance);
+  r.Read("parameter_tolerance", &o.parameter_tolerance);
+  r.Read("num_threads", &o.num_threads);
+  r.Read("covariance", &o.covariance);
+  r.Read("lag_s", &o.lag_s);
+  r.Read("window_max_iterations", &o.window_max_iterations);
+  r.Read("window_output", &o.window_output);
+  WG_RETURN_IF_ERROR(r.Finish());
+  if (pdr.IsDefined()) {
+    WG_ASSIGN_OR_RETURN(o.pdr, PdrOptions::FromYaml(pdr));
+  }
+  auto positive = [&](double v, const char* name) -> Status {
+    if (!(v > 0)) return InvalidArgument(context + ": " + name + " must be > 0");
+    return Status::Ok();
+  };
+  WG_RETURN_IF_ERROR(positive(o.sigma_cross_m, "sigma_cross_m"));
+  WG_RETURN_IF_ERROR(positive(o.step_sigma_scale, "step_sigma_scale"));
+  WG_RETURN_IF_ERROR(positive(o.dheading_sigma_scale, "dheading_sigma_scale"));
+  WG_RETURN_IF_ERROR(positive(o.min_sigma_length_m, "min_sigma_length_m"));
+  WG_RETURN_IF_ERROR(positive(o.min_sigma_dheading_rad, "min_sigma_dheading_rad"));
+  WG_RETURN_IF_ERROR(positive(o.max_step_duration_s, "max_step_duration_s"));
+  WG_RETURN_IF_ERROR(positive(o.gyro_bias_prior_sigma_radps, "gyro_bias_prior_sigma_radps"));
+  WG_RETURN_IF_ERROR(positive(o.mag_heading_sigma_rad, "mag_heading_sigma_rad"));
+  WG_RETURN_IF_ERROR(positive(o.mag_heading_loss_scale, "mag_heading_loss_scale"));
+  WG_RETURN_IF_ERROR(positive(o.odometry_sigma_cross_m, "odometry_sigma_cross_m"));
+  WG_RETURN_IF_ERROR(positive(o.odometry_sigma_dheading_rad, "odometry_sigma_dheading_rad"));
+  WG_RETURN_IF_ERROR(positive(o.rss_loss_scale, "rss_loss_scale"));
+  WG_RETURN_IF_ERROR(positive(o.range_loss_scale, "range_loss_scale"));
+  WG_RETURN_IF_ERROR(positive(o.A_prior_sigma_db, "A_prior_sigma_db"));
+  WG_RETURN_IF_ERROR(positive(o.eta_prior_sigma, "eta_prior_sigma"));
+  WG_RETURN_IF_ERROR(positive(o.range_bias_prior_sigma_m, "range_bias_prior_sigma_m"));
+  WG_RETURN_IF_ERROR(positive(o.range_scale_prior_sigma, "range_scale_prior_sigma"));
+  WG_RETURN_IF_ERROR(positive(o.align_window_s, "align_window_s"));
+  WG_RETURN_IF_ERROR(positive(o.lag_s, "lag_s"));
+  WG_RETURN_IF_ERROR(positive(o.function_tolerance, "function_tolerance"));
+  WG_RETURN_IF_ERROR(positive(o.parameter_tolerance, "parameter_tolerance"));
+  if (o.odometry_sigma_dist_frac < 0 || o.odometry_sigma_dist_m < 0 ||
+      o.odometry_sigma_dist_frac + o.odometry_sigma_dist_m <= 0) {
+    return InvalidArgument(context + ": odometry_sigma_dist_frac/_m must be >= 0, not both 0");
+  }
+  if (o.range_sigma_m < 0) return InvalidArgument(context + ": range_sigma_m must be >= 0");
+  if (o.max_iterations < 1 || o.window_max_iterations < 1 || o.num_threads < 1) {
+    return InvalidArgument(context + ": max_iterations, window_max_iterations, num_threads >= 1");
+  }
+  if (!OneOf(o.rss_residual, {"db", "range"})) {
+    return InvalidArgument(context + ": rss_residual must be 'db' or 'range'");
+  }
+  for (const std::string* l : {&o.rss_loss, &o.range_loss, &o.mag_heading_loss}) {
+    if (!IsLoss(*l)) return InvalidArgument(context + ": loss '" + *l + "' is not " + kLosses);
+  }
+  if (!OneOf(o.path_loss, {"fixed", "global", "per-anchor"})) {
+    return InvalidArgument(context + ": path_loss must be fixed, global or per-anchor");
+  }
+  if (o.path_loss != "fixed" && o.rss_residual != "db") {
+    return InvalidArgument(context + ": path-loss self-calibration needs rss_residual 'db'");
+  }
+  if (!OneOf(o.range_bias, {"none", "global", "per-anchor"}) ||
+      !OneOf(o.range_scale, {"none", "global", "per-anchor"})) {
+    return InvalidArgument(context +
+                           ": range_bias and range_scale must be none, global or per-anchor");
+  }
+  if (!OneOf(o.window_output, {"lagged", "online"})) {
+    return InvalidArgument(context + ": window_output must be 'lagged' or 'online'");
+  }
+  return o;
+}
+
+// ------------------------------------------------------------------ the graph
+
+namespace {
+
+constexpr StateKey kGyroBiasKey = -1;
+StateKey PathLossKey(int group) { return -1000 - group; }      // group: anchor index or 0
+StateKey RangeBiasKey(int group) { return -100000 - group; }   // idem
+StateKey RangeScaleKey(int group) { return -200000 - group; }  // idem
+
+struct Reading {
+  int anchor = 0;  // index into walk.anchors
+  bool is_rss = true;
+  double value = 0.0;           // RSS or range
+  int node_a = 0, node_b = -1;  // node_b < 0: at node_a alone
+  double alpha = 0.0;
+};
+
+}  // namespace
+
+struct StepGraph::Impl {
+  StepGraphOptions o;
+  bool odometry = false;
+  std::vector<Step> steps;           // node k ≥ 1 ends steps[k − 1] (PDR walks)
+  std::vector<OdometrySample> odom;  // node k ≥ 1 ends odom[k − 1] (odometry walks)
+  std::vector<Anchor> anchors;
+  RadioDefaults radio;
+  std::optional<InitialPose> start;
+  std::vector<std::vector<Reading>> readings_at;  // by newest node
+  bool any_rss = false, any_range = false;
+  std::vector<bool> anchor_has_rss, anchor_has_range;
+  std::shared_ptr<const ceres::Manifold> angle = std::make_shared<AngleManifold>();
+  std::shared_ptr<const ceres::LossFunction> rss_loss, range_loss, mag_loss;
+
+  int PathLossGroup(int anchor) const { return o.path_loss == "per-anchor" ? anchor : 0; }
+  int RangeBiasGroup(int anchor) const { return o.range_bias == "per-anchor" ? anchor : 0; }
+  int RangeScaleGroup(int anchor) const { return o.range_scale == "per-anchor" ? anchor : 0; }
+};
+
+StepGraph::~StepGraph() = default;
+
+StatusOr<std::unique_ptr<StepGraph>> StepGraph::Build(const Walk& walk, const StepGraphOptions& o) {
+  std::unique_ptr<StepGraph> g(new StepGraph());
+  g->impl_ = std::make_unique<Impl>();
+  Impl& m = *g->impl_;
+  m.o = o;
+  m.anchors = walk.anchors;
+  m.radio = walk.meta.radio;
+  m.start = walk.meta.initial_pose;
+  m.odometry = walk.has_odometry();
+  m.rss_loss = MakeLoss(o.rss_loss, o.rss_loss_scale);
+  m.range_loss = MakeLoss(o.range_loss, o.range_loss_scale);
+  m.mag_loss = MakeLoss(o.mag_heading_loss, o.mag_heading_loss_scale);
+
+  std::vector<double> t;
+  if (m.odometry) {
+    m.odom = walk.odometry;
+    for (const OdometrySample& s : m.odom) t.push_back(s.t_s);
+  } else {
+    WG_ASSIGN_OR_RETURN(StepSequence seq, StepsForWalk(walk, o.pdr));
+    m.steps = std::move(seq.steps);
+    for (const Step& s : m.steps) t.push_back(s.t_s);
+  }
+  if (t.empty()) return FailedPrecondition("step graph: the walk has no steps or odometry");
+  for (size_t i = 1; i < t.size(); ++i) {
+    if (!(t[i] > t[i - 1])) {
+      return InvalidArgument("step graph: step times must increase (step " + std::to_string(i) +
+                             " at " + std::to_string(t[i]) + " s)");
+    }
+  }
+  const double first_duration = m.odometry ? 0.0 : m.steps.front().duration_s;
+  const double t0 =
+      std::min(walk.StartTime(), t.front() - std::max(std::min(first_duration, 1.0), 0.01));
+  g->node_t_.push_back(t0);
+  g->node_t_.insert(g->node_t_.end(), t.begin(), t.end());
+  const int n = g->num_nodes();
+
+  // Dead reckoning from the start (or the origin), θ the node heading.
+  Eigen::Vector3d x = Eigen::Vector3d::Zero();
+  if (m.start) x = Eigen::Vector3d(m.start->x_m, m.start->y_m, m.start->heading_rad);
+  g->init_.push_back(x);
+  for (int k = 1; k < n; ++k) {
+    if (m.odometry) {
+      const OdometrySample& s = m.odom[k - 1];
+      x.head<2>() += s.dist_m * Eigen::Vector2d(std::cos(x[2]), std::sin(x[2]));
+      x[2] = NormalizeAngle(x[2] + s.dheading_rad);
+    } else {
+      const Step& s = m.steps[k - 1];
+      x[2] = NormalizeAngle(x[2] + s.dheading_rad);
+      x.head<2>() += s.length_m * Eigen::Vector2d(std::cos(x[2]), std::sin(x[2]));
+    }
+    g->init_.push_back(x);
+  }
+
+  // Radio readings, attached to the node(s) around them.
+  m.anchor_has_rss.assign(walk.anchors.size(), false);
+  m.anchor_has_range.assign(walk.anchors.size(), false);
+  m.readings_at.assign(n, {});
+  auto attach = [&](double ts, Reading r) {
+    const auto it = std::lower_bound(g->node_t_.begin(), g->node_t_.end(), ts);
+    if (it == g->node_t_.begin()) {
+      r.node_a = 0;
+    } else if (it == g->node_t_.end()) {
+      r.node_a = n - 1;
+    } else {
+      const int b = static_cast<int>(it - g->node_t_.begin()), a = b - 1;
+      const double tb = g->node_t_[b];
+      const double ta = std::max(g->node_t_[a], tb - o.max_step_duration_s);
+      const double alpha = ts <= ta ? 0.0 : std::min(1.0, (ts - ta) / (tb - ta));
+      if (alpha <= 1e-9) {
+        r.node_a = a;
+      } else if (alpha >= 1.0 - 1e-9) {
+        r.node_a = b;
+      } else {
+        r.node_a = a, r.node_b = b, r.alpha = alpha;
+      }
+    }
+    m.readings_at[r.node_b >= 0 ? r.node_b : r.node_a].push_back(r);
+  };
+  for (const RssSample& s : walk.rss) {
+    const int a = walk.AnchorIndex(s.anchor_id);
+    if (a < 0)
+      return InvalidArgument("step graph: RSS from unknown anchor " + std::to_string(s.anchor_id));
+    m.anchor_has_rss[a] = true;
+    m.any_rss = true;
+    attach(s.t_s, Reading{a, true, s.rss});
+  }
+  for (const RangeSample& s : walk.ranges) {
+    const int a = walk.AnchorIndex(s.anchor_id);
+    if (a < 0)
+      return InvalidArgument("step graph: range from unknown anchor " +
+                             std::to_string(s.anchor_id));
+    m.anchor_has_range[a] = true;
+    m.any_range = true;
+    attach(s.t_s, Reading{a, false, s.range_m});
+  }
+
+  // Without a known start: align the dead reckoning to the first radio fixes; with no radio
+  // either, node 0 is the gauge.
+  if (!m.start) {
+    std::vector<Eigen::Vector2d> src, dst;
+    if (m.any_rss || m.any_range) {
+      EpochOptions eo;
+      eo.receiver_height_m = o.receiver_height_m;
+      auto fixes = PositionWalk(walk, eo, PositioningMethod::kNonlinearLs);
+      if (fixes.ok()) {
+        std::vector<const FixResult*> good;
+        for (const FixResult& f : *fixes) {
+          if (f.ok()) good.push_back(&f);
+        }
+        for (const FixResult* f : good) {
+          if (f->fix.t_s > t0 + o.align_window_s && src.size() >= 3) break;
+          const auto it = std::lower_bound(g->node_t_.begin(), g->node_t_.end(), f->fix.t_s);
+          Eigen::Vector2d q;
+          if (it == g->node_t_.begin()) {
+            q = g->init_.front().head<2>();
+          } else if (it == g->node_t_.end()) {
+            q = g->init_.back().head<2>();
+          } else {
+            const int b = static_cast<int>(it - g->node_t_.begin());
+            const double w = (f->fix.t_s - g->node_t_[b - 1]) / (g->node_t_[b] - g->node_t_[b - 1]);
+            q = (1 - w) * g->init_[b - 1].head<2>() + w * g->init_[b].head<2>();
+          }
+          src.push_back(q);
+          dst.push_back(f->fix.position_m);
+        }
+      }
+    }
+    if (src.size() >= 3) {
+      Eigen::Matrix2Xd S(2, src.size()), D(2, dst.size());
+      for (size_t i = 0; i < src.size(); ++i) {
+        S.col(static_cast<Eigen::Index>(i)) = src[i];
+        D.col(static_cast<Eigen::Index>(i)) = dst[i];
+      }
+      const Eigen::Matrix3d T = Eigen::umeyama(S, D, /*with_scaling=*/false);
+      const double rot = std::atan2(T(1, 0), T(0, 0));
+      for (Eigen::Vector3d& p : g->init_) {
+        p.head<2>() = T.topLeftCorner<2, 2>() * p.head<2>() + T.topRightCorner<2, 1>();
+        p[2] = NormalizeAngle(p[2] + rot);
+      }
+    } else {
+      g->fix_first_node_ = !(m.any_rss || m.any_range) || walk.anchors.size() < 3;
+    }
+  }
+  return g;
+}
+
+std::vector<SmootherState> StepGraph::StaticStates() const {
+  const Impl& m = *impl_;
+  std::vector<SmootherState> out;
+  const PathLossParams& pl = m.radio.path_loss;
+  if (m.any_rss && m.o.rss_residual == "db") {
+    std::set<int> groups;
+    for (size_t a = 0; a < m.anchors.size(); ++a) {
+      if (m.anchor_has_rss[a]) groups.insert(m.PathLossGroup(static_cast<int>(a)));
+    }
+    for (int gr : groups) {
+      SmootherState s;
+      s.key = PathLossKey(gr);
+      s.value = {pl.A_dbm, pl.eta};
+      s.constant = m.o.path_loss == "fixed";
+      out.push_back(std::move(s));
+    }
+  }
+  if (m.any_range) {
+    std::set<int> groups;
+    for (size_t a = 0; a < m.anchors.size(); ++a) {
+      if (m.anchor_has_range[a]) groups.insert(m.RangeBiasGroup(static_cast<int>(a)));
+    }
+    for (int gr : groups) {
+      SmootherState s;
+      s.key = RangeBiasKey(gr);
+      s.value = {0.0};
+      s.constant = m.o.range_bias == "none";
+      out.push_back(std::move(s));
+    }
+    std::set<int> scale_groups;
+    for (size_t a = 0; a < m.anchors.size(); ++a) {
+      if (m.anchor_has_range[a]) scale_groups.insert(m.RangeScaleGroup(static_cast<int>(a)));
+    }
+    for (int gr : scale_groups) {
+      SmootherState s;
+      s.key = RangeScaleKey(gr);
+      s.value = {0.0};
+      s.constant = m.o.range_scale == "none";
+      out.push_back(std::move(s));
+    }
+  }
+  if (!m.odometry && m.o.estimate_gyro_bias) {
+    SmootherState s;
+    s.key = kGyroBiasKey;
+    s.value = {0.0};
+    out.push_back(std::move(s));
+  }
+  return out;
+}
+
+std::vector<SmootherState> StepGraph::NodeStates(int k, const Eigen::Vector2d& prev_p,
+                                                 double prev_theta) const {
+  const Impl& m = *impl_;
+  Eigen::Vector3d x = init_[0];
+  if (k > 0) {
+    x = Eigen::Vector3d(prev_p.x(), prev_p.y(), prev_theta);
+    if (m.odometry) {
+      const OdometrySample& s = m.odom[k - 1];
+      x.head<2>() += s.dist_m * Eigen::Vector2d(std::cos(x[2]), std::sin(x[2]));
+      x[2] = NormalizeAngle(x[2] + s.dheading_rad);
+    } else {
+      const Step& s = m.steps[k - 1];
+      x[2] = NormalizeAngle(x[2] + s.dheading_rad);
+      x.head<2>() += s.length_m * Eigen::Vector2d(std::cos(x[2]), std::sin(x[2]));
+    }
+  }
+  SmootherState p, th;
+  p.key = PositionKey(k);
+  p.t_s = node_t_[k];
+  p.value = {x[0], x[1]};
+  th.key = HeadingKey(k);
+  th.t_s = node_t_[k];
+  th.value = {x[2]};
+  th.manifold = m.angle;
+  if (k == 0 && fix_first_node_) p.constant = th.constant = true;
+  return {p, th};
+}
+
+std::vector<SmootherFactor> StepGraph::FactorsAt(int k) const {
+  const Impl& m = *impl_;
+  const StepGraphOptions& o = m.o;
+  std::vector<SmootherFactor> out;
+  auto add = [&](ceres::CostFunction* cost, std::vector<StateKey> keys,
+                 std::shared_ptr<const ceres::LossFunction> loss = nullptr) {
+    SmootherFactor f;
+    f.cost.reset(cost);
+    f.keys = std::move(keys);
+    f.loss = std::move(loss);
+    out.push_back(std::move(f));
+  };
+  auto add_owned = [&](std::unique_ptr<ceres::CostFunction> cost, std::vector<StateKey> keys) {
+    SmootherFactor f;
+    f.cost = std::move(cost);
+    f.keys = std::move(keys);
+    out.push_back(std::move(f));
+  };
+
+  if (k == 0) {
+    if (m.start) {  // the known start pose
+      add_owned(DiagonalPrior(Eigen::Vector2d(m.start->x_m, m.start->y_m),
+                              Eigen::Vector2d::Constant(m.start->sigma_xy_m)),
+                {PositionKey(0)});
+      add(HeadingFactor::Create(m.start->heading_rad, m.start->sigma_heading_rad), {HeadingKey(0)});
+    }
+    for (const SmootherState& s : StaticStates()) {
+      if (s.constant) continue;
+      if (s.key == kGyroBiasKey) {
+        add_owned(DiagonalPrior(Eigen::VectorXd::Zero(1),
+                                Eigen::VectorXd::Constant(1, o.gyro_bias_prior_sigma_radps)),
+                  {s.key});
+      } else if (s.key <= RangeScaleKey(0)) {
+        add_owned(DiagonalPrior(Eigen::VectorXd::Zero(1),
+                                Eigen::VectorXd::Constant(1, o.range_scale_prior_sigma)),
+                  {s.key});
+      } else if (s.key <= RangeBiasKey(0)) {
+        add_owned(DiagonalPrior(Eigen::VectorXd::Zero(1),
+                                Eigen::VectorXd::Constant(1, o.range_bias_prior_sigma_m)),
+                  {s.key});
+      } else {  // path loss: weak prior at the walk's model
+        add_owned(DiagonalPrior(Eigen::Vector2d(s.value[0], s.value[1]),
+                                Eigen::Vector2d(o.A_prior_sigma_db, o.eta_prior_sigma)),
+                  {s.key});
+      }
+    }
+  } else if (m.odometry) {
+    const OdometrySample& s = m.odom[k - 1];
+    const double sd =
+        std::max(o.odometry_sigma_dist_frac * std::fabs(s.dist_m) + o.odometry_sigma_dist_m, 1e-6);
+    add(OdometryFactor::Create(s.dist_m, s.dheading_rad, sd, o.odometry_sigma_cross_m,
+                               o.odometry_sigma_dheading_rad),
+        {PositionKey(k - 1), HeadingKey(k - 1), PositionKey(k), HeadingKey(k)});
+  } else {
+    const Step& s = m.steps[k - 1];
+    const double sl = std::max(o.step_sigma_scale * s.sigma_length_m, o.min_sigma_length_m);
+    add(StepFactor::Create(s.length_m, sl, o.sigma_cross_m),
+        {PositionKey(k - 1), PositionKey(k), HeadingKey(k)});
+    const double sh =
+        std::max(o.dheading_sigma_scale * s.sigma_dheading_rad, o.min_sigma_dheading_rad);
+    if (o.estimate_gyro_bias) {
+      add(HeadingIncrementFactor::CreateWithBias(s.dheading_rad, node_t_[k] - node_t_[k - 1], sh),
+          {HeadingKey(k - 1), HeadingKey(k), kGyroBiasKey});
+    } else {
+      add(HeadingIncrementFactor::Create(s.dheading_rad, sh), {HeadingKey(k - 1), HeadingKey(k)});
+    }
+    if (o.use_mag_heading && s.has_mag_heading) {
+      add(HeadingFactor::Create(s.mag_heading_rad, o.mag_heading_sigma_rad), {HeadingKey(k)},
+          m.mag_loss);
+    }
+  }
+
+  const PathLossParams& pl = m.radio.path_loss;
+  const double sign = m.radio.units == RssUnits::kDbm ? 1.0 : -1.0;
+  const double range_sigma = o.range_sigma_m > 0 ? o.range_sigma_m : m.radio.range_sigma_m;
+  for (const Reading& r : m.readings_at[k]) {
+    const Eigen::Vector3d& anchor = m.anchors[r.anchor].position_m;
+    std::vector<StateKey> keys = {PositionKey(r.node_a)};
+    if (r.node_b >= 0) keys.push_back(PositionKey(r.node_b));
+    const bool two = r.node_b >= 0;
+    if (r.is_rss && o.rss_residual == "db") {
+      RssFactor<2>::Reading rd;
+      rd.rss = r.value;
+      rd.anchor_m = anchor;
+      rd.sigma_db = pl.sigma_db;
+      rd.sign = sign;
+      rd.d0_m = pl.d0_m;
+      rd.receiver_height_m = o.receiver_height_m;
+      keys.push_back(PathLossKey(m.PathLossGroup(r.anchor)));
+      add(two ? RssFactor<2>::CreateInterpolated(rd, r.alpha) : RssFactor<2>::Create(rd), keys,
+          m.rss_loss);
+    } else if (r.is_rss) {
+      RssRangeFactor<2>::Reading rd;
+      rd.rss = r.value;
+      rd.anchor_m = anchor;
+      rd.A = pl.A_dbm;
+      rd.eta = pl.eta;
+      rd.d0_m = pl.d0_m;
+      rd.sigma_db = pl.sigma_db;
+      rd.sign = sign;
+      rd.receiver_height_m = o.receiver_height_m;
+      add(two ? RssRangeFactor<2>::CreateInterpolated(rd, r.alpha) : RssRangeFactor<2>::Create(rd),
+          keys, m.rss_loss);
+    } else {
+      keys.push_back(RangeBiasKey(m.RangeBiasGroup(r.anchor)));
+      keys.push_back(RangeScaleKey(m.RangeScaleGroup(r.anchor)));
+      add(two ? ScaledRangeFactor<2>::CreateInterpolated(r.value, anchor, range_sigma, r.alpha,
+                                                         o.receiver_height_m)
+              : ScaledRangeFactor<2>::Create(r.value, anchor, range_sigma, o.receiver_height_m),
+          keys, m.range_loss);
+    }
+  }
+  return out;
+}
+
+// ------------------------------------------------------------------ estimators
+
+namespace {
+
+Status CheckStepWalk(const Walk& walk) {
+  if (!walk.has_odometry() && !walk.has_imu()) {
+    return FailedPrecondition("the step graph needs odometry.csv or an IMU (steps)");
+  }
+  return Status::Ok();
+}
+
+void AddStaticDiagnostics(const std::vector<SmootherState>& statics,
+                          const std::function<std::vector<double>(StateKey)>& value_of,
+                          const Walk& walk, const StepGraphOptions& o,
+                          std::map<std::string, double>* d) {
+  // Name: "<what>" for a walk-wide block, "<what>.<anchor id>" per anchor.
+  auto name = [&](const std::string& what, bool per_anchor, int group) {
+    return per_anchor ? what + "." + std::to_string(walk.anchors[group].id) : what;
+  };
+  for (const SmootherState& s : statics) {
+    if (s.constant) continue;
+    const std::vector<double> v = value_of(s.key);
+    if (s.key == kGyroBiasKey) {
+      (*d)["gyro_bias_radps"] = v[0];
+    } else if (s.key <= RangeScaleKey(0)) {
+      const int g = static_cast<int>(RangeScaleKey(0) - s.key);
+      (*d)[name("range_scale", o.range_scale == "per-anchor", g)] = v[0];
+    } else if (s.key <= RangeBiasKey(0)) {
+      const int g = static_cast<int>(RangeBiasKey(0) - s.key);
+      (*d)[name("range_bias_m", o.range_bias == "per-anchor", g)] = v[0];
+    } else {
+      const int g = static_cast<int>(PathLossKey(0) - s.key);
+      (*d)[name("path_loss_A", o.path_loss == "per-anchor", g)] = v[0];
+      (*d)[name("path_loss_eta", o.path_loss == "per-anchor", g)] = v[1];
+    }
+  }
+}
+
+TrajectoryPoint MakePoint(double t, const double* p, double theta) {
+  TrajectoryPoint pt;
+  pt.t_s = t;
+  pt.position_m = Eigen::Vector3d(p[0], p[1], 0.0);
+  pt.heading_rad = NormalizeAngle(theta);
+  return pt;
+}
+
+}  // namespace
+
+Status StepGraphBatch::CheckApplicable(const Walk& walk) const { return CheckStepWalk(walk); }
+
+StatusOr<EstimateResult> StepGraphBatch::Run(const Walk& walk) const {
+  WG_RETURN_IF_ERROR(CheckApplicable(walk));
+  WG_ASSIGN_OR_RETURN(std::unique_ptr<StepGraph> graph, StepGraph::Build(walk, options_));
+  const int n = graph->num_nodes();
+
+  ceres::Problem::Options po;
+  po.cost_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  po.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  po.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  std::map<StateKey, SmootherState> states;
+  std::vector<SmootherFactor> factors;
+  for (SmootherState& s : graph->StaticStates()) states[s.key] = std::move(s);
+  for (int k = 0; k < n; ++k) {
+    const Eigen::Vector3d& x = graph->initial_nodes()[k];
+    for (SmootherState& s : graph->NodeStates(k, x.head<2>(), x[2])) {
+      if (k > 0)
+        s.value = s.key == StepGraph::PositionKey(k) ? std::vector<double>{x[0], x[1]}
+                                                     : std::vector<double>{x[2]};
+      states[s.key] = std::move(s);
+    }
+    for (SmootherFactor& f : graph->FactorsAt(k)) factors.push_back(std::move(f));
+  }
+  ceres::Problem problem(po);
+  for (auto& [key, s] : states) {
+    problem.AddParameterBlock(s.value.data(), static_cast<int>(s.value.size()),
+                              const_cast<ceres::Manifold*>(s.manifold.get()));
+    if (s.constant) problem.SetParameterBlockConstant(s.value.data());
+  }
+  for (const SmootherFactor& f : factors) {
+    std::vector<double*> blocks;
+    for (StateKey k : f.keys) blocks.push_back(states.at(k).value.data());
+    problem.AddResidualBlock(f.cost.get(), const_cast<ceres::LossFunction*>(f.loss.get()), blocks);
+  }
+  ceres::Solver::Options so;
+  so.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
+  so.max_num_iterations = options_.max_iterations;
+  so.function_tolerance = options_.function_tolerance;
+  so.parameter_tolerance = options_.parameter_tolerance;
+  so.num_threads = options_.num_threads;
+  so.logging_type = ceres::SILENT;
+  ceres::Solver::Summary summary;
+  ceres::Solve(so, &problem, &summary);
+  if (summary.termination_type == ceres::FAILURE) {
+    return NumericalError("fg-batch: Ceres failed: " + summary.message);
+  }
+
+  EstimateResult result;
+  auto& d = result.diagnostics;
+  d["ceres_iterations"] = static_cast<double>(summary.iterations.size());
+  d["ceres_converged"] = summary.termination_type == ceres::CONVERGENCE ? 1.0 : 0.0;
+  d["final_cost"] = summary.final_cost;
+  d["nodes"] = n;
+  d["residual_blocks"] = problem.NumResidualBlocks();
+  AddStaticDiagnostics(
+      graph->StaticStates(), [&](StateKey k) { return states.at(k).value; }, walk, options_, &d);
+  for (int k = 0; k < n; ++k) {
+    result.trajectory.points.push_back(MakePoint(graph->node_time(k),
+                                                 states.at(StepGraph::PositionKey(k)).value.data(),
+                                                 states.at(StepGraph::HeadingKey(k)).value[0]));
+  }
+
+  if (options_.covariance) {
+    std::vector<std::vector<double*>> groups;
+    for (int k = 0; k < n; ++k) {
+      groups.push_back({states.at(StepGraph::PositionKey(k)).value.data(),
+                        states.at(StepGraph::HeadingKey(k)).value.data()});
+    }
+    std::vector<double*> statics;
+    for (const SmootherState& s : graph->StaticStates())
+      statics.push_back(states.at(s.key).value.data());
+    auto cov = ChainMarginalCovariances(&problem, groups, statics);
+    if (!cov.ok()) {
+      d["covariance_failed"] = 1.0;  // e.g. rank-deficient: trajectory without covariances
+    } else {
+      for (int k = 0; k < n; ++k) {
+        if ((*cov)[k].rows() == 3)
+          result.trajectory.points[k].covariance = Eigen::Matrix3d((*cov)[k]);
+      }
+    }
+  }
+  return result;
+}
+
+Status StepGraphWindow::CheckApplicable(const Walk& walk) const { return CheckStepWalk(walk); }
+
+StatusOr<EstimateResult> StepGraphWindow::Run(const Walk& walk) const {
+  WG_RETURN_IF_ERROR(CheckApplicable(walk));
+  WG_ASSIGN_OR_RETURN(std::unique_ptr<StepGraph> graph, StepGraph::Build(walk, options_));
+  const int n = graph->num_nodes();
+  const bool online = options_.window_output == "online";
+
+  FixedLagSmoother::Options so;
+  so.lag_s = options_.lag_s;
+  so.max_iterations = options_.window_max_iterations;
+  so.function_tolerance = options_.function_tolerance;
+  so.parameter_tolerance = options_.parameter_tolerance;
+  so.num_threads = options_.num_threads;
+  FixedLagSmoother smoother(so);
+
+  std::vector<TrajectoryPoint> points(n);
+  std::vector<bool> have(n, false);
+  auto node_of = [](StateKey key) { return static_cast<int>(key / 2); };
+  smoother.set_before_marginalize([&](const std::vector<StateKey>& keys) {
+    if (online || !options_.covariance) return;
+    for (StateKey key : keys) {
+      if (key % 2 != 0) continue;
+      const int k = node_of(key);
+      auto c = smoother.MarginalCovariance({key, StepGraph::HeadingKey(k)});
+      if (c.ok()) points[k].covariance = 0.5 * (*c + c->transpose());
+    }
+  });
+  smoother.set_on_marginalize([&](StateKey key, double t, const std::vector<double>& v) {
+    if (online) return;
+    const int k = node_of(key);
+    points[k].t_s = t;
+    if (key % 2 == 0) {
+      points[k].position_m = Eigen::Vector3d(v[0], v[1], 0.0);
+      have[k] = true;
+    } else {
+      points[k].heading_rad = NormalizeAngle(v[0]);
+    }
+  });
+
+  std::vector<double> latency;
+  latency.reserve(n);
+  int iterations = 0;
+  Eigen::Vector2d prev_p = graph->initial_nodes()[0].head<2>();
+  double prev_theta = graph->initial_nodes()[0][2];
+  for (int k = 0; k < n; ++k) {
+    std::vector<SmootherState> states =
+        k == 0 ? graph->StaticStates() : std::vector<SmootherState>();
+    for (SmootherState& s : graph->NodeStates(k, prev_p, prev_theta))
+      states.push_back(std::move(s));
+    const auto start = std::chrono::steady_clock::now();
+    WG_ASSIGN_OR_RETURN(FixedLagSmoother::UpdateResult u,
+                        smoother.Update(std::move(states), graph->FactorsAt(k)));
+    latency.push_back(
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+    iterations += u.ceres_iterations;
+    WG_ASSIGN_OR_RETURN(std::vector<double> p, smoother.Estimate(StepGraph::PositionKey(k)));
+    WG_ASSIGN_OR_RETURN(std::vector<double> h, smoother.Estimate(StepGraph::HeadingKey(k)));
+    prev_p = Eigen::Vector2d(p[0], p[1]);
+    prev_theta = h[0];
+    if (online) {
+      points[k] = MakePoint(graph->node_time(k), p.data(), h[0]);
+      have[k] = true;
+      if (options_.covariance) {
+        auto c = smoother.MarginalCovariance({StepGraph::PositionKey(k), StepGraph::HeadingKey(k)});
+        if (c.ok()) points[k].covariance = 0.5 * (*c + c->transpose());
+      }
+    }
+  }
+  if (!online) {
+    // The nodes still in the window at the end: their final (smoothed) estimates.
+    for (StateKey key : smoother.WindowKeys()) {
+      if (key % 2 != 0) continue;
+      const int k = node_of(key);
+      if (options_.covariance) {
+        auto c = smoother.MarginalCovariance({key, StepGraph::HeadingKey(k)});
+        if (c.ok()) points[k].covariance = 0.5 * (*c + c->transpose());
+      }
+    }
+    smoother.Flush();
+  }
+
+  EstimateResult result;
+  for (int k = 0; k < n; ++k) {
+    if (have[k]) result.trajectory.points.push_back(points[k]);
+  }
+  auto& d = result.diagnostics;
+  d["ceres_iterations"] = iterations;
+  d["nodes"] = n;
+  std::vector<double> sorted = latency;
+  std::sort(sorted.begin(), sorted.end());
+  auto pct = [&](double q) {
+    return sorted.empty()
+               ? 0.0
+               : sorted[std::min(sorted.size() - 1, static_cast<size_t>(q * sorted.size()))];
+  };
+  result.timings["update_latency_median_s"] = pct(0.5);
+  result.timings["update_latency_p99_s"] = pct(0.99);
+  result.timings["update_latency_max_s"] = sorted.empty() ? 0.0 : sorted.back();
+  AddStaticDiagnostics(
+      graph->StaticStates(),
+      [&](StateKey k) {
+        auto v = smoother.Estimate(k);
+        return v.ok() ? *v : std::vector<double>{0.0, 0.0};
+      },
+      walk, options_, &d);
+  return result;
+}
+
+namespace internal {
+
+void RegisterStepGraphSmoothers(EstimatorRegistry* registry) {
+  auto make = [](const char* id, StepGraphOptions defaults, bool window) {
+    return
+        [id, defaults, window](const YAML::Node& config) -> StatusOr<std::unique_ptr<Estimator>> {
+          WG_ASSIGN_OR_RETURN(StepGraphOptions o, StepGraphOptions::FromYaml(config, id, defaults));
+          if (window) return std::unique_ptr<Estimator>(new StepGraphWindow(o));
+          return std::unique_ptr<Estimator>(new StepGraphBatch(o));
+        };
+  };
+  StepGraphOptions selfcal;
+  selfcal.path_loss = "global";
+  StepGraphOptions online;
+  online.window_output = "online";
+  registry->Register({"fg-batch",
+                      "factor graph, full batch: steps/odometry + RSS (dB) / ranges (bias, "
+                      "robust), Ceres sparse Cholesky",
+                      make("fg-batch", StepGraphOptions(), false)});
+  registry->Register({"fg-batch-selfcal",
+                      "fg-batch with path-loss self-calibration (A, η estimated; weak prior)",
+                      make("fg-batch-selfcal", selfcal, false)});
+  registry->Register({"fg-window",
+                      "factor graph, fixed-lag smoother (10 s lag, marginalization prior): "
+                      "lagged estimates",
+                      make("fg-window", StepGraphOptions(), true)});
+  registry->Register({"fg-window-online",
+                      "fg-window's online output: each node right after its own update",
+                      make("fg-window-online", online, true)});
+}
+
+}  // namespace internal
+}  // namespace walkgraph

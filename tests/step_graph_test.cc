@@ -1,0 +1,231 @@
+// The step-level factor graph: the equivalences that catch marginalization bugs (batch ==
+// KF + RTS, window(lag > walk) == batch, window(finite lag) == the fixed-lag linear smoother)
+// on the exactly linear-Gaussian walk, then accuracy on simulated and real walks.
+#include "walkgraph/smoothers/step_graph.h"
+
+#include <cmath>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "test_util.h"
+#include "walkgraph/filters/kalman.h"
+#include "walkgraph/io.h"
+#include "walkgraph/metrics.h"
+#include "walkgraph/simulate.h"
+
+namespace walkgraph {
+namespace {
+
+// Options that make the graph's model the linear walk's: odometry σ_d = 0.05 m, ranges at
+// face value with the walk's σ, no robust loss, no bias. The walk is linear only along its
+// line: off it, a range to an anchor on the line curves as √(s² + l²), which with a weak
+// lateral constraint turns the on-line solution into a saddle (seen: the window slid off it).
+// Rigid heading increments and cross-track steps keep the lateral direction pinned, so the
+// 2-D graph is the 1-D linear problem.
+YAML::Node LinearConfig(double lag_s = 10.0) {
+  YAML::Node n;
+  n["odometry_sigma_dheading_rad"] = 1e-6;
+  n["odometry_sigma_cross_m"] = 1e-3;
+  n["odometry_sigma_dist_frac"] = 0.0;
+  n["odometry_sigma_dist_m"] = 0.05;
+  n["range_loss"] = "none";
+  n["range_bias"] = "none";
+  n["range_scale"] = "none";
+  n["lag_s"] = lag_s;
+  n["window_max_iterations"] = 50;
+  n["function_tolerance"] = 1e-14;  // converge fully: the comparisons are at 1e-6
+  n["parameter_tolerance"] = 1e-14;
+  return n;
+}
+
+// KF + RTS over the along-track coordinate s of the linear walk, using only the readings up to
+// node `last` (all when last < 0). Returns the smoothed s and its variance per node.
+struct Along {
+  std::vector<double> s, var;
+};
+Along LinearRts(const Walk& w, int last = -1) {
+  const Eigen::Vector2d start(w.meta.initial_pose->x_m, w.meta.initial_pose->y_m);
+  const double h = w.meta.initial_pose->heading_rad;
+  const Eigen::Vector2d u(std::cos(h), std::sin(h));
+  const double sa1 = (w.anchors[0].position_m.head<2>() - start).dot(u);
+  const double sa2 = (w.anchors[1].position_m.head<2>() - start).dot(u);
+  const int n = static_cast<int>(w.odometry.size()) + 1;
+  if (last < 0) last = n - 1;
+  const double sr = w.meta.radio.range_sigma_m;
+  std::vector<FilterEpoch> epochs;
+  Eigen::VectorXd x = Eigen::VectorXd::Zero(1);
+  Eigen::MatrixXd P = Eigen::MatrixXd::Constant(1, 1, std::pow(w.meta.initial_pose->sigma_xy_m, 2));
+  size_t ri = 0;
+  for (int k = 0; k < n; ++k) {
+    const double t = k == 0 ? 0.0 : w.odometry[k - 1].t_s;
+    FilterEpoch e;
+    e.t_s = t;
+    e.F = Eigen::MatrixXd::Identity(1, 1);
+    if (k > 0) {
+      x[0] += w.odometry[k - 1].dist_m;
+      P(0, 0) += 0.05 * 0.05;
+    }
+    e.x_prior = x;
+    e.P_prior = P;
+    while (ri < w.ranges.size() && w.ranges[ri].t_s <= t + 1e-9) {
+      const RangeSample& r = w.ranges[ri++];
+      if (k > last) continue;
+      const double sa = r.anchor_id == w.anchors[0].id ? sa1 : sa2;
+      const double sign = x[0] > sa ? 1.0 : -1.0;  // r = |s − s_a|, affine on each side
+      Eigen::VectorXd nu(1);
+      nu[0] = r.range_m - sign * (x[0] - sa);
+      auto out = KalmanUpdate(nu, Eigen::MatrixXd::Constant(1, 1, sign),
+                              Eigen::MatrixXd::Constant(1, 1, sr * sr), 0.0, &x, &P);
+      EXPECT_TRUE(out.ok());
+    }
+    e.x_post = x;
+    e.P_post = P;
+    epochs.push_back(e);
+  }
+  auto sm = RtsSmooth(epochs);
+  EXPECT_TRUE(sm.ok());
+  Along a;
+  for (const SmoothedState& s : *sm) {
+    a.s.push_back(s.x[0]);
+    a.var.push_back(s.P(0, 0));
+  }
+  return a;
+}
+
+double AlongOf(const Walk& w, const TrajectoryPoint& p) {
+  const Eigen::Vector2d start(w.meta.initial_pose->x_m, w.meta.initial_pose->y_m);
+  const double h = w.meta.initial_pose->heading_rad;
+  return (p.position_m.head<2>() - start).dot(Eigen::Vector2d(std::cos(h), std::sin(h)));
+}
+
+StatusOr<EstimateResult> RunId(const std::string& id, const Walk& walk, const YAML::Node& cfg) {
+  WG_ASSIGN_OR_RETURN(auto est, EstimatorRegistry::Builtin().Create(id, cfg));
+  return est->Run(walk);
+}
+
+TEST(StepGraphTest, BatchEqualsKalmanPlusRtsOnLinearGaussianWalk) {
+  auto w = SimulateScenario("linear-gaussian", 3, YAML::Load("{duration_s: 40}"));
+  ASSERT_TRUE(w.ok()) << w.status().message();
+  auto r = RunId("fg-batch", *w, LinearConfig());
+  ASSERT_TRUE(r.ok()) << r.status().message();
+  const Along rts = LinearRts(*w);
+  ASSERT_EQ(r->trajectory.size(), rts.s.size());
+  double worst = 0.0, worst_var = 0.0;
+  for (size_t k = 0; k < rts.s.size(); ++k) {
+    const TrajectoryPoint& p = r->trajectory.points[k];
+    worst = std::max(worst, std::fabs(AlongOf(*w, p) - rts.s[k]));
+    ASSERT_TRUE(p.covariance.has_value());
+    const double h = w->meta.initial_pose->heading_rad;
+    const Eigen::Vector2d u(std::cos(h), std::sin(h));
+    const double var = u.dot(p.covariance->topLeftCorner<2, 2>() * u);
+    worst_var = std::max(worst_var, std::fabs(var - rts.var[k]) / rts.var[k]);
+  }
+  EXPECT_LT(worst, 1e-6);
+  EXPECT_LT(worst_var, 1e-6);  // the marginal covariances are the RTS variances
+}
+
+TEST(StepGraphTest, WindowLongerThanTheWalkEqualsBatch) {
+  auto w = SimulateScenario("linear-gaussian", 4, YAML::Load("{duration_s: 30}"));
+  ASSERT_TRUE(w.ok());
+  auto batch = RunId("fg-batch", *w, LinearConfig());
+  auto window = RunId("fg-window", *w, LinearConfig(1000.0));
+  ASSERT_TRUE(batch.ok() && window.ok());
+  ASSERT_EQ(batch->trajectory.size(), window->trajectory.size());
+  for (size_t k = 0; k < batch->trajectory.size(); ++k) {
+    EXPECT_LT(
+        (batch->trajectory.points[k].position_m - window->trajectory.points[k].position_m).norm(),
+        1e-6);
+  }
+}
+
+TEST(StepGraphTest, FiniteLagEqualsFixedLagLinearSmoother) {
+  // Lag 3 s at 2 steps/s: node k leaves the window in the update of the first node j with
+  // t_j − 3 > t_k, and its lagged estimate must be E[s_k | readings up to node j].
+  auto w = SimulateScenario("linear-gaussian", 5, YAML::Load("{duration_s: 25}"));
+  ASSERT_TRUE(w.ok());
+  const double lag = 3.0;
+  auto window = RunId("fg-window", *w, LinearConfig(lag));
+  ASSERT_TRUE(window.ok()) << window.status().message();
+  const int n = static_cast<int>(w->odometry.size()) + 1;
+  ASSERT_EQ(static_cast<int>(window->trajectory.size()), n);
+  auto node_t = [&](int k) { return k == 0 ? 0.0 : w->odometry[k - 1].t_s; };
+  double worst = 0.0;
+  int checked = 0;
+  for (int k = 0; k < n; ++k) {
+    int j = k;
+    while (j < n && !(node_t(j) - lag > node_t(k))) ++j;
+    const Along ref = LinearRts(*w, j < n ? j : n - 1);
+    worst = std::max(worst, std::fabs(AlongOf(*w, window->trajectory.points[k]) - ref.s[k]));
+    ++checked;
+  }
+  EXPECT_EQ(checked, n);
+  EXPECT_LT(worst, 1e-6);
+  // And it is not the full smoother (the test would pass vacuously if the lag were ignored).
+  const Along full = LinearRts(*w);
+  double diff = 0.0;
+  for (int k = 0; k < n; ++k) {
+    diff = std::max(diff, std::fabs(AlongOf(*w, window->trajectory.points[k]) - full.s[k]));
+  }
+  EXPECT_GT(diff, 1e-3);
+}
+
+TEST(StepGraphTest, OnlineOutputUsesOnlyPastData) {
+  // The online estimate of node k equals the filtered (not smoothed) KF estimate at k.
+  auto w = SimulateScenario("linear-gaussian", 6, YAML::Load("{duration_s: 15}"));
+  ASSERT_TRUE(w.ok());
+  auto online = RunId("fg-window-online", *w, LinearConfig());
+  ASSERT_TRUE(online.ok()) << online.status().message();
+  const int n = static_cast<int>(w->odometry.size()) + 1;
+  double worst = 0.0;
+  for (int k = 0; k < n; ++k) {
+    const Along ref = LinearRts(*w, k);  // data up to k, smoothed: at k itself = filtered
+    worst = std::max(worst, std::fabs(AlongOf(*w, online->trajectory.points[k]) - ref.s[k]));
+  }
+  EXPECT_LT(worst, 1e-6);
+}
+
+TEST(StepGraphTest, OptionsAreStrict) {
+  const auto& reg = EstimatorRegistry::Builtin();
+  for (const char* id : {"fg-batch", "fg-batch-selfcal", "fg-window", "fg-window-online"}) {
+    EXPECT_TRUE(reg.Create(id, YAML::Node()).ok()) << id;
+    EXPECT_FALSE(reg.Create(id, YAML::Load("{no_such_option: 1}")).ok()) << id;
+  }
+  EXPECT_FALSE(reg.Create("fg-batch", YAML::Load("{rss_loss: magic}")).ok());
+  EXPECT_FALSE(reg.Create("fg-batch", YAML::Load("{path_loss: global, rss_residual: range}")).ok());
+  EXPECT_FALSE(reg.Create("fg-batch", YAML::Load("{lag_s: 0}")).ok());
+  EXPECT_FALSE(reg.Create("fg-batch", YAML::Load("{pdr: {detector: nope}}")).ok());
+}
+
+TEST(StepGraphTest, WalkWithoutStepsIsNotApplicable) {
+  Walk w;
+  w.meta.name = "radio only";
+  w.anchors = {{1, Eigen::Vector3d::Zero()}};
+  w.ranges = {{0.0, 1, 3.0}};
+  auto est = EstimatorRegistry::Builtin().Create("fg-batch");
+  ASSERT_TRUE(est.ok());
+  EXPECT_FALSE((*est)->CheckApplicable(w).ok());
+}
+
+TEST(StepGraphRealData, Plaza1BatchWithRangeBiasesAndRobustLoss) {
+  auto w = ReadWalk(std::string(WALKGRAPH_SOURCE_DIR) + "/datasets/plaza1");
+  ASSERT_TRUE(w.ok()) << w.status().message();
+  auto r = RunId("fg-batch", *w, YAML::Node());
+  ASSERT_TRUE(r.ok()) << r.status().message();
+  auto e = ComputeErrors(*w, r->trajectory);
+  ASSERT_TRUE(e.ok());
+  const ErrorStats s = SummarizeErrors(e->error_m, w->TruthDistance());
+  std::printf("Plaza1 fg-batch: RMSE %.3f m, mean %.3f m, p90 %.3f m\n", s.rmse_m, s.mean_m,
+              s.p90_m);
+  for (const auto& [k, v] : r->diagnostics) {
+    if (k.rfind("range_", 0) == 0) std::printf("  %s = %.3f\n", k.c_str(), v);
+  }
+  // Issue 8's target is 1.0 m (dead reckoning alone gives 1.97 m, ranges at face value
+  // 3.1-3.3 m); with the affine range model (bias + scale) this walk reaches ≈0.31 m, so hold
+  // it well below the target, where a regression in the range model would show.
+  EXPECT_LE(s.rmse_m, 0.5);
+  EXPECT_NEAR(r->diagnostics.at("range_scale"), 0.07, 0.03);  // range − d grows ≈7 % of d
+}
+
+}  // namespace
+}  // namespace walkgraph
