@@ -19,11 +19,13 @@
 // correa-ekf-rts, correa-scmt-ekf-rts) gather the inputs from the shared front ends with 001's
 // choices (Sec. II, IV):
 //   fixes: RSS averaged per anchor over 1 s epochs (motes beacon at 1 Hz; one EKF epoch per
-//     second), ML ranges (eq. 14), nonlinear LS position (eq. 5);
+//     second), ML ranges (eq. 14), nonlinear LS position (eq. 5) with equal weights as
+//     written (radio: {weighted: true} for the 1/σ² weights), Gauss–Newton to 1 mm;
 //   steps (StepsForWalk): ‖a‖ low-passed by an order-20, 3 Hz linear-phase FIR, local maxima
 //     above a threshold (eq. 6); constant step length l_step (eq. 6); heading from the
 //     complementary gyro/magnetometer blend (eq. 7);
-//   P_max (SCMT): the strongest single RSS reading of the epoch, from RangeMeasurementsFromWalk.
+//   P_max (SCMT, "max R" of the epoch's readings): the epoch's strongest RSS (averaged per
+//     anchor in dB; one reading per mote at 1 Hz) at the fix time, with that anchor's position.
 // On a walk with odometry.csv the steps are its increments, and V̂ sums their lengths instead of
 // counting l_step per step. correa-ls outputs the LS fixes themselves. Config: CorreaEkfOptions
 // keys (except `scmt` and `smooth`, which the id chooses), `pdr:` and `radio:` child maps

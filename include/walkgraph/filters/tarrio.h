@@ -24,7 +24,8 @@
 //   fixes: RSS averaged per anchor over ΔT = 2 s epochs (Sec. IV: "n values ... averaged"),
 //     positioned by the weighted hyperbolic algorithm (eq. 2).
 // Config: the TarrioKfOptions keys (except `smooth`, which the id chooses), `pdr:` and `radio:`
-// child maps (filters/front_end.h), and for pdr-only `start: first-fix | initial-pose`.
+// child maps (filters/front_end.h; rss-only has no `pdr:`), and for pdr-only
+// `start: first-fix | initial-pose`. The TarrioKfOptions keys shape the baselines' covariances.
 #ifndef WALKGRAPH_FILTERS_TARRIO_H_
 #define WALKGRAPH_FILTERS_TARRIO_H_
 
