@@ -5,6 +5,10 @@
 
 #include <gtest/gtest.h>
 
+#include "test_util.h"
+#include "walkgraph/compare.h"
+#include "walkgraph/simulate.h"
+
 namespace walkgraph {
 namespace {
 
@@ -139,6 +143,91 @@ TEST(CorreaEkfOptionsTest, DefaultsAndValidation) {
   EXPECT_FALSE(o->scmt);
   EXPECT_FALSE(CorreaEkfOptions::FromYaml(YAML::Load("{p_fa: 1.0}"), "c").ok());
   EXPECT_FALSE(CorreaEkfOptions::FromYaml(YAML::Load("{foo: 1.0}"), "c").ok());
+}
+
+// ------------------------------------------------------------------ simulator presets
+// 001 Sec. IV through the full front ends, registry defaults (1 s epochs, unweighted LS of
+// eq. 5, FIR steps with l_step = 0.7 m, complementary heading, P_FA = 5 %), seeded Monte
+// Carlo. Note: the simulated walkers' own step length is 0.32 + 0.26·v ≈ 0.55–0.58 m, so the
+// default l_step (not "adapted for every user") over-reads the speed by ≈ 25 %; with the
+// walker's l_step the EKF is ≈ 1.5 m RMSE on the classroom and SCMT does not improve on it
+// (see the closing note of this unit's branch).
+
+Comparison CorreaMonteCarlo(const std::string& scenario, const std::string& overrides, int runs,
+                            uint64_t seed) {
+  CompareOptions co;
+  co.estimator_ids = {"correa-ls", "correa-ekf", "correa-scmt-ekf", "correa-ekf-rts",
+                      "correa-scmt-ekf-rts"};
+  MonteCarloOptions mc;
+  mc.runs = runs;
+  mc.seed = seed;
+  auto c = CompareMonteCarlo(
+      [&](uint64_t s) { return SimulateScenario(scenario, s, YAML::Load(overrides)); }, co, mc);
+  EXPECT_TRUE(c.ok()) << c.status().message();
+  if (!c.ok()) return {};
+  for (const EstimatorOutcome& o : c->outcomes) {
+    EXPECT_TRUE(o.status.ok()) << o.id << ": " << o.status.message();
+    EXPECT_EQ(o.failed_runs, 0) << o.id;
+  }
+  return *c;
+}
+
+const ErrorStats& StatsOf(const Comparison& c, const std::string& id) {
+  for (const EstimatorOutcome& o : c.outcomes) {
+    if (o.id == id) return o.stats;
+  }
+  static const ErrorStats none;
+  ADD_FAILURE() << "no outcome " << id;
+  return none;
+}
+
+void RecordStats(const Comparison& c) {
+  for (const EstimatorOutcome& o : c.outcomes) {
+    ::testing::Test::RecordProperty(o.id + "_rmse_m", std::to_string(o.stats.rmse_m));
+    ::testing::Test::RecordProperty(o.id + "_p90_m", std::to_string(o.stats.p90_m));
+  }
+}
+
+// Classroom (6 laps of the 46.4 m rectangle ≈ 5 min; the paper's rounds last > 20 min):
+// SCMT-EKF RMSE ≤ 0.65 × EKF (paper 1.3 / 2.8 m), both better than LS — in the 90th
+// percentile, the figure the paper gives for LS (8 / 5.8 / 2.3 m). In RMSE the EKF is NOT
+// better than LS here (≈ 2.73 vs 2.71 m): recorded, not asserted. RTS ≤ its causal filter.
+TEST(CorreaPresetTest, ScmtCutsTheEkfErrorOnTheClassroom) {
+  const Comparison c =
+      CorreaMonteCarlo("correa-classroom", "{laps: 6}", testing::MonteCarloRuns(50), 1);
+  ASSERT_EQ(c.outcomes.size(), 5u);
+  RecordStats(c);
+  const ErrorStats &ls = StatsOf(c, "correa-ls"), &ekf = StatsOf(c, "correa-ekf"),
+                   &scmt = StatsOf(c, "correa-scmt-ekf"), &ekf_rts = StatsOf(c, "correa-ekf-rts"),
+                   &scmt_rts = StatsOf(c, "correa-scmt-ekf-rts");
+  if (testing::kSanitized) return;  // accuracy is judged on the full Release run count
+  EXPECT_LE(scmt.rmse_m, 0.65 * ekf.rmse_m);
+  EXPECT_LT(ekf.p90_m, ls.p90_m);
+  EXPECT_LT(scmt.p90_m, ls.p90_m);
+  EXPECT_LT(scmt.rmse_m, ls.rmse_m);
+  EXPECT_LE(ekf_rts.rmse_m, ekf.rmse_m);
+  EXPECT_LE(scmt_rts.rmse_m, scmt.rmse_m);
+}
+
+// Corridor (A → B → A with stops, the whole preset ≈ 2 min): both filters better than LS in
+// RMSE and 90th percentile, RTS ≤ causal. The SCMT-EKF ≤ 0.65 × EKF (paper 1.5 /
+// 2.9 m) is NOT met here (≈ 0.86): the path runs 1 m from the wall motes, so every SCMT snap
+// puts the estimate ~1 m off, and snaps fire at 1–2.5 m (σ_γ = 4 dB) — recorded, not asserted.
+TEST(CorreaPresetTest, FiltersBeatLsOnTheCorridor) {
+  const Comparison c = CorreaMonteCarlo("correa-corridor", "{}", testing::MonteCarloRuns(50), 2);
+  ASSERT_EQ(c.outcomes.size(), 5u);
+  RecordStats(c);
+  const ErrorStats &ls = StatsOf(c, "correa-ls"), &ekf = StatsOf(c, "correa-ekf"),
+                   &scmt = StatsOf(c, "correa-scmt-ekf"), &ekf_rts = StatsOf(c, "correa-ekf-rts"),
+                   &scmt_rts = StatsOf(c, "correa-scmt-ekf-rts");
+  RecordProperty("scmt_over_ekf_rmse", std::to_string(scmt.rmse_m / ekf.rmse_m));
+  if (testing::kSanitized) return;
+  EXPECT_LT(ekf.rmse_m, ls.rmse_m);
+  EXPECT_LT(scmt.rmse_m, ls.rmse_m);
+  EXPECT_LT(ekf.p90_m, ls.p90_m);
+  EXPECT_LT(scmt.p90_m, ls.p90_m);
+  EXPECT_LE(ekf_rts.rmse_m, ekf.rmse_m);
+  EXPECT_LE(scmt_rts.rmse_m, scmt.rmse_m);
 }
 
 }  // namespace

@@ -8,6 +8,9 @@
 namespace walkgraph::internal {
 
 void RegisterOdometryDeadReckoning(EstimatorRegistry* registry);
+void RegisterTarrio(EstimatorRegistry* registry);  // filters/tarrio.cc
+void RegisterCorrea(EstimatorRegistry* registry);  // filters/correa.cc
+void RegisterGadeke(EstimatorRegistry* registry);  // filters/gadeke.cc
 void RegisterStepGraphSmoothers(EstimatorRegistry* registry);
 
 }  // namespace walkgraph::internal

@@ -7,6 +7,9 @@ const EstimatorRegistry& EstimatorRegistry::Builtin() {
   static const EstimatorRegistry* registry = [] {
     auto* r = new EstimatorRegistry();
     internal::RegisterOdometryDeadReckoning(r);
+    internal::RegisterTarrio(r);
+    internal::RegisterCorrea(r);
+    internal::RegisterGadeke(r);
     internal::RegisterStepGraphSmoothers(r);
     return r;
   }();

@@ -3,7 +3,10 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <map>
+#include <sstream>
 
+#include "estimators/builtin.h"
 #include "walkgraph/angle.h"
 #include "walkgraph/config.h"
 #include "walkgraph/filters/kalman.h"
@@ -210,4 +213,144 @@ StatusOr<EstimateResult> RunCorreaEkf(const CorreaInputs& in, const CorreaEkfOpt
   return result;
 }
 
+// ------------------------------------------------------------------ estimators on a Walk
+
+CorreaEstimatorOptions CorreaEstimatorOptions::PaperDefaults() {
+  CorreaEstimatorOptions o;
+  o.pdr.detector = StepDetector::kFirMagnitude;      // eq. 6: FIR order 20, 3 Hz, maxima
+  o.pdr.length_model = StepLengthModel::kConstant;   // eq. 6: constant l_step per user
+  o.pdr.constant_length_m = o.filter.step_length_m;  // (the filter's l_step is used for V̂)
+  o.pdr.heading = HeadingMethod::kComplementary;     // eq. 7
+  o.radio.epochs.window_s = 1.0;                     // motes beacon at 1 Hz (Sec. IV)
+  o.radio.epochs.bias_corrected = false;             // ML range (eq. 14)
+  o.radio.method = PositioningMethod::kNonlinearLs;  // eq. 5
+  o.radio.weighted = false;                          // eq. 5: unweighted squared range errors
+  // Gauss–Newton to 1 mm in up to 100 iterations: near an anchor the cost is not smooth and
+  // the front end's defaults (1e-6 m, 20) leave ~40 % of the classroom epochs without a fix.
+  o.radio.positioning.tolerance_m = 1e-3;
+  o.radio.positioning.max_iterations = 100;
+  return o;
+}
+
+StatusOr<CorreaEstimatorOptions> CorreaEstimatorOptions::FromYaml(const YAML::Node& node,
+                                                                  CorreaVariant variant,
+                                                                  bool smooth,
+                                                                  const std::string& id) {
+  CorreaEstimatorOptions o = PaperDefaults();
+  WG_ASSIGN_OR_RETURN(const YAML::Node own, WithoutKeys(node, {"pdr", "radio"}, id));
+  for (const char* key : {"scmt", "smooth"}) {
+    if (own[key]) {
+      return InvalidArgument(id + ": option '" + key +
+                             "' is chosen by the estimator id (correa-ekf, correa-scmt-ekf, "
+                             "-rts), not by the config");
+    }
+  }
+  ConfigReader r(node, id);
+  const YAML::Node radio = r.Child("radio");
+  YAML::Node pdr;
+  if (variant != CorreaVariant::kLs) {
+    WG_ASSIGN_OR_RETURN(o.filter, CorreaEkfOptions::FromYaml(own, id));
+    pdr = r.Child("pdr");
+    for (const auto& kv : own) r.Child(kv.first.Scalar());
+  }
+  WG_RETURN_IF_ERROR(r.Finish());  // correa-ls: only radio
+  o.filter.scmt = variant == CorreaVariant::kScmtEkf;
+  o.filter.smooth = smooth;
+  WG_ASSIGN_OR_RETURN(o.radio, RadioFrontEndOptions::FromYaml(radio, o.radio, id));
+  std::map<std::string, std::string> pdr_defaults = {
+      {"detector", "fir-magnitude"}, {"length_model", "constant"}, {"heading", "complementary"}};
+  if (o.filter.step_length_m > 0) {
+    std::ostringstream length;
+    length.precision(17);
+    length << o.filter.step_length_m;
+    pdr_defaults["constant_length_m"] = length.str();
+  }
+  WG_ASSIGN_OR_RETURN(o.pdr, PdrOptionsFromYaml(pdr, pdr_defaults, id + " pdr"));
+  return o;
+}
+
+Status CorreaEstimator::CheckApplicable(const Walk& walk) const {
+  if (variant_ != CorreaVariant::kLs) {
+    WG_RETURN_IF_ERROR(CheckStepInput(walk, options_.pdr, true, id_));
+  }
+  WG_RETURN_IF_ERROR(CheckRadioInput(walk, 3, id_));
+  if (variant_ == CorreaVariant::kScmtEkf) {
+    if (!walk.has_rss()) {
+      return FailedPrecondition(id_ +
+                                " needs RSS readings (rss.csv): SCMT compares the strongest "
+                                "RSS of each epoch with P_Th (001 eq. 21)");
+    }
+    if (walk.meta.radio.units != RssUnits::kDbm) {
+      return FailedPrecondition(id_ + " needs RSS in dBm (P_Th of 001 eq. 19)");
+    }
+  }
+  return Status::Ok();
+}
+
+StatusOr<EstimateResult> CorreaEstimator::Run(const Walk& walk) const {
+  WG_RETURN_IF_ERROR(CheckApplicable(walk));
+  WG_ASSIGN_OR_RETURN(FixesFromFrontEnd fixes,
+                      PositionFixesFromFrontEnd(walk, options_.radio, id_));
+  if (variant_ == CorreaVariant::kLs) {
+    EstimateResult result;
+    result.trajectory = TrajectoryOfFixes(fixes.fixes);
+    result.diagnostics["radio_epochs"] = fixes.epochs;
+    result.diagnostics["radio_epochs_without_fix"] = fixes.failed_epochs;
+    return result;
+  }
+  CorreaInputs in;
+  in.fixes = std::move(fixes.fixes);
+  WG_ASSIGN_OR_RETURN(in.steps, StepsFromFrontEnd(walk, options_.pdr, true, id_));
+  // P_max = max R over the epoch's readings (Sec. III): one reading per fix, at the fix time.
+  if (variant_ == CorreaVariant::kScmtEkf) in.rss = std::move(fixes.strongest);
+  in.model = PathLossModel(walk.meta.radio.path_loss, walk.meta.radio.units);
+  for (const Anchor& a : walk.anchors) in.anchor_xy.push_back(a.position_m.head<2>());
+  CorreaEkfOptions filter = options_.filter;
+  // Odometry increments are not detected steps of one constant length: V̂ (eq. 6) then sums
+  // their measured lengths.
+  if (walk.has_odometry()) filter.step_length_m = 0.0;
+  StatusOr<EstimateResult> result = RunCorreaEkf(in, filter);
+  if (!result.ok()) return Status(result.status().code(), id_ + ": " + result.status().message());
+  result->diagnostics["steps"] = static_cast<double>(in.steps.steps.size());
+  result->diagnostics["radio_epochs"] = fixes.epochs;
+  result->diagnostics["radio_epochs_without_fix"] = fixes.failed_epochs;
+  return result;
+}
+
+namespace internal {
+
+void RegisterCorrea(EstimatorRegistry* registry) {
+  struct Entry {
+    const char* id;
+    const char* description;
+    CorreaVariant variant;
+    bool smooth;
+  };
+  const Entry entries[] = {
+      {"correa-ls", "001 eq. 5: nonlinear LS position of each 1 s RSS epoch (radio only)",
+       CorreaVariant::kLs, false},
+      {"correa-ekf", "001 eq. 1-12: EKF on [x y V theta], LS fix + step speed + compl. heading",
+       CorreaVariant::kEkf, false},
+      {"correa-scmt-ekf", "001 eq. 1-12, 18-21: EKF with R_pos = eps near an anchor (SCMT)",
+       CorreaVariant::kScmtEkf, false},
+      {"correa-ekf-rts", "001 EKF + RTS smoother over the 1 s epochs (offline)",
+       CorreaVariant::kEkf, true},
+      {"correa-scmt-ekf-rts", "001 SCMT-EKF + RTS smoother over the 1 s epochs (offline)",
+       CorreaVariant::kScmtEkf, true},
+  };
+  for (const Entry& e : entries) {
+    const std::string id = e.id;
+    const CorreaVariant variant = e.variant;
+    const bool smooth = e.smooth;
+    registry->Register(
+        {id, e.description,
+         [id, variant, smooth](const YAML::Node& config) -> StatusOr<std::unique_ptr<Estimator>> {
+           WG_ASSIGN_OR_RETURN(auto options,
+                               CorreaEstimatorOptions::FromYaml(config, variant, smooth, id));
+           return std::unique_ptr<Estimator>(new CorreaEstimator(id, variant, std::move(options)));
+         }});
+  }
+}
+
+}  // namespace internal
 }  // namespace walkgraph

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "estimators/builtin.h"
 #include "walkgraph/config.h"
 #include "walkgraph/filters/kalman.h"
 
@@ -141,4 +142,111 @@ StatusOr<EstimateResult> RunGadekeKf(const StepSequence& steps,
   return result;
 }
 
+// ------------------------------------------------------------------ estimators on a Walk
+
+GadekeEstimatorOptions GadekeEstimatorOptions::PaperDefaults() {
+  GadekeEstimatorOptions o;
+  o.pdr.detector = StepDetector::kEnergy;           // eq. 1
+  o.pdr.energy_threshold_m2ps4 = 10.0;              // Sec. 3.1.2
+  o.pdr.energy_lockout_s = 0.3;                     // Sec. 3.1.2
+  o.pdr.length_model = StepLengthModel::kWeinberg;  // eq. 2
+  o.pdr.forward_axis = ForwardAxisMethod::kPca;     // eq. 3-5
+  o.pdr.heading = HeadingMethod::kComplementary;    // Xsens attitude with magnetometer
+  o.ranges.bias_corrected = o.filter.bias_corrected_ranges;
+  return o;
+}
+
+StatusOr<GadekeEstimatorOptions> GadekeEstimatorOptions::FromYaml(const YAML::Node& node,
+                                                                  bool smooth,
+                                                                  const std::string& id) {
+  GadekeEstimatorOptions o = PaperDefaults();
+  WG_ASSIGN_OR_RETURN(const YAML::Node own, WithoutKeys(node, {"pdr", "radio"}, id));
+  if (own["smooth"]) {
+    return InvalidArgument(id +
+                           ": option 'smooth' is chosen by the estimator id (gadeke-kf or "
+                           "gadeke-kf-rts), not by the config");
+  }
+  WG_ASSIGN_OR_RETURN(o.filter, GadekeKfOptions::FromYaml(own, id));
+  o.filter.smooth = smooth;
+  ConfigReader r(node, id);
+  const YAML::Node pdr = r.Child("pdr");
+  const YAML::Node radio = r.Child("radio");
+  for (const auto& kv : own) r.Child(kv.first.Scalar());
+  WG_RETURN_IF_ERROR(r.Finish());
+  ConfigReader rr(radio, id + " radio");
+  rr.Read("min_sigma_m", &o.ranges.min_sigma_m);
+  WG_RETURN_IF_ERROR(rr.Finish());
+  if (!(o.ranges.min_sigma_m > 0)) return InvalidArgument(id + " radio: min_sigma_m must be > 0");
+  o.ranges.bias_corrected = o.filter.bias_corrected_ranges;
+  WG_ASSIGN_OR_RETURN(o.pdr, PdrOptionsFromYaml(pdr,
+                                                {{"detector", "energy"},
+                                                 {"energy_threshold_m2ps4", "10"},
+                                                 {"energy_lockout_s", "0.3"},
+                                                 {"length_model", "weinberg"},
+                                                 {"forward_axis", "pca"},
+                                                 {"heading", "complementary"}},
+                                                id + " pdr"));
+  return o;
+}
+
+Status GadekeEstimator::CheckApplicable(const Walk& walk) const {
+  WG_RETURN_IF_ERROR(CheckStepInput(walk, options_.pdr, true, id_));
+  WG_RETURN_IF_ERROR(CheckRadioInput(walk, 1, id_));
+  return Status::Ok();
+}
+
+StatusOr<EstimateResult> GadekeEstimator::Run(const Walk& walk) const {
+  WG_RETURN_IF_ERROR(CheckApplicable(walk));
+  WG_ASSIGN_OR_RETURN(const StepSequence steps, StepsFromFrontEnd(walk, options_.pdr, true, id_));
+  StatusOr<std::vector<RangeMeasurement>> all = RangeMeasurementsFromWalk(walk, options_.ranges);
+  if (!all.ok()) return Status(all.status().code(), id_ + ": " + all.status().message());
+  const GadekeKfOptions& f = options_.filter;
+  const double t0 = walk.StartTime(), span = walk.EndTime() - t0;
+  std::vector<RangeMeasurement> ranges;
+  int dropped = 0;
+  for (const RangeMeasurement& m : *all) {
+    // Sec. 5.2: the simulated WSN outage [t0 + a·T, t0 + b·T].
+    if (f.outage_start_frac >= 0 && m.t_s >= t0 + f.outage_start_frac * span &&
+        m.t_s <= t0 + f.outage_end_frac * span) {
+      ++dropped;
+      continue;
+    }
+    ranges.push_back(m);
+  }
+  GadekeStart start;
+  start.t_s = t0;
+  if (walk.meta.initial_pose) {
+    start.position_m = Eigen::Vector2d(walk.meta.initial_pose->x_m, walk.meta.initial_pose->y_m);
+    start.sigma_m = walk.meta.initial_pose->sigma_xy_m;
+  } else {
+    Eigen::Vector2d c = Eigen::Vector2d::Zero();
+    for (const Anchor& a : walk.anchors) c += a.position_m.head<2>();
+    start.position_m = c / static_cast<double>(walk.anchors.size());
+    start.sigma_m = f.init_sigma_m;
+  }
+  StatusOr<EstimateResult> result = RunGadekeKf(steps, ranges, start, f);
+  if (!result.ok()) return Status(result.status().code(), id_ + ": " + result.status().message());
+  result->diagnostics["steps"] = static_cast<double>(steps.steps.size());
+  result->diagnostics["ranges"] = static_cast<double>(ranges.size());
+  result->diagnostics["ranges_dropped_outage"] = dropped;
+  return result;
+}
+
+namespace internal {
+
+void RegisterGadeke(EstimatorRegistry* registry) {
+  for (const bool smooth : {false, true}) {
+    const std::string id = smooth ? "gadeke-kf-rts" : "gadeke-kf";
+    registry->Register(
+        {id,
+         smooth ? "003 KF + RTS smoother over every step/reading epoch (offline)"
+                : "003 Sec. 3.2: KF on [p v], PDR displacement as control input, RSS range EKF",
+         [id, smooth](const YAML::Node& config) -> StatusOr<std::unique_ptr<Estimator>> {
+           WG_ASSIGN_OR_RETURN(auto options, GadekeEstimatorOptions::FromYaml(config, smooth, id));
+           return std::unique_ptr<Estimator>(new GadekeEstimator(id, std::move(options)));
+         }});
+  }
+}
+
+}  // namespace internal
 }  // namespace walkgraph

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "estimators/builtin.h"
 #include "walkgraph/config.h"
 #include "walkgraph/filters/kalman.h"
 
@@ -207,4 +208,118 @@ StatusOr<EstimateResult> RunTarrio(const StepSequence& steps, const std::vector<
   return result;
 }
 
+// ------------------------------------------------------------------ estimators on a Walk
+
+TarrioEstimatorOptions TarrioEstimatorOptions::PaperDefaults() {
+  TarrioEstimatorOptions o;
+  o.pdr.detector = StepDetector::kVerticalPeak;     // 000 Sec. IV: low-pass, local maxima/minima
+  o.pdr.length_model = StepLengthModel::kWeinberg;  // eq. 3
+  o.pdr.weinberg_k = 0.45;                          // Sec. IV
+  o.pdr.heading = HeadingMethod::kGyro;             // eq. 4
+  o.radio.epochs.window_s = 2.0;                    // ΔT = 2 s (Sec. IV)
+  o.radio.method = PositioningMethod::kHyperbolic;  // eq. 2
+  return o;
+}
+
+StatusOr<TarrioEstimatorOptions> TarrioEstimatorOptions::FromYaml(const YAML::Node& node,
+                                                                  TarrioMode mode, bool smooth,
+                                                                  const std::string& id) {
+  TarrioEstimatorOptions o = PaperDefaults();
+  WG_ASSIGN_OR_RETURN(const YAML::Node own, WithoutKeys(node, {"pdr", "radio", "start"}, id));
+  if (own["smooth"]) {
+    return InvalidArgument(id +
+                           ": option 'smooth' is chosen by the estimator id (tarrio-kf or "
+                           "tarrio-kf-rts), not by the config");
+  }
+  WG_ASSIGN_OR_RETURN(o.filter, TarrioKfOptions::FromYaml(own, id));
+  o.filter.smooth = smooth;
+  // The rest: pdr, radio and (pdr-only) start.
+  ConfigReader r(node, id);
+  if (mode == TarrioMode::kPdrOnly) r.Read("start", &o.start);
+  const YAML::Node radio = r.Child("radio");
+  const YAML::Node pdr = mode == TarrioMode::kRssOnly ? YAML::Node() : r.Child("pdr");
+  // The filter's keys were checked above; mark them known for Finish().
+  for (const auto& kv : own) r.Child(kv.first.Scalar());
+  WG_RETURN_IF_ERROR(r.Finish());
+  if (o.start != "first-fix" && o.start != "initial-pose") {
+    return InvalidArgument(id + ": start must be 'first-fix' or 'initial-pose'");
+  }
+  WG_ASSIGN_OR_RETURN(o.radio, RadioFrontEndOptions::FromYaml(radio, o.radio, id));
+  WG_ASSIGN_OR_RETURN(o.pdr, PdrOptionsFromYaml(pdr,
+                                                {{"detector", "vertical-peak"},
+                                                 {"length_model", "weinberg"},
+                                                 {"weinberg_k", "0.45"},
+                                                 {"heading", "gyro"}},
+                                                id + " pdr"));
+  return o;
+}
+
+Status TarrioEstimator::CheckApplicable(const Walk& walk) const {
+  if (UsesSteps()) WG_RETURN_IF_ERROR(CheckStepInput(walk, options_.pdr, true, id_));
+  if (UsesFixes()) WG_RETURN_IF_ERROR(CheckRadioInput(walk, 3, id_));
+  if (mode_ == TarrioMode::kPdrOnly && !UsesFixes() && !walk.meta.initial_pose) {
+    return FailedPrecondition(id_ + " with start 'initial-pose' needs initial_pose in walk.yaml");
+  }
+  return Status::Ok();
+}
+
+StatusOr<EstimateResult> TarrioEstimator::Run(const Walk& walk) const {
+  WG_RETURN_IF_ERROR(CheckApplicable(walk));
+  StepSequence steps;
+  if (UsesSteps()) {
+    WG_ASSIGN_OR_RETURN(steps, StepsFromFrontEnd(walk, options_.pdr, true, id_));
+  }
+  FixesFromFrontEnd fixes;
+  if (UsesFixes()) {
+    WG_ASSIGN_OR_RETURN(fixes, PositionFixesFromFrontEnd(walk, options_.radio, id_));
+  }
+  std::optional<Eigen::Vector2d> start;
+  if (mode_ == TarrioMode::kPdrOnly && !UsesFixes()) {
+    start = Eigen::Vector2d(walk.meta.initial_pose->x_m, walk.meta.initial_pose->y_m);
+  }
+  StatusOr<EstimateResult> result = RunTarrio(steps, fixes.fixes, options_.filter, mode_, start);
+  if (!result.ok()) return Status(result.status().code(), id_ + ": " + result.status().message());
+  result->diagnostics["steps"] = static_cast<double>(steps.steps.size());
+  result->diagnostics["radio_epochs"] = fixes.epochs;
+  result->diagnostics["radio_epochs_without_fix"] = fixes.failed_epochs;
+  return result;
+}
+
+namespace internal {
+
+void RegisterTarrio(EstimatorRegistry* registry) {
+  struct Entry {
+    const char* id;
+    const char* description;
+    TarrioMode mode;
+    bool smooth;
+  };
+  const Entry entries[] = {
+      {"pdr-only", "000 eq. 13: PDR from the first RSS fix, no radio afterwards (steps)",
+       TarrioMode::kPdrOnly, false},
+      {"rss-only", "000 Sec. IV baseline: hold the last hyperbolic RSS fix (eq. 2, 2 s epochs)",
+       TarrioMode::kRssOnly, false},
+      {"rss-pdr-reset",
+       "000 Sec. IV baseline: PDR between RSS fixes, reset at each fix (steps+RSS)",
+       TarrioMode::kRssPdrReset, false},
+      {"tarrio-kf", "000 eq. 5-13: KF on [x y], PDR velocity as control input, RSS fixes",
+       TarrioMode::kKalman, false},
+      {"tarrio-kf-rts", "000 eq. 5-13 + RTS smoother over the RSS epochs (offline)",
+       TarrioMode::kKalman, true},
+  };
+  for (const Entry& e : entries) {
+    const std::string id = e.id;
+    const TarrioMode mode = e.mode;
+    const bool smooth = e.smooth;
+    registry->Register(
+        {id, e.description,
+         [id, mode, smooth](const YAML::Node& config) -> StatusOr<std::unique_ptr<Estimator>> {
+           WG_ASSIGN_OR_RETURN(auto options,
+                               TarrioEstimatorOptions::FromYaml(config, mode, smooth, id));
+           return std::unique_ptr<Estimator>(new TarrioEstimator(id, mode, std::move(options)));
+         }});
+  }
+}
+
+}  // namespace internal
 }  // namespace walkgraph

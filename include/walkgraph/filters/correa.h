@@ -14,16 +14,34 @@
 // evaluated with composite Simpson's rule and solved by bisection (P_FA falls with P_Th).
 // The paper gives no values for σ_p, σ_V, σ_θ, Q (its EKF is "manually configured"); the
 // defaults below are ours and are options.
+//
+// Estimators on a Walk (CorreaEstimator; ids correa-ls, correa-ekf, correa-scmt-ekf,
+// correa-ekf-rts, correa-scmt-ekf-rts) gather the inputs from the shared front ends with 001's
+// choices (Sec. II, IV):
+//   fixes: RSS averaged per anchor over 1 s epochs (motes beacon at 1 Hz; one EKF epoch per
+//     second), ML ranges (eq. 14), nonlinear LS position (eq. 5) with equal weights as
+//     written (radio: {weighted: true} for the 1/σ² weights), Gauss–Newton to 1 mm;
+//   steps (StepsForWalk): ‖a‖ low-passed by an order-20, 3 Hz linear-phase FIR, local maxima
+//     above a threshold (eq. 6); constant step length l_step (eq. 6); heading from the
+//     complementary gyro/magnetometer blend (eq. 7);
+//   P_max (SCMT, "max R" of the epoch's readings): the epoch's strongest RSS (averaged per
+//     anchor in dB; one reading per mote at 1 Hz) at the fix time, with that anchor's position.
+// On a walk with odometry.csv the steps are its increments, and V̂ sums their lengths instead of
+// counting l_step per step. correa-ls outputs the LS fixes themselves. Config: CorreaEkfOptions
+// keys (except `scmt` and `smooth`, which the id chooses), `pdr:` and `radio:` child maps
+// (filters/front_end.h); correa-ls takes only `radio:`.
 #ifndef WALKGRAPH_FILTERS_CORREA_H_
 #define WALKGRAPH_FILTERS_CORREA_H_
 
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <yaml-cpp/yaml.h>
 #include <Eigen/Core>
 
 #include "walkgraph/estimator.h"
+#include "walkgraph/filters/front_end.h"
 #include "walkgraph/filters/ranges.h"
 #include "walkgraph/measurements.h"
 #include "walkgraph/path_loss.h"
@@ -64,6 +82,32 @@ struct CorreaInputs {
 };
 
 StatusOr<EstimateResult> RunCorreaEkf(const CorreaInputs& in, const CorreaEkfOptions& options);
+
+enum class CorreaVariant { kLs, kEkf, kScmtEkf };
+
+struct CorreaEstimatorOptions {
+  CorreaEkfOptions filter;
+  PdrOptions pdr;              // 001 eq. 6-7: FIR-magnitude steps, complementary heading
+  RadioFrontEndOptions radio;  // 001: 1 s epochs, nonlinear LS (eq. 5) on ML ranges (eq. 14)
+
+  static CorreaEstimatorOptions PaperDefaults();
+  // `scmt` and `smooth` come from the id; `id` names the estimator in messages.
+  static StatusOr<CorreaEstimatorOptions> FromYaml(const YAML::Node& node, CorreaVariant variant,
+                                                   bool smooth, const std::string& id);
+};
+
+class CorreaEstimator : public Estimator {
+ public:
+  CorreaEstimator(std::string id, CorreaVariant variant, CorreaEstimatorOptions options)
+      : id_(std::move(id)), variant_(variant), options_(std::move(options)) {}
+  Status CheckApplicable(const Walk& walk) const override;
+  StatusOr<EstimateResult> Run(const Walk& walk) const override;
+
+ private:
+  std::string id_;
+  CorreaVariant variant_;
+  CorreaEstimatorOptions options_;
+};
 
 }  // namespace walkgraph
 

@@ -12,17 +12,31 @@
 // Range update (EKF, log-distance model of Schmid et al. via PathLossModel):
 //   z = d̂,  h(x) = ‖(p, h_tag) − a‖,  H = [(p − a_xy)ᵀ/h  0],  R = σ_r²  (004 eq. 7 σ_r)
 // Outage test of Sec. 5: optionally drop every radio reading in [t0 + a·T, t0 + b·T].
+//
+// Estimators on a Walk (GadekeEstimator; ids gadeke-kf, gadeke-kf-rts) gather the inputs from
+// the shared front ends with 003's choices:
+//   steps (StepsForWalk): acceleration-energy detector, 10 (m/s²)² threshold, 300 ms lockout
+//     (eq. 1), Weinberg length (eq. 2, K = 0.45: 003 gives no W), step direction from a PCA of
+//     the horizontal acceleration (eq. 3-5); heading: gyro blended with the magnetometer (003
+//     uses the Xsens attitude with its magnetometer on: the "aerospace" profile, Sec. 4.1) —
+//     the complementary heading of pdr.h is the nearest shared front end;
+//   ranges: every RSS reading as an ML range with the 004 eq. 7 σ (RangeMeasurementsFromWalk);
+//   start: the walk's initial_pose (position, σ_xy), else the anchors' centroid, init_sigma_m.
+// Config: GadekeKfOptions keys (except `smooth`, chosen by the id), a `pdr:` child map and a
+// `radio:` child map with min_sigma_m (floor on σ_r).
 #ifndef WALKGRAPH_FILTERS_GADEKE_H_
 #define WALKGRAPH_FILTERS_GADEKE_H_
 
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <yaml-cpp/yaml.h>
 #include <Eigen/Core>
 
 #include "walkgraph/estimator.h"
+#include "walkgraph/filters/front_end.h"
 #include "walkgraph/filters/ranges.h"
 #include "walkgraph/measurements.h"
 
@@ -58,6 +72,28 @@ struct GadekeStart {
 StatusOr<EstimateResult> RunGadekeKf(const StepSequence& steps,
                                      const std::vector<RangeMeasurement>& ranges,
                                      const GadekeStart& start, const GadekeKfOptions& options);
+
+struct GadekeEstimatorOptions {
+  GadekeKfOptions filter;
+  PdrOptions pdr;                 // 003 Sec. 3.1: energy steps, Weinberg, PCA direction
+  RangeConversionOptions ranges;  // bias_corrected = filter.bias_corrected_ranges
+
+  static GadekeEstimatorOptions PaperDefaults();
+  static StatusOr<GadekeEstimatorOptions> FromYaml(const YAML::Node& node, bool smooth,
+                                                   const std::string& id);
+};
+
+class GadekeEstimator : public Estimator {
+ public:
+  GadekeEstimator(std::string id, GadekeEstimatorOptions options)
+      : id_(std::move(id)), options_(std::move(options)) {}
+  Status CheckApplicable(const Walk& walk) const override;
+  StatusOr<EstimateResult> Run(const Walk& walk) const override;
+
+ private:
+  std::string id_;
+  GadekeEstimatorOptions options_;
+};
 
 }  // namespace walkgraph
 

@@ -15,18 +15,32 @@
 // Smoothing ("tarrio-kf-rts"): RTS over the RSS epochs (F = I); between epochs the output is
 // the PDR path from the smoothed epoch state, with the mismatch at the next smoothed epoch
 // spread linearly in time (the PDR shape between smoothed anchors).
+//
+// Estimators on a Walk (TarrioEstimator; ids rss-only, rss-pdr-reset, pdr-only, tarrio-kf,
+// tarrio-kf-rts) gather the core's inputs from the shared front ends with 000's choices:
+//   steps (StepsForWalk): vertical-acceleration peaks after a low-pass filter (Sec. IV),
+//     Weinberg length l = K·(a_max − a_min)^{1/4} with K = 0.45 (eq. 3, Sec. IV), gyro heading
+//     θ_i = θ_{i−1} + δT·ω_z (eq. 4) from the walk's initial_pose;
+//   fixes: RSS averaged per anchor over ΔT = 2 s epochs (Sec. IV: "n values ... averaged"),
+//     positioned by the weighted hyperbolic algorithm (eq. 2).
+// Config: the TarrioKfOptions keys (except `smooth`, which the id chooses), `pdr:` and `radio:`
+// child maps (filters/front_end.h; rss-only has no `pdr:`), and for pdr-only
+// `start: first-fix | initial-pose`. The TarrioKfOptions keys shape the baselines' covariances.
 #ifndef WALKGRAPH_FILTERS_TARRIO_H_
 #define WALKGRAPH_FILTERS_TARRIO_H_
 
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <yaml-cpp/yaml.h>
 #include <Eigen/Core>
 
 #include "walkgraph/estimator.h"
+#include "walkgraph/filters/front_end.h"
 #include "walkgraph/measurements.h"
+#include "walkgraph/pdr.h"
 
 namespace walkgraph {
 
@@ -53,6 +67,37 @@ struct TarrioKfOptions {
 StatusOr<EstimateResult> RunTarrio(const StepSequence& steps, const std::vector<PositionFix>& fixes,
                                    const TarrioKfOptions& options, TarrioMode mode,
                                    std::optional<Eigen::Vector2d> start = std::nullopt);
+
+struct TarrioEstimatorOptions {
+  TarrioKfOptions filter;
+  PdrOptions pdr;              // 000 Sec. III-B/IV: vertical peaks, Weinberg K = 0.45, gyro
+  RadioFrontEndOptions radio;  // 000 Sec. IV: ΔT = 2 s epochs, hyperbolic positioning (eq. 2)
+  // pdr-only: start at the first RSS fix (000 Sec. IV: "the initial localization result is used
+  // as the starting point for the PDR system") or at the walk's initial_pose.
+  std::string start = "first-fix";
+
+  // 000's front-end defaults.
+  static TarrioEstimatorOptions PaperDefaults();
+  // `id` names the estimator in messages; `smooth` is set by the id (tarrio-kf-rts).
+  static StatusOr<TarrioEstimatorOptions> FromYaml(const YAML::Node& node, TarrioMode mode,
+                                                   bool smooth, const std::string& id);
+};
+
+class TarrioEstimator : public Estimator {
+ public:
+  TarrioEstimator(std::string id, TarrioMode mode, TarrioEstimatorOptions options)
+      : id_(std::move(id)), mode_(mode), options_(std::move(options)) {}
+  Status CheckApplicable(const Walk& walk) const override;
+  StatusOr<EstimateResult> Run(const Walk& walk) const override;
+
+ private:
+  bool UsesSteps() const { return mode_ != TarrioMode::kRssOnly; }
+  bool UsesFixes() const { return mode_ != TarrioMode::kPdrOnly || options_.start == "first-fix"; }
+
+  std::string id_;
+  TarrioMode mode_;
+  TarrioEstimatorOptions options_;
+};
 
 }  // namespace walkgraph
 
