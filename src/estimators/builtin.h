@@ -8,6 +8,7 @@
 namespace walkgraph::internal {
 
 void RegisterOdometryDeadReckoning(EstimatorRegistry* registry);
+void RegisterJimenezIez(EstimatorRegistry* registry);
 
 }  // namespace walkgraph::internal
 
