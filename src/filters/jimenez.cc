@@ -413,6 +413,7 @@ StatusOr<EstimateResult> RunJimenezIez(const Walk& walk, const JimenezIezOptions
   }
 
   std::vector<SmootherEpoch> epochs;
+  if (o.smooth) epochs.reserve((n_imu - 1) / static_cast<size_t>(decimation) + 2);
   auto epoch = [&]() {
     if (!o.smooth) {
       result.trajectory.points.push_back(OutputPoint(f.nominal, f.P));
