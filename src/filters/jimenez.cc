@@ -271,7 +271,7 @@ Status JimenezIez::CheckApplicable(const Walk& walk) const {
       return FailedPrecondition(
           std::string(id) +
           ": the paper's RSS model (RSS0 = 60, p = 2.3) is in RFCode units; this walk's RSS is "
-          "in dBm: set path_loss_from_walk: true or give rss0/path_loss_exponent for it");
+          "in dBm: set path_loss_from_walk: true to use the walk's own path-loss model");
     }
   }
   return Status::Ok();
