@@ -8,6 +8,7 @@
 namespace walkgraph::internal {
 
 void RegisterOdometryDeadReckoning(EstimatorRegistry* registry);
+void RegisterJimenezIez(EstimatorRegistry* registry);
 void RegisterTarrio(EstimatorRegistry* registry);  // filters/tarrio.cc
 void RegisterCorrea(EstimatorRegistry* registry);  // filters/correa.cc
 void RegisterGadeke(EstimatorRegistry* registry);  // filters/gadeke.cc

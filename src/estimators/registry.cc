@@ -7,6 +7,7 @@ const EstimatorRegistry& EstimatorRegistry::Builtin() {
   static const EstimatorRegistry* registry = [] {
     auto* r = new EstimatorRegistry();
     internal::RegisterOdometryDeadReckoning(r);
+    internal::RegisterJimenezIez(r);
     internal::RegisterTarrio(r);
     internal::RegisterCorrea(r);
     internal::RegisterGadeke(r);

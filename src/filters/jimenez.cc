@@ -1,0 +1,617 @@
+#include "walkgraph/filters/jimenez.h"
+
+#include <algorithm>
+#include <cmath>
+#include <memory>
+
+#include <Eigen/Cholesky>
+
+#include "estimators/builtin.h"
+#include "walkgraph/angle.h"
+#include "walkgraph/config.h"
+#include "walkgraph/filters/kalman.h"
+#include "walkgraph/filters/ranges.h"
+
+namespace walkgraph {
+
+namespace {
+
+constexpr int N = kJimenezStateSize;
+
+StrapdownOptions StrapdownFor(const JimenezNominal& nominal, ImuSampling sampling,
+                              double gravity_mps2) {
+  StrapdownOptions s;
+  s.gravity_mps2 = gravity_mps2;
+  s.sampling = sampling;
+  s.acc_bias_mps2 = nominal.acc_bias;
+  s.gyro_bias_radps = nominal.gyro_bias;
+  return s;
+}
+
+// Azimuth (ENU, from east counter-clockwise) of the horizontal part of a nav-frame vector.
+double Azimuth(const Eigen::Vector3d& v_n) { return std::atan2(v_n.y(), v_n.x()); }
+
+// Angle of a nav-frame vector below the horizontal plane (the magnetic dip).
+double Dip(const Eigen::Vector3d& v_n) { return std::atan2(-v_n.z(), v_n.head<2>().norm()); }
+
+// Attitude with yaw `yaw` whose z axis is aligned with the mean specific force f̄ (levelling):
+// roll = atan2(f_y, f_z), pitch = atan2(−f_x, √(f_y² + f_z²)), R = Rz(ψ)·Ry(θ)·Rx(φ).
+Eigen::Quaterniond Level(const Eigen::Vector3d& f, double yaw) {
+  const double roll = std::atan2(f.y(), f.z());
+  const double pitch = std::atan2(-f.x(), std::hypot(f.y(), f.z()));
+  return Eigen::Quaterniond(Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()) *
+                            Eigen::AngleAxisd(pitch, Eigen::Vector3d::UnitY()) *
+                            Eigen::AngleAxisd(roll, Eigen::Vector3d::UnitX()))
+      .normalized();
+}
+
+// The running filter: nominal INS state, error estimate and covariance. With smoothing the
+// error state is augmented by a clone of the error at the last epoch (dx, P are 30-dim).
+struct FilterState {
+  JimenezNominal nominal;
+  Eigen::VectorXd dx;
+  Eigen::MatrixXd P;
+  bool corrected = false;  // an update was accepted at this sample (inject + reset pending)
+};
+
+// One measurement through kalman.h. `z_minus_h` is z − h(nominal); the errors estimated by
+// earlier updates of this sample are taken into account (ν = z − h(nominal) − H·δx).
+StatusOr<UpdateOutcome> Update(const Eigen::VectorXd& z_minus_h, const Eigen::MatrixXd& H15,
+                               const Eigen::MatrixXd& R, double gate_probability, FilterState* f) {
+  const Eigen::Index n = f->dx.size();
+  Eigen::MatrixXd H = Eigen::MatrixXd::Zero(H15.rows(), n);
+  H.leftCols(N) = H15;
+  const Eigen::VectorXd nu = z_minus_h - H15 * f->dx.head(N);
+  WG_ASSIGN_OR_RETURN(UpdateOutcome out, KalmanUpdate(nu, H, R, gate_probability, &f->dx, &f->P));
+  if (out.accepted) f->corrected = true;
+  return out;
+}
+
+// (x, y, ψ) and its covariance from a nominal state and the error covariance about it.
+TrajectoryPoint OutputPoint(const JimenezNominal& nominal, const Eigen::MatrixXd& P15) {
+  TrajectoryPoint pt;
+  pt.t_s = nominal.nav.t_s;
+  pt.position_m = nominal.nav.p_n;
+  pt.heading_rad = JimenezYaw(nominal.nav.q_nb);
+  Eigen::Matrix<double, 3, N> J = Eigen::Matrix<double, 3, N>::Zero();
+  J(0, kJimenezPos) = 1.0;
+  J(1, kJimenezPos + 1) = 1.0;
+  J.block<1, 3>(2, kJimenezAtt) = JimenezYawJacobian(nominal.nav.q_nb);
+  Eigen::Matrix3d C = J * P15.topLeftCorner(N, N) * J.transpose();
+  pt.covariance = 0.5 * (C + C.transpose());
+  return pt;
+}
+
+// One smoother epoch: the nominal state at epoch k, and (once epoch k+1 is reached) the error
+// at k given data through k+1, C_k and D_k (see the header).
+struct SmootherEpoch {
+  JimenezNominal nominal;
+  JimenezVector dx_next = JimenezVector::Zero();
+  JimenezMatrix C = JimenezMatrix::Zero();
+  JimenezMatrix D = JimenezMatrix::Zero();
+};
+
+StatusOr<ImuSampling> SamplingFromString(const std::string& s) {
+  if (s == "interval-average") return ImuSampling::kIntervalAverage;
+  if (s == "instantaneous") return ImuSampling::kInstantaneous;
+  return InvalidArgument("imu_sampling must be interval-average or instantaneous, not '" + s + "'");
+}
+
+}  // namespace
+
+StatusOr<JimenezIezOptions> JimenezIezOptions::FromYaml(const YAML::Node& node,
+                                                        const std::string& context, bool use_rss,
+                                                        bool smooth) {
+  JimenezIezOptions o;
+  o.use_rss = use_rss;
+  o.smooth = smooth;
+  o.stance = JimenezIezOptions().stance;
+  ConfigReader r(node, context);
+  r.Read("acc_noise_density", &o.acc_noise_density);
+  r.Read("gyro_noise_density", &o.gyro_noise_density);
+  r.Read("acc_bias_rw", &o.acc_bias_rw);
+  r.Read("gyro_bias_rw", &o.gyro_bias_rw);
+  r.Read("init_acc_bias_sigma_mps2", &o.init_acc_bias_sigma_mps2);
+  r.Read("init_gyro_bias_sigma_radps", &o.init_gyro_bias_sigma_radps);
+  r.Read("init_tilt_sigma_rad", &o.init_tilt_sigma_rad);
+  r.Read("init_velocity_sigma_mps", &o.init_velocity_sigma_mps);
+  r.Read("init_height_sigma_m", &o.init_height_sigma_m);
+  r.Read("init_position_sigma_m", &o.init_position_sigma_m);
+  r.Read("init_yaw_sigma_rad", &o.init_yaw_sigma_rad);
+  r.Read("leveling_window_s", &o.leveling_window_s);
+  r.Read("initial_heading_from_pose", &o.initial_heading_from_pose);
+  r.Read("imu_sampling", &o.imu_sampling);
+  r.Read("imu_sampling_from_walk", &o.imu_sampling_from_walk);
+  r.Read("gravity_mps2", &o.gravity_mps2);
+  r.Read("stance_source", &o.stance_source);
+  r.Read("zupt", &o.zupt);
+  r.Read("zupt_sigma_mps", &o.zupt_sigma_mps);
+  r.Read("zaru", &o.zaru);
+  r.Read("zaru_sigma_radps", &o.zaru_sigma_radps);
+  r.Read("compass", &o.compass);
+  r.Read("compass_sigma_rad", &o.compass_sigma_rad);
+  r.Read("compass_every_stance_sample", &o.compass_every_stance_sample);
+  r.Read("declination_rad", &o.declination_rad);
+  r.Read("compass_max_field_deviation_ut", &o.compass_max_field_deviation_ut);
+  r.Read("compass_max_dip_deviation_rad", &o.compass_max_dip_deviation_rad);
+  r.Read("compass_gate_probability", &o.compass_gate_probability);
+  r.Read("rss0", &o.rss0);
+  r.Read("path_loss_exponent", &o.path_loss_exponent);
+  r.Read("sigma_rss", &o.sigma_rss);
+  r.Read("d0_m", &o.d0_m);
+  r.Read("path_loss_from_walk", &o.path_loss_from_walk);
+  r.Read("bias_corrected_ranges", &o.bias_corrected_ranges);
+  r.Read("min_range_sigma_m", &o.min_range_sigma_m);
+  r.Read("reader_height_m", &o.reader_height_m);
+  r.Read("planar_ranges", &o.planar_ranges);
+  r.Read("range_gate_probability", &o.range_gate_probability);
+  r.Read("output_rate_hz", &o.output_rate_hz);
+  const YAML::Node stance = r.Child("stance");
+  WG_RETURN_IF_ERROR(r.Finish());
+  if (stance.IsDefined() && !stance.IsNull()) {
+    auto s = StanceOptions::FromYaml(stance);
+    if (!s.ok()) return InvalidArgument(context + ": " + s.status().message());
+    o.stance = *s;
+    // The filter's defaults (multi-condition detector, still_gyro_radps) stay unless named.
+    if (!stance["detector"].IsDefined()) o.stance.detector = StanceDetector::kMultiCondition;
+    if (!stance["still_gyro_radps"].IsDefined()) {
+      o.stance.still_gyro_radps = JimenezIezOptions().stance.still_gyro_radps;
+    }
+  }
+  auto sampling = SamplingFromString(o.imu_sampling);
+  if (!sampling.ok()) return InvalidArgument(context + ": " + sampling.status().message());
+  if (o.stance_source != "detector" && o.stance_source != "labels") {
+    return InvalidArgument(context + ": stance_source must be detector or labels");
+  }
+  auto positive = [](double v) { return v > 0.0 && std::isfinite(v); };
+  for (double v : {o.acc_noise_density, o.gyro_noise_density, o.init_acc_bias_sigma_mps2,
+                   o.init_gyro_bias_sigma_radps, o.init_tilt_sigma_rad, o.init_velocity_sigma_mps,
+                   o.init_height_sigma_m, o.init_position_sigma_m, o.init_yaw_sigma_rad,
+                   o.zupt_sigma_mps, o.zaru_sigma_radps, o.compass_sigma_rad, o.sigma_rss, o.d0_m,
+                   o.min_range_sigma_m, o.output_rate_hz, o.gravity_mps2}) {
+    if (!positive(v)) {
+      return InvalidArgument(context +
+                             ": noise densities, sigmas, d0_m, gravity_mps2 and "
+                             "output_rate_hz must be positive");
+    }
+  }
+  if (o.acc_bias_rw < 0 || o.gyro_bias_rw < 0 || o.leveling_window_s < 0) {
+    return InvalidArgument(context + ": bias random walks and leveling_window_s must be >= 0");
+  }
+  if (!(o.path_loss_exponent > 0)) {
+    return InvalidArgument(context + ": path_loss_exponent is |p| and must be > 0");
+  }
+  for (double g : {o.compass_gate_probability, o.range_gate_probability}) {
+    if (g < 0 || g >= 1) return InvalidArgument(context + ": gate probabilities must be in [0, 1)");
+  }
+  return o;
+}
+
+double JimenezYaw(const Eigen::Quaterniond& q_nb) {
+  const Eigen::Vector3d c = q_nb * Eigen::Vector3d::UnitX();
+  return NormalizeAngle(std::atan2(c.y(), c.x()));
+}
+
+Eigen::RowVector3d JimenezYawJacobian(const Eigen::Quaterniond& q_nb) {
+  // δc = δAt × c for q = Exp(δAt) q̂, and δψ = (c_x δc_y − c_y δc_x)/ρ.
+  const Eigen::Vector3d c = q_nb * Eigen::Vector3d::UnitX();
+  const double rho = std::max(c.x() * c.x() + c.y() * c.y(), 1e-12);
+  return Eigen::RowVector3d(-c.x() * c.z() / rho, -c.y() * c.z() / rho, 1.0);
+}
+
+double JimenezPredictedRange(const Eigen::Vector3d& p_n, const Eigen::Vector3d& anchor_m,
+                             double reader_height_m, bool planar, Eigen::RowVector3d* jacobian) {
+  Eigen::Vector3d delta = p_n + Eigen::Vector3d(0, 0, reader_height_m) - anchor_m;
+  if (planar) delta.z() = 0.0;  // eq. 1 as printed
+  const double range = std::max(delta.norm(), 1e-3);
+  if (jacobian != nullptr) *jacobian = delta.transpose() / range;
+  return range;
+}
+
+JimenezMatrix JimenezErrorTransition(const JimenezNominal& prior, const ImuSample& prev,
+                                     const ImuSample& cur, const StrapdownOptions& strapdown) {
+  const double dt = cur.t_s - prev.t_s;
+  const Eigen::Matrix3d R0 = prior.nav.q_nb.toRotationMatrix();
+  const Eigen::Vector3d w1 = cur.gyro_radps - strapdown.gyro_bias_radps;
+  const Eigen::Matrix3d R1 = (prior.nav.q_nb * QuaternionExp(w1 * dt)).toRotationMatrix();
+  Eigen::Vector3d specific_n;  // R̂ f̂ as the mechanization uses it
+  Eigen::Matrix3d R_acc;       // the rotation that carries δa_b into the velocity
+  if (strapdown.sampling == ImuSampling::kIntervalAverage) {
+    specific_n = R0 * (cur.acc_mps2 - strapdown.acc_bias_mps2);
+    R_acc = R0;
+  } else {
+    specific_n = 0.5 * (R0 * (prev.acc_mps2 - strapdown.acc_bias_mps2) +
+                        R1 * (cur.acc_mps2 - strapdown.acc_bias_mps2));
+    R_acc = 0.5 * (R0 + R1);
+  }
+  const Eigen::Matrix3d I = Eigen::Matrix3d::Identity();
+  const Eigen::Matrix3d dv_datt = -Skew(specific_n) * dt;
+  const Eigen::Matrix3d dv_dba = -R_acc * dt;
+  JimenezMatrix F = JimenezMatrix::Identity();
+  F.block<3, 3>(kJimenezAtt, kJimenezGyroBias) = -R1 * dt;
+  F.block<3, 3>(kJimenezPos, kJimenezVel) = I * dt;
+  F.block<3, 3>(kJimenezPos, kJimenezAtt) = 0.5 * dt * dv_datt;
+  F.block<3, 3>(kJimenezPos, kJimenezAccBias) = 0.5 * dt * dv_dba;
+  F.block<3, 3>(kJimenezVel, kJimenezAtt) = dv_datt;
+  F.block<3, 3>(kJimenezVel, kJimenezAccBias) = dv_dba;
+  return F;
+}
+
+void JimenezInjectError(const JimenezVector& dx, JimenezNominal* nominal, Eigen::MatrixXd* P) {
+  const Eigen::Vector3d dtheta = dx.segment<3>(kJimenezAtt);
+  nominal->nav.q_nb = (QuaternionExp(dtheta) * nominal->nav.q_nb).normalized();
+  nominal->gyro_bias += dx.segment<3>(kJimenezGyroBias);
+  nominal->nav.p_n += dx.segment<3>(kJimenezPos);
+  nominal->nav.v_n += dx.segment<3>(kJimenezVel);
+  nominal->acc_bias += dx.segment<3>(kJimenezAccBias);
+  if (P == nullptr) return;
+  // G = blkdiag(I + ½[δAt]×, I); only the attitude rows/columns change.
+  const Eigen::Matrix3d G = Eigen::Matrix3d::Identity() + 0.5 * Skew(dtheta);
+  P->middleRows(kJimenezAtt, 3) = (G * P->middleRows(kJimenezAtt, 3)).eval();
+  P->middleCols(kJimenezAtt, 3) = (P->middleCols(kJimenezAtt, 3) * G.transpose()).eval();
+  Symmetrize(P);
+}
+
+Status JimenezIez::CheckApplicable(const Walk& walk) const {
+  const char* id = options_.use_rss ? "jimenez-iez-rss" : "jimenez-iez";
+  if (walk.imu.size() < 2) return FailedPrecondition(std::string(id) + " needs imu.csv");
+  if (options_.stance_source == "labels" && walk.stance_truth.empty()) {
+    return FailedPrecondition(std::string(id) + ": stance_source labels needs stance_truth.csv");
+  }
+  if (walk.meta.imu_placement != ImuPlacement::kFoot) {
+    return FailedPrecondition(
+        std::string(id) + " needs a foot-mounted IMU (imu_placement: foot): it relies on ZUPTs");
+  }
+  if (options_.use_rss) {
+    if (!walk.has_rss() && !walk.has_ranges()) {
+      return FailedPrecondition(std::string(id) + " needs rss.csv (or range.csv)");
+    }
+    if (walk.has_rss() && !options_.path_loss_from_walk &&
+        walk.meta.radio.units != RssUnits::kRfcode) {
+      return FailedPrecondition(
+          std::string(id) +
+          ": the paper's RSS model (RSS0 = 60, p = 2.3) is in RFCode units; this walk's RSS is "
+          "in dBm: set path_loss_from_walk: true to use the walk's own path-loss model");
+    }
+  }
+  return Status::Ok();
+}
+
+StatusOr<EstimateResult> JimenezIez::Run(const Walk& walk) const {
+  WG_RETURN_IF_ERROR(CheckApplicable(walk));
+  return RunJimenezIez(walk, options_);
+}
+
+StatusOr<EstimateResult> RunJimenezIez(const Walk& walk, const JimenezIezOptions& o,
+                                       JimenezDetails* details) {
+  if (walk.imu.size() < 2) return FailedPrecondition("jimenez-iez: the walk needs IMU samples");
+  const std::vector<ImuSample>& imu = walk.imu;
+  const size_t n_imu = imu.size();
+  WG_ASSIGN_OR_RETURN(ImuSampling sampling, SamplingFromString(o.imu_sampling));
+  if (o.imu_sampling_from_walk) {
+    auto it = walk.meta.extra.find("sim.imu_interval_average");
+    if (it != walk.meta.extra.end()) {
+      sampling = it->second != 0.0 ? ImuSampling::kIntervalAverage : ImuSampling::kInstantaneous;
+    }
+  }
+  WG_ASSIGN_OR_RETURN(StanceMask stance, DetectStance(walk, o.stance));
+  if (o.stance_source == "labels") {
+    WG_ASSIGN_OR_RETURN(stance.stance, StanceLabelsAtImu(walk));
+  }
+  const double imu_dt = (imu.back().t_s - imu.front().t_s) / static_cast<double>(n_imu - 1);
+
+  // Radio: every reading as (d̂, σ_d) through eq. 5 and eq. 7 with the filter's model.
+  std::vector<RangeMeasurement> ranges;
+  if (o.use_rss) {
+    Walk radio;
+    radio.meta = walk.meta;
+    if (!o.path_loss_from_walk) {
+      radio.meta.radio.units = RssUnits::kRfcode;
+      radio.meta.radio.path_loss = {o.rss0, o.path_loss_exponent, o.d0_m, o.sigma_rss};
+    }
+    radio.anchors = walk.anchors;
+    radio.rss = walk.rss;
+    radio.ranges = walk.ranges;
+    RangeConversionOptions conv;
+    conv.bias_corrected = o.bias_corrected_ranges;
+    conv.min_sigma_m = o.min_range_sigma_m;
+    WG_ASSIGN_OR_RETURN(ranges, RangeMeasurementsFromWalk(radio, conv));  // eq. 5, eq. 7
+  }
+
+  // Compass samples: every stance sample, or the middle sample of each stance phase.
+  std::vector<bool> compass_at(n_imu, false);
+  if (o.compass_every_stance_sample) {
+    for (size_t k = 0; k < n_imu; ++k) compass_at[k] = stance.stance[k];
+  } else {
+    for (size_t k = 0; k < n_imu;) {
+      if (!stance.stance[k]) {
+        ++k;
+        continue;
+      }
+      size_t e = k;
+      while (e < n_imu && stance.stance[e]) ++e;
+      compass_at[(k + e - 1) / 2] = true;
+      k = e;
+    }
+  }
+
+  // ---------------------------------------------------------------- initialization
+  const double t0 = imu.front().t_s;
+  Eigen::Vector3d f_mean = Eigen::Vector3d::Zero(), m_mean = Eigen::Vector3d::Zero();
+  int n_level = 0, n_mag = 0;
+  for (size_t k = 0; k < n_imu && (k == 0 || imu[k].t_s - t0 <= o.leveling_window_s); ++k) {
+    f_mean += imu[k].acc_mps2;
+    ++n_level;
+    if (imu[k].has_mag) {
+      m_mean += imu[k].mag_ut;
+      ++n_mag;
+    }
+  }
+  f_mean /= n_level;
+  const bool have_mag = n_mag > 0;
+  if (have_mag) m_mean /= n_mag;
+  const double north_azimuth = kPi / 2.0 - o.declination_rad;
+
+  FilterState f;
+  double yaw0 = 0.0, yaw_sigma = o.init_yaw_sigma_rad;
+  Eigen::Vector3d p0 = Eigen::Vector3d::Zero();
+  double pos_sigma = o.init_position_sigma_m;
+  if (walk.meta.initial_pose) {
+    p0.head<2>() = Eigen::Vector2d(walk.meta.initial_pose->x_m, walk.meta.initial_pose->y_m);
+    pos_sigma = walk.meta.initial_pose->sigma_xy_m;
+  } else if (o.use_rss && !walk.anchors.empty()) {
+    for (const Anchor& a : walk.anchors) p0.head<2>() += a.position_m.head<2>();
+    p0.head<2>() /= static_cast<double>(walk.anchors.size());
+  } else {
+    pos_sigma = 1e-3;  // IMU only, no known start: the origin defines the frame
+  }
+  if (walk.meta.initial_pose && o.initial_heading_from_pose) {
+    yaw0 = walk.meta.initial_pose->heading_rad;
+    yaw_sigma = walk.meta.initial_pose->sigma_heading_rad;
+  } else if (have_mag && o.compass) {
+    yaw0 = NormalizeAngle(north_azimuth - Azimuth(Level(f_mean, 0.0) * m_mean));
+    yaw_sigma = o.compass_sigma_rad;
+  }
+  f.nominal.nav.t_s = t0;
+  f.nominal.nav.q_nb = Level(f_mean, yaw0);
+  f.nominal.nav.p_n = p0;
+  const double field_ref = m_mean.norm();
+  const double dip_ref = Dip(f.nominal.nav.q_nb * m_mean);
+
+  JimenezVector sig0;
+  sig0 << o.init_tilt_sigma_rad, o.init_tilt_sigma_rad, yaw_sigma,
+      Eigen::Vector3d::Constant(o.init_gyro_bias_sigma_radps), pos_sigma, pos_sigma,
+      o.init_height_sigma_m, Eigen::Vector3d::Constant(o.init_velocity_sigma_mps),
+      Eigen::Vector3d::Constant(o.init_acc_bias_sigma_mps2);
+  // The tilt/yaw σ are about the levelled frame's axes; δAt is in the nav frame, whose z is the
+  // yaw axis, so the diagonal form holds to first order.
+  const int n_state = o.smooth ? 2 * N : N;
+  f.dx = Eigen::VectorXd::Zero(n_state);
+  f.P = Eigen::MatrixXd::Zero(n_state, n_state);
+  f.P.topLeftCorner(N, N) = sig0.cwiseAbs2().asDiagonal();
+
+  // Process noise per step (white-noise densities, bias random walks).
+  auto process_noise = [&o](double dt) {
+    JimenezVector q = JimenezVector::Zero();
+    q.segment<3>(kJimenezAtt).setConstant(o.gyro_noise_density * o.gyro_noise_density * dt);
+    q.segment<3>(kJimenezVel).setConstant(o.acc_noise_density * o.acc_noise_density * dt);
+    q.segment<3>(kJimenezGyroBias).setConstant(o.gyro_bias_rw * o.gyro_bias_rw * dt);
+    q.segment<3>(kJimenezAccBias).setConstant(o.acc_bias_rw * o.acc_bias_rw * dt);
+    return q;
+  };
+
+  const int decimation =
+      std::max(1, static_cast<int>(std::lround(1.0 / (o.output_rate_hz * imu_dt))));
+  EstimateResult result;
+  JimenezDetails local;
+  JimenezDetails* d = details != nullptr ? details : &local;
+  *d = JimenezDetails();
+  std::map<std::string, double>& diag = result.diagnostics;
+  for (const char* key : {"zupt_updates", "zaru_updates", "compass_updates", "compass_disturbed",
+                          "compass_gated", "range_updates", "range_gated"}) {
+    diag[key] = 0.0;
+  }
+
+  std::vector<SmootherEpoch> epochs;
+  if (o.smooth) epochs.reserve((n_imu - 1) / static_cast<size_t>(decimation) + 2);
+  auto epoch = [&]() {
+    if (!o.smooth) {
+      result.trajectory.points.push_back(OutputPoint(f.nominal, f.P));
+      return Status::Ok();
+    }
+    if (!epochs.empty()) {
+      SmootherEpoch& prev = epochs.back();
+      const JimenezMatrix P_now = f.P.topLeftCorner(N, N);
+      const JimenezMatrix P_now_clone = f.P.topRightCorner(N, N);  // Cov(δx_now, δx_k)
+      const Eigen::LDLT<JimenezMatrix> ldlt(P_now);
+      if (ldlt.info() != Eigen::Success || !ldlt.isPositive()) {
+        return NumericalError("jimenez-iez-rts: filter covariance not positive at t = " +
+                              std::to_string(f.nominal.nav.t_s));
+      }
+      prev.C = ldlt.solve(P_now_clone).transpose();  // C_k = Cov(δx_k, δx_{k+1}) P⁻¹
+      prev.D = f.P.bottomRightCorner(N, N) - prev.C * P_now * prev.C.transpose();
+      prev.D = 0.5 * (prev.D + prev.D.transpose()).eval();
+      prev.dx_next = f.dx.tail(N);
+    }
+    SmootherEpoch e;
+    e.nominal = f.nominal;
+    epochs.push_back(e);
+    // New clone of the current error (which is 0 after the reset).
+    f.dx.tail(N).setZero();
+    f.P.bottomRightCorner(N, N) = f.P.topLeftCorner(N, N);
+    f.P.topRightCorner(N, N) = f.P.topLeftCorner(N, N);
+    f.P.bottomLeftCorner(N, N) = f.P.topLeftCorner(N, N);
+    return Status::Ok();
+  };
+  WG_RETURN_IF_ERROR(epoch());
+
+  const Eigen::MatrixXd R_zupt =
+      Eigen::Matrix3d::Identity() * (o.zupt_sigma_mps * o.zupt_sigma_mps);
+  const Eigen::MatrixXd R_zaru =
+      Eigen::Matrix3d::Identity() * (o.zaru_sigma_radps * o.zaru_sigma_radps);
+  Eigen::MatrixXd H_zupt = Eigen::MatrixXd::Zero(3, N);
+  H_zupt.middleCols(kJimenezVel, 3).setIdentity();
+  Eigen::MatrixXd H_zaru = Eigen::MatrixXd::Zero(3, N);
+  H_zaru.middleCols(kJimenezGyroBias, 3).setIdentity();
+  size_t ri = 0;
+  long stance_samples = 0;
+
+  // ---------------------------------------------------------------- 100 Hz loop (Algorithm 1)
+  for (size_t k = 1; k < n_imu; ++k) {
+    const double dt = imu[k].t_s - imu[k - 1].t_s;
+    // INS mechanization and EKF prediction.
+    const StrapdownOptions sd = StrapdownFor(f.nominal, sampling, o.gravity_mps2);
+    const JimenezMatrix F = JimenezErrorTransition(f.nominal, imu[k - 1], imu[k], sd);
+    f.nominal.nav = StrapdownStep(f.nominal.nav, imu[k - 1], imu[k], sd);
+    const JimenezMatrix Pcc = f.P.topLeftCorner(N, N);
+    JimenezMatrix Pn = F * Pcc * F.transpose();
+    Pn.diagonal() += process_noise(dt);
+    f.P.topLeftCorner(N, N) = 0.5 * (Pn + Pn.transpose());
+    if (o.smooth) {
+      f.P.topRightCorner(N, N) = F * f.P.topRightCorner(N, N);
+      f.P.bottomLeftCorner(N, N) = f.P.topRightCorner(N, N).transpose();
+    }
+    f.corrected = false;
+
+    if (stance.stance[k]) ++stance_samples;
+    // ZUPT at stance (Algorithm 1 line 9).
+    if (o.zupt && stance.stance[k]) {
+      const Eigen::VectorXd z = -f.nominal.nav.v_n;
+      WG_ASSIGN_OR_RETURN(UpdateOutcome out, Update(z, H_zupt, R_zupt, 0.0, &f));
+      d->nis_zupt.push_back(out.nis);
+      if (!stance.stance[k - 1]) d->nis_zupt_first.push_back(out.nis);
+      diag["zupt_updates"] += 1;
+    }
+    // ZARU when still (line 14).
+    if (o.zaru && !stance.still.empty() && stance.still[k]) {
+      const Eigen::VectorXd z = imu[k].gyro_radps - f.nominal.gyro_bias;
+      WG_ASSIGN_OR_RETURN(UpdateOutcome out, Update(z, H_zaru, R_zaru, 0.0, &f));
+      d->nis_zaru.push_back(out.nis);
+      diag["zaru_updates"] += 1;
+    }
+    // Compass heading at stance (lines 10–11).
+    if (o.compass && compass_at[k] && imu[k].has_mag && have_mag) {
+      const Eigen::Vector3d m_n = f.nominal.nav.q_nb * imu[k].mag_ut;
+      const bool disturbed =
+          (o.compass_max_field_deviation_ut > 0 &&
+           std::fabs(imu[k].mag_ut.norm() - field_ref) > o.compass_max_field_deviation_ut) ||
+          (o.compass_max_dip_deviation_rad > 0 &&
+           std::fabs(Dip(m_n) - dip_ref) > o.compass_max_dip_deviation_rad);
+      if (disturbed) {
+        diag["compass_disturbed"] += 1;
+      } else {
+        Eigen::MatrixXd H = Eigen::MatrixXd::Zero(1, N);
+        H.block<1, 3>(0, kJimenezAtt) = JimenezYawJacobian(f.nominal.nav.q_nb);
+        // θ_compass − θ_INS = α_N − α(R̂ m_b), wrapped.
+        const Eigen::VectorXd z =
+            Eigen::VectorXd::Constant(1, NormalizeAngle(north_azimuth - Azimuth(m_n)));
+        const Eigen::MatrixXd R =
+            Eigen::MatrixXd::Constant(1, 1, o.compass_sigma_rad * o.compass_sigma_rad);
+        WG_ASSIGN_OR_RETURN(UpdateOutcome out, Update(z, H, R, o.compass_gate_probability, &f));
+        if (out.accepted) {
+          d->nis_compass.push_back(out.nis);
+          diag["compass_updates"] += 1;
+        } else {
+          diag["compass_gated"] += 1;
+        }
+      }
+    }
+    // RFID range residuals at the reader's 10 Hz (eq. 1, 2, 5, 7).
+    for (; ri < ranges.size() && ranges[ri].t_s <= imu[k].t_s; ++ri) {
+      const RangeMeasurement& m = ranges[ri];
+      Eigen::RowVector3d u;
+      const double predicted = JimenezPredictedRange(f.nominal.nav.p_n, m.anchor_m,
+                                                     o.reader_height_m, o.planar_ranges, &u);
+      Eigen::MatrixXd H = Eigen::MatrixXd::Zero(1, N);
+      H.block<1, 3>(0, kJimenezPos) = u;
+      const Eigen::VectorXd z = Eigen::VectorXd::Constant(1, m.range_m - predicted);  // eq. 2
+      const Eigen::MatrixXd R = Eigen::MatrixXd::Constant(1, 1, m.sigma_m * m.sigma_m);
+      WG_ASSIGN_OR_RETURN(UpdateOutcome out, Update(z, H, R, o.range_gate_probability, &f));
+      if (out.accepted) {
+        d->nis_range.push_back(out.nis);
+        diag["range_updates"] += 1;
+      } else {
+        diag["range_gated"] += 1;
+      }
+    }
+    // CORRECTINS: inject the error estimate and reset it.
+    if (f.corrected) {
+      const JimenezVector dx = f.dx.head(N);
+      JimenezInjectError(dx, &f.nominal, &f.P);
+      f.dx.head(N).setZero();
+    }
+    if (k % static_cast<size_t>(decimation) == 0 || k + 1 == n_imu) {
+      WG_RETURN_IF_ERROR(epoch());
+    }
+  }
+
+  // ---------------------------------------------------------------- RTS backward pass
+  if (o.smooth) {
+    std::vector<TrajectoryPoint> out(epochs.size());
+    JimenezVector s = JimenezVector::Zero();
+    JimenezMatrix Ps = f.P.topLeftCorner(N, N);
+    for (size_t k = epochs.size(); k-- > 0;) {
+      if (k + 1 < epochs.size()) {
+        const SmootherEpoch& e = epochs[k];
+        s = e.dx_next + e.C * s;                // δx_{k|N} = δx_{k|k+1} + C_k δx_{k+1|N}
+        Ps = e.D + e.C * Ps * e.C.transpose();  // P_{k|N} = D_k + C_k P_{k+1|N} C_kᵀ
+        Ps = 0.5 * (Ps + Ps.transpose()).eval();
+      }
+      JimenezNominal smoothed = epochs[k].nominal;
+      Eigen::MatrixXd P = Ps;
+      JimenezInjectError(s, &smoothed, &P);
+      out[k] = OutputPoint(smoothed, P);
+    }
+    result.trajectory.points = std::move(out);
+  }
+
+  result.nis = o.use_rss ? d->nis_range : d->nis_zupt;
+  auto mean = [](const std::vector<double>& v) {
+    double s = 0.0;
+    for (double x : v) s += x;
+    return v.empty() ? 0.0 : s / static_cast<double>(v.size());
+  };
+  diag["nis_mean_zupt"] = mean(d->nis_zupt);
+  diag["nis_mean_zupt_first"] = mean(d->nis_zupt_first);
+  diag["nis_mean_zaru"] = mean(d->nis_zaru);
+  diag["nis_mean_compass"] = mean(d->nis_compass);
+  diag["nis_mean_range"] = mean(d->nis_range);
+  diag["stance_fraction"] = static_cast<double>(stance_samples) / static_cast<double>(n_imu - 1);
+  diag["smoother_epochs"] = static_cast<double>(epochs.size());
+  d->stance = std::move(stance);
+  d->stance_detector = o.stance_source == "labels" ? "labels" : ToString(o.stance.detector);
+  return result;
+}
+
+namespace internal {
+
+void RegisterJimenezIez(EstimatorRegistry* registry) {
+  struct Variant {
+    const char* id;
+    const char* description;
+    bool use_rss, smooth;
+  };
+  for (const Variant& v : {
+           Variant{"jimenez-iez",
+                   "004 Sec. III-A (IEZ+): foot INS + 15-state error EKF, ZUPT/ZARU/compass", false,
+                   false},
+           Variant{"jimenez-iez-rss",
+                   "004 Sec. III: IEZ+ with tight RFID range residuals (eq. 1-2, 5, 7) at 10 Hz",
+                   true, false},
+           Variant{"jimenez-iez-rts", "jimenez-iez + error-state RTS smoother", false, true},
+           Variant{"jimenez-iez-rss-rts", "jimenez-iez-rss + error-state RTS smoother", true, true},
+       }) {
+    const std::string id = v.id;
+    const bool use_rss = v.use_rss, smooth = v.smooth;
+    registry->Register(
+        {id, v.description,
+         [id, use_rss, smooth](const YAML::Node& config) -> StatusOr<std::unique_ptr<Estimator>> {
+           WG_ASSIGN_OR_RETURN(auto options,
+                               JimenezIezOptions::FromYaml(config, id, use_rss, smooth));
+           return std::unique_ptr<Estimator>(new JimenezIez(options));
+         }});
+  }
+}
+
+}  // namespace internal
+}  // namespace walkgraph
