@@ -81,20 +81,10 @@ struct CompareArgs {
   int threads = 1;
   std::vector<std::string> ids;
   std::string config_path;
+  std::string scenario_config_path;
   bool align_se2 = false;
   std::string out;
 };
-
-// A seeded walk of the named simulated scenario.
-walkgraph::StatusOr<walkgraph::WalkGenerator> ScenarioGenerator(const std::string& name,
-                                                                 const YAML::Node& overrides) {
-  bool known = false;
-  for (const auto& s : walkgraph::Scenarios()) known |= s.name == name;
-  if (!known) return walkgraph::NotFound("--scenario " + name + ": unknown (see walkgraph list)");
-  return walkgraph::WalkGenerator([name, overrides](uint64_t seed) {
-    return walkgraph::SimulateScenario(name, seed, overrides);
-  });
-}
 
 // "[#####-----] done/total" on stderr, redrawn in place; only when stderr is a terminal.
 void DrawProgress(int done, int total) {
@@ -114,6 +104,9 @@ int RunCompare(const CompareArgs& args) {
   if (!args.walk_dir.empty() && args.runs != 1) {
     return Fail(walkgraph::InvalidArgument(
         "compare: --runs needs --scenario (a recorded walk is the same on every run)"));
+  }
+  if (!args.scenario_config_path.empty() && args.scenario.empty()) {
+    return Fail(walkgraph::InvalidArgument("compare: --scenario-config needs --scenario"));
   }
   walkgraph::CompareOptions options;
   options.estimator_ids = args.ids;
@@ -135,14 +128,19 @@ int RunCompare(const CompareArgs& args) {
     if (!walk.ok()) return Fail(walk.status());
     comparison = walkgraph::CompareOnWalk(*walk, options);
   } else {
-    auto generator = ScenarioGenerator(args.scenario, YAML::Node());
-    if (!generator.ok()) return Fail(generator.status());
+    walkgraph::ScenarioCompareOptions scenario;
+    if (!args.scenario_config_path.empty()) {
+      auto overrides = walkgraph::LoadYamlFile(args.scenario_config_path);
+      if (!overrides.ok()) return Fail(overrides.status());
+      scenario.overrides = *overrides;
+      scenario.overrides_origin = args.scenario_config_path;
+    }
     walkgraph::MonteCarloOptions mc;
     mc.runs = args.runs;
     mc.seed = args.seed;
     mc.threads = args.threads;
     if (::isatty(STDERR_FILENO)) mc.progress = DrawProgress;
-    comparison = walkgraph::CompareMonteCarlo(*generator, options, mc);
+    comparison = walkgraph::CompareScenario(args.scenario, scenario, options, mc);
   }
   if (!comparison.ok()) return Fail(comparison.status());
   std::cout << walkgraph::FormatComparisonTable(*comparison);
@@ -246,6 +244,8 @@ int main(int argc, char** argv) {
       "compare", "run estimators side by side on a walk, or Monte Carlo on a scenario");
   compare->add_option("WALK", cargs.walk_dir, "walk directory");
   compare->add_option("--scenario", cargs.scenario, "simulated scenario (instead of WALK)");
+  compare->add_option("--scenario-config", cargs.scenario_config_path,
+                      "YAML file with scenario overrides, e.g. {laps: 2, eta: 3.0}");
   compare->add_option("--runs", cargs.runs, "Monte Carlo runs of the scenario")
       ->check(CLI::PositiveNumber);
   compare->add_option("--seed", cargs.seed, "base seed S (run i uses a seed derived from S, i)");
