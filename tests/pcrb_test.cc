@@ -91,7 +91,9 @@ TEST(Pcrb, LinearGaussianBoundIsTheKalmanAndRtsCovariance) {
   auto sim = SimulateScenarioDetailed("linear-gaussian", 3, YAML::Load("{duration_s: 30}"));
   ASSERT_TRUE(sim.ok()) << sim.status().message();
   const Walk& w = sim->walk;
-  auto info = PcrbInformationFromSimulation(*sim);
+  PcrbOptions options;
+  options.prior_sigma_m = 0.0;  // the walk's initial_pose σ_xy, as the KF below
+  auto info = PcrbInformationFromSimulation(*sim, options);
   ASSERT_TRUE(info.ok()) << info.status().message();
   auto bound = ComputePcrb(*info);
   ASSERT_TRUE(bound.ok()) << bound.status().message();

@@ -48,9 +48,10 @@
 //    planar state cannot carry; with the IMU white noise alone the stride-to-stride σ is ≈1 mm
 //    and the bound a few centimetres, a figure that says nothing about the estimators. A bound
 //    for them needs the INS error state (attitude, velocity, biases) at every sample.
-// Prior: σ_0 = prior_sigma_m, or the walk's initial_pose σ_xy. The simulator puts the prior's
-// mean on the true start, so an estimator that trusts the start more than σ_xy says can beat
-// the bound in the first seconds (and along directions no reading observes).
+// Prior: σ_0 = prior_sigma_m, by default 1 mm: the simulator gives every estimator the true
+// start as initial_pose (with σ_xy = 0.5 m), so the start is known and a bound with a 0.5 m
+// prior would not hold for an estimator that starts there (dead reckoning does). prior_sigma_m
+// ≤ 0 uses initial_pose σ_xy: the Bayesian bound for a start drawn from that prior.
 #ifndef WALKGRAPH_PCRB_H_
 #define WALKGRAPH_PCRB_H_
 
@@ -74,7 +75,7 @@ struct PcrbOptions {
   double step_sigma_m = PdrOptions().sigma_length_m;
   double heading_sigma_rad = PdrOptions().sigma_dheading_rad;  // σ_c = l·σ_ψ
   double min_process_sigma_m = 1e-3;                           // floor of σ_l and σ_c
-  double prior_sigma_m = 0.0;   // σ_0; ≤ 0: the walk's initial_pose σ_xy
+  double prior_sigma_m = 1e-3;  // σ_0 (known start); ≤ 0: the walk's initial_pose σ_xy
   double min_distance_m = 0.5;  // floor of d in the radio information
 
   // Keys: the field names. Unknown keys are errors.
