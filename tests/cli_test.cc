@@ -116,4 +116,30 @@ TEST(Cli, CompareTakesScenarioOverridesAndReportsThePcrb) {
   fs::remove_all(dir);
 }
 
+TEST(Cli, StudyWritesCsvAndHtmlOrFailsWithTheManifestLine) {
+  const fs::path dir = fs::temp_directory_path() / ("wg_cli_study_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  {
+    std::ofstream(dir / "ok.yaml") << "name: cli\nestimators: [odometry-dr]\nruns: 2\nsweeps:\n"
+                                      "  - name: step-noise\n    scenario: linear-gaussian\n"
+                                      "    overrides: {duration_s: 10}\n"
+                                      "    scenario_override: step_sigma_m\n"
+                                      "    values: [0.02, 0.08]\n";
+    std::ofstream(dir / "bad.yaml") << "name: cli\nestimators: [odometry-dr,\n  fg-nope]\n"
+                                       "sweeps: []\n";
+  }
+  CliRun r =
+      Cli("study " + (dir / "ok.yaml").string() + " --threads 2 --out " + (dir / "out").string());
+  EXPECT_EQ(r.code, 0) << r.output;
+  EXPECT_THAT(r.output, HasSubstr("sweep step-noise"));
+  EXPECT_TRUE(fs::exists(dir / "out" / "study.csv"));
+  EXPECT_TRUE(fs::exists(dir / "out" / "study.html"));
+  r = Cli("study " + (dir / "bad.yaml").string() + " --out " + (dir / "out2").string());
+  EXPECT_EQ(r.code, 1);
+  EXPECT_THAT(r.output, HasSubstr((dir / "bad.yaml").string() + ":3: unknown estimator 'fg-nope'"));
+  EXPECT_FALSE(fs::exists(dir / "out2"));
+  fs::remove_all(dir);
+}
+
 }  // namespace

@@ -19,6 +19,7 @@
 #include "walkgraph/pcrb.h"
 #include "walkgraph/simulate.h"
 #include "walkgraph/stance.h"
+#include "walkgraph/study.h"
 
 namespace {
 
@@ -184,6 +185,27 @@ int RunPcrb(const std::string& scenario, const std::string& scenario_config,
   return 0;
 }
 
+int RunStudy(const std::string& manifest_path, int threads, const std::string& out) {
+  auto manifest = walkgraph::ReadStudyManifest(manifest_path);
+  if (!manifest.ok()) return Fail(manifest.status());
+  walkgraph::StudyOptions options;
+  options.threads = threads;
+  if (::isatty(STDERR_FILENO)) {
+    options.progress = [](int done, int total) {
+      std::fprintf(stderr, "\rstudy: %d/%d cells", done, total);
+      if (done == total) std::fprintf(stderr, "\n");
+      std::fflush(stderr);
+    };
+  }
+  auto result = walkgraph::RunStudy(*manifest, options);
+  if (!result.ok()) return Fail(result.status());
+  std::cout << walkgraph::FormatStudyTable(*result);
+  const Status s = walkgraph::WriteStudy(*result, out);
+  if (!s.ok()) return Fail(s);
+  std::cout << "wrote " << out << "/{study.csv,study.html,timing.csv}\n";
+  return 0;
+}
+
 int RunSimulate(const std::string& scenario, uint64_t seed, const std::string& config_path,
                 const std::string& out) {
   auto config = LoadConfig(config_path);
@@ -317,6 +339,16 @@ int main(int argc, char** argv) {
     rc = RunPcrb(pargs.scenario, pargs.scenario_config, pargs.config, pargs.runs, pargs.seed,
                  pargs.threads);
   });
+
+  std::string manifest_path;
+  int study_threads = 1;
+  CLI::App* study = app.add_subcommand(
+      "study", "parameter sweeps over walks/scenarios and estimators from a manifest");
+  study->add_option("MANIFEST", manifest_path, "study manifest (YAML, see study.h)")->required();
+  study->add_option("--threads", study_threads, "worker threads per cell (0 = all cores)")
+      ->check(CLI::NonNegativeNumber);
+  study->add_option("--out", out, "output folder (study.csv, study.html)")->required();
+  study->callback([&] { rc = RunStudy(manifest_path, study_threads, out); });
 
   std::string detector = "glrt";
   std::vector<double> thresholds;

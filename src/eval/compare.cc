@@ -8,10 +8,12 @@
 #include <filesystem>
 #include <iomanip>
 #include <limits>
+#include <mutex>
 #include <sstream>
 
 #include <nlohmann/json.hpp>
 
+#include "report/folder.h"
 #include "walkgraph/io.h"
 
 namespace walkgraph {
@@ -35,7 +37,12 @@ StatusOr<Comparison> CompareOnWalk(const Walk& walk, const CompareOptions& optio
   for (const std::string& id : ids) {
     auto it = options.configs.find(id);
     const YAML::Node config = it != options.configs.end() ? it->second : YAML::Node();
+    // Monte Carlo runs share the configuration nodes, and a yaml-cpp lookup by key may modify
+    // a node: estimators are created one at a time.
+    static std::mutex create_mutex;
+    std::unique_lock<std::mutex> lock(create_mutex);
     WG_ASSIGN_OR_RETURN(std::unique_ptr<Estimator> est, registry.Create(id, config));
+    lock.unlock();
     const Status applicable = est->CheckApplicable(walk);
     if (!applicable.ok()) {
       if (explicit_list) return FailedPrecondition(id + ": " + applicable.message());
@@ -188,18 +195,13 @@ std::string FormatComparisonTable(const Comparison& c) {
   return out.str();
 }
 
-Status WriteComparison(const Comparison& c, const std::string& out_dir) {
-  const fs::path final_dir(out_dir);
-  const fs::path tmp = final_dir.string() + ".tmp-" + std::to_string(::getpid());
+namespace {
+
+Status WriteComparisonFiles(const Comparison& c, const fs::path& tmp) {
   std::error_code ec;
-  fs::remove_all(tmp, ec);
   if (!fs::create_directories(tmp / "trajectories", ec)) {
-    return IoError(out_dir + ": cannot create " + tmp.string() + ": " + ec.message());
+    return IoError(tmp.string() + ": cannot create trajectories/: " + ec.message());
   }
-  auto fail = [&](Status s) {
-    fs::remove_all(tmp, ec);
-    return s;
-  };
   nlohmann::ordered_json j;
   j["walk"] = c.walk_name;
   j["runs"] = c.runs;
@@ -244,13 +246,13 @@ Status WriteComparison(const Comparison& c, const std::string& out_dir) {
     out << j.dump(2) << "\n";
     return true;
   });
-  if (!s.ok()) return fail(s);
+  if (!s.ok()) return s;
   if (monte_carlo) {
     s = WriteFileAtomically((tmp / "timing.json").string(), [&](std::ostream& out) {
       out << timing.dump(2) << "\n";
       return true;
     });
-    if (!s.ok()) return fail(s);
+    if (!s.ok()) return s;
   }
   s = WriteFileAtomically((tmp / "errors.csv").string(), [&](std::ostream& out) {
     out << "t_s,estimator,error_m" << (monte_carlo ? ",run\n" : "\n") << std::setprecision(10);
@@ -264,22 +266,25 @@ Status WriteComparison(const Comparison& c, const std::string& out_dir) {
     }
     return true;
   });
-  if (!s.ok()) return fail(s);
+  if (!s.ok()) return s;
   for (const EstimatorOutcome& o : c.outcomes) {
     if (!o.status.ok()) continue;
     s = WriteTumTrajectory(o.result.trajectory, (tmp / "trajectories" / (o.id + ".tum")).string());
-    if (!s.ok()) return fail(s);
+    if (!s.ok()) return s;
   }
   const std::string html = RenderHtmlReport(c);
   s = WriteFileAtomically((tmp / "report.html").string(), [&](std::ostream& out) {
     out << html;
     return true;
   });
-  if (!s.ok()) return fail(s);
-  if (fs::exists(final_dir, ec)) fs::remove_all(final_dir, ec);
-  fs::rename(tmp, final_dir, ec);
-  if (ec) return fail(IoError(out_dir + ": cannot rename " + tmp.string() + ": " + ec.message()));
-  return Status::Ok();
+  return s;
+}
+
+}  // namespace
+
+Status WriteComparison(const Comparison& c, const std::string& out_dir) {
+  return report::WriteFolderAtomically(
+      out_dir, [&](const fs::path& tmp) { return WriteComparisonFiles(c, tmp); });
 }
 
 }  // namespace walkgraph
