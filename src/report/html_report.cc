@@ -103,6 +103,9 @@ std::string ErrorTimePlot(const Comparison& c) {
     a.x1 = std::max(a.x1, o.errors.t_s.back());
     a.y1 = std::max(a.y1, o.stats.p90_m * 1.5);
   }
+  for (const std::vector<double>* bound : {&c.pcrb_smoother_m, &c.pcrb_filter_m}) {
+    for (double v : *bound) a.y1 = std::max(a.y1, 1.05 * v);
+  }
   if (!std::isfinite(a.x0)) {
     a.x0 = 0;
     a.x1 = 1;
@@ -208,7 +211,7 @@ std::string Table(const Comparison& c) {
     for (const auto& [name, value] : rows) {
       if (!value) continue;
       s << "<tr class=\"pcrb\"><td>" << name << "</td><td>" << *value << "</td>";
-      for (int j = 2; j < ncols; ++j) s << "<td>-</td>";
+      for (int j = 1; j < ncols; ++j) s << "<td>-</td>";
       s << "</tr>\n";
     }
   }

@@ -83,13 +83,21 @@ inline std::string Open(const Axes& a, const std::string& id, const std::string&
     << "\" text-anchor=\"middle\" font-size=\"12\">" << Escape(xlabel) << "</text>\n";
   s << "<text x=\"14\" y=\"" << a.h / 2 << "\" text-anchor=\"middle\" font-size=\"12\" "
     << "transform=\"rotate(-90 14 " << a.h / 2 << ")\">" << Escape(ylabel) << "</text>\n";
+  // Enough decimals to tell the ticks (a quarter of the range) apart.
+  auto decimals = [](double span) {
+    const double step = span / 4.0;
+    if (!(step > 0.0)) return 1;
+    return std::clamp(static_cast<int>(std::ceil(-std::log10(step))) + 1, 0, 6);
+  };
+  const int dx = decimals(a.x1 - a.x0), dy = decimals(a.y1 - a.y0);
   for (int i = 0; i <= 4; ++i) {
     const double xv = a.x0 + (a.x1 - a.x0) * i / 4.0, yv = a.y0 + (a.y1 - a.y0) * i / 4.0;
-    s << "<text x=\"" << a.X(xv) << "\" y=\"" << a.h - a.m + 14
-      << "\" text-anchor=\"middle\" font-size=\"10\">" << std::setprecision(1) << xv << "</text>";
-    s << "<text x=\"" << a.m - 4 << "\" y=\"" << a.Y(yv) + 3
-      << "\" text-anchor=\"end\" font-size=\"10\">" << yv << "</text>\n";
+    s << std::setprecision(1) << "<text x=\"" << a.X(xv) << "\" y=\"" << a.h - a.m + 14
+      << "\" text-anchor=\"middle\" font-size=\"10\">" << std::setprecision(dx) << xv << "</text>";
+    s << std::setprecision(1) << "<text x=\"" << a.m - 4 << "\" y=\"" << a.Y(yv) + 3
+      << "\" text-anchor=\"end\" font-size=\"10\">" << std::setprecision(dy) << yv << "</text>\n";
   }
+  s << std::setprecision(1);
   return s.str();
 }
 
