@@ -146,7 +146,10 @@ std::string FormatComparisonTable(const Comparison& c) {
     }
     row.push_back(Fixed(o.runtime_s, 3) + (o.runtime_s == best[ncol] ? "*" : " "));
     row.push_back(std::to_string(o.stats.n_points));
-    if (with_pcrb) row.push_back(Fixed(*RmseOverPcrb(c, o), 2) + " ");
+    if (with_pcrb) {
+      const std::optional<double> ratio = RmseOverPcrb(c, o);
+      row.push_back(ratio ? Fixed(*ratio, 2) + " " : "- ");
+    }
     rows.push_back(row);
   }
   // The bound's rows: the RMSE column only (no estimator can reach below it).

@@ -201,8 +201,12 @@ std::string Table(const Comparison& c) {
     }
     s << "<td>" << o.runtime_s << "</td>";
     s << "<td>" << e.n_points << "</td>";
-    if (with_pcrb)
-      s << "<td>" << std::setprecision(2) << *RmseOverPcrb(c, o) << std::setprecision(3) << "</td>";
+    if (with_pcrb) {
+      const std::optional<double> ratio = RmseOverPcrb(c, o);
+      s << "<td>";
+      if (ratio) s << std::setprecision(2) << *ratio << std::setprecision(3);
+      s << "</td>";
+    }
     s << "</tr>\n";
   }
   if (with_pcrb) {
