@@ -2,6 +2,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <random>
 
 #include <gmock/gmock.h>
@@ -246,7 +247,7 @@ TEST(Pcrb, ReadingBetweenNodesIsSharedByInterpolation) {
 // An efficient estimator attains the bound: the KF/RTS of the linear-Gaussian preset, started
 // from a prior mean drawn from the prior (as the Bayesian bound assumes), over N runs.
 TEST(Pcrb, KalmanRmseOnLinearGaussianApproachesTheBound) {
-  const int runs = testing::MonteCarloRuns(200);
+  const int runs = testing::MonteCarloRuns(2000);
   const double sigma0 = 0.05;
   PcrbOptions options;
   options.prior_sigma_m = sigma0;
@@ -278,8 +279,13 @@ TEST(Pcrb, KalmanRmseOnLinearGaussianApproachesTheBound) {
     }
   }
   const double rmse_f = std::sqrt(se_f / count), rmse_s = std::sqrt(se_s / count);
-  // N = 200: the RMSE estimates have ≈1.5 % standard error; 6 % is 4σ.
-  const double tol = testing::kSanitized ? 0.2 : 0.06;
+  std::printf(
+      "linear-gaussian, %d runs: KF RMSE %.4f m vs filtering PCRB %.4f m; RTS %.4f m vs "
+      "smoothing PCRB %.4f m\n",
+      runs, rmse_f, bound->filter_rmse_m, rmse_s, bound->smoother_rmse_m);
+  // N = 2000: the RMSE estimates have ≈0.6 % standard error (3000 runs of another seed gave
+  // 0.1251 vs 0.1252 m and 0.1000 vs 0.1002 m); 3 % is 5σ.
+  const double tol = testing::kSanitized ? 0.08 : 0.03;
   EXPECT_NEAR(rmse_f / bound->filter_rmse_m, 1.0, tol) << rmse_f << " vs " << bound->filter_rmse_m;
   EXPECT_NEAR(rmse_s / bound->smoother_rmse_m, 1.0, tol)
       << rmse_s << " vs " << bound->smoother_rmse_m;
