@@ -1,6 +1,7 @@
 // The walkgraph CLI as a user meets it: exit codes, messages, no partial outputs.
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
 #include <string>
 
 #include <gmock/gmock.h>
@@ -55,17 +56,17 @@ TEST(Cli, FailureLeavesNoOutput) {
   CliRun r = Cli("compare " + kData + "/malformed/time_backwards --out " + out.string());
   EXPECT_EQ(r.code, 1);
   EXPECT_FALSE(fs::exists(out));
-  r = Cli("smooth " + kData + "/walks/valid_small --estimator nope --out " + out.string() +
-          ".tum");
+  r = Cli("smooth " + kData + "/walks/valid_small --estimator nope --out " + out.string() + ".tum");
   EXPECT_EQ(r.code, 1);
   EXPECT_THAT(r.output, HasSubstr("unknown estimator 'nope'"));
   EXPECT_FALSE(fs::exists(out.string() + ".tum"));
 }
 
 TEST(Cli, SmoothWritesTum) {
-  const fs::path out = fs::temp_directory_path() / ("wg_cli_" + std::to_string(::getpid()) + ".tum");
-  CliRun r = Cli("smooth " + kData + "/walks/valid_small --estimator odometry-dr --out " +
-              out.string());
+  const fs::path out =
+      fs::temp_directory_path() / ("wg_cli_" + std::to_string(::getpid()) + ".tum");
+  CliRun r =
+      Cli("smooth " + kData + "/walks/valid_small --estimator odometry-dr --out " + out.string());
   EXPECT_EQ(r.code, 0) << r.output;
   EXPECT_TRUE(fs::exists(out));
   fs::remove(out);
@@ -79,6 +80,66 @@ TEST(Cli, UsageErrorsAreNonZero) {
   EXPECT_EQ(list.code, 0);
   EXPECT_THAT(list.output, HasSubstr("odometry-dr"));
   EXPECT_THAT(list.output, HasSubstr("plaza"));
+}
+
+TEST(Cli, CompareTakesScenarioOverridesAndReportsThePcrb) {
+  const fs::path dir = fs::temp_directory_path() / ("wg_cli_sc_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const fs::path good = dir / "short.yaml", bad = dir / "bad.yaml";
+  { std::ofstream(good) << "duration_s: 20\nrange_sigma_m: 0.5\n"; }
+  { std::ofstream(bad) << "duration_s: 20\nlapz: 2\n"; }
+  const fs::path out = dir / "out";
+  CliRun r = Cli("compare --scenario linear-gaussian --scenario-config " + good.string() +
+                 " --runs 3 --out " + out.string());
+  EXPECT_EQ(r.code, 0) << r.output;
+  EXPECT_THAT(r.output, HasSubstr("PCRB smoother"));
+  std::ifstream in(out / "results.json");
+  const std::string json((std::istreambuf_iterator<char>(in)), {});
+  EXPECT_THAT(json, HasSubstr("\"pcrb_filter_rmse_m\": 0."));
+  EXPECT_THAT(json, HasSubstr("\"rmse_over_pcrb\""));
+  r = Cli("compare --scenario linear-gaussian --scenario-config " + bad.string() + " --out " +
+          (dir / "out2").string());
+  EXPECT_EQ(r.code, 1);
+  EXPECT_THAT(r.output, HasSubstr(bad.string() + ": simulate linear-gaussian (line 2)"));
+  EXPECT_FALSE(fs::exists(dir / "out2"));
+  r = Cli("compare " + kData + "/walks/valid_small --scenario-config " + good.string() + " --out " +
+          (dir / "out3").string());
+  EXPECT_NE(r.code, 0);
+  r = Cli("pcrb --scenario linear-gaussian --scenario-config " + good.string() + " --runs 2");
+  EXPECT_EQ(r.code, 0) << r.output;
+  EXPECT_THAT(r.output, HasSubstr("smoother"));
+  { std::ofstream(dir / "foot.yaml") << "laps: 1\n"; }
+  r = Cli("pcrb --scenario prieto-laps --scenario-config " + (dir / "foot.yaml").string());
+  EXPECT_EQ(r.code, 1);
+  EXPECT_THAT(r.output, HasSubstr("foot"));
+  fs::remove_all(dir);
+}
+
+TEST(Cli, StudyWritesCsvAndHtmlOrFailsWithTheManifestLine) {
+  const fs::path dir = fs::temp_directory_path() / ("wg_cli_study_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  {
+    std::ofstream(dir / "ok.yaml") << "name: cli\nestimators: [odometry-dr]\nruns: 2\nsweeps:\n"
+                                      "  - name: step-noise\n    scenario: linear-gaussian\n"
+                                      "    overrides: {duration_s: 10}\n"
+                                      "    scenario_override: step_sigma_m\n"
+                                      "    values: [0.02, 0.08]\n";
+    std::ofstream(dir / "bad.yaml") << "name: cli\nestimators: [odometry-dr,\n  fg-nope]\n"
+                                       "sweeps: []\n";
+  }
+  CliRun r =
+      Cli("study " + (dir / "ok.yaml").string() + " --threads 2 --out " + (dir / "out").string());
+  EXPECT_EQ(r.code, 0) << r.output;
+  EXPECT_THAT(r.output, HasSubstr("sweep step-noise"));
+  EXPECT_TRUE(fs::exists(dir / "out" / "study.csv"));
+  EXPECT_TRUE(fs::exists(dir / "out" / "study.html"));
+  r = Cli("study " + (dir / "bad.yaml").string() + " --out " + (dir / "out2").string());
+  EXPECT_EQ(r.code, 1);
+  EXPECT_THAT(r.output, HasSubstr((dir / "bad.yaml").string() + ":3: unknown estimator 'fg-nope'"));
+  EXPECT_FALSE(fs::exists(dir / "out2"));
+  fs::remove_all(dir);
 }
 
 }  // namespace

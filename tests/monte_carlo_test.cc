@@ -14,6 +14,7 @@
 
 #include "walkgraph/compare.h"
 #include "walkgraph/io.h"
+#include "walkgraph/pcrb.h"
 
 namespace walkgraph {
 namespace {
@@ -181,6 +182,111 @@ TEST(AggregateRuns, CountsFailedRunsAndKeepsTheOthers) {
   ASSERT_TRUE(all_bad.ok());
   EXPECT_FALSE(all_bad->outcomes[0].status.ok());
   EXPECT_THAT(all_bad->outcomes[0].status.message(), HasSubstr("run 0: diverged"));
+}
+
+// Test-only estimator: the walk's truth shifted by offset_m along x (error = offset_m exactly).
+class TruthOffset : public Estimator {
+ public:
+  explicit TruthOffset(double offset_m) : offset_m_(offset_m) {}
+  Status CheckApplicable(const Walk& walk) const override {
+    return walk.has_truth() ? Status::Ok() : FailedPrecondition("needs truth");
+  }
+  StatusOr<EstimateResult> Run(const Walk& walk) const override {
+    EstimateResult r;
+    for (const TruthSample& t : walk.truth) {
+      TrajectoryPoint p;
+      p.t_s = t.t_s;
+      p.position_m = Eigen::Vector3d(t.position_m.x() + offset_m_, t.position_m.y(), 0.0);
+      r.trajectory.points.push_back(p);
+    }
+    return r;
+  }
+
+ private:
+  double offset_m_;
+};
+
+EstimatorRegistry TestRegistry() {
+  EstimatorRegistry r;
+  EXPECT_TRUE(r.Register({"truth-offset", "test: truth + 0.25 m in x",
+                          [](const YAML::Node&) -> StatusOr<std::unique_ptr<Estimator>> {
+                            return std::unique_ptr<Estimator>(new TruthOffset(0.25));
+                          }})
+                  .ok());
+  return r;
+}
+
+TEST(CompareScenario, AddsThePcrbOfTheSameRunsAndIsThreadIndependent) {
+  ScenarioCompareOptions sc;
+  sc.overrides = YAML::Load("{duration_s: 20, range_sigma_m: 0.5}");
+  CompareOptions o;
+  o.estimator_ids = {"odometry-dr"};
+  const fs::path base = fs::temp_directory_path() / ("wg_sc_" + std::to_string(::getpid()));
+  std::string json[2];
+  std::optional<Comparison> first;
+  for (int threads : {1, 2}) {
+    MonteCarloOptions mc;
+    mc.runs = 6;
+    mc.seed = 3;
+    mc.threads = threads;
+    auto c = CompareScenario("linear-gaussian", sc, o, mc);
+    ASSERT_TRUE(c.ok()) << c.status().message();
+    ASSERT_TRUE(WriteComparison(*c, (base / std::to_string(threads)).string()).ok());
+    json[threads - 1] = ReadFile(base / std::to_string(threads) / "results.json");
+    if (!first) first = *c;
+  }
+  EXPECT_EQ(json[0], json[1]);
+  const Comparison& c = *first;
+  auto bound = ScenarioPcrb("linear-gaussian", sc.overrides, 6, 3, 1);
+  ASSERT_TRUE(bound.ok());
+  ASSERT_TRUE(c.pcrb_rmse_m.has_value());
+  EXPECT_DOUBLE_EQ(*c.pcrb_rmse_m, bound->smoother_rmse_m);
+  EXPECT_DOUBLE_EQ(*c.pcrb_filter_rmse_m, bound->filter_rmse_m);
+  EXPECT_EQ(c.pcrb_t_s.size(), bound->t_s.size());
+  const nlohmann::json j = nlohmann::json::parse(json[0]);
+  const double rmse = j["estimators"]["odometry-dr"]["rmse_m"];
+  EXPECT_DOUBLE_EQ(j["estimators"]["odometry-dr"]["rmse_over_pcrb"].get<double>(),
+                   rmse / bound->smoother_rmse_m);
+  EXPECT_DOUBLE_EQ(j["pcrb_filter_rmse_m"].get<double>(), bound->filter_rmse_m);
+  // Dead reckoning from the known start ignores the ranges: it cannot beat the bound.
+  EXPECT_GT(rmse, bound->smoother_rmse_m);
+  EXPECT_THAT(FormatComparisonTable(c), HasSubstr("PCRB smoother"));
+  EXPECT_THAT(FormatComparisonTable(c), HasSubstr("rmse/pcrb"));
+  const std::string html = RenderHtmlReport(c);
+  EXPECT_THAT(html, HasSubstr("class=\"pcrb-curve\""));
+  EXPECT_THAT(html, HasSubstr("RMSE / PCRB"));
+  fs::remove_all(base);
+}
+
+TEST(CompareScenario, FootScenarioSaysWhyThereIsNoBound) {
+  ScenarioCompareOptions sc;
+  sc.overrides = YAML::Load("{laps: 1}");
+  MonteCarloOptions mc;
+  auto c = CompareScenario("prieto-laps", sc, {}, mc, TestRegistry());
+  ASSERT_TRUE(c.ok()) << c.status().message();
+  EXPECT_FALSE(c->pcrb_rmse_m.has_value());
+  EXPECT_THAT(c->pcrb_note, HasSubstr("foot"));
+  EXPECT_NEAR(c->outcomes[0].stats.rmse_m, 0.25, 1e-9);
+  EXPECT_THAT(FormatComparisonTable(*c), HasSubstr("PCRB not computed"));
+  sc.pcrb = false;
+  auto off = CompareScenario("prieto-laps", sc, {}, mc, TestRegistry());
+  ASSERT_TRUE(off.ok());
+  EXPECT_TRUE(off->pcrb_note.empty());
+}
+
+TEST(CompareScenario, OverrideErrorsNameTheirOrigin) {
+  ScenarioCompareOptions sc;
+  sc.overrides = YAML::Load("duration_s: 20\nlapz: 2\n");
+  sc.overrides_origin = "my.yaml";
+  MonteCarloOptions mc;
+  auto c = CompareScenario("linear-gaussian", sc, {}, mc, TestRegistry());
+  ASSERT_FALSE(c.ok());
+  EXPECT_THAT(c.status().message(), HasSubstr("my.yaml: "));
+  EXPECT_THAT(c.status().message(), HasSubstr("(line 2)"));
+  EXPECT_THAT(c.status().message(), HasSubstr("lapz"));
+  auto unknown = CompareScenario("no-such", {}, {}, mc, TestRegistry());
+  ASSERT_FALSE(unknown.ok());
+  EXPECT_THAT(unknown.status().message(), HasSubstr("tarrio-circle"));
 }
 
 }  // namespace

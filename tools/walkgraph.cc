@@ -16,8 +16,10 @@
 #include "walkgraph/estimator.h"
 #include "walkgraph/io.h"
 #include "walkgraph/logging.h"
+#include "walkgraph/pcrb.h"
 #include "walkgraph/simulate.h"
 #include "walkgraph/stance.h"
+#include "walkgraph/study.h"
 
 namespace {
 
@@ -81,20 +83,17 @@ struct CompareArgs {
   int threads = 1;
   std::vector<std::string> ids;
   std::string config_path;
+  std::string scenario_config_path;
   bool align_se2 = false;
   std::string out;
 };
 
-// A seeded walk of the named simulated scenario.
-walkgraph::StatusOr<walkgraph::WalkGenerator> ScenarioGenerator(const std::string& name,
-                                                                 const YAML::Node& overrides) {
-  bool known = false;
-  for (const auto& s : walkgraph::Scenarios()) known |= s.name == name;
-  if (!known) return walkgraph::NotFound("--scenario " + name + ": unknown (see walkgraph list)");
-  return walkgraph::WalkGenerator([name, overrides](uint64_t seed) {
-    return walkgraph::SimulateScenario(name, seed, overrides);
-  });
-}
+struct PcrbArgs {
+  std::string scenario, scenario_config, config;
+  int runs = 1;
+  uint64_t seed = 1;
+  int threads = 1;
+};
 
 // "[#####-----] done/total" on stderr, redrawn in place; only when stderr is a terminal.
 void DrawProgress(int done, int total) {
@@ -114,6 +113,9 @@ int RunCompare(const CompareArgs& args) {
   if (!args.walk_dir.empty() && args.runs != 1) {
     return Fail(walkgraph::InvalidArgument(
         "compare: --runs needs --scenario (a recorded walk is the same on every run)"));
+  }
+  if (!args.scenario_config_path.empty() && args.scenario.empty()) {
+    return Fail(walkgraph::InvalidArgument("compare: --scenario-config needs --scenario"));
   }
   walkgraph::CompareOptions options;
   options.estimator_ids = args.ids;
@@ -135,20 +137,72 @@ int RunCompare(const CompareArgs& args) {
     if (!walk.ok()) return Fail(walk.status());
     comparison = walkgraph::CompareOnWalk(*walk, options);
   } else {
-    auto generator = ScenarioGenerator(args.scenario, YAML::Node());
-    if (!generator.ok()) return Fail(generator.status());
+    walkgraph::ScenarioCompareOptions scenario;
+    if (!args.scenario_config_path.empty()) {
+      auto overrides = walkgraph::LoadYamlFile(args.scenario_config_path);
+      if (!overrides.ok()) return Fail(overrides.status());
+      scenario.overrides = *overrides;
+      scenario.overrides_origin = args.scenario_config_path;
+    }
     walkgraph::MonteCarloOptions mc;
     mc.runs = args.runs;
     mc.seed = args.seed;
     mc.threads = args.threads;
     if (::isatty(STDERR_FILENO)) mc.progress = DrawProgress;
-    comparison = walkgraph::CompareMonteCarlo(*generator, options, mc);
+    comparison = walkgraph::CompareScenario(args.scenario, scenario, options, mc);
   }
   if (!comparison.ok()) return Fail(comparison.status());
   std::cout << walkgraph::FormatComparisonTable(*comparison);
   const Status s = walkgraph::WriteComparison(*comparison, args.out);
   if (!s.ok()) return Fail(s);
   std::cout << "wrote " << args.out << "/{results.json,errors.csv,trajectories/,report.html}\n";
+  return 0;
+}
+
+int RunPcrb(const std::string& scenario, const std::string& scenario_config,
+            const std::string& config_path, int runs, uint64_t seed, int threads) {
+  YAML::Node overrides;
+  if (!scenario_config.empty()) {
+    auto node = walkgraph::LoadYamlFile(scenario_config);
+    if (!node.ok()) return Fail(node.status());
+    overrides = *node;
+  }
+  auto config = LoadConfig(config_path);
+  if (!config.ok()) return Fail(config.status());
+  auto options =
+      walkgraph::PcrbOptions::FromYaml(*config, config_path.empty() ? "pcrb" : config_path);
+  if (!options.ok()) return Fail(options.status());
+  auto bound = walkgraph::ScenarioPcrb(scenario, overrides, runs, seed, threads, *options);
+  if (!bound.ok()) {
+    const std::string where = scenario_config.empty() ? "" : scenario_config + ": ";
+    return Fail(Status(bound.status().code(), where + bound.status().message()));
+  }
+  std::printf("scenario %s, runs %d, seed %llu: PCRB of the position RMSE\n", scenario.c_str(),
+              runs, static_cast<unsigned long long>(seed));
+  std::printf("  filter (Tichavsky recursion)  %.4f m\n", bound->filter_rmse_m);
+  std::printf("  smoother (full-walk info)     %.4f m\n", bound->smoother_rmse_m);
+  std::printf("  %zu states, %.1f readings per run\n", bound->t_s.size(), bound->readings);
+  return 0;
+}
+
+int RunStudy(const std::string& manifest_path, int threads, const std::string& out) {
+  auto manifest = walkgraph::ReadStudyManifest(manifest_path);
+  if (!manifest.ok()) return Fail(manifest.status());
+  walkgraph::StudyOptions options;
+  options.threads = threads;
+  if (::isatty(STDERR_FILENO)) {
+    options.progress = [](int done, int total) {
+      std::fprintf(stderr, "\rstudy: %d/%d cells", done, total);
+      if (done == total) std::fprintf(stderr, "\n");
+      std::fflush(stderr);
+    };
+  }
+  auto result = walkgraph::RunStudy(*manifest, options);
+  if (!result.ok()) return Fail(result.status());
+  std::cout << walkgraph::FormatStudyTable(*result);
+  const Status s = walkgraph::WriteStudy(*result, out);
+  if (!s.ok()) return Fail(s);
+  std::cout << "wrote " << out << "/{study.csv,study.html,timing.csv}\n";
   return 0;
 }
 
@@ -246,6 +300,8 @@ int main(int argc, char** argv) {
       "compare", "run estimators side by side on a walk, or Monte Carlo on a scenario");
   compare->add_option("WALK", cargs.walk_dir, "walk directory");
   compare->add_option("--scenario", cargs.scenario, "simulated scenario (instead of WALK)");
+  compare->add_option("--scenario-config", cargs.scenario_config_path,
+                      "YAML file with scenario overrides, e.g. {laps: 2, eta: 3.0}");
   compare->add_option("--runs", cargs.runs, "Monte Carlo runs of the scenario")
       ->check(CLI::PositiveNumber);
   compare->add_option("--seed", cargs.seed, "base seed S (run i uses a seed derived from S, i)");
@@ -268,6 +324,31 @@ int main(int argc, char** argv) {
   simulate->add_option("--config", config_path, "YAML file with scenario overrides");
   simulate->add_option("--out", out, "walk directory to write")->required();
   simulate->callback([&] { rc = RunSimulate(scenario, seed, config_path, out); });
+
+  PcrbArgs pargs;
+  CLI::App* pcrb = app.add_subcommand(
+      "pcrb", "posterior Cramer-Rao bound of a simulated scenario's position RMSE");
+  pcrb->add_option("--scenario", pargs.scenario, "scenario name (see walkgraph list)")->required();
+  pcrb->add_option("--scenario-config", pargs.scenario_config, "YAML file with scenario overrides");
+  pcrb->add_option("--config", pargs.config, "YAML file with PCRB options (see pcrb.h)");
+  pcrb->add_option("--runs", pargs.runs, "Monte Carlo runs")->check(CLI::PositiveNumber);
+  pcrb->add_option("--seed", pargs.seed, "base seed S (as compare)");
+  pcrb->add_option("--threads", pargs.threads, "worker threads (0 = all cores)")
+      ->check(CLI::NonNegativeNumber);
+  pcrb->callback([&] {
+    rc = RunPcrb(pargs.scenario, pargs.scenario_config, pargs.config, pargs.runs, pargs.seed,
+                 pargs.threads);
+  });
+
+  std::string manifest_path;
+  int study_threads = 1;
+  CLI::App* study = app.add_subcommand(
+      "study", "parameter sweeps over walks/scenarios and estimators from a manifest");
+  study->add_option("MANIFEST", manifest_path, "study manifest (YAML, see study.h)")->required();
+  study->add_option("--threads", study_threads, "worker threads per cell (0 = all cores)")
+      ->check(CLI::NonNegativeNumber);
+  study->add_option("--out", out, "output folder (study.csv, study.html)")->required();
+  study->callback([&] { rc = RunStudy(manifest_path, study_threads, out); });
 
   std::string detector = "glrt";
   std::vector<double> thresholds;

@@ -11,6 +11,10 @@
 //   median, p75, p90: percentiles of the pooled errors of all runs, *_std = sample std of the
 //                     per-run percentiles.
 // Runs are aggregated in run order, so the result does not depend on the thread count.
+//
+// Simulated scenarios (CompareScenario) also get the posterior Cramér–Rao bound of the same
+// runs (pcrb.h): pcrb_rmse_m (smoothing bound), pcrb_filter_rmse_m (filtering bound), and each
+// estimator's rmse_over_pcrb = rmse_m / pcrb_rmse_m in results.json, the table and the report.
 #ifndef WALKGRAPH_COMPARE_H_
 #define WALKGRAPH_COMPARE_H_
 
@@ -25,6 +29,7 @@
 
 #include "walkgraph/estimator.h"
 #include "walkgraph/metrics.h"
+#include "walkgraph/pcrb.h"
 #include "walkgraph/status.h"
 #include "walkgraph/walk.h"
 
@@ -60,7 +65,13 @@ struct Comparison {
   std::optional<uint64_t> seed;  // Monte Carlo base seed S
   TruthKind truth_kind = TruthKind::kNone;
   std::vector<EstimatorOutcome> outcomes;
+  // Posterior Cramér–Rao bound of the position RMSE (simulated scenarios; see pcrb.h):
+  // smoothing bound (full-walk information) and filtering bound (Tichavský recursion).
   std::optional<double> pcrb_rmse_m;
+  std::optional<double> pcrb_filter_rmse_m;
+  std::string pcrb_note;  // why there is no bound, when it was asked for and not computed
+  // sqrt(tr B) at the bound's nodes, for the error-vs-time plot.
+  std::vector<double> pcrb_t_s, pcrb_filter_m, pcrb_smoother_m;
   // What the report draws under the trajectories.
   std::vector<Anchor> anchors;
   std::vector<TruthSample> truth;
@@ -95,6 +106,27 @@ StatusOr<Comparison> CompareMonteCarlo(
     const WalkGenerator& generate, const CompareOptions& options,
     const MonteCarloOptions& monte_carlo,
     const EstimatorRegistry& registry = EstimatorRegistry::Builtin());
+
+// Simulated scenario `scenario` with simulator overrides, N Monte Carlo runs (as
+// CompareMonteCarlo with SimulateScenario), plus its PCRB over the same runs when `pcrb` is set.
+// A bound that is not defined for the scenario (FailedPrecondition, e.g. foot-IMU presets)
+// leaves pcrb_rmse_m empty and says why in pcrb_note; other PCRB failures are errors.
+struct ScenarioCompareOptions {
+  YAML::Node overrides;          // SimulateScenario overrides, e.g. {laps: 2, eta: 3.0}
+  std::string overrides_origin;  // prefixed to simulator errors (e.g. the YAML file's path)
+  bool pcrb = true;
+  PcrbOptions pcrb_options;
+};
+StatusOr<Comparison> CompareScenario(
+    const std::string& scenario, const ScenarioCompareOptions& scenario_options,
+    const CompareOptions& options, const MonteCarloOptions& monte_carlo,
+    const EstimatorRegistry& registry = EstimatorRegistry::Builtin());
+
+// Copies the bound's figures into `comparison` (pcrb_rmse_m, pcrb_filter_rmse_m, series).
+void AttachPcrb(const PcrbBound& bound, Comparison* comparison);
+
+// rmse_m / pcrb_rmse_m of an outcome, when both exist.
+std::optional<double> RmseOverPcrb(const Comparison& comparison, const EstimatorOutcome& outcome);
 
 // The aggregation step alone: `runs` are single-walk comparisons in run order.
 StatusOr<Comparison> AggregateRuns(const std::vector<Comparison>& runs);

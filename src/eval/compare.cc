@@ -3,13 +3,17 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <iomanip>
+#include <limits>
+#include <mutex>
 #include <sstream>
 
 #include <nlohmann/json.hpp>
 
+#include "report/folder.h"
 #include "walkgraph/io.h"
 
 namespace walkgraph {
@@ -33,7 +37,12 @@ StatusOr<Comparison> CompareOnWalk(const Walk& walk, const CompareOptions& optio
   for (const std::string& id : ids) {
     auto it = options.configs.find(id);
     const YAML::Node config = it != options.configs.end() ? it->second : YAML::Node();
+    // Monte Carlo runs share the configuration nodes, and a yaml-cpp lookup by key may modify
+    // a node: estimators are created one at a time.
+    static std::mutex create_mutex;
+    std::unique_lock<std::mutex> lock(create_mutex);
     WG_ASSIGN_OR_RETURN(std::unique_ptr<Estimator> est, registry.Create(id, config));
+    lock.unlock();
     const Status applicable = est->CheckApplicable(walk);
     if (!applicable.ok()) {
       if (explicit_list) return FailedPrecondition(id + ": " + applicable.message());
@@ -64,6 +73,24 @@ StatusOr<Comparison> CompareOnWalk(const Walk& walk, const CompareOptions& optio
   return c;
 }
 
+void AttachPcrb(const PcrbBound& bound, Comparison* c) {
+  c->pcrb_rmse_m = bound.smoother_rmse_m;
+  c->pcrb_filter_rmse_m = bound.filter_rmse_m;
+  c->pcrb_note.clear();
+  c->pcrb_t_s = bound.t_s;
+  c->pcrb_filter_m.clear();
+  c->pcrb_smoother_m.clear();
+  for (size_t k = 0; k < bound.t_s.size(); ++k) {
+    c->pcrb_filter_m.push_back(std::sqrt(bound.filter[k].trace()));
+    c->pcrb_smoother_m.push_back(std::sqrt(bound.smoother[k].trace()));
+  }
+}
+
+std::optional<double> RmseOverPcrb(const Comparison& c, const EstimatorOutcome& o) {
+  if (!c.pcrb_rmse_m || !(*c.pcrb_rmse_m > 0.0) || !o.status.ok()) return std::nullopt;
+  return o.stats.rmse_m / *c.pcrb_rmse_m;
+}
+
 namespace {
 
 struct Column {
@@ -89,11 +116,13 @@ std::string Fixed(double v, int precision) {
 
 std::string FormatComparisonTable(const Comparison& c) {
   const size_t ncol = std::size(kColumns);
+  const bool with_pcrb = c.pcrb_rmse_m.has_value();
   std::vector<std::vector<std::string>> rows;
   std::vector<std::string> header = {"estimator"};
   for (const Column& col : kColumns) header.push_back(col.name);
   header.push_back("runtime_s");
   header.push_back("n");
+  if (with_pcrb) header.push_back("rmse/pcrb");
   // Best (smallest) per column among successful outcomes.
   std::vector<double> best(ncol + 1, std::numeric_limits<double>::infinity());
   for (const EstimatorOutcome& o : c.outcomes) {
@@ -117,7 +146,24 @@ std::string FormatComparisonTable(const Comparison& c) {
     }
     row.push_back(Fixed(o.runtime_s, 3) + (o.runtime_s == best[ncol] ? "*" : " "));
     row.push_back(std::to_string(o.stats.n_points));
+    if (with_pcrb) {
+      const std::optional<double> ratio = RmseOverPcrb(c, o);
+      row.push_back(ratio ? Fixed(*ratio, 2) + " " : "- ");
+    }
     rows.push_back(row);
+  }
+  // The bound's rows: the RMSE column only (no estimator can reach below it).
+  if (with_pcrb) {
+    for (const auto& [name, value] :
+         {std::pair<const char*, std::optional<double>>{"PCRB smoother", c.pcrb_rmse_m},
+          {"PCRB filter", c.pcrb_filter_rmse_m}}) {
+      if (!value) continue;
+      std::vector<std::string> row(header.size(), "-");
+      row[0] = name;
+      row[1] = Fixed(*value, 3) + " ";
+      row.back() = "1.00 ";
+      rows.push_back(row);
+    }
   }
   std::vector<size_t> width(header.size(), 0);
   for (size_t j = 0; j < header.size(); ++j) width[j] = header[j].size();
@@ -142,23 +188,23 @@ std::string FormatComparisonTable(const Comparison& c) {
   };
   print_row(header);
   for (const auto& row : rows) print_row(row);
-  if (c.pcrb_rmse_m) out << "PCRB (position RMSE bound): " << Fixed(*c.pcrb_rmse_m, 3) << " m\n";
+  if (with_pcrb) {
+    out << "PCRB: posterior Cramer-Rao bound of the position RMSE (smoother: full-walk "
+           "information; filter: Tichavsky recursion; rmse/pcrb against the smoother bound)\n";
+  } else if (!c.pcrb_note.empty()) {
+    out << "PCRB: " << c.pcrb_note << "\n";
+  }
   out << "* best in column\n";
   return out.str();
 }
 
-Status WriteComparison(const Comparison& c, const std::string& out_dir) {
-  const fs::path final_dir(out_dir);
-  const fs::path tmp = final_dir.string() + ".tmp-" + std::to_string(::getpid());
+namespace {
+
+Status WriteComparisonFiles(const Comparison& c, const fs::path& tmp) {
   std::error_code ec;
-  fs::remove_all(tmp, ec);
   if (!fs::create_directories(tmp / "trajectories", ec)) {
-    return IoError(out_dir + ": cannot create " + tmp.string() + ": " + ec.message());
+    return IoError(tmp.string() + ": cannot create trajectories/: " + ec.message());
   }
-  auto fail = [&](Status s) {
-    fs::remove_all(tmp, ec);
-    return s;
-  };
   nlohmann::ordered_json j;
   j["walk"] = c.walk_name;
   j["runs"] = c.runs;
@@ -190,23 +236,28 @@ Status WriteComparison(const Comparison& c, const std::string& out_dir) {
         for (const auto& [k, v] : o.result.timings) e["timings"][k] = v;
       }
       e["n_points"] = o.stats.n_points;
+      const std::optional<double> ratio = RmseOverPcrb(c, o);
+      e["rmse_over_pcrb"] = ratio ? nlohmann::ordered_json(*ratio) : nullptr;
       if (monte_carlo) e["failed_runs"] = o.failed_runs;
       for (const auto& [k, v] : o.result.diagnostics) e["diagnostics"][k] = v;
     }
     j["estimators"][o.id] = e;
   }
   j["pcrb_rmse_m"] = c.pcrb_rmse_m ? nlohmann::ordered_json(*c.pcrb_rmse_m) : nullptr;
+  j["pcrb_filter_rmse_m"] =
+      c.pcrb_filter_rmse_m ? nlohmann::ordered_json(*c.pcrb_filter_rmse_m) : nullptr;
+  if (!c.pcrb_note.empty()) j["pcrb_note"] = c.pcrb_note;
   Status s = WriteFileAtomically((tmp / "results.json").string(), [&](std::ostream& out) {
     out << j.dump(2) << "\n";
     return true;
   });
-  if (!s.ok()) return fail(s);
+  if (!s.ok()) return s;
   if (monte_carlo) {
     s = WriteFileAtomically((tmp / "timing.json").string(), [&](std::ostream& out) {
       out << timing.dump(2) << "\n";
       return true;
     });
-    if (!s.ok()) return fail(s);
+    if (!s.ok()) return s;
   }
   s = WriteFileAtomically((tmp / "errors.csv").string(), [&](std::ostream& out) {
     out << "t_s,estimator,error_m" << (monte_carlo ? ",run\n" : "\n") << std::setprecision(10);
@@ -220,22 +271,25 @@ Status WriteComparison(const Comparison& c, const std::string& out_dir) {
     }
     return true;
   });
-  if (!s.ok()) return fail(s);
+  if (!s.ok()) return s;
   for (const EstimatorOutcome& o : c.outcomes) {
     if (!o.status.ok()) continue;
     s = WriteTumTrajectory(o.result.trajectory, (tmp / "trajectories" / (o.id + ".tum")).string());
-    if (!s.ok()) return fail(s);
+    if (!s.ok()) return s;
   }
   const std::string html = RenderHtmlReport(c);
   s = WriteFileAtomically((tmp / "report.html").string(), [&](std::ostream& out) {
     out << html;
     return true;
   });
-  if (!s.ok()) return fail(s);
-  if (fs::exists(final_dir, ec)) fs::remove_all(final_dir, ec);
-  fs::rename(tmp, final_dir, ec);
-  if (ec) return fail(IoError(out_dir + ": cannot rename " + tmp.string() + ": " + ec.message()));
-  return Status::Ok();
+  return s;
+}
+
+}  // namespace
+
+Status WriteComparison(const Comparison& c, const std::string& out_dir) {
+  return report::WriteFolderAtomically(
+      out_dir, [&](const fs::path& tmp) { return WriteComparisonFiles(c, tmp); });
 }
 
 }  // namespace walkgraph

@@ -2,10 +2,13 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <map>
 #include <mutex>
+#include <optional>
 #include <thread>
 
 #include "walkgraph/compare.h"
+#include "walkgraph/simulate.h"
 
 namespace walkgraph {
 
@@ -179,6 +182,78 @@ StatusOr<Comparison> CompareMonteCarlo(const WalkGenerator& generate, const Comp
   WG_ASSIGN_OR_RETURN(Comparison out, AggregateRuns(runs));
   out.seed = mc.seed;
   return out;
+}
+
+StatusOr<Comparison> CompareScenario(const std::string& scenario, const ScenarioCompareOptions& sc,
+                                     const CompareOptions& options, const MonteCarloOptions& mc,
+                                     const EstimatorRegistry& registry) {
+  bool known = false;
+  for (const ScenarioInfo& s : Scenarios()) known |= s.name == scenario;
+  if (!known) {
+    std::string names;
+    for (const ScenarioInfo& s : Scenarios()) names += (names.empty() ? "" : ", ") + s.name;
+    return NotFound("unknown scenario '" + scenario + "'; known: " + names);
+  }
+  if (mc.runs < 1) return InvalidArgument("Monte Carlo: runs must be >= 1");
+  const std::string prefix = sc.overrides_origin.empty() ? "" : sc.overrides_origin + ": ";
+  auto located = [&prefix](const Status& s) { return Status(s.code(), prefix + s.message()); };
+  // Run 0 is simulated first, alone, on the caller's node: override errors keep their YAML line
+  // numbers. Later runs simulate on private copies (a yaml-cpp lookup may modify the node, so
+  // threads must not share one).
+  std::map<uint64_t, int> run_of_seed;
+  for (int i = 0; i < mc.runs; ++i) run_of_seed[MonteCarloSeed(mc.seed, i)] = i;
+  StatusOr<Simulation> first =
+      SimulateScenarioDetailed(scenario, MonteCarloSeed(mc.seed, 0), sc.overrides);
+  if (!first.ok()) return located(first.status());
+  PcrbAccumulator pcrb_sum(mc.runs);
+  std::mutex mutex;  // guards the fields below
+  Status pcrb_status;
+  bool pcrb_on = sc.pcrb;
+  std::optional<Walk> first_walk;
+  auto add_pcrb = [&](int run, const Simulation& s) {
+    {
+      std::lock_guard<std::mutex> lock(mutex);
+      if (!pcrb_on) return;
+    }
+    StatusOr<PcrbInformation> info = PcrbInformationFromSimulation(s, sc.pcrb_options);
+    Status st = info.ok() ? pcrb_sum.Add(run, std::move(info).value()) : info.status();
+    if (!st.ok()) {
+      std::lock_guard<std::mutex> lock(mutex);
+      if (pcrb_status.ok()) pcrb_status = st;
+      pcrb_on = false;
+    }
+  };
+  add_pcrb(0, *first);
+  first_walk = std::move(first->walk);
+  const YAML::Node overrides = sc.overrides;
+  const WalkGenerator generate = [&](uint64_t seed) -> StatusOr<Walk> {
+    const int run = run_of_seed.at(seed);
+    YAML::Node node;
+    {
+      std::lock_guard<std::mutex> lock(mutex);
+      if (run == 0 && first_walk) {
+        Walk w = std::move(*first_walk);
+        first_walk.reset();
+        return w;
+      }
+      if (overrides.IsDefined() && !overrides.IsNull()) node = YAML::Clone(overrides);
+    }
+    StatusOr<Simulation> s = SimulateScenarioDetailed(scenario, seed, node);
+    if (!s.ok()) return located(s.status());
+    add_pcrb(run, *s);
+    return std::move(s->walk);
+  };
+  WG_ASSIGN_OR_RETURN(Comparison c, CompareMonteCarlo(generate, options, mc, registry));
+  if (!sc.pcrb) return c;
+  if (!pcrb_status.ok()) {
+    if (pcrb_status.code() != StatusCode::kFailedPrecondition) return located(pcrb_status);
+    c.pcrb_note = pcrb_status.message();
+    return c;
+  }
+  WG_ASSIGN_OR_RETURN(PcrbInformation mean, pcrb_sum.Mean());
+  WG_ASSIGN_OR_RETURN(PcrbBound bound, ComputePcrb(mean));
+  AttachPcrb(bound, &c);
+  return c;
 }
 
 }  // namespace walkgraph

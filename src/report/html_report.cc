@@ -5,97 +5,18 @@
 #include <limits>
 #include <sstream>
 
+#include "report/svg.h"
 #include "walkgraph/compare.h"
 
 namespace walkgraph {
 
 namespace {
 
-const char* const kPalette[] = {"#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd",
-                                "#8c564b", "#e377c2", "#17becf", "#bcbd22", "#7f7f7f"};
-
-const char* Color(size_t i) { return kPalette[i % std::size(kPalette)]; }
-
-std::string Escape(const std::string& s) {
-  std::string o;
-  for (char ch : s) {
-    switch (ch) {
-      case '<': o += "&lt;"; break;
-      case '>': o += "&gt;"; break;
-      case '&': o += "&amp;"; break;
-      case '"': o += "&quot;"; break;
-      default: o += ch;
-    }
-  }
-  return o;
-}
-
-// Maps data coordinates to an SVG viewport with margins.
-struct Axes {
-  double x0, x1, y0, y1;  // data range
-  double w = 640, h = 420, m = 48;
-  bool equal_aspect = false;
-
-  void Fix() {
-    if (!(x1 > x0)) { x0 -= 1; x1 += 1; }
-    if (!(y1 > y0)) { y0 -= 1; y1 += 1; }
-    if (equal_aspect) {
-      const double sx = (x1 - x0) / (w - 2 * m), sy = (y1 - y0) / (h - 2 * m);
-      const double s = std::max(sx, sy);
-      const double cx = 0.5 * (x0 + x1), cy = 0.5 * (y0 + y1);
-      x0 = cx - s * (w - 2 * m) / 2; x1 = cx + s * (w - 2 * m) / 2;
-      y0 = cy - s * (h - 2 * m) / 2; y1 = cy + s * (h - 2 * m) / 2;
-    }
-  }
-  double X(double x) const { return m + (x - x0) / (x1 - x0) * (w - 2 * m); }
-  double Y(double y) const { return h - m - (y - y0) / (y1 - y0) * (h - 2 * m); }
-};
-
-std::string Open(const Axes& a, const std::string& id, const std::string& title,
-                 const std::string& xlabel, const std::string& ylabel) {
-  std::ostringstream s;
-  s << std::fixed << std::setprecision(1);
-  s << "<svg id=\"" << id << "\" class=\"plot\" xmlns=\"http://www.w3.org/2000/svg\" width=\""
-    << a.w << "\" height=\"" << a.h << "\" viewBox=\"0 0 " << a.w << ' ' << a.h << "\">\n";
-  s << "<rect x=\"0\" y=\"0\" width=\"" << a.w << "\" height=\"" << a.h
-    << "\" fill=\"white\"/>\n";
-  s << "<rect x=\"" << a.m << "\" y=\"" << a.m << "\" width=\"" << a.w - 2 * a.m
-    << "\" height=\"" << a.h - 2 * a.m << "\" fill=\"none\" stroke=\"#444\"/>\n";
-  s << "<text x=\"" << a.w / 2 << "\" y=\"20\" text-anchor=\"middle\" font-size=\"15\">"
-    << Escape(title) << "</text>\n";
-  s << "<text x=\"" << a.w / 2 << "\" y=\"" << a.h - 8
-    << "\" text-anchor=\"middle\" font-size=\"12\">" << Escape(xlabel) << "</text>\n";
-  s << "<text x=\"14\" y=\"" << a.h / 2 << "\" text-anchor=\"middle\" font-size=\"12\" "
-    << "transform=\"rotate(-90 14 " << a.h / 2 << ")\">" << Escape(ylabel) << "</text>\n";
-  for (int i = 0; i <= 4; ++i) {
-    const double xv = a.x0 + (a.x1 - a.x0) * i / 4.0, yv = a.y0 + (a.y1 - a.y0) * i / 4.0;
-    s << "<text x=\"" << a.X(xv) << "\" y=\"" << a.h - a.m + 14
-      << "\" text-anchor=\"middle\" font-size=\"10\">" << std::setprecision(1) << xv << "</text>";
-    s << "<text x=\"" << a.m - 4 << "\" y=\"" << a.Y(yv) + 3
-      << "\" text-anchor=\"end\" font-size=\"10\">" << yv << "</text>\n";
-  }
-  return s.str();
-}
-
-template <typename Get>
-std::string Polyline(size_t n, Get get, const Axes& a, const std::string& color,
-                     const std::string& cls, double width = 1.5) {
-  std::ostringstream s;
-  s << std::fixed << std::setprecision(1);
-  s << "<polyline class=\"" << cls << "\" fill=\"none\" stroke=\"" << color
-    << "\" stroke-width=\"" << width << "\" points=\"";
-  const size_t stride = std::max<size_t>(1, n / 2000);  // keep the file small
-  for (size_t i = 0; i < n; i += stride) {
-    const auto [x, y] = get(i);
-    s << a.X(x) << ',' << a.Y(y) << ' ';
-  }
-  if (n > 0 && (n - 1) % stride != 0) {
-    const auto [x, y] = get(n - 1);
-    s << a.X(x) << ',' << a.Y(y);
-  }
-  s << "\"/>\n";
-  return s.str();
-}
+using report::Axes;
+using report::Color;
+using report::Escape;
+using report::Open;
+using report::Polyline;
 
 std::string Legend(const Comparison& c, const Axes& a, bool with_truth) {
   std::ostringstream s;
@@ -120,36 +41,47 @@ std::string TrajectoryPlot(const Comparison& c) {
          std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity()};
   a.equal_aspect = true;
   auto grow = [&](double x, double y) {
-    a.x0 = std::min(a.x0, x); a.x1 = std::max(a.x1, x);
-    a.y0 = std::min(a.y0, y); a.y1 = std::max(a.y1, y);
+    a.x0 = std::min(a.x0, x);
+    a.x1 = std::max(a.x1, x);
+    a.y0 = std::min(a.y0, y);
+    a.y1 = std::max(a.y1, y);
   };
   for (const TruthSample& t : c.truth) grow(t.position_m.x(), t.position_m.y());
   for (const Anchor& an : c.anchors) grow(an.position_m.x(), an.position_m.y());
-  if (!std::isfinite(a.x0)) { a.x0 = a.y0 = 0; a.x1 = a.y1 = 1; }
+  if (!std::isfinite(a.x0)) {
+    a.x0 = a.y0 = 0;
+    a.x1 = a.y1 = 1;
+  }
   const double pad = 0.05 * std::max(a.x1 - a.x0, a.y1 - a.y0) + 0.5;
-  a.x0 -= pad; a.x1 += pad; a.y0 -= pad; a.y1 += pad;
+  a.x0 -= pad;
+  a.x1 += pad;
+  a.y0 -= pad;
+  a.y1 += pad;
   a.Fix();
   std::ostringstream s;
   s << Open(a, "trajectories", "Trajectories", "x east [m]", "y north [m]");
   s << "<clipPath id=\"clip-traj\"><rect x=\"" << a.m << "\" y=\"" << a.m << "\" width=\""
-    << a.w - 2 * a.m << "\" height=\"" << a.h - 2 * a.m << "\"/></clipPath><g clip-path=\"url(#clip-traj)\">\n";
+    << a.w - 2 * a.m << "\" height=\"" << a.h - 2 * a.m
+    << "\"/></clipPath><g clip-path=\"url(#clip-traj)\">\n";
   if (c.truth_kind == TruthKind::kCheckpoints) {
     for (const TruthSample& t : c.truth) {
       s << "<circle class=\"truth\" cx=\"" << a.X(t.position_m.x()) << "\" cy=\""
         << a.Y(t.position_m.y()) << "\" r=\"3\" fill=\"#000\"/>\n";
     }
   } else {
-    s << Polyline(c.truth.size(), [&](size_t i) {
-      return std::pair(c.truth[i].position_m.x(), c.truth[i].position_m.y()); }, a, "#000",
-      "truth", 2.5);
+    s << Polyline(
+        c.truth.size(),
+        [&](size_t i) { return std::pair(c.truth[i].position_m.x(), c.truth[i].position_m.y()); },
+        a, "#000", "truth", 2.5);
   }
   for (size_t k = 0; k < c.outcomes.size(); ++k) {
     const EstimatorOutcome& o = c.outcomes[k];
     if (!o.status.ok()) continue;
     const auto& pts = o.result.trajectory.points;
-    s << Polyline(pts.size(), [&](size_t i) {
-      return std::pair(pts[i].position_m.x(), pts[i].position_m.y()); }, a, Color(k),
-      "estimate");
+    s << Polyline(
+        pts.size(),
+        [&](size_t i) { return std::pair(pts[i].position_m.x(), pts[i].position_m.y()); }, a,
+        Color(k), "estimate");
   }
   for (const Anchor& an : c.anchors) {
     const double x = a.X(an.position_m.x()), y = a.Y(an.position_m.y());
@@ -171,12 +103,19 @@ std::string ErrorTimePlot(const Comparison& c) {
     a.x1 = std::max(a.x1, o.errors.t_s.back());
     a.y1 = std::max(a.y1, o.stats.p90_m * 1.5);
   }
-  if (!std::isfinite(a.x0)) { a.x0 = 0; a.x1 = 1; }
+  for (const std::vector<double>* bound : {&c.pcrb_smoother_m, &c.pcrb_filter_m}) {
+    for (double v : *bound) a.y1 = std::max(a.y1, 1.05 * v);
+  }
+  if (!std::isfinite(a.x0)) {
+    a.x0 = 0;
+    a.x1 = 1;
+  }
   a.Fix();
   std::ostringstream s;
   s << Open(a, "error-time", "Horizontal error vs time", "t [s]", "error [m]");
   s << "<clipPath id=\"clip-et\"><rect x=\"" << a.m << "\" y=\"" << a.m << "\" width=\""
-    << a.w - 2 * a.m << "\" height=\"" << a.h - 2 * a.m << "\"/></clipPath><g clip-path=\"url(#clip-et)\">\n";
+    << a.w - 2 * a.m << "\" height=\"" << a.h - 2 * a.m
+    << "\"/></clipPath><g clip-path=\"url(#clip-et)\">\n";
   for (size_t k = 0; k < c.outcomes.size(); ++k) {
     const EstimatorOutcome& o = c.outcomes[k];
     if (!o.status.ok()) continue;
@@ -186,10 +125,26 @@ std::string ErrorTimePlot(const Comparison& c) {
       n = static_cast<size_t>(std::count(o.error_run.begin(), o.error_run.end(),
                                          o.error_run.empty() ? 0 : o.error_run.front()));
     }
-    s << Polyline(n, [&](size_t i) {
-      return std::pair(o.errors.t_s[i], o.errors.error_m[i]); }, a, Color(k), "error-curve");
+    s << Polyline(
+        n, [&](size_t i) { return std::pair(o.errors.t_s[i], o.errors.error_m[i]); }, a, Color(k),
+        "error-curve");
   }
-  s << "</g>" << Legend(c, a, false) << "</svg>\n";
+  // The PCRB: sqrt(tr B(t)), a bound on the RMS error at t over the Monte Carlo runs.
+  const std::vector<double>* bounds[] = {&c.pcrb_smoother_m, &c.pcrb_filter_m};
+  const char* const dashes[] = {"6,3", "2,3"};
+  for (int b = 0; b < 2; ++b) {
+    const std::vector<double>& v = *bounds[b];
+    if (v.size() != c.pcrb_t_s.size() || v.empty()) continue;
+    s << Polyline(
+        v.size(), [&](size_t i) { return std::pair(c.pcrb_t_s[i], v[i]); }, a, "#000", "pcrb-curve",
+        1.2, dashes[b]);
+  }
+  s << "</g>" << Legend(c, a, false);
+  if (!c.pcrb_t_s.empty()) {
+    s << "<text class=\"legend\" x=\"" << a.m + 6 << "\" y=\"" << a.m + 14
+      << "\" font-size=\"11\">PCRB: - - smoother, &#183;&#183;&#183; filter</text>\n";
+  }
+  s << "</svg>\n";
   return s.str();
 }
 
@@ -202,48 +157,76 @@ std::string CdfPlot(const Comparison& c) {
   std::ostringstream s;
   s << Open(a, "error-cdf", "Error CDF", "error [m]", "fraction of points");
   s << "<clipPath id=\"clip-cdf\"><rect x=\"" << a.m << "\" y=\"" << a.m << "\" width=\""
-    << a.w - 2 * a.m << "\" height=\"" << a.h - 2 * a.m << "\"/></clipPath><g clip-path=\"url(#clip-cdf)\">\n";
+    << a.w - 2 * a.m << "\" height=\"" << a.h - 2 * a.m
+    << "\"/></clipPath><g clip-path=\"url(#clip-cdf)\">\n";
   for (size_t k = 0; k < c.outcomes.size(); ++k) {
     const EstimatorOutcome& o = c.outcomes[k];
     if (!o.status.ok() || o.errors.error_m.empty()) continue;
     std::vector<double> e = o.errors.error_m;
     std::sort(e.begin(), e.end());
     const double n = static_cast<double>(e.size());
-    s << Polyline(e.size(), [&](size_t i) { return std::pair(e[i], (i + 1) / n); }, a, Color(k),
-                  "cdf-curve");
+    s << Polyline(
+        e.size(), [&](size_t i) { return std::pair(e[i], (i + 1) / n); }, a, Color(k), "cdf-curve");
   }
   s << "</g>" << Legend(c, a, false) << "</svg>\n";
   return s.str();
 }
 
 std::string Table(const Comparison& c) {
+  const bool with_pcrb = c.pcrb_rmse_m.has_value();
+  const int ncols = with_pcrb ? 11 : 10;
   std::ostringstream s;
   s << std::fixed << std::setprecision(3);
   s << "<table id=\"results\"><tr><th>estimator</th><th>RMSE [m]</th><th>mean</th><th>median</th>"
        "<th>p75</th><th>p90</th><th>max</th><th>final</th><th>% dist</th><th>runtime [s]</th>"
-       "<th>n</th></tr>\n";
+       "<th>n</th>";
+  if (with_pcrb) s << "<th>RMSE / PCRB</th>";
+  s << "</tr>\n";
   for (size_t k = 0; k < c.outcomes.size(); ++k) {
     const EstimatorOutcome& o = c.outcomes[k];
     s << "<tr><td style=\"color:" << Color(k) << "\">" << Escape(o.id) << "</td>";
     if (!o.status.ok()) {
-      s << "<td colspan=\"10\">failed: " << Escape(o.status.message()) << "</td></tr>\n";
+      s << "<td colspan=\"" << ncols << "\">failed: " << Escape(o.status.message())
+        << "</td></tr>\n";
       continue;
     }
     const ErrorStats& e = o.stats;
-    const double ErrorStats::*fields[] = {&ErrorStats::rmse_m, &ErrorStats::mean_m,
-                                          &ErrorStats::median_m, &ErrorStats::p75_m,
-                                          &ErrorStats::p90_m, &ErrorStats::max_m,
-                                          &ErrorStats::final_m, &ErrorStats::pct_distance};
+    const double ErrorStats::*fields[] = {
+        &ErrorStats::rmse_m, &ErrorStats::mean_m, &ErrorStats::median_m, &ErrorStats::p75_m,
+        &ErrorStats::p90_m,  &ErrorStats::max_m,  &ErrorStats::final_m,  &ErrorStats::pct_distance};
     for (const auto f : fields) {
       s << "<td>" << e.*f;
       if (o.stats_std) s << " &plusmn; " << (*o.stats_std).*f;  // Monte Carlo spread
       s << "</td>";
     }
     s << "<td>" << o.runtime_s << "</td>";
-    s << "<td>" << e.n_points << "</td></tr>\n";
+    s << "<td>" << e.n_points << "</td>";
+    if (with_pcrb) {
+      const std::optional<double> ratio = RmseOverPcrb(c, o);
+      s << "<td>";
+      if (ratio) s << std::setprecision(2) << *ratio << std::setprecision(3);
+      s << "</td>";
+    }
+    s << "</tr>\n";
+  }
+  if (with_pcrb) {
+    const std::pair<const char*, std::optional<double>> rows[] = {
+        {"PCRB smoother", c.pcrb_rmse_m}, {"PCRB filter", c.pcrb_filter_rmse_m}};
+    for (const auto& [name, value] : rows) {
+      if (!value) continue;
+      s << "<tr class=\"pcrb\"><td>" << name << "</td><td>" << *value << "</td>";
+      for (int j = 1; j < ncols; ++j) s << "<td>-</td>";
+      s << "</tr>\n";
+    }
   }
   s << "</table>\n";
-  if (c.pcrb_rmse_m) s << "<p>PCRB position RMSE bound: " << *c.pcrb_rmse_m << " m</p>\n";
+  if (with_pcrb) {
+    s << "<p>PCRB: posterior Cram&eacute;r&ndash;Rao bound of the position RMSE over the same "
+         "runs (smoother: full-walk Fisher information; filter: Tichavsk&yacute; recursion). "
+         "RMSE / PCRB is against the smoother bound.</p>\n";
+  } else if (!c.pcrb_note.empty()) {
+    s << "<p>PCRB: " << Escape(c.pcrb_note) << "</p>\n";
+  }
   return s.str();
 }
 

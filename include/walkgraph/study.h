@@ -1,0 +1,149 @@
+// Parameter studies: walks or simulated scenarios × estimators × parameter sweeps, from one
+// manifest, to one CSV and one HTML page with a plot per sweep.
+//
+//   walkgraph study MANIFEST.yaml --out DIR     → DIR/study.csv, DIR/study.html, DIR/timing.csv
+//
+// Manifest (YAML; every key is checked, errors are "MANIFEST:LINE: what was expected"):
+//   name: jimenez-tables            # required
+//   description: "..."              # optional, shown on the page
+//   estimators: [id, ...]           # required: registered estimator ids
+//   configs: {id: {option: value}}  # optional base options per estimator
+//   metric: rmse_m                  # plotted metric (default rmse_m): rmse_m mean_m median_m
+//                                   #   p75_m p90_m max_m final_m pct_distance rmse_over_pcrb
+//   runs: 10                        # Monte Carlo runs per cell (default 1; scenarios only)
+//   seed: 1                         # base seed S (default 1)
+//   pcrb: true                      # compute the PCRB per scenario cell (default true)
+//   pcrb_options: {...}             # PcrbOptions (pcrb.h)
+//   sweeps:                         # required, one plot each
+//     - name: table3                # required, unique, letters digits . _ -
+//       title: "..."                # optional plot title
+//       label: "number of tags"     # optional x-axis label (default: the swept key)
+//       scenario: jimenez-building  # exactly one of scenario / walk (path relative to the
+//       walk: ../plaza1             #   manifest's folder; a walk cell is one run)
+//       overrides: {laps: 2}        # base simulator overrides (scenario only)
+//       scenario_override: num_anchors        # exactly one of: a simulator override key, or
+//       estimator_option: path_loss_exponent  #   an estimator option key (every estimator of
+//                                             #   the sweep) or {id: key, ...} (those only)
+//       values: [5, 8, 16, 32, 71]  # required numbers, as the swept value
+//       estimators: [id]            # optional: replaces the top-level list for this sweep
+//       runs: 5 / seed: 2 / metric: final_m   # optional per-sweep settings
+//
+// Each (sweep, value) is a cell: a comparison (CompareScenario / CompareOnWalk) of the sweep's
+// estimators, with run i of every cell of a sweep using seed MonteCarloSeed(S, i) — common
+// random numbers, so the curves differ only by the swept value. Cells run one after another;
+// each cell's Monte Carlo runs on `threads` threads, and the results do not depend on them.
+// Before anything runs, every cell's estimator configurations are created and every cell's
+// scenario is simulated once (run 0), so a bad value fails at once with its manifest line.
+//
+// study.csv: one row per cell × estimator:
+//   sweep,parameter,value,estimator,runs,seed,failed_runs, then for each metric m of
+//   rmse_m mean_m median_m p75_m p90_m max_m final_m pct_distance: m,m_std (std empty for a
+//   single run), then n_points,pcrb_rmse_m,pcrb_filter_rmse_m,rmse_over_pcrb,error
+//   (empty cells where a figure does not exist; error = why the estimator failed on every run).
+//   Run times, which differ between machines, are in timing.csv instead.
+// study.html: self-contained (inline SVG, no scripts): per sweep, the metric against the swept
+// value, one line per estimator (± std bars for Monte Carlo cells), the PCRB (smoother) as a
+// dashed line when the metric is rmse_m, and the numbers in a table.
+#ifndef WALKGRAPH_STUDY_H_
+#define WALKGRAPH_STUDY_H_
+
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <yaml-cpp/yaml.h>
+
+#include "walkgraph/compare.h"
+#include "walkgraph/estimator.h"
+#include "walkgraph/pcrb.h"
+#include "walkgraph/status.h"
+
+namespace walkgraph {
+
+struct StudySweep {
+  std::string name, title, label;
+  int line = 0;  // 1-based manifest line of the sweep
+  // The data: a scenario (with base overrides) or a walk directory.
+  std::string scenario;
+  YAML::Node overrides;
+  std::string walk_dir;
+  // What varies: a simulator override key, or per estimator an option key.
+  std::string scenario_override;
+  std::map<std::string, std::string> option_keys;  // estimator id → option key
+  std::vector<std::string> values;                 // as written in the manifest
+  std::vector<double> x;                           // the same, as numbers
+  std::vector<int> value_lines;
+  std::vector<std::string> estimators;
+  std::string metric = "rmse_m";
+  int runs = 1;
+  uint64_t seed = 1;
+};
+
+struct StudyManifest {
+  std::string path;  // as given (messages name it)
+  std::string name, description;
+  std::map<std::string, YAML::Node> configs;  // base options per estimator id
+  bool pcrb = true;
+  PcrbOptions pcrb_options;
+  std::vector<StudySweep> sweeps;
+};
+
+// Reads and validates a manifest: structure, keys, types, estimator ids (against `registry`),
+// scenario names, walk folders, and every cell's estimator configuration.
+StatusOr<StudyManifest> ReadStudyManifest(
+    const std::string& path, const EstimatorRegistry& registry = EstimatorRegistry::Builtin());
+// The same on manifest text; `path` names it in messages and anchors relative walk paths.
+StatusOr<StudyManifest> ParseStudyManifest(
+    const std::string& text, const std::string& path,
+    const EstimatorRegistry& registry = EstimatorRegistry::Builtin());
+
+// One estimator's figures in one cell.
+struct StudyRow {
+  std::string estimator;
+  Status status;
+  ErrorStats stats;
+  std::optional<ErrorStats> stats_std;
+  int failed_runs = 0;
+  double runtime_s = 0.0, runtime_std_s = 0.0;
+};
+
+struct StudyCell {
+  int sweep = 0;  // index into manifest.sweeps
+  int value = 0;  // index into that sweep's values
+  int runs = 1;
+  uint64_t seed = 1;
+  std::vector<StudyRow> rows;
+  std::optional<double> pcrb_rmse_m, pcrb_filter_rmse_m;
+  std::string pcrb_note;
+};
+
+struct StudyResult {
+  StudyManifest manifest;
+  std::vector<StudyCell> cells;  // sweep by sweep, value by value
+};
+
+struct StudyOptions {
+  int threads = 1;  // per cell's Monte Carlo; <= 0: all cores
+  // Called after each finished cell with (cells done, cells); calls are serialized.
+  std::function<void(int done, int total)> progress;
+};
+
+StatusOr<StudyResult> RunStudy(const StudyManifest& manifest, const StudyOptions& options = {},
+                               const EstimatorRegistry& registry = EstimatorRegistry::Builtin());
+
+std::string StudyCsv(const StudyResult& result);
+std::string StudyTimingCsv(const StudyResult& result);
+std::string RenderStudyHtml(const StudyResult& result);
+// A short aligned text summary (the plotted metric per sweep × value × estimator).
+std::string FormatStudyTable(const StudyResult& result);
+
+// Writes study.csv, study.html and timing.csv into `out_dir`; the folder appears complete or
+// not at all (written under a temporary name, then renamed).
+Status WriteStudy(const StudyResult& result, const std::string& out_dir);
+
+}  // namespace walkgraph
+
+#endif  // WALKGRAPH_STUDY_H_

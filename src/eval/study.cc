@@ -1,0 +1,796 @@
+// Parameter studies: manifest validation, the cells, and their CSV / HTML output (study.h).
+#include "walkgraph/study.h"
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <iomanip>
+#include <limits>
+#include <set>
+#include <sstream>
+
+#include "report/folder.h"
+#include "report/svg.h"
+#include "walkgraph/config.h"
+#include "walkgraph/io.h"
+#include "walkgraph/simulate.h"
+
+namespace walkgraph {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+const char* const kMetrics[] = {"rmse_m", "mean_m", "median_m", "p75_m",
+                                "p90_m",  "max_m",  "final_m",  "pct_distance"};
+const double ErrorStats::*const kMetricFields[] = {
+    &ErrorStats::rmse_m, &ErrorStats::mean_m, &ErrorStats::median_m, &ErrorStats::p75_m,
+    &ErrorStats::p90_m,  &ErrorStats::max_m,  &ErrorStats::final_m,  &ErrorStats::pct_distance};
+
+bool KnownMetric(const std::string& m) {
+  if (m == "rmse_over_pcrb") return true;
+  return std::find(std::begin(kMetrics), std::end(kMetrics), m) != std::end(kMetrics);
+}
+
+std::string Join(const std::vector<std::string>& v) {
+  std::string out;
+  for (const std::string& s : v) out += (out.empty() ? "" : ", ") + s;
+  return out;
+}
+
+// ------------------------------------------------------------------ manifest parsing
+
+class Parser {
+ public:
+  explicit Parser(std::string path) : path_(std::move(path)) {}
+
+  int Line(const YAML::Node& n) const { return n.Mark().line >= 0 ? n.Mark().line + 1 : 0; }
+  std::string At(const YAML::Node& n) const { return path_ + ":" + std::to_string(Line(n)); }
+  Status Error(const YAML::Node& n, const std::string& message) const {
+    return InvalidArgument(At(n) + ": " + message);
+  }
+
+  // Every key of `map` must be in `known`; keys must be plain scalars.
+  Status CheckKeys(const YAML::Node& map, const std::vector<std::string>& known,
+                   const std::string& what) const {
+    for (const auto& kv : map) {
+      if (!kv.first.IsScalar()) return Error(kv.first, what + ": keys must be plain words");
+      const std::string key = kv.first.Scalar();
+      if (std::find(known.begin(), known.end(), key) == known.end()) {
+        return Error(kv.first, "unknown key '" + key + "' in " + what + "; known: " + Join(known));
+      }
+    }
+    return Status::Ok();
+  }
+
+  template <typename T>
+  StatusOr<T> Scalar(const YAML::Node& n, const std::string& what, const char* type) const {
+    if (!n.IsScalar()) return Error(n, what + " must be a " + type);
+    try {
+      return n.as<T>();
+    } catch (const YAML::Exception&) {
+      return Error(n, what + " must be a " + type + ", got '" + n.Scalar() + "'");
+    }
+  }
+
+  StatusOr<std::string> String(const YAML::Node& n, const std::string& what) const {
+    return Scalar<std::string>(n, what, "string");
+  }
+
+  StatusOr<int> PositiveInt(const YAML::Node& n, const std::string& what) const {
+    WG_ASSIGN_OR_RETURN(int v, Scalar<int>(n, what, "positive integer"));
+    if (v < 1) return Error(n, what + " must be >= 1");
+    return v;
+  }
+
+  StatusOr<uint64_t> Seed(const YAML::Node& n, const std::string& what) const {
+    if (n.IsScalar() && !n.Scalar().empty() && n.Scalar()[0] == '-') {
+      return Error(n, what + " must be a non-negative integer");
+    }
+    return Scalar<uint64_t>(n, what, "non-negative integer");
+  }
+
+  StatusOr<std::string> Metric(const YAML::Node& n) const {
+    WG_ASSIGN_OR_RETURN(std::string m, String(n, "metric"));
+    if (!KnownMetric(m)) {
+      std::vector<std::string> all(std::begin(kMetrics), std::end(kMetrics));
+      all.push_back("rmse_over_pcrb");
+      return Error(n, "unknown metric '" + m + "'; known: " + Join(all));
+    }
+    return m;
+  }
+
+  StatusOr<std::vector<std::string>> EstimatorList(const YAML::Node& n,
+                                                   const EstimatorRegistry& registry) const {
+    if (!n.IsSequence() || n.size() == 0) {
+      return Error(n, "estimators must be a non-empty list of estimator ids");
+    }
+    std::vector<std::string> ids;
+    for (const YAML::Node& item : n) {
+      WG_ASSIGN_OR_RETURN(std::string id, String(item, "estimator id"));
+      if (registry.Find(id) == nullptr) {
+        return Error(item, "unknown estimator '" + id + "'; known: " + Join(registry.Ids()));
+      }
+      if (std::find(ids.begin(), ids.end(), id) != ids.end()) {
+        return Error(item, "estimator '" + id + "' listed twice");
+      }
+      ids.push_back(id);
+    }
+    return ids;
+  }
+
+  const std::string& path() const { return path_; }
+
+ private:
+  std::string path_;
+};
+
+// A new map with the entries of `n` (a map or nothing). The values are the manifest's own nodes,
+// so option errors keep their manifest line; the new map is private to one cell.
+YAML::Node MapCopy(const YAML::Node& n) {
+  YAML::Node out(YAML::NodeType::Map);
+  if (n.IsDefined() && n.IsMap()) {
+    for (const auto& kv : n) out[kv.first.Scalar()] = kv.second;
+  }
+  return out;
+}
+
+// The simulator overrides of cell (sweep, value).
+YAML::Node CellOverrides(const StudySweep& sweep, size_t value) {
+  YAML::Node o = MapCopy(sweep.overrides);
+  if (!sweep.scenario_override.empty()) o[sweep.scenario_override] = sweep.values[value];
+  return o;
+}
+
+// The options of estimator `id` in cell (sweep, value).
+YAML::Node CellConfig(const StudyManifest& m, const StudySweep& sweep, size_t value,
+                      const std::string& id) {
+  const auto base = m.configs.find(id);
+  YAML::Node c = MapCopy(base != m.configs.end() ? base->second : YAML::Node());
+  const auto key = sweep.option_keys.find(id);
+  if (key != sweep.option_keys.end()) c[key->second] = sweep.values[value];
+  return c;
+}
+
+std::string CellName(const StudySweep& sweep, size_t value) {
+  return "sweep '" + sweep.name + "', value " + sweep.values[value];
+}
+
+std::string CellAt(const StudyManifest& m, const StudySweep& sweep, size_t value) {
+  return m.path + ":" + std::to_string(sweep.value_lines[value]) + ": " + CellName(sweep, value);
+}
+
+bool ValidSweepName(const std::string& s) {
+  if (s.empty()) return false;
+  for (char ch : s) {
+    if (!(std::isalnum(static_cast<unsigned char>(ch)) || ch == '_' || ch == '-' || ch == '.')) {
+      return false;
+    }
+  }
+  return true;
+}
+
+StatusOr<StudySweep> ParseSweep(const Parser& p, const YAML::Node& node, const StudyManifest& m,
+                                const std::vector<std::string>& top_ids, int top_runs,
+                                uint64_t top_seed, const std::string& top_metric,
+                                const EstimatorRegistry& registry) {
+  StudySweep s;
+  s.line = p.Line(node);
+  if (!node.IsMap()) return p.Error(node, "each sweep must be a map");
+  WG_RETURN_IF_ERROR(
+      p.CheckKeys(node,
+                  {"name", "title", "label", "scenario", "walk", "overrides", "scenario_override",
+                   "estimator_option", "values", "estimators", "runs", "seed", "metric"},
+                  "a sweep"));
+  if (!node["name"]) return p.Error(node, "a sweep needs a name");
+  WG_ASSIGN_OR_RETURN(s.name, p.String(node["name"], "sweep name"));
+  if (!ValidSweepName(s.name)) {
+    return p.Error(node["name"], "sweep name '" + s.name + "' may use letters, digits, . _ -");
+  }
+  const std::string what = "sweep '" + s.name + "'";
+  if (node["title"]) {
+    WG_ASSIGN_OR_RETURN(s.title, p.String(node["title"], "title"));
+  }
+  if (node["label"]) {
+    WG_ASSIGN_OR_RETURN(s.label, p.String(node["label"], "label"));
+  }
+  // Data.
+  if (!node["scenario"] == !node["walk"]) {
+    return p.Error(node, what + ": give exactly one of 'scenario' or 'walk'");
+  }
+  if (node["scenario"]) {
+    WG_ASSIGN_OR_RETURN(s.scenario, p.String(node["scenario"], "scenario"));
+    std::vector<std::string> names;
+    for (const ScenarioInfo& info : Scenarios()) names.push_back(info.name);
+    if (std::find(names.begin(), names.end(), s.scenario) == names.end()) {
+      return p.Error(node["scenario"],
+                     "unknown scenario '" + s.scenario + "'; known: " + Join(names));
+    }
+    if (node["overrides"]) {
+      if (!node["overrides"].IsMap()) {
+        return p.Error(node["overrides"], what + ": overrides must be a map of simulator options");
+      }
+      s.overrides = node["overrides"];
+    }
+  } else {
+    WG_ASSIGN_OR_RETURN(std::string walk, p.String(node["walk"], "walk"));
+    fs::path dir(walk);
+    if (dir.is_relative()) dir = fs::path(p.path()).parent_path() / dir;
+    std::error_code ec;
+    if (!fs::is_directory(dir, ec)) {
+      return p.Error(node["walk"], what + ": walk folder " + dir.string() + " does not exist");
+    }
+    s.walk_dir = dir.string();
+    if (node["overrides"] || node["scenario_override"]) {
+      return p.Error(node["overrides"] ? node["overrides"] : node["scenario_override"],
+                     what + ": a recorded walk has no simulator overrides");
+    }
+    if (node["runs"]) {
+      WG_ASSIGN_OR_RETURN(int runs, p.PositiveInt(node["runs"], "runs"));
+      if (runs != 1) return p.Error(node["runs"], what + ": a recorded walk is one run");
+    }
+  }
+  // Estimators, runs, seed, metric.
+  if (node["estimators"]) {
+    WG_ASSIGN_OR_RETURN(s.estimators, p.EstimatorList(node["estimators"], registry));
+  } else if (!top_ids.empty()) {
+    s.estimators = top_ids;
+  } else {
+    return p.Error(node, what + ": no estimators (give 'estimators' here or at the top)");
+  }
+  s.runs = top_runs;
+  if (node["runs"]) {
+    WG_ASSIGN_OR_RETURN(s.runs, p.PositiveInt(node["runs"], "runs"));
+  }
+  if (!s.walk_dir.empty()) s.runs = 1;
+  s.seed = top_seed;
+  if (node["seed"]) {
+    WG_ASSIGN_OR_RETURN(s.seed, p.Seed(node["seed"], "seed"));
+  }
+  s.metric = top_metric;
+  if (node["metric"]) {
+    WG_ASSIGN_OR_RETURN(s.metric, p.Metric(node["metric"]));
+  }
+  // What varies.
+  if (!node["scenario_override"] == !node["estimator_option"]) {
+    return p.Error(node, what + ": give exactly one of 'scenario_override' or 'estimator_option'");
+  }
+  std::string default_label;
+  if (node["scenario_override"]) {
+    WG_ASSIGN_OR_RETURN(s.scenario_override,
+                        p.String(node["scenario_override"], "scenario_override"));
+    const YAML::Node& base = s.overrides;  // const: a lookup must not add the key
+    if (base.IsDefined() && base[s.scenario_override]) {
+      return p.Error(node["scenario_override"],
+                     what + ": '" + s.scenario_override + "' is both swept and in overrides");
+    }
+    default_label = s.scenario_override;
+  } else {
+    const YAML::Node opt = node["estimator_option"];
+    if (opt.IsScalar()) {
+      WG_ASSIGN_OR_RETURN(std::string key, p.String(opt, "estimator_option"));
+      for (const std::string& id : s.estimators) s.option_keys[id] = key;
+      default_label = key;
+    } else if (opt.IsMap() && opt.size() > 0) {
+      std::vector<std::string> keys;
+      for (const auto& kv : opt) {
+        WG_ASSIGN_OR_RETURN(std::string id, p.String(kv.first, "estimator id"));
+        if (std::find(s.estimators.begin(), s.estimators.end(), id) == s.estimators.end()) {
+          return p.Error(kv.first, what + ": estimator '" + id + "' is not in the sweep's list (" +
+                                       Join(s.estimators) + ")");
+        }
+        WG_ASSIGN_OR_RETURN(std::string key, p.String(kv.second, "option key of " + id));
+        s.option_keys[id] = key;
+        if (std::find(keys.begin(), keys.end(), key) == keys.end()) keys.push_back(key);
+      }
+      for (const std::string& k : keys) default_label += (default_label.empty() ? "" : " / ") + k;
+    } else {
+      return p.Error(opt, what + ": estimator_option must be an option key or {estimator: key}");
+    }
+  }
+  if (s.label.empty()) s.label = default_label;
+  // Values.
+  const YAML::Node values = node["values"];
+  if (!values || !values.IsSequence() || values.size() == 0) {
+    return p.Error(values ? values : node, what + ": values must be a non-empty list of numbers");
+  }
+  for (const YAML::Node& v : values) {
+    WG_ASSIGN_OR_RETURN(double x, p.Scalar<double>(v, "a swept value", "number"));
+    if (!std::isfinite(x)) return p.Error(v, what + ": values must be finite numbers");
+    if (std::find(s.x.begin(), s.x.end(), x) != s.x.end()) {
+      return p.Error(v, what + ": value " + v.Scalar() + " given twice");
+    }
+    s.values.push_back(v.Scalar());
+    s.x.push_back(x);
+    s.value_lines.push_back(p.Line(v));
+  }
+  // Every cell's estimator configuration must be accepted by its estimator.
+  for (size_t i = 0; i < s.values.size(); ++i) {
+    for (const std::string& id : s.estimators) {
+      auto est = registry.Create(id, CellConfig(m, s, i, id));
+      if (!est.ok()) {
+        return InvalidArgument(CellAt(m, s, i) + ": estimator '" + id +
+                               "': " + est.status().message());
+      }
+    }
+  }
+  return s;
+}
+
+}  // namespace
+
+StatusOr<StudyManifest> ParseStudyManifest(const std::string& text, const std::string& path,
+                                           const EstimatorRegistry& registry) {
+  const Parser p(path);
+  YAML::Node root;
+  try {
+    root = YAML::Load(text);
+  } catch (const YAML::Exception& e) {
+    return InvalidArgument(path + ":" + std::to_string(e.mark.line + 1) + ": " + e.msg);
+  }
+  if (!root.IsMap()) return p.Error(root, "a study manifest must be a map (see study.h)");
+  WG_RETURN_IF_ERROR(p.CheckKeys(root,
+                                 {"name", "description", "estimators", "configs", "metric", "runs",
+                                  "seed", "pcrb", "pcrb_options", "sweeps"},
+                                 "the manifest"));
+  StudyManifest m;
+  m.path = path;
+  if (!root["name"]) return p.Error(root, "the manifest needs a name");
+  WG_ASSIGN_OR_RETURN(m.name, p.String(root["name"], "name"));
+  if (root["description"]) {
+    WG_ASSIGN_OR_RETURN(m.description, p.String(root["description"], "description"));
+  }
+  std::vector<std::string> ids;
+  if (root["estimators"]) {
+    WG_ASSIGN_OR_RETURN(ids, p.EstimatorList(root["estimators"], registry));
+  }
+  if (root["configs"]) {
+    const YAML::Node configs = root["configs"];
+    if (!configs.IsMap()) return p.Error(configs, "configs must be a map {estimator id: options}");
+    for (const auto& kv : configs) {
+      WG_ASSIGN_OR_RETURN(std::string id, p.String(kv.first, "estimator id"));
+      if (registry.Find(id) == nullptr) {
+        return p.Error(kv.first,
+                       "configs: unknown estimator '" + id + "'; known: " + Join(registry.Ids()));
+      }
+      if (!kv.second.IsMap() && !kv.second.IsNull()) {
+        return p.Error(kv.second, "configs: the options of " + id + " must be a map");
+      }
+      m.configs[id] = kv.second;
+    }
+  }
+  std::string metric = "rmse_m";
+  if (root["metric"]) {
+    WG_ASSIGN_OR_RETURN(metric, p.Metric(root["metric"]));
+  }
+  int runs = 1;
+  if (root["runs"]) {
+    WG_ASSIGN_OR_RETURN(runs, p.PositiveInt(root["runs"], "runs"));
+  }
+  uint64_t seed = 1;
+  if (root["seed"]) {
+    WG_ASSIGN_OR_RETURN(seed, p.Seed(root["seed"], "seed"));
+  }
+  if (root["pcrb"]) {
+    WG_ASSIGN_OR_RETURN(m.pcrb, p.Scalar<bool>(root["pcrb"], "pcrb", "boolean (true/false)"));
+  }
+  if (root["pcrb_options"]) {
+    WG_ASSIGN_OR_RETURN(
+        m.pcrb_options,
+        PcrbOptions::FromYaml(root["pcrb_options"], p.At(root["pcrb_options"]) + ": pcrb_options"));
+  }
+  const YAML::Node sweeps = root["sweeps"];
+  if (!sweeps || !sweeps.IsSequence() || sweeps.size() == 0) {
+    return p.Error(sweeps ? sweeps : root, "the manifest needs a non-empty list of sweeps");
+  }
+  std::set<std::string> names;
+  for (const YAML::Node& node : sweeps) {
+    WG_ASSIGN_OR_RETURN(StudySweep s, ParseSweep(p, node, m, ids, runs, seed, metric, registry));
+    if (!names.insert(s.name).second) {
+      return p.Error(node["name"], "sweep name '" + s.name + "' used twice");
+    }
+    m.sweeps.push_back(std::move(s));
+  }
+  return m;
+}
+
+StatusOr<StudyManifest> ReadStudyManifest(const std::string& path,
+                                          const EstimatorRegistry& registry) {
+  std::ifstream in(path);
+  if (!in) return NotFound(path + ": cannot open file");
+  std::stringstream text;
+  text << in.rdbuf();
+  return ParseStudyManifest(text.str(), path, registry);
+}
+
+// ------------------------------------------------------------------ running
+
+StatusOr<StudyResult> RunStudy(const StudyManifest& m, const StudyOptions& options,
+                               const EstimatorRegistry& registry) {
+  StudyResult result;
+  result.manifest = m;
+  // Validation pass: every scenario cell simulates (run 0), every walk reads.
+  std::vector<std::optional<Walk>> walks(m.sweeps.size());
+  int total = 0;
+  for (size_t k = 0; k < m.sweeps.size(); ++k) {
+    const StudySweep& s = m.sweeps[k];
+    total += static_cast<int>(s.values.size());
+    if (!s.walk_dir.empty()) {
+      StatusOr<Walk> w = ReadWalk(s.walk_dir);
+      if (!w.ok()) {
+        return InvalidArgument(m.path + ":" + std::to_string(s.line) + ": sweep '" + s.name +
+                               "': " + w.status().message());
+      }
+      walks[k] = std::move(w).value();
+      continue;
+    }
+    for (size_t i = 0; i < s.values.size(); ++i) {
+      StatusOr<Walk> w =
+          SimulateScenario(s.scenario, MonteCarloSeed(s.seed, 0), CellOverrides(s, i));
+      if (!w.ok()) return InvalidArgument(CellAt(m, s, i) + ": " + w.status().message());
+    }
+  }
+  int done = 0;
+  for (size_t k = 0; k < m.sweeps.size(); ++k) {
+    const StudySweep& s = m.sweeps[k];
+    for (size_t i = 0; i < s.values.size(); ++i) {
+      CompareOptions co;
+      co.estimator_ids = s.estimators;
+      for (const std::string& id : s.estimators) co.configs[id] = CellConfig(m, s, i, id);
+      StatusOr<Comparison> c = FailedPrecondition("no comparison");
+      if (walks[k]) {
+        c = CompareOnWalk(*walks[k], co, registry);
+      } else {
+        ScenarioCompareOptions sc;
+        sc.overrides = CellOverrides(s, i);
+        sc.pcrb = m.pcrb;
+        sc.pcrb_options = m.pcrb_options;
+        MonteCarloOptions mc;
+        mc.runs = s.runs;
+        mc.seed = s.seed;
+        mc.threads = options.threads;
+        c = CompareScenario(s.scenario, sc, co, mc, registry);
+      }
+      if (!c.ok()) {
+        return Status(c.status().code(), CellAt(m, s, i) + ": " + c.status().message());
+      }
+      StudyCell cell;
+      cell.sweep = static_cast<int>(k);
+      cell.value = static_cast<int>(i);
+      cell.runs = c->runs;
+      cell.seed = s.seed;
+      cell.pcrb_rmse_m = c->pcrb_rmse_m;
+      cell.pcrb_filter_rmse_m = c->pcrb_filter_rmse_m;
+      cell.pcrb_note = c->pcrb_note;
+      for (const EstimatorOutcome& o : c->outcomes) {
+        StudyRow r;
+        r.estimator = o.id;
+        r.status = o.status;
+        r.stats = o.stats;
+        r.stats_std = o.stats_std;
+        r.failed_runs = o.failed_runs;
+        r.runtime_s = o.runtime_s;
+        r.runtime_std_s = o.runtime_std_s;
+        cell.rows.push_back(std::move(r));
+      }
+      result.cells.push_back(std::move(cell));
+      if (options.progress) options.progress(++done, total);
+    }
+  }
+  return result;
+}
+
+// ------------------------------------------------------------------ output
+
+namespace {
+
+std::string Num(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof(buf), "%.10g", v);
+  return buf;
+}
+
+std::string CsvField(const std::string& s) {
+  if (s.find_first_of(",\"\n\r") == std::string::npos) return s;
+  std::string o = "\"";
+  for (char ch : s) {
+    if (ch == '"') o += '"';
+    o += ch;
+  }
+  return o + "\"";
+}
+
+std::optional<double> RatioOf(const StudyCell& c, const StudyRow& r) {
+  if (!r.status.ok() || !c.pcrb_rmse_m || !(*c.pcrb_rmse_m > 0.0)) return std::nullopt;
+  return r.stats.rmse_m / *c.pcrb_rmse_m;
+}
+
+// The plotted figure (and its Monte Carlo spread) of a row.
+std::optional<double> MetricOf(const StudyCell& c, const StudyRow& r, const std::string& metric) {
+  if (!r.status.ok()) return std::nullopt;
+  if (metric == "rmse_over_pcrb") return RatioOf(c, r);
+  for (size_t j = 0; j < std::size(kMetrics); ++j) {
+    if (metric == kMetrics[j]) return r.stats.*kMetricFields[j];
+  }
+  return std::nullopt;
+}
+
+std::optional<double> MetricStdOf(const StudyCell& c, const StudyRow& r,
+                                  const std::string& metric) {
+  if (!r.status.ok() || !r.stats_std || c.runs < 2) return std::nullopt;
+  for (size_t j = 0; j < std::size(kMetrics); ++j) {
+    if (metric == kMetrics[j]) return (*r.stats_std).*kMetricFields[j];
+  }
+  return std::nullopt;
+}
+
+std::string Opt(const std::optional<double>& v) { return v ? Num(*v) : ""; }
+
+// Cells of one sweep, in the order of their values.
+std::vector<const StudyCell*> CellsOf(const StudyResult& r, int sweep) {
+  std::vector<const StudyCell*> out;
+  for (const StudyCell& c : r.cells) {
+    if (c.sweep == sweep) out.push_back(&c);
+  }
+  return out;
+}
+
+}  // namespace
+
+std::string StudyCsv(const StudyResult& r) {
+  std::ostringstream out;
+  out << "sweep,parameter,value,estimator,runs,seed,failed_runs";
+  for (const char* m : kMetrics) out << ',' << m << ',' << m << "_std";
+  out << ",n_points,pcrb_rmse_m,pcrb_filter_rmse_m,rmse_over_pcrb,error\n";
+  for (const StudyCell& c : r.cells) {
+    const StudySweep& s = r.manifest.sweeps[c.sweep];
+    for (const StudyRow& row : c.rows) {
+      out << CsvField(s.name) << ',' << CsvField(s.label) << ',' << CsvField(s.values[c.value])
+          << ',' << CsvField(row.estimator) << ',' << c.runs << ',' << c.seed << ','
+          << row.failed_runs;
+      for (size_t j = 0; j < std::size(kMetrics); ++j) {
+        if (row.status.ok()) {
+          out << ',' << Num(row.stats.*kMetricFields[j]) << ','
+              << (row.stats_std && c.runs > 1 ? Num((*row.stats_std).*kMetricFields[j]) : "");
+        } else {
+          out << ",,";
+        }
+      }
+      out << ',' << (row.status.ok() ? std::to_string(row.stats.n_points) : "") << ','
+          << Opt(c.pcrb_rmse_m) << ',' << Opt(c.pcrb_filter_rmse_m) << ',' << Opt(RatioOf(c, row))
+          << ',' << (row.status.ok() ? "" : CsvField(row.status.message())) << '\n';
+    }
+  }
+  return out.str();
+}
+
+std::string StudyTimingCsv(const StudyResult& r) {
+  std::ostringstream out;
+  out << "sweep,value,estimator,runs,runtime_s,runtime_s_std\n";
+  for (const StudyCell& c : r.cells) {
+    const StudySweep& s = r.manifest.sweeps[c.sweep];
+    for (const StudyRow& row : c.rows) {
+      out << CsvField(s.name) << ',' << CsvField(s.values[c.value]) << ','
+          << CsvField(row.estimator) << ',' << c.runs << ',' << Num(row.runtime_s) << ','
+          << Num(row.runtime_std_s) << '\n';
+    }
+  }
+  return out.str();
+}
+
+std::string FormatStudyTable(const StudyResult& r) {
+  std::ostringstream out;
+  for (size_t k = 0; k < r.manifest.sweeps.size(); ++k) {
+    const StudySweep& s = r.manifest.sweeps[k];
+    const auto cells = CellsOf(r, static_cast<int>(k));
+    std::vector<std::vector<std::string>> rows;
+    std::vector<std::string> header = {s.label};
+    for (const std::string& id : s.estimators) header.push_back(id);
+    const bool pcrb = std::any_of(cells.begin(), cells.end(),
+                                  [](const StudyCell* c) { return c->pcrb_rmse_m.has_value(); });
+    if (pcrb) header.push_back("pcrb_rmse_m");
+    for (const StudyCell* c : cells) {
+      std::vector<std::string> row = {s.values[c->value]};
+      for (const std::string& id : s.estimators) {
+        std::string cell = "-";
+        for (const StudyRow& rr : c->rows) {
+          if (rr.estimator != id) continue;
+          const auto v = MetricOf(*c, rr, s.metric);
+          const auto sd = MetricStdOf(*c, rr, s.metric);
+          std::ostringstream f;
+          f << std::fixed << std::setprecision(3);
+          if (v) {
+            f << *v;
+            if (sd) f << "+-" << *sd;
+          } else {
+            f << "failed";
+          }
+          cell = f.str();
+        }
+        row.push_back(cell);
+      }
+      if (pcrb) {
+        std::ostringstream f;
+        f << std::fixed << std::setprecision(3);
+        if (c->pcrb_rmse_m) f << *c->pcrb_rmse_m;
+        row.push_back(c->pcrb_rmse_m ? f.str() : "-");
+      }
+      rows.push_back(row);
+    }
+    std::vector<size_t> width(header.size());
+    for (size_t j = 0; j < header.size(); ++j) {
+      width[j] = header[j].size();
+      for (const auto& row : rows) width[j] = std::max(width[j], row[j].size());
+    }
+    out << "sweep " << s.name << " (" << s.metric << ", runs " << s.runs << ")"
+        << (s.title.empty() ? "" : ": " + s.title) << "\n";
+    for (const auto* row : {&header}) {
+      for (size_t j = 0; j < row->size(); ++j) {
+        out << (j ? "  " : "") << std::setw(static_cast<int>(width[j])) << (*row)[j];
+      }
+      out << "\n";
+    }
+    for (const auto& row : rows) {
+      for (size_t j = 0; j < row.size(); ++j) {
+        out << (j ? "  " : "") << std::setw(static_cast<int>(width[j])) << row[j];
+      }
+      out << "\n";
+    }
+    out << "\n";
+  }
+  return out.str();
+}
+
+namespace {
+
+std::string SweepPlot(const StudyResult& r, int k) {
+  using report::Axes;
+  const StudySweep& s = r.manifest.sweeps[k];
+  const auto cells = CellsOf(r, k);
+  // Points in ascending x.
+  std::vector<const StudyCell*> sorted = cells;
+  std::sort(sorted.begin(), sorted.end(),
+            [&](const StudyCell* a, const StudyCell* b) { return s.x[a->value] < s.x[b->value]; });
+  Axes a{std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity(), 0.0,
+         0.0};
+  for (const StudyCell* c : sorted) {
+    a.x0 = std::min(a.x0, s.x[c->value]);
+    a.x1 = std::max(a.x1, s.x[c->value]);
+    for (const StudyRow& row : c->rows) {
+      const auto v = MetricOf(*c, row, s.metric);
+      if (v) a.y1 = std::max(a.y1, *v + MetricStdOf(*c, row, s.metric).value_or(0.0));
+    }
+    if (s.metric == "rmse_m" && c->pcrb_rmse_m) a.y1 = std::max(a.y1, *c->pcrb_rmse_m);
+  }
+  if (s.metric == "rmse_over_pcrb") a.y1 = std::max(a.y1, 1.0);
+  if (!std::isfinite(a.x0)) a.x0 = a.x1 = 0.0;
+  const double pad = 0.05 * (a.x1 - a.x0);
+  a.x0 -= pad;
+  a.x1 += pad;
+  a.y1 *= 1.1;
+  a.Fix();
+  std::ostringstream out;
+  out << std::fixed << std::setprecision(1);
+  out << report::Open(a, "sweep-" + s.name, s.title.empty() ? s.name : s.title, s.label, s.metric);
+  for (size_t e = 0; e < s.estimators.size(); ++e) {
+    const std::string& id = s.estimators[e];
+    std::vector<std::pair<double, double>> pts;
+    for (const StudyCell* c : sorted) {
+      for (const StudyRow& row : c->rows) {
+        if (row.estimator != id) continue;
+        const auto v = MetricOf(*c, row, s.metric);
+        if (!v) continue;
+        pts.emplace_back(s.x[c->value], *v);
+        const auto sd = MetricStdOf(*c, row, s.metric);
+        if (sd) {
+          out << "<line class=\"std-bar\" x1=\"" << a.X(s.x[c->value]) << "\" x2=\""
+              << a.X(s.x[c->value]) << "\" y1=\"" << a.Y(*v - *sd) << "\" y2=\"" << a.Y(*v + *sd)
+              << "\" stroke=\"" << report::Color(e) << "\"/>\n";
+        }
+        out << "<circle class=\"point\" cx=\"" << a.X(s.x[c->value]) << "\" cy=\"" << a.Y(*v)
+            << "\" r=\"3.5\" fill=\"" << report::Color(e) << "\"/>\n";
+      }
+    }
+    out << report::Polyline(
+        pts.size(), [&](size_t i) { return pts[i]; }, a, report::Color(e), "estimator-curve", 2.0);
+    out << "<text class=\"legend\" x=\"" << a.w - a.m - 4 << "\" y=\"" << a.m + 14 + 13.0 * e
+        << "\" text-anchor=\"end\" font-size=\"11\" fill=\"" << report::Color(e) << "\">"
+        << report::Escape(id) << "</text>\n";
+  }
+  std::vector<std::pair<double, double>> bound;
+  for (const StudyCell* c : sorted) {
+    if (s.metric == "rmse_m" && c->pcrb_rmse_m) bound.emplace_back(s.x[c->value], *c->pcrb_rmse_m);
+    if (s.metric == "rmse_over_pcrb" && c->pcrb_rmse_m) bound.emplace_back(s.x[c->value], 1.0);
+  }
+  if (!bound.empty()) {
+    out << report::Polyline(
+        bound.size(), [&](size_t i) { return bound[i]; }, a, "#000", "pcrb-curve", 1.5, "6,3");
+    out << "<text class=\"legend\" x=\"" << a.w - a.m - 4 << "\" y=\""
+        << a.m + 14 + 13.0 * s.estimators.size()
+        << "\" text-anchor=\"end\" font-size=\"11\">PCRB (smoother)</text>\n";
+  }
+  out << "</svg>\n";
+  return out.str();
+}
+
+std::string SweepTable(const StudyResult& r, int k) {
+  const StudySweep& s = r.manifest.sweeps[k];
+  std::ostringstream out;
+  out << std::fixed << std::setprecision(3);
+  out << "<table class=\"sweep\"><tr><th>" << report::Escape(s.label) << "</th>";
+  for (const std::string& id : s.estimators) out << "<th>" << report::Escape(id) << "</th>";
+  out << "<th>PCRB [m]</th></tr>\n";
+  for (const StudyCell* c : CellsOf(r, k)) {
+    out << "<tr><td>" << report::Escape(s.values[c->value]) << "</td>";
+    for (const std::string& id : s.estimators) {
+      out << "<td>";
+      for (const StudyRow& row : c->rows) {
+        if (row.estimator != id) continue;
+        const auto v = MetricOf(*c, row, s.metric);
+        const auto sd = MetricStdOf(*c, row, s.metric);
+        if (v) {
+          out << *v;
+          if (sd) out << " &plusmn; " << *sd;
+        } else {
+          out << "failed: " << report::Escape(row.status.message());
+        }
+      }
+      out << "</td>";
+    }
+    out << "<td>";
+    if (c->pcrb_rmse_m)
+      out << *c->pcrb_rmse_m;
+    else
+      out << report::Escape(c->pcrb_note.empty() ? "-" : c->pcrb_note);
+    out << "</td></tr>\n";
+  }
+  out << "</table>\n";
+  return out.str();
+}
+
+}  // namespace
+
+std::string RenderStudyHtml(const StudyResult& r) {
+  const StudyManifest& m = r.manifest;
+  std::ostringstream s;
+  s << "<!DOCTYPE html>\n<html><head><meta charset=\"utf-8\"><title>walkgraph study: "
+    << report::Escape(m.name) << "</title>\n<style>body{font-family:sans-serif;margin:16px}"
+    << "table{border-collapse:collapse;margin:8px 0}td,th{border:1px solid #ccc;padding:3px 8px;"
+    << "text-align:right}svg{margin:4px}</style></head><body>\n";
+  s << "<h1>walkgraph study: " << report::Escape(m.name) << "</h1>\n";
+  if (!m.description.empty()) s << "<p>" << report::Escape(m.description) << "</p>\n";
+  s << "<p>manifest: " << report::Escape(m.path) << "</p>\n";
+  for (size_t k = 0; k < m.sweeps.size(); ++k) {
+    const StudySweep& sw = m.sweeps[k];
+    s << "<h2 id=\"" << report::Escape(sw.name) << "\">" << report::Escape(sw.name)
+      << (sw.title.empty() ? "" : ": " + report::Escape(sw.title)) << "</h2>\n";
+    s << "<p>"
+      << report::Escape(sw.scenario.empty() ? "walk " + sw.walk_dir : "scenario " + sw.scenario)
+      << ", " << sw.runs << " run" << (sw.runs == 1 ? "" : "s") << " per value, seed " << sw.seed
+      << "; " << report::Escape(sw.metric) << " against " << report::Escape(sw.label) << "</p>\n";
+    s << "<div>" << SweepPlot(r, static_cast<int>(k)) << "</div>\n";
+    s << SweepTable(r, static_cast<int>(k));
+  }
+  s << "</body></html>\n";
+  return s.str();
+}
+
+Status WriteStudy(const StudyResult& r, const std::string& out_dir) {
+  const std::string csv = StudyCsv(r), timing = StudyTimingCsv(r), html = RenderStudyHtml(r);
+  return report::WriteFolderAtomically(out_dir, [&](const fs::path& tmp) {
+    for (const auto& [name, text] : {std::pair<const char*, const std::string*>{"study.csv", &csv},
+                                     {"timing.csv", &timing},
+                                     {"study.html", &html}}) {
+      WG_RETURN_IF_ERROR(WriteFileAtomically((tmp / name).string(), [&](std::ostream& out) {
+        out << *text;
+        return true;
+      }));
+    }
+    return Status::Ok();
+  });
+}
+
+}  // namespace walkgraph
