@@ -65,7 +65,7 @@ StatusOr<EstimateResult> OdometryDeadReckoning::Run(const Walk& walk) const {
     x[1] += s.dist_m * sn;
     x[2] = NormalizeAngle(x[2] + s.dheading_rad);
     P = F * P * F.transpose() + G * q.asDiagonal() * G.transpose();
-    P = 0.5 * (P + P.transpose());
+    P = (0.5 * (P + P.transpose())).eval();
     emit(s.t_s);
   }
   return result;
@@ -74,12 +74,12 @@ StatusOr<EstimateResult> OdometryDeadReckoning::Run(const Walk& walk) const {
 namespace internal {
 
 void RegisterOdometryDeadReckoning(EstimatorRegistry* registry) {
-  registry->Register(
-      {"odometry-dr", "dead reckoning from odometry increments (no radio)",
-       [](const YAML::Node& config) -> StatusOr<std::unique_ptr<Estimator>> {
-         WG_ASSIGN_OR_RETURN(auto options, OdometryDeadReckoningOptions::FromYaml(config));
-         return std::unique_ptr<Estimator>(new OdometryDeadReckoning(options));
-       }});
+  registry->Register({"odometry-dr", "dead reckoning from odometry increments (no radio)",
+                      [](const YAML::Node& config) -> StatusOr<std::unique_ptr<Estimator>> {
+                        WG_ASSIGN_OR_RETURN(auto options,
+                                            OdometryDeadReckoningOptions::FromYaml(config));
+                        return std::unique_ptr<Estimator>(new OdometryDeadReckoning(options));
+                      }});
 }
 
 }  // namespace internal

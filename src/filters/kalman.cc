@@ -11,7 +11,8 @@
 
 namespace walkgraph {
 
-void Symmetrize(Eigen::MatrixXd* P) { *P = 0.5 * (*P + P->transpose()); }
+// .eval(): P appears on both sides with a transpose (Eigen aliasing).
+void Symmetrize(Eigen::MatrixXd* P) { *P = (0.5 * (*P + P->transpose())).eval(); }
 
 double ChiSquareQuantile(double p, int dof) {
   if (!(p > 0.0 && p < 1.0) || dof < 1) return std::numeric_limits<double>::quiet_NaN();

@@ -90,6 +90,9 @@ StatusOr<StepGraphOptions> StepGraphOptions::FromYaml(const YAML::Node& node,
   r.Read("range_loss_scale", &o.range_loss_scale);
   r.Read("receiver_height_m", &o.receiver_height_m);
   r.Read("range_sigma_m", &o.range_sigma_m);
+  r.Read("A_dbm", &o.A_dbm);
+  r.Read("eta", &o.eta);
+  r.Read("sigma_db", &o.sigma_db);
   r.Read("path_loss", &o.path_loss);
   r.Read("A_prior_sigma_db", &o.A_prior_sigma_db);
   r.Read("eta_prior_sigma", &o.eta_prior_sigma);
@@ -140,6 +143,10 @@ StatusOr<StepGraphOptions> StepGraphOptions::FromYaml(const YAML::Node& node,
     return InvalidArgument(context + ": odometry_sigma_dist_frac/_m must be >= 0, not both 0");
   }
   if (o.range_sigma_m < 0) return InvalidArgument(context + ": range_sigma_m must be >= 0");
+  if (o.eta < 0 || o.sigma_db < 0 || std::isinf(o.A_dbm)) {
+    return InvalidArgument(context +
+                           ": eta, sigma_db must be > 0 (0: the walk's) and A_dbm finite");
+  }
   if (o.max_iterations < 1 || o.window_max_iterations < 1 || o.num_threads < 1) {
     return InvalidArgument(context + ": max_iterations, window_max_iterations, num_threads >= 1");
   }
@@ -213,6 +220,9 @@ StatusOr<std::unique_ptr<StepGraph>> StepGraph::Build(const Walk& walk, const St
   m.o = o;
   m.anchors = walk.anchors;
   m.radio = walk.meta.radio;
+  if (std::isfinite(o.A_dbm)) m.radio.path_loss.A_dbm = o.A_dbm;
+  if (o.eta > 0) m.radio.path_loss.eta = o.eta;
+  if (o.sigma_db > 0) m.radio.path_loss.sigma_db = o.sigma_db;
   m.start = walk.meta.initial_pose;
   m.odometry = walk.has_odometry();
   m.rss_loss = MakeLoss(o.rss_loss, o.rss_loss_scale);

@@ -36,6 +36,7 @@
 #ifndef WALKGRAPH_SMOOTHERS_STEP_GRAPH_H_
 #define WALKGRAPH_SMOOTHERS_STEP_GRAPH_H_
 
+#include <limits>
 #include <memory>
 #include <string>
 #include <vector>
@@ -78,6 +79,12 @@ struct StepGraphOptions {
   double range_loss_scale = 2.0;
   double receiver_height_m = 0.0;  // receiver z for the planar graph
   double range_sigma_m = 0.0;      // > 0: overrides walk.meta.radio.range_sigma_m
+  // The path-loss model (RSS = A − 10η·log10(d/d0) + N(0, σ²)): the walk's radio defaults,
+  // unless set here (> 0; A any finite value). With self-calibration it is the prior mean and
+  // the starting value.
+  double A_dbm = std::numeric_limits<double>::quiet_NaN();
+  double eta = 0.0;
+  double sigma_db = 0.0;
   // Self-calibration: fixed | global | per-anchor.
   std::string path_loss = "fixed";
   double A_prior_sigma_db = 10.0;
