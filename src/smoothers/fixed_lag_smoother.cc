@@ -1,5 +1,7 @@
 #include "walkgraph/smoothers/fixed_lag_smoother.h"
 
+#include "walkgraph/smoothers/chain_covariance.h"
+
 #include <algorithm>
 #include <string>
 
@@ -75,10 +77,32 @@ StatusOr<FixedLagSmoother::UpdateResult> FixedLagSmoother::Update(
     if (st.spec.constant) problem_->SetParameterBlockConstant(st.value.data());
     if (st.spec.t_s) newest_t_ = std::max(newest_t_.value_or(*st.spec.t_s), *st.spec.t_s);
   }
-  for (SmootherFactor& f : new_factors) WG_RETURN_IF_ERROR(AddFactor(std::move(f)));
+  // New factors that all vanish at the current estimate (new states at their initial values)
+  // cannot move the optimum: the old terms are at their minimum and the new ones at zero, so the
+  // sum is minimal too (e.g. an odometry step with no reading). Then the solve is skipped.
+  bool informative = !solved_;
+  for (SmootherFactor& f : new_factors) {
+    if (!informative) {
+      std::vector<const double*> blocks;
+      for (StateKey k : f.keys) {
+        auto it = states_.find(k);
+        if (it == states_.end()) break;
+        blocks.push_back(it->second.value.data());
+      }
+      std::vector<double> r(f.cost ? f.cost->num_residuals() : 0);
+      double r2 = 0.0;
+      const bool ok = f.cost && blocks.size() == f.keys.size() &&
+                      f.cost->Evaluate(blocks.data(), r.data(), nullptr);
+      for (double v : r) r2 += v * v;
+      informative = !ok || !(r2 <= options_.vanishing_residual_sq);
+    }
+    WG_RETURN_IF_ERROR(AddFactor(std::move(f)));
+  }
 
   UpdateResult result;
-  if (problem_->NumResidualBlocks() > 0) {
+  result.solved = informative;
+  if (informative && problem_->NumResidualBlocks() > 0) {
+    solved_ = true;
     ceres::Solver::Options so;
     so.linear_solver_type = options_.linear_solver;
     so.max_num_iterations = options_.max_iterations;
@@ -208,6 +232,66 @@ StatusOr<Eigen::MatrixXd> FixedLagSmoother::MarginalCovariance(const std::vector
       out.block(offsets[i], offsets[j], ni, nj) = c;
       out.block(offsets[j], offsets[i], nj, ni) = c.transpose();
     }
+  }
+  return out;
+}
+
+StatusOr<std::vector<Eigen::MatrixXd>> FixedLagSmoother::MarginalCovariances(
+    const std::vector<std::vector<StateKey>>& groups) {
+  // The window as a chain: timed states grouped by timestamp, in time order; the rest static.
+  std::map<double, std::vector<StateKey>> by_time;
+  std::vector<double*> statics;
+  for (const auto& [key, st] : states_) {
+    if (st.spec.t_s) {
+      by_time[*st.spec.t_s].push_back(key);
+    } else {
+      statics.push_back(const_cast<double*>(st.value.data()));
+    }
+  }
+  std::vector<std::vector<double*>> chain;
+  std::map<StateKey, std::pair<size_t, int>> where;  // key → (chain group, tangent offset)
+  for (const auto& [t, keys] : by_time) {
+    std::vector<double*> g;
+    int off = 0;
+    for (StateKey k : keys) {
+      double* b = states_.at(k).value.data();
+      where[k] = {chain.size(), off};
+      if (!problem_->IsParameterBlockConstant(b)) off += problem_->ParameterBlockTangentSize(b);
+      g.push_back(b);
+    }
+    chain.push_back(std::move(g));
+  }
+  std::vector<Eigen::MatrixXd> out;
+  auto banded = ChainMarginalCovariances(problem_.get(), chain, statics);
+  bool usable = banded.ok();
+  for (const auto& g : groups) {
+    for (StateKey k : g) {
+      auto it = states_.find(k);
+      if (it == states_.end() || problem_->IsParameterBlockConstant(it->second.value.data()) ||
+          !where.count(k) || where[k].first != where[g.front()].first) {
+        usable = false;
+      }
+    }
+  }
+  if (!usable) {  // fall back to Ceres, one group at a time
+    for (const auto& g : groups) {
+      WG_ASSIGN_OR_RETURN(Eigen::MatrixXd c, MarginalCovariance(g));
+      out.push_back(std::move(c));
+    }
+    return out;
+  }
+  for (const auto& g : groups) {
+    const Eigen::MatrixXd& full = (*banded)[where[g.front()].first];
+    std::vector<int> idx;
+    for (StateKey k : g) {
+      const int n = problem_->ParameterBlockTangentSize(states_.at(k).value.data());
+      for (int i = 0; i < n; ++i) idx.push_back(where[k].second + i);
+    }
+    Eigen::MatrixXd c(idx.size(), idx.size());
+    for (size_t i = 0; i < idx.size(); ++i) {
+      for (size_t j = 0; j < idx.size(); ++j) c(i, j) = full(idx[i], idx[j]);
+    }
+    out.push_back(std::move(c));
   }
   return out;
 }

@@ -109,6 +109,7 @@ StatusOr<StepGraphOptions> StepGraphOptions::FromYaml(const YAML::Node& node,
   r.Read("lag_s", &o.lag_s);
   r.Read("window_max_iterations", &o.window_max_iterations);
   r.Read("window_output", &o.window_output);
+  r.Read("window_linear_solver", &o.window_linear_solver);
   WG_RETURN_IF_ERROR(r.Finish());
   if (pdr.IsDefined()) {
     WG_ASSIGN_OR_RETURN(o.pdr, PdrOptions::FromYaml(pdr));
@@ -166,6 +167,9 @@ StatusOr<StepGraphOptions> StepGraphOptions::FromYaml(const YAML::Node& node,
       !OneOf(o.range_scale, {"none", "global", "per-anchor"})) {
     return InvalidArgument(context +
                            ": range_bias and range_scale must be none, global or per-anchor");
+  }
+  if (!OneOf(o.window_linear_solver, {"dense", "sparse"})) {
+    return InvalidArgument(context + ": window_linear_solver must be 'dense' or 'sparse'");
   }
   if (!OneOf(o.window_output, {"lagged", "online"})) {
     return InvalidArgument(context + ": window_output must be 'lagged' or 'online'");
@@ -699,6 +703,8 @@ StatusOr<EstimateResult> StepGraphWindow::Run(const Walk& walk) const {
   FixedLagSmoother::Options so;
   so.lag_s = options_.lag_s;
   so.max_iterations = options_.window_max_iterations;
+  so.linear_solver = options_.window_linear_solver == "dense" ? ceres::DENSE_NORMAL_CHOLESKY
+                                                              : ceres::SPARSE_NORMAL_CHOLESKY;
   so.function_tolerance = options_.function_tolerance;
   so.parameter_tolerance = options_.parameter_tolerance;
   so.num_threads = options_.num_threads;
@@ -707,14 +713,24 @@ StatusOr<EstimateResult> StepGraphWindow::Run(const Walk& walk) const {
   std::vector<TrajectoryPoint> points(n);
   std::vector<bool> have(n, false);
   auto node_of = [](StateKey key) { return static_cast<int>(key / 2); };
-  smoother.set_before_marginalize([&](const std::vector<StateKey>& keys) {
-    if (online || !options_.covariance) return;
-    for (StateKey key : keys) {
-      if (key % 2 != 0) continue;
-      const int k = node_of(key);
-      auto c = smoother.MarginalCovariance({key, StepGraph::HeadingKey(k)});
-      if (c.ok()) points[k].covariance = 0.5 * (*c + c->transpose());
+  // (x, y, θ) covariances of the given nodes from the current window, in one banded solve.
+  auto store_covariances = [&](const std::vector<int>& nodes) {
+    if (!options_.covariance || nodes.empty()) return;
+    std::vector<std::vector<StateKey>> groups;
+    for (int k : nodes) groups.push_back({StepGraph::PositionKey(k), StepGraph::HeadingKey(k)});
+    auto c = smoother.MarginalCovariances(groups);
+    if (!c.ok()) return;  // rank-deficient window: these nodes go without covariance
+    for (size_t i = 0; i < nodes.size(); ++i) {
+      points[nodes[i]].covariance = Eigen::Matrix3d(0.5 * ((*c)[i] + (*c)[i].transpose()));
     }
+  };
+  smoother.set_before_marginalize([&](const std::vector<StateKey>& keys) {
+    if (online) return;
+    std::vector<int> nodes;
+    for (StateKey key : keys) {
+      if (key % 2 == 0) nodes.push_back(node_of(key));
+    }
+    store_covariances(nodes);
   });
   smoother.set_on_marginalize([&](StateKey key, double t, const std::vector<double>& v) {
     if (online) return;
@@ -730,7 +746,7 @@ StatusOr<EstimateResult> StepGraphWindow::Run(const Walk& walk) const {
 
   std::vector<double> latency;
   latency.reserve(n);
-  int iterations = 0;
+  int iterations = 0, solves = 0;
   Eigen::Vector2d prev_p = graph->initial_nodes()[0].head<2>();
   double prev_theta = graph->initial_nodes()[0][2];
   for (int k = 0; k < n; ++k) {
@@ -744,6 +760,7 @@ StatusOr<EstimateResult> StepGraphWindow::Run(const Walk& walk) const {
     latency.push_back(
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
     iterations += u.ceres_iterations;
+    solves += u.solved ? 1 : 0;
     WG_ASSIGN_OR_RETURN(std::vector<double> p, smoother.Estimate(StepGraph::PositionKey(k)));
     WG_ASSIGN_OR_RETURN(std::vector<double> h, smoother.Estimate(StepGraph::HeadingKey(k)));
     prev_p = Eigen::Vector2d(p[0], p[1]);
@@ -751,22 +768,16 @@ StatusOr<EstimateResult> StepGraphWindow::Run(const Walk& walk) const {
     if (online) {
       points[k] = MakePoint(graph->node_time(k), p.data(), h[0]);
       have[k] = true;
-      if (options_.covariance) {
-        auto c = smoother.MarginalCovariance({StepGraph::PositionKey(k), StepGraph::HeadingKey(k)});
-        if (c.ok()) points[k].covariance = 0.5 * (*c + c->transpose());
-      }
+      store_covariances({k});
     }
   }
   if (!online) {
     // The nodes still in the window at the end: their final (smoothed) estimates.
+    std::vector<int> nodes;
     for (StateKey key : smoother.WindowKeys()) {
-      if (key % 2 != 0) continue;
-      const int k = node_of(key);
-      if (options_.covariance) {
-        auto c = smoother.MarginalCovariance({key, StepGraph::HeadingKey(k)});
-        if (c.ok()) points[k].covariance = 0.5 * (*c + c->transpose());
-      }
+      if (key % 2 == 0) nodes.push_back(node_of(key));
     }
+    store_covariances(nodes);
     smoother.Flush();
   }
 
@@ -776,6 +787,7 @@ StatusOr<EstimateResult> StepGraphWindow::Run(const Walk& walk) const {
   }
   auto& d = result.diagnostics;
   d["ceres_iterations"] = iterations;
+  d["window_solves"] = solves;
   d["nodes"] = n;
   std::vector<double> sorted = latency;
   std::sort(sorted.begin(), sorted.end());

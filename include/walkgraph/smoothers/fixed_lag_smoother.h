@@ -69,12 +69,16 @@ class FixedLagSmoother {
     ceres::LinearSolverType linear_solver = ceres::SPARSE_NORMAL_CHOLESKY;
     int num_threads = 1;
     double eigenvalue_tolerance = 1e-12;  // marginalization (see marginalization.h)
+    // An update whose new factors all have ‖r‖² ≤ this at the current estimate is not solved
+    // (it cannot move the optimum; see Update). Negative: always solve.
+    double vanishing_residual_sq = 1e-20;
   };
   struct UpdateResult {
     int ceres_iterations = 0;
     int marginalized_states = 0;
     double final_cost = 0.0;
     bool converged = true;
+    bool solved = true;  // false when the update carried no information (see Options)
   };
   // Called for each state as it leaves the window: key, time, final (lagged) estimate.
   using MarginalizeCallback =
@@ -103,6 +107,11 @@ class FixedLagSmoother {
   StatusOr<Eigen::MatrixXd> MarginalCovariance(StateKey key);
   // Joint marginal covariance of several states (tangent spaces stacked in `keys` order).
   StatusOr<Eigen::MatrixXd> MarginalCovariance(const std::vector<StateKey>& keys);
+  // Several joint covariances at once, each group the states of one timestamp (or a subset):
+  // one banded solve over the window (chain_covariance.h) when the window is chain-structured,
+  // else one MarginalCovariance per group.
+  StatusOr<std::vector<Eigen::MatrixXd>> MarginalCovariances(
+      const std::vector<std::vector<StateKey>>& groups);
   // Timed states still in the window, oldest first.
   std::vector<StateKey> WindowKeys() const;
   bool Contains(StateKey key) const { return states_.count(key) > 0; }
@@ -130,6 +139,7 @@ class FixedLagSmoother {
   std::map<int, Factor> factors_;
   int next_factor_id_ = 0;
   std::optional<double> newest_t_;
+  bool solved_ = false;  // a solve has run: the estimate is (near) optimal
   MarginalizeCallback on_marginalize_;
   std::function<void(const std::vector<StateKey>&)> before_marginalize_;
 };

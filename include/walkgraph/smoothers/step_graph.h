@@ -105,6 +105,7 @@ struct StepGraphOptions {
   // fg-window.
   double lag_s = 10.0;
   int window_max_iterations = 10;
+  std::string window_linear_solver = "sparse";  // sparse (SPARSE_NORMAL_CHOLESKY) | dense
   std::string window_output = "lagged";  // lagged | online
 
   // Keys: every field by its name, `pdr` a PdrOptions map; absent keys keep `defaults`.
