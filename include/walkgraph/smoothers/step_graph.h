@@ -25,7 +25,7 @@
 // (the only gauge freedom of a dead-reckoning graph is its start pose).
 // Initialization: dead reckoning from the known start; without one, dead reckoning aligned by
 // the best rotation + translation (Umeyama) to the radio position fixes of the first
-// align_window_s seconds.
+// align_window_s seconds. fg-batch may restart from fg-window's estimates (`initialization`).
 //
 // fg-batch: every node and reading in one Ceres problem (SPARSE_NORMAL_CHOLESKY, SuiteSparse),
 // marginal covariances of (x, y, θ) per node by ceres::Covariance (when that fails — rank
@@ -94,8 +94,14 @@ struct StepGraphOptions {
   std::string range_scale = "global";  // none | global | per-anchor: ρ = (1 + s)·d + b
   double range_scale_prior_sigma = 0.1;
 
-  // Initialization and solver.
+  // Initialization and solver. fg-batch starts from dead reckoning ("dead-reckoning"), from
+  // the lagged estimates of a fast fixed-lag pass ("window": lag init_lag_s, one update per
+  // init_update_s), or ("auto") from dead reckoning for odometry walks and the window for IMU
+  // steps, whose gyro heading drift leaves dead reckoning in a wrong basin.
   double align_window_s = 30.0;
+  std::string initialization = "auto";
+  double init_lag_s = 20.0;
+  double init_update_s = 5.0;
   int max_iterations = 100;
   double function_tolerance = 1e-6;  // Ceres' relative cost-change stop (both smoothers)
   double parameter_tolerance = 1e-8;
@@ -106,6 +112,7 @@ struct StepGraphOptions {
   double lag_s = 10.0;
   int window_max_iterations = 10;
   std::string window_linear_solver = "sparse";  // sparse (SPARSE_NORMAL_CHOLESKY) | dense
+  double window_update_s = 0.0;          // 0: one update per node; > 0: nodes gathered per period
   std::string window_output = "lagged";  // lagged | online
 
   // Keys: every field by its name, `pdr` a PdrOptions map; absent keys keep `defaults`.
