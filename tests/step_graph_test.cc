@@ -4,11 +4,14 @@
 #include "walkgraph/smoothers/step_graph.h"
 
 #include <cmath>
+#include <map>
+#include <string>
 #include <vector>
 
 #include <gtest/gtest.h>
 
 #include "test_util.h"
+#include "walkgraph/compare.h"
 #include "walkgraph/filters/kalman.h"
 #include "walkgraph/io.h"
 #include "walkgraph/metrics.h"
@@ -225,6 +228,117 @@ TEST(StepGraphRealData, Plaza1BatchWithRangeBiasesAndRobustLoss) {
   // it well below the target, where a regression in the range model would show.
   EXPECT_LE(s.rmse_m, 0.5);
   EXPECT_NEAR(r->diagnostics.at("range_scale"), 0.07, 0.03);  // range − d grows ≈7 % of d
+}
+
+// ---------------------------------------------------------------- accuracy on the presets
+
+struct PresetCase {
+  const char* scenario;
+  const char* overrides;  // shorter walks than the presets' defaults, for the suite's time
+  std::vector<std::string> causal, smoothed;  // the papers' filters that fit the preset
+  int runs;
+};
+
+void PrintTo(const PresetCase& c, std::ostream* os) { *os << c.scenario; }
+
+class StepGraphPresetTest : public ::testing::TestWithParam<PresetCase> {};
+
+// Issue 6: fg-batch RMSE ≤ 0.70 × the best causal filter and ≤ 0.90 × the best RTS-smoothed
+// one; fg-window's lagged output ≤ 0.80 × and its online output ≤ 1.0 × the best causal.
+// RMSE = mean over the seeded runs of each run's RMSE (CompareMonteCarlo).
+TEST_P(StepGraphPresetTest, SmoothersBeatThePapersFilters) {
+  const PresetCase& c = GetParam();
+  const YAML::Node overrides = YAML::Load(c.overrides);
+  CompareOptions options;
+  options.estimator_ids = c.causal;
+  options.estimator_ids.insert(options.estimator_ids.end(), c.smoothed.begin(), c.smoothed.end());
+  for (const char* id : {"fg-batch", "fg-window", "fg-window-online"}) {
+    options.estimator_ids.push_back(id);
+  }
+  MonteCarloOptions mc;
+  mc.runs = testing::MonteCarloRuns(c.runs);
+  mc.seed = 6;
+  mc.threads = 1;
+  const std::string name = c.scenario;
+  auto cmp = CompareMonteCarlo(
+      [&](uint64_t seed) { return SimulateScenario(name, seed, overrides); }, options, mc);
+  ASSERT_TRUE(cmp.ok()) << cmp.status().message();
+  std::map<std::string, double> rmse;
+  for (const EstimatorOutcome& o : cmp->outcomes) {
+    ASSERT_TRUE(o.status.ok()) << o.id << ": " << o.status.message();
+    EXPECT_EQ(o.failed_runs, 0) << o.id;
+    rmse[o.id] = o.stats.rmse_m;
+  }
+  double best_causal = 1e9, best_smoothed = 1e9;
+  for (const auto& id : c.causal) best_causal = std::min(best_causal, rmse.at(id));
+  for (const auto& id : c.smoothed) best_smoothed = std::min(best_smoothed, rmse.at(id));
+  std::printf(
+      "%s (%d runs): best causal %.3f, best RTS %.3f, fg-batch %.3f, fg-window %.3f, "
+      "online %.3f m\n",
+      c.scenario, mc.runs, best_causal, best_smoothed, rmse["fg-batch"], rmse["fg-window"],
+      rmse["fg-window-online"]);
+  if (testing::kSanitized) return;  // accuracy is judged on the full run count
+  EXPECT_LE(rmse["fg-batch"], 0.70 * best_causal);
+  EXPECT_LE(rmse["fg-batch"], 0.90 * best_smoothed);
+  EXPECT_LE(rmse["fg-window"], 0.80 * best_causal);
+  EXPECT_LE(rmse["fg-window-online"], 1.0 * best_causal);
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    Presets, StepGraphPresetTest,
+    ::testing::Values(
+        PresetCase{"tarrio-circle",
+                   "{duration_s: 60}",
+                   {"rss-only", "rss-pdr-reset", "tarrio-kf"},
+                   {"tarrio-kf-rts"},
+                   50},
+        PresetCase{"correa-corridor",
+                   "{}",
+                   {"correa-ls", "correa-ekf", "correa-scmt-ekf", "tarrio-kf"},
+                   {"correa-ekf-rts", "correa-scmt-ekf-rts", "tarrio-kf-rts"},
+                   50},
+        PresetCase{"correa-classroom",
+                   "{laps: 2}",
+                   {"correa-ls", "correa-ekf", "correa-scmt-ekf", "tarrio-kf"},
+                   {"correa-ekf-rts", "correa-scmt-ekf-rts", "tarrio-kf-rts"},
+                   50},
+        // 62 anchors at 4 Hz make ≈250 readings/s; at 1 Hz the suite stays in its time budget.
+        PresetCase{"gadeke-outage",
+                   "{run_length_m: 200, beacon_period_s: 1.0}",
+                   {"rss-only", "tarrio-kf", "gadeke-kf"},
+                   {"tarrio-kf-rts", "gadeke-kf-rts"},
+                   50}),
+    [](const ::testing::TestParamInfo<PresetCase>& info) {
+      std::string n = info.param.scenario;
+      for (char& ch : n) {
+        if (ch == '-') ch = '_';
+      }
+      return n;
+    });
+
+// With 20 % of the readings in NLOS episodes 15 dB weaker, the robust smoother stays within
+// 1.3× of its clean RMSE (the same seeds, so the same walks apart from the NLOS).
+TEST(StepGraphRobustness, NlosOutliersCostAtMostThirtyPercent) {
+  CompareOptions options;
+  options.estimator_ids = {"fg-batch"};
+  MonteCarloOptions mc;
+  mc.runs = testing::MonteCarloRuns(50);
+  mc.seed = 9;
+  double rmse[2] = {0, 0};
+  for (int nlos = 0; nlos < 2; ++nlos) {
+    const YAML::Node o = YAML::Load(
+        nlos ? "{duration_s: 60, nlos_fraction: 0.2, nlos_rss_bias_db: 15}" : "{duration_s: 60}");
+    auto cmp = CompareMonteCarlo(
+        [&](uint64_t seed) { return SimulateScenario("tarrio-circle", seed, o); }, options, mc);
+    ASSERT_TRUE(cmp.ok()) << cmp.status().message();
+    ASSERT_TRUE(cmp->outcomes[0].status.ok());
+    EXPECT_EQ(cmp->outcomes[0].failed_runs, 0);
+    rmse[nlos] = cmp->outcomes[0].stats.rmse_m;
+    EXPECT_LT(cmp->outcomes[0].stats.max_m, 5.0);  // never diverges
+  }
+  std::printf("fg-batch clean %.3f m, 20%% NLOS %.3f m (%.2fx)\n", rmse[0], rmse[1],
+              rmse[1] / rmse[0]);
+  if (!testing::kSanitized) EXPECT_LE(rmse[1], 1.3 * rmse[0]);
 }
 
 }  // namespace

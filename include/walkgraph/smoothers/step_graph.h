@@ -73,8 +73,11 @@ struct StepGraphOptions {
 
   // Radio.
   std::string rss_residual = "db";  // db (RssFactor) | range (RssRangeFactor, 004 eq. 7)
-  std::string rss_loss = "huber";
-  double rss_loss_scale = 2.0;  // in σ (residuals are whitened)
+  // Cauchy at 0.5σ: with 20 % NLOS readings 15 dB low (tarrio-circle) the RMSE rises 1.16×
+  // over clean data, against 1.88× for Huber at 2σ, and clean data lose nothing (0.332 vs
+  // 0.343 m); measured, see README.
+  std::string rss_loss = "cauchy";
+  double rss_loss_scale = 0.5;  // in σ (residuals are whitened)
   std::string range_loss = "cauchy";
   double range_loss_scale = 2.0;
   double receiver_height_m = 0.0;  // receiver z for the planar graph
