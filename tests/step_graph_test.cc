@@ -341,5 +341,46 @@ TEST(StepGraphRobustness, NlosOutliersCostAtMostThirtyPercent) {
   if (!testing::kSanitized) EXPECT_LE(rmse[1], 1.3 * rmse[0]);
 }
 
+// Consistency: the position NEES εₖ = eₖᵀ Pₖ⁻¹ eₖ (2 dof) of fg-batch, averaged over the runs
+// at each node and then over the walk, lies in the two-sided 95 % band of χ²(2N)/N.
+// The PDR front end's default step-length σ (10 % + 2 cm, for real walkers) is 16× the
+// simulated walker's (measured on tarrio-circle: 0.4 cm for 0.45 m steps); a consistency test
+// needs the model's σ, so it is set to 1 % + 0.5 cm here.
+TEST(StepGraphConsistency, BatchNeesInsideTheChiSquareBand) {
+  const int runs = testing::MonteCarloRuns(50);
+  auto est = EstimatorRegistry::Builtin().Create(
+      "fg-batch", YAML::Load("{pdr: {sigma_length_frac: 0.01, sigma_length_m: 0.005}}"));
+  ASSERT_TRUE(est.ok());
+  std::vector<double> sum_nees;
+  for (int i = 0; i < runs; ++i) {
+    auto w =
+        SimulateScenario("tarrio-circle", MonteCarloSeed(11, i), YAML::Load("{duration_s: 60}"));
+    ASSERT_TRUE(w.ok());
+    auto r = (*est)->Run(*w);
+    ASSERT_TRUE(r.ok()) << r.status().message();
+    size_t j = 0, node = 0;
+    for (const TrajectoryPoint& p : r->trajectory.points) {
+      if (!p.covariance) continue;
+      while (j + 1 < w->truth.size() && w->truth[j + 1].t_s <= p.t_s) ++j;
+      if (std::fabs(w->truth[j].t_s - p.t_s) > 1e-3) continue;  // truth at the IMU rate
+      const Eigen::Vector2d e = p.position_m.head<2>() - w->truth[j].position_m.head<2>();
+      const Eigen::Matrix2d P = p.covariance->topLeftCorner<2, 2>();
+      if (sum_nees.size() <= node) sum_nees.resize(node + 1, 0.0);
+      sum_nees[node++] += e.dot(P.ldlt().solve(e));
+    }
+  }
+  ASSERT_GT(sum_nees.size(), 50u);
+  double mean = 0.0;
+  for (double s : sum_nees) mean += s / runs;
+  mean /= static_cast<double>(sum_nees.size());
+  const double lo = ChiSquareQuantile(0.025, 2 * runs) / runs;
+  const double hi = ChiSquareQuantile(0.975, 2 * runs) / runs;
+  std::printf("fg-batch ANEES %.3f (95%% band %.3f..%.3f, %d runs)\n", mean, lo, hi, runs);
+  if (!testing::kSanitized) {
+    EXPECT_GE(mean, lo);
+    EXPECT_LE(mean, hi);
+  }
+}
+
 }  // namespace
 }  // namespace walkgraph

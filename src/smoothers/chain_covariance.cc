@@ -4,7 +4,9 @@
 #include <cmath>
 #include <string>
 
+#include <ceres/cost_function.h>
 #include <ceres/crs_matrix.h>
+#include <ceres/loss_function.h>
 #include <Eigen/Cholesky>
 #include <Eigen/SparseCore>
 
@@ -86,7 +88,7 @@ Band BandInverse(const Band& l) {
 
 StatusOr<std::vector<Eigen::MatrixXd>> ChainMarginalCovariances(
     ceres::Problem* problem, const std::vector<std::vector<double*>>& groups,
-    const std::vector<double*>& statics, int max_bandwidth) {
+    const std::vector<double*>& statics, double inlier_sigma, int max_bandwidth) {
   // Column layout: the chain's variable blocks in order, then the statics.
   std::vector<double*> blocks;
   std::vector<std::vector<std::pair<int, int>>> group_cols(groups.size());  // (offset, size)
@@ -112,12 +114,35 @@ StatusOr<std::vector<Eigen::MatrixXd>> ChainMarginalCovariances(
 
   ceres::Problem::EvaluateOptions eo;
   eo.parameter_blocks = blocks;
-  eo.apply_loss_function = true;
+  problem->GetResidualBlocks(&eo.residual_blocks);
+  eo.apply_loss_function = false;  // robust weights applied below, per residual block
   ceres::CRSMatrix crs;
-  if (!problem->Evaluate(eo, nullptr, nullptr, nullptr, &crs)) {
+  std::vector<double> residuals;
+  if (!problem->Evaluate(eo, nullptr, &residuals, nullptr, &crs)) {
     return NumericalError("covariance: the problem could not be evaluated");
   }
   if (crs.num_cols != n) return InternalError("covariance: unexpected Jacobian width");
+  // Row weights: a robust residual block counts fully while ‖r‖ ≤ inlier_sigma (whitened), and
+  // with its loss's IRLS weight ρ′(‖r‖²) beyond — an outlier the loss discounted is not
+  // information, an inlier is (ρ′ of an aggressive loss would discount inliers too and
+  // overstate the covariance).
+  std::vector<double> row_weight(residuals.size(), 1.0);
+  int row = 0;
+  for (ceres::ResidualBlockId id : eo.residual_blocks) {
+    const int m = problem->GetCostFunctionForResidualBlock(id)->num_residuals();
+    const ceres::LossFunction* loss = problem->GetLossFunctionForResidualBlock(id);
+    double s2 = 0.0;
+    for (int i = 0; i < m; ++i) s2 += residuals[row + i] * residuals[row + i];
+    if (loss != nullptr && s2 > inlier_sigma * inlier_sigma) {
+      double rho[3];
+      loss->Evaluate(s2, rho);
+      for (int i = 0; i < m; ++i) row_weight[row + i] = std::sqrt(std::max(rho[1], 0.0));
+    }
+    row += m;
+  }
+  for (int r = 0; r < crs.num_rows; ++r) {
+    for (int k = crs.rows[r]; k < crs.rows[r + 1]; ++k) crs.values[k] *= row_weight[r];
+  }
   Eigen::Map<const Eigen::SparseMatrix<double, Eigen::RowMajor>> J(
       crs.num_rows, crs.num_cols, static_cast<Eigen::Index>(crs.values.size()), crs.rows.data(),
       crs.cols.data(), crs.values.data());
