@@ -8,6 +8,8 @@
 namespace walkgraph::internal {
 
 void RegisterOdometryDeadReckoning(EstimatorRegistry* registry);
+void RegisterZuptIns(EstimatorRegistry* registry);
+void RegisterInsGraphBatch(EstimatorRegistry* registry);
 
 }  // namespace walkgraph::internal
 
