@@ -1,0 +1,49 @@
+// StepFactor: one detected step between consecutive step poses.
+//
+// Node k holds the position p_k ∈ R² and the heading θ_k of the step that ends at node k
+// (measurements.h: Step::heading_rad is the direction of the step's displacement). The step
+// of length l moves the walker along that heading:
+//   r = S^{-1/2} · R(θ_k)ᵀ (p_k − p_{k−1}) − S^{-1/2} · (l, 0)ᵀ,   S = diag(σ_l², σ_c²)
+// i.e. the displacement expressed along-track / cross-track in the step's own frame; σ_l is
+// the step-length σ (Weinberg model error), σ_c the lateral sway of one step (the heading's
+// own uncertainty lives in θ_k and its HeadingIncrementFactor / HeadingFactor).
+#ifndef WALKGRAPH_FACTORS_STEP_FACTOR_H_
+#define WALKGRAPH_FACTORS_STEP_FACTOR_H_
+
+#include <cmath>
+
+#include <ceres/autodiff_cost_function.h>
+
+namespace walkgraph {
+
+class StepFactor {
+ public:
+  StepFactor(double length_m, double sigma_length_m, double sigma_cross_m)
+      : length_m_(length_m),
+        inv_sigma_l_(1.0 / sigma_length_m),
+        inv_sigma_c_(1.0 / sigma_cross_m) {}
+
+  template <typename T>
+  bool operator()(const T* p_prev, const T* p, const T* theta, T* residual) const {
+    using std::cos;
+    using std::sin;
+    const T dx = p[0] - p_prev[0], dy = p[1] - p_prev[1];
+    const T c = cos(theta[0]), s = sin(theta[0]);
+    residual[0] = (c * dx + s * dy - T(length_m_)) * T(inv_sigma_l_);
+    residual[1] = (-s * dx + c * dy) * T(inv_sigma_c_);
+    return true;
+  }
+
+  // Blocks: p_{k−1} (2), p_k (2), θ_k (1).
+  static ceres::CostFunction* Create(double length_m, double sigma_length_m, double sigma_cross_m) {
+    return new ceres::AutoDiffCostFunction<StepFactor, 2, 2, 2, 1>(
+        new StepFactor(length_m, sigma_length_m, sigma_cross_m));
+  }
+
+ private:
+  double length_m_, inv_sigma_l_, inv_sigma_c_;
+};
+
+}  // namespace walkgraph
+
+#endif  // WALKGRAPH_FACTORS_STEP_FACTOR_H_

@@ -1,0 +1,161 @@
+// The step-level and radio cost functions: residuals against independently computed values,
+// Jacobians against numeric differentiation (ceres::GradientChecker), angle wrapping.
+#include <cmath>
+#include <memory>
+#include <vector>
+
+#include <ceres/gradient_checker.h>
+#include <ceres/manifold.h>
+#include <gtest/gtest.h>
+
+#include "factors/angle_manifold.h"
+#include "factors/heading_factor.h"
+#include "factors/heading_increment_factor.h"
+#include "factors/odometry_factor.h"
+#include "factors/range_factor.h"
+#include "factors/rss_factor.h"
+#include "factors/rss_range_factor.h"
+#include "factors/step_factor.h"
+#include "walkgraph/angle.h"
+#include "walkgraph/path_loss.h"
+
+namespace walkgraph {
+namespace {
+
+std::vector<double> Residuals(const ceres::CostFunction& f, std::vector<const double*> blocks) {
+  std::vector<double> r(f.num_residuals());
+  EXPECT_TRUE(f.Evaluate(blocks.data(), r.data(), nullptr));
+  return r;
+}
+
+// Checks f's Jacobians at `blocks` against central differences; heading blocks (size 1 in
+// `angle_blocks`) get the AngleManifold.
+void ExpectGradientsMatch(const ceres::CostFunction& f, std::vector<const double*> blocks,
+                          std::vector<int> angle_blocks = {}) {
+  AngleManifold angle;
+  std::vector<const ceres::Manifold*> manifolds(blocks.size(), nullptr);
+  for (int i : angle_blocks) manifolds[i] = &angle;
+  ceres::NumericDiffOptions numeric;
+  ceres::GradientChecker checker(&f, &manifolds, numeric);
+  ceres::GradientChecker::ProbeResults results;
+  EXPECT_TRUE(checker.Probe(blocks.data(), 1e-7, &results)) << results.error_log;
+}
+
+TEST(AngleManifoldTest, PlusAndMinusWrap) {
+  AngleManifold m;
+  double x = 3.0, d = 0.5, y = 0.0;
+  m.Plus(&x, &d, &y);
+  EXPECT_NEAR(y, 3.5 - 2 * kPi, 1e-12);
+  double a = -3.1, b = 3.1, diff = 0.0;
+  m.Minus(&a, &b, &diff);  // a ⊟ b: the short way round
+  EXPECT_NEAR(diff, 2 * kPi - 6.2, 1e-12);
+}
+
+TEST(StepFactorTest, ResidualIsAlongAndCrossTrackError) {
+  std::unique_ptr<ceres::CostFunction> f(StepFactor::Create(0.7, 0.1, 0.05));
+  const double p0[2] = {1.0, 2.0}, theta[1] = {kPi / 2};
+  const double p1[2] = {1.0 + 0.02, 2.0 + 0.75};  // 0.75 along north, 0.02 east (right)
+  const auto r = Residuals(*f, {p0, p1, theta});
+  EXPECT_NEAR(r[0], (0.75 - 0.7) / 0.1, 1e-12);
+  EXPECT_NEAR(r[1], -0.02 / 0.05, 1e-12);  // cross-track positive to the left
+  const double generic[1] = {1.3};         // away from exact zeros, where relative errors mislead
+  ExpectGradientsMatch(*f, {p0, p1, generic}, {2});
+}
+
+TEST(HeadingFactorsTest, ResidualsWrapAcrossPi) {
+  std::unique_ptr<ceres::CostFunction> inc(HeadingIncrementFactor::Create(0.1, 0.02));
+  const double a[1] = {3.1}, b[1] = {-3.1};  // true change 2π − 6.2 ≈ 0.0832
+  EXPECT_NEAR(Residuals(*inc, {a, b})[0], (2 * kPi - 6.2 - 0.1) / 0.02, 1e-9);
+  ExpectGradientsMatch(*inc, {a, b}, {0, 1});
+  std::unique_ptr<ceres::CostFunction> abs(HeadingFactor::Create(-3.1, 0.1));
+  EXPECT_NEAR(Residuals(*abs, {a})[0], (6.2 - 2 * kPi) / 0.1, 1e-9);
+  ExpectGradientsMatch(*abs, {a}, {0});
+}
+
+TEST(OdometryFactorTest, MatchesPose2Between) {
+  std::unique_ptr<ceres::CostFunction> f(OdometryFactor::Create(1.0, 0.3, 0.05, 0.02, 0.01));
+  const double p0[2] = {0.0, 0.0}, t0[1] = {kPi / 4};
+  // Exactly the increment: 1 m along 45°, then turn 0.3 rad.
+  const double p1[2] = {std::cos(kPi / 4), std::sin(kPi / 4)}, t1[1] = {kPi / 4 + 0.3};
+  for (double v : Residuals(*f, {p0, t0, p1, t1})) EXPECT_NEAR(v, 0.0, 1e-12);
+  const double p2[2] = {p1[0] + 0.1, p1[1]};
+  const auto r = Residuals(*f, {p0, t0, p2, t1});
+  EXPECT_NEAR(r[0], 0.1 * std::cos(kPi / 4) / 0.05, 1e-12);
+  EXPECT_NEAR(r[1], -0.1 * std::sin(kPi / 4) / 0.02, 1e-12);
+  ExpectGradientsMatch(*f, {p0, t0, p2, t1}, {1, 3});
+}
+
+TEST(RssFactorTest, ResidualMatchesPathLossModelInBothUnits) {
+  for (RssUnits units : {RssUnits::kDbm, RssUnits::kRfcode}) {
+    PathLossParams params;
+    params.A_dbm = units == RssUnits::kDbm ? -60.0 : 60.0;
+    params.eta = 2.3;
+    params.sigma_db = 6.0;
+    const PathLossModel model(params, units);
+    RssFactor<2>::Reading reading;
+    reading.rss = units == RssUnits::kDbm ? -75.0 : 75.0;
+    reading.anchor_m = Eigen::Vector3d(3.0, 4.0, 2.0);
+    reading.sigma_db = 6.0;
+    reading.sign = model.sign();
+    reading.receiver_height_m = 1.0;
+    const double p[2] = {0.0, 0.0}, pl[2] = {params.A_dbm, params.eta};
+    const double d = std::sqrt(9.0 + 16.0 + 1.0);
+    std::unique_ptr<ceres::CostFunction> f(RssFactor<2>::Create(reading));
+    EXPECT_NEAR(Residuals(*f, {p, pl})[0], (reading.rss - model.ExpectedRss(d)) / 6.0, 1e-6);
+    ExpectGradientsMatch(*f, {p, pl});
+
+    // Interpolated: halfway between (−1, 0) and (1, 0) is the origin again.
+    const double pa[2] = {-1.0, 0.0}, pb[2] = {1.0, 0.0};
+    std::unique_ptr<ceres::CostFunction> fi(RssFactor<2>::CreateInterpolated(reading, 0.5));
+    EXPECT_NEAR(Residuals(*fi, {pa, pb, pl})[0], (reading.rss - model.ExpectedRss(d)) / 6.0, 1e-6);
+    ExpectGradientsMatch(*fi, {pa, pb, pl});
+  }
+}
+
+TEST(RssFactorTest, ThreeDimensionalPositionUsesItsOwnHeight) {
+  RssFactor<3>::Reading reading;
+  reading.rss = -70.0;
+  reading.anchor_m = Eigen::Vector3d(0.0, 0.0, 3.0);
+  reading.receiver_height_m = 99.0;  // ignored for 3-D blocks
+  const double p[3] = {0.0, 0.0, 1.0}, pl[2] = {-60.0, 2.0};
+  std::unique_ptr<ceres::CostFunction> f(RssFactor<3>::Create(reading));
+  EXPECT_NEAR(Residuals(*f, {p, pl})[0], (-70.0 - (-60.0 - 20.0 * std::log10(2.0))) / 5.0, 1e-6);
+  ExpectGradientsMatch(*f, {p, pl});
+}
+
+TEST(RssRangeFactorTest, UsesMlRangeAndEquation7Sigma) {
+  PathLossParams params;
+  params.A_dbm = -60.0;
+  params.eta = 2.5;
+  params.sigma_db = 5.0;
+  const PathLossModel model(params, RssUnits::kDbm);
+  RssRangeFactor<2>::Reading reading;
+  reading.rss = -80.0;
+  reading.anchor_m = Eigen::Vector3d(10.0, 0.0, 0.0);
+  std::unique_ptr<ceres::CostFunction> f(RssRangeFactor<2>::Create(reading));
+  const double p[2] = {0.0, 0.0};
+  const double d_hat = model.MlRange(-80.0);
+  EXPECT_NEAR(Residuals(*f, {p})[0], (d_hat - 10.0) / model.RangeSigma(d_hat), 1e-6);
+  ExpectGradientsMatch(*f, {p});
+  reading.bias_corrected = true;
+  RssRangeFactor<2> corrected(reading, 0.0);
+  EXPECT_NEAR(corrected.range_m(), model.BiasCorrectedRange(-80.0), 1e-9);
+}
+
+TEST(RangeFactorTest, BiasIsAdditive) {
+  std::unique_ptr<ceres::CostFunction> f(
+      RangeFactor<2>::Create(7.8, Eigen::Vector3d(3.0, 4.0, 0.0), 1.2));
+  const double p[2] = {0.0, 0.0}, b[1] = {2.8};
+  EXPECT_NEAR(Residuals(*f, {p, b})[0], 0.0, 1e-6);
+  const double b0[1] = {0.0};
+  EXPECT_NEAR(Residuals(*f, {p, b0})[0], 2.8 / 1.2, 1e-6);
+  ExpectGradientsMatch(*f, {p, b});
+  std::unique_ptr<ceres::CostFunction> fi(
+      RangeFactor<3>::CreateInterpolated(5.0, Eigen::Vector3d(0.0, 0.0, 0.0), 1.0, 0.25));
+  const double pa[3] = {0.0, 0.0, 0.0}, pb[3] = {4.0, 0.0, 0.0};  // received at (1, 0, 0)
+  EXPECT_NEAR(Residuals(*fi, {pa, pb, b0})[0], 4.0, 1e-6);
+  ExpectGradientsMatch(*fi, {pa, pb, b});
+}
+
+}  // namespace
+}  // namespace walkgraph
