@@ -61,7 +61,8 @@ Eigen::Matrix<T, 3, 1> SO3Log(const Eigen::Quaternion<T>& q_in) {
 template <typename T>
 T QuaternionYaw(const Eigen::Quaternion<T>& q) {
   using std::atan2;
-  const T r00 = T(1.0) - T(2.0) * (q.y() * q.y() + q.z() * q.z());
+  // R₀₀ and R₁₀ scaled by ‖q‖²: the same angle for any scale of q.
+  const T r00 = q.w() * q.w() + q.x() * q.x() - q.y() * q.y() - q.z() * q.z();
   const T r10 = T(2.0) * (q.x() * q.y() + q.w() * q.z());
   return atan2(r10, r00);
 }

@@ -57,9 +57,10 @@ struct StrideOptions {
   // between 3e2 and 1e4 the ZUPT-INS error is flat (0.96–1.02 % of distance, ibid.).
   StanceOptions stance = DefaultStance();
   // Subtract the mean gyro of the first still run (≥ 0.5 s of `still` samples; else of the
-  // first stance run lasting ≥ 1 s) before detecting stance again: the GLRT assumes ω = 0 at
-  // rest, and a 1 °/s turn-on bias alone adds ≈ 300 to its statistic (and 3 °/s hides every
-  // still sample). The same mean initialises the gyro-bias estimate.
+  // rest the walk starts with, ≥ 1 s of 0.5 s windows whose gyro and ‖a‖ spreads stay below the
+  // still thresholds) before detecting stance again: the GLRT assumes ω = 0 at rest, and a
+  // 1 °/s turn-on bias alone adds ≈ 300 to its statistic (≈ 3 °/s hides every still sample).
+  // The same mean initialises the gyro-bias estimate.
   bool compensate_gyro_bias = true;
   double gravity_mps2 = 9.81;
   ImuSampling sampling = ImuSampling::kIntervalAverage;  // strapdown.h conventions

@@ -94,6 +94,42 @@ bool FirstRunGyroMean(const std::vector<ImuSample>& imu, const std::vector<bool>
   return false;
 }
 
+// Mean gyro over the rest the walk starts with: consecutive 0.5 s windows from the first sample
+// whose per-axis gyro std and ‖a‖ std stay below the still thresholds (spreads, not magnitudes:
+// they do not depend on the bias). False when that rest lasts less than 1 s.
+bool InitialRestGyroMean(const std::vector<ImuSample>& imu, const StanceOptions& o,
+                         Eigen::Vector3d* mean) {
+  size_t begin = 0, end = 0;  // accepted [0, end)
+  while (begin < imu.size()) {
+    size_t stop = begin;
+    while (stop < imu.size() && imu[stop].t_s - imu[begin].t_s < 0.5) ++stop;
+    if (stop == imu.size() || stop - begin < 3) break;
+    Eigen::Vector3d m = Eigen::Vector3d::Zero(), m2 = Eigen::Vector3d::Zero();
+    double a = 0.0, a2 = 0.0;
+    for (size_t k = begin; k < stop; ++k) {
+      m += imu[k].gyro_radps;
+      m2 += imu[k].gyro_radps.cwiseAbs2();
+      const double an = imu[k].acc_mps2.norm();
+      a += an;
+      a2 += an * an;
+    }
+    const double n = static_cast<double>(stop - begin);
+    const Eigen::Vector3d var = m2 / n - (m / n).cwiseAbs2();
+    const double acc_var = a2 / n - (a / n) * (a / n);
+    if (var.maxCoeff() > o.still_gyro_radps * o.still_gyro_radps ||
+        acc_var > o.still_acc_std_mps2 * o.still_acc_std_mps2) {
+      break;
+    }
+    end = stop;
+    begin = stop;
+  }
+  if (end == 0 || imu[end - 1].t_s - imu[0].t_s < 1.0) return false;
+  *mean = Eigen::Vector3d::Zero();
+  for (size_t k = 0; k < end; ++k) *mean += imu[k].gyro_radps;
+  *mean /= static_cast<double>(end);
+  return true;
+}
+
 }  // namespace
 
 StanceOptions StrideOptions::DefaultStance() {
@@ -155,10 +191,10 @@ StatusOr<ZuptInsSolution> RunZuptIns(const Walk& walk, const StrideOptions& o) {
   ZuptInsSolution out;
   WG_ASSIGN_OR_RETURN(out.stance, DetectStance(walk, o.stance));
   Eigen::Vector3d bg0 = Eigen::Vector3d::Zero();
-  // The first still run (≥ 0.5 s), else the first stance lasting ≥ 1 s (a standstill: walking
-  // stances are shorter), for when the bias itself keeps ‖ω‖ above the still threshold.
+  // The first still run (≥ 0.5 s), else the rest the walk starts with (found by spreads, for
+  // when the bias itself keeps ‖ω‖ above the still threshold).
   if (o.compensate_gyro_bias && (FirstRunGyroMean(imu, out.stance.still, 0.5, &bg0) ||
-                                 FirstRunGyroMean(imu, out.stance.stance, 1.0, &bg0))) {
+                                 InitialRestGyroMean(imu, o.stance, &bg0))) {
     Walk compensated;
     compensated.meta = walk.meta;
     compensated.imu = imu;

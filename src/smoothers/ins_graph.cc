@@ -6,6 +6,7 @@
 #include <utility>
 
 #include <ceres/covariance.h>
+#include <ceres/normal_prior.h>
 #include <ceres/solver.h>
 
 #include "estimators/builtin.h"
@@ -13,6 +14,8 @@
 #include "factors/imu_preintegration_factor.h"
 #include "factors/ins_prior_factor.h"
 #include "factors/nav_quaternion_manifold.h"
+#include "factors/range_factor.h"
+#include "factors/rss_factor.h"
 #include "factors/zaru_factor.h"
 #include "factors/zupt_factor.h"
 #include "walkgraph/angle.h"
@@ -30,13 +33,21 @@ Status CheckOptions(const InsGraphOptions& o) {
       !(o.relinearize_gyro_bias_radps > 0) || !(o.relinearize_acc_bias_mps2 > 0) ||
       !(o.max_state_interval_s > 0) || !(o.front_end.acc_bias_sigma_mps2 > 0) ||
       !(o.front_end.gyro_bias_sigma_radps > 0) || !(o.front_end.acc_bias_rw_mps2_sqrts > 0) ||
-      !(o.front_end.gyro_bias_rw_radps_sqrts > 0)) {
+      !(o.front_end.gyro_bias_rw_radps_sqrts > 0) || !(o.rss_loss_scale > 0) ||
+      !(o.range_loss_scale > 0) || !(o.range_bias_sigma_m > 0)) {
     return InvalidArgument(
         "fg-ins-batch: need every_n_samples >= 1, max_iterations >= 1, max_relinearizations >= "
         "0, and every sigma, rate, interval and threshold > 0 (bias sigmas and random walks "
         "of front_end included)");
   }
   return Status::Ok();
+}
+
+StatusOr<ceres::LossFunction*> MakeLoss(const std::string& name, double scale) {
+  if (name == "none") return static_cast<ceres::LossFunction*>(nullptr);
+  if (name == "huber") return static_cast<ceres::LossFunction*>(new ceres::HuberLoss(scale));
+  if (name == "cauchy") return static_cast<ceres::LossFunction*>(new ceres::CauchyLoss(scale));
+  return InvalidArgument("fg-ins-batch: loss must be none|huber|cauchy, not '" + name + "'");
 }
 
 InsFactor MakeFactor(std::string kind, ceres::CostFunction* cost, std::vector<double*> blocks) {
@@ -69,6 +80,14 @@ size_t MidStance(const ZuptInsSolution& front, const StancePhase& ph) {
   return mid;
 }
 
+bool UsesRss(const InsGraphContext& c) {
+  return c.options.use_rss && c.walk->has_rss() && !c.walk->anchors.empty();
+}
+bool UsesRanges(const InsGraphContext& c) {
+  return c.options.use_ranges && c.walk->has_ranges() && !c.walk->anchors.empty();
+}
+bool HasRadio(const InsGraphContext& c) { return UsesRss(c) || UsesRanges(c); }
+
 }  // namespace
 
 StatusOr<InsGraphOptions> InsGraphOptions::FromYaml(const YAML::Node& node) {
@@ -92,7 +111,20 @@ StatusOr<InsGraphOptions> InsGraphOptions::FromYaml(const YAML::Node& node) {
   r.Read("max_relinearizations", &o.max_relinearizations);
   r.Read("relinearize_gyro_bias_radps", &o.relinearize_gyro_bias_radps);
   r.Read("relinearize_acc_bias_mps2", &o.relinearize_acc_bias_mps2);
+  r.Read("use_rss", &o.use_rss);
+  r.Read("use_ranges", &o.use_ranges);
+  r.Read("receiver_offset_z_m", &o.receiver_offset_z_m);
+  r.Read("rss_loss", &o.rss_loss);
+  r.Read("rss_loss_scale", &o.rss_loss_scale);
+  r.Read("range_loss", &o.range_loss);
+  r.Read("range_loss_scale", &o.range_loss_scale);
+  r.Read("estimate_range_bias", &o.estimate_range_bias);
+  r.Read("range_bias_sigma_m", &o.range_bias_sigma_m);
   WG_RETURN_IF_ERROR(r.Finish());
+  for (const std::string* loss : {&o.rss_loss, &o.range_loss}) {
+    WG_ASSIGN_OR_RETURN(ceres::LossFunction * l, MakeLoss(*loss, 1.0));
+    delete l;
+  }
   if (front.IsDefined()) {
     WG_ASSIGN_OR_RETURN(o.front_end, StrideOptions::FromYaml(front));
   }
@@ -233,8 +265,11 @@ std::vector<InsFactor> InsGaugeFactors(const InsGraphContext& c, InsState* first
     yaw0 = ip.heading_rad;
     sigma_yaw = ip.sigma_heading_rad;
   }
-  out.push_back(MakeFactor("prior", InsPriorFactor::Create(p0, sigma_p, yaw0, sigma_yaw),
-                           {first->p.data(), first->q.data()}));
+  // Without a known start but with radio, the anchors fix the gauge.
+  if (c.walk->meta.initial_pose || !HasRadio(c)) {
+    out.push_back(MakeFactor("prior", InsPriorFactor::Create(p0, sigma_p, yaw0, sigma_yaw),
+                             {first->p.data(), first->q.data()}));
+  }
   if (o.use_bias_prior) {
     out.push_back(MakeFactor(
         "bias_prior_gyro",
@@ -275,6 +310,119 @@ StatusOr<std::vector<InsFactor>> InsSegmentFactors(const InsGraphContext& c,
   return out;
 }
 
+StatusOr<std::vector<InsFactor>> InsRadioFactors(const InsGraphContext& c,
+                                                 std::vector<InsState>* states, size_t k, size_t n,
+                                                 InsRadioBlocks* blocks) {
+  if (k + n >= states->size()) return InvalidArgument("fg-ins-batch: segment beyond the states");
+  const Walk& w = *c.walk;
+  const InsGraphOptions& o = c.options;
+  std::vector<InsFactor> out;
+  const double t_lo = (*states)[k].t_s, t_hi = (*states)[k + n].t_s;
+  auto inside = [&](double t) { return (t > t_lo || (k == 0 && t == t_lo)) && t <= t_hi; };
+  // The receiver at time t: the bracketing states and α along the front end's path.
+  struct Where {
+    InsState* a;
+    InsState* b;  // null: at a alone
+    double alpha;
+  };
+  auto where = [&](double t) -> Where {
+    size_t j = static_cast<size_t>(
+        std::upper_bound(states->begin() + static_cast<long>(k),
+                         states->begin() + static_cast<long>(k + n + 1), t,
+                         [](double x, const InsState& s) { return x < s.t_s; }) -
+        states->begin());
+    if (j == 0) j = 1;
+    if (j > k + n) return {&(*states)[k + n], nullptr, 0.0};
+    InsState* a = &(*states)[j - 1];
+    InsState* b = &(*states)[j];
+    double alpha = (t - a->t_s) / (b->t_s - a->t_s);
+    if (c.path != nullptr && c.path->size() == w.imu.size()) {
+      const Eigen::Vector3d pa = (*c.path)[a->imu_index].p_n, pb = (*c.path)[b->imu_index].p_n;
+      const Eigen::Vector3d d = pb - pa;
+      if (d.squaredNorm() > 1e-4) {
+        // The IMU sample at or after t.
+        size_t m = a->imu_index;
+        while (m < b->imu_index && w.imu[m].t_s < t) ++m;
+        alpha = ((*c.path)[m].p_n - pa).dot(d) / d.squaredNorm();
+      }
+    }
+    alpha = std::clamp(alpha, 0.0, 1.0);
+    if (alpha < 1e-3) return {a, nullptr, 0.0};
+    if (alpha > 1.0 - 1e-3) return {b, nullptr, 0.0};
+    return {a, b, alpha};
+  };
+  const Eigen::Vector3d lower(0.0, 0.0, o.receiver_offset_z_m);
+  if (UsesRss(c)) {
+    const RadioDefaults& radio = w.meta.radio;
+    blocks->path_loss = {radio.path_loss.A_dbm, radio.path_loss.eta};
+    for (const RssSample& r : w.rss) {
+      if (!inside(r.t_s)) continue;
+      const int ai = w.AnchorIndex(r.anchor_id);
+      if (ai < 0) return InvalidArgument("fg-ins-batch: rss from an unknown anchor");
+      RssFactor<3>::Reading reading;
+      reading.rss = r.rss;
+      reading.anchor_m = w.anchors[static_cast<size_t>(ai)].position_m - lower;
+      reading.sigma_db = radio.path_loss.sigma_db;
+      reading.sign = radio.units == RssUnits::kRfcode ? -1.0 : 1.0;
+      reading.d0_m = radio.path_loss.d0_m;
+      const Where at = where(r.t_s);
+      InsFactor f;
+      if (at.b == nullptr) {
+        f = MakeFactor("rss", RssFactor<3>::Create(reading),
+                       {at.a->p.data(), blocks->path_loss.data()});
+      } else {
+        f = MakeFactor("rss", RssFactor<3>::CreateInterpolated(reading, at.alpha),
+                       {at.a->p.data(), at.b->p.data(), blocks->path_loss.data()});
+      }
+      WG_ASSIGN_OR_RETURN(ceres::LossFunction * loss, MakeLoss(o.rss_loss, o.rss_loss_scale));
+      f.loss.reset(loss);
+      out.push_back(std::move(f));
+    }
+  }
+  if (UsesRanges(c)) {
+    for (const RangeSample& r : w.ranges) {
+      if (!inside(r.t_s)) continue;
+      const int ai = w.AnchorIndex(r.anchor_id);
+      if (ai < 0) return InvalidArgument("fg-ins-batch: range from an unknown anchor");
+      const Eigen::Vector3d anchor = w.anchors[static_cast<size_t>(ai)].position_m - lower;
+      double* bias = &blocks->range_bias_m[r.anchor_id];
+      if (o.estimate_range_bias && blocks->bias_prior_added.insert(r.anchor_id).second) {
+        out.push_back(MakeFactor(
+            "range_bias_prior",
+            new ceres::NormalPrior(Eigen::MatrixXd::Constant(1, 1, 1.0 / o.range_bias_sigma_m),
+                                   Eigen::VectorXd::Zero(1)),
+            {bias}));
+      }
+      const double sigma = w.meta.radio.range_sigma_m;
+      const Where at = where(r.t_s);
+      InsFactor f;
+      if (at.b == nullptr) {
+        f = MakeFactor("range", RangeFactor<3>::Create(r.range_m, anchor, sigma),
+                       {at.a->p.data(), bias});
+      } else {
+        f = MakeFactor("range",
+                       RangeFactor<3>::CreateInterpolated(r.range_m, anchor, sigma, at.alpha),
+                       {at.a->p.data(), at.b->p.data(), bias});
+      }
+      WG_ASSIGN_OR_RETURN(ceres::LossFunction * loss, MakeLoss(o.range_loss, o.range_loss_scale));
+      f.loss.reset(loss);
+      out.push_back(std::move(f));
+    }
+  }
+  return out;
+}
+
+void HoldInsRadioBlocks(ceres::Problem* problem, InsRadioBlocks* blocks,
+                        const InsGraphOptions& options) {
+  if (problem->HasParameterBlock(blocks->path_loss.data())) {
+    problem->SetParameterBlockConstant(blocks->path_loss.data());
+  }
+  if (options.estimate_range_bias) return;
+  for (auto& [id, bias] : blocks->range_bias_m) {
+    if (problem->HasParameterBlock(&bias)) problem->SetParameterBlockConstant(&bias);
+  }
+}
+
 void AddInsFactors(ceres::Problem* problem, std::vector<InsFactor>* factors) {
   for (InsFactor& f : *factors) {
     problem->AddResidualBlock(f.cost.release(), f.loss.release(), f.blocks);
@@ -298,6 +446,7 @@ StatusOr<EstimateResult> InsGraphBatch::Run(const Walk& walk) const {
   InsGraphContext context;
   context.walk = &walk;
   context.still = &front.stance.still;
+  context.path = &front.states;
   context.options = o;
 
   EstimateResult result;
@@ -310,6 +459,8 @@ StatusOr<EstimateResult> InsGraphBatch::Run(const Walk& walk) const {
 
   std::unique_ptr<ceres::Problem> problem;
   int iterations = 0, relinearizations = 0;
+  size_t num_radio = 0;
+  InsRadioBlocks radio;
   double initial_cost = 0.0, final_cost = 0.0;
   bool converged = false;
   for (int round = 0; round <= o.max_relinearizations; ++round) {
@@ -319,6 +470,12 @@ StatusOr<EstimateResult> InsGraphBatch::Run(const Walk& walk) const {
     WG_ASSIGN_OR_RETURN(std::vector<InsFactor> factors,
                         InsSegmentFactors(context, &states, 0, states.size() - 1));
     AddInsFactors(problem.get(), &factors);
+    radio.bias_prior_added.clear();  // a new problem: priors again, bias values kept
+    WG_ASSIGN_OR_RETURN(std::vector<InsFactor> radio_factors,
+                        InsRadioFactors(context, &states, 0, states.size() - 1, &radio));
+    num_radio = radio_factors.size();
+    AddInsFactors(problem.get(), &radio_factors);
+    HoldInsRadioBlocks(problem.get(), &radio, o);
     std::vector<std::array<double, 6>> linearization(states.size());
     for (size_t i = 0; i < states.size(); ++i) {
       for (int k = 0; k < 3; ++k) {
@@ -426,6 +583,7 @@ StatusOr<EstimateResult> InsGraphBatch::Run(const Walk& walk) const {
 
   result.diagnostics["num_states"] = static_cast<double>(states.size());
   result.diagnostics["num_strides"] = static_cast<double>(front.strides.steps.size());
+  result.diagnostics["num_radio_factors"] = static_cast<double>(num_radio);
   result.diagnostics["ceres_iterations"] = iterations;
   result.diagnostics["ceres_initial_cost"] = initial_cost;
   result.diagnostics["ceres_final_cost"] = final_cost;

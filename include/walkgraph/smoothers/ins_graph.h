@@ -40,12 +40,24 @@
 // having added the new states' blocks with AddInsStateBlocks; the k = 0 call also returns
 // InsGaugeFactors and InsStateFactors of state 0. Each InsFactor names its parameter blocks
 // (pointers into InsState), so the caller can marginalize the factors of leaving states.
-// Radio factors are one more call of the same shape.
+// Radio factors are one more call of the same shape: InsRadioFactors(context, &states, k, n,
+// &radio_blocks) for the readings of (t_k, t_{k+n}] (and t_0 when k == 0).
+//
+// Radio readings between states a and b are received at (1 − α)·p_a + α·p_b
+// (receiver_position.h) with α the progress along the front end's path at the reading's time,
+// α = clamp((p̃(t) − p̃_a)·(p̃_b − p̃_a)/‖p̃_b − p̃_a‖²), not the time fraction: between mid-stance
+// states the foot stands still for half the time. A reading at α < 1e-3 (> 1 − 1e-3) is tied
+// to state a (b) alone. Anchors are lowered by receiver_offset_z_m (distance from p + offset·ẑ
+// to a = distance from p to a − offset·ẑ). Without initial_pose but with radio, the gauge comes
+// from the anchors and the first state gets no position/yaw prior (the initial guess is then
+// the front end's arbitrary frame, which Ceres must rotate into the anchors' one).
 #ifndef WALKGRAPH_SMOOTHERS_INS_GRAPH_H_
 #define WALKGRAPH_SMOOTHERS_INS_GRAPH_H_
 
 #include <array>
+#include <map>
 #include <memory>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -85,6 +97,18 @@ struct InsGraphOptions {
   int max_relinearizations = 2;
   double relinearize_gyro_bias_radps = 2e-3;
   double relinearize_acc_bias_mps2 = 0.02;
+  // Radio: the walk's rss.csv (RssFactor<3>, dB domain, path loss = walk.yaml radio, held
+  // constant) and range.csv (RangeFactor<3>, σ = radio.range_sigma_m), robust losses
+  // (huber|cauchy|none, scale in σ of the whitened residual).
+  bool use_rss = true;
+  bool use_ranges = true;
+  double receiver_offset_z_m = 0.0;  // receiver above the IMU (jimenez-building sim: 1 m)
+  std::string rss_loss = "huber";
+  double rss_loss_scale = 2.0;
+  std::string range_loss = "huber";
+  double range_loss_scale = 2.0;
+  bool estimate_range_bias = false;  // per-anchor additive range bias, prior N(0, σ²)
+  double range_bias_sigma_m = 1.0;
 
   // Keys: front_end (a map of StrideOptions keys), placement (stance|every-n) and every other
   // field by its name.
@@ -121,7 +145,16 @@ struct InsFactor {
 struct InsGraphContext {
   const Walk* walk = nullptr;
   const std::vector<bool>* still = nullptr;  // per IMU sample; null or empty: no ZARU
+  // Per IMU sample, the front end's path (radio interpolation); null: α = time fraction.
+  const std::vector<NavState>* path = nullptr;
   InsGraphOptions options;
+};
+
+// The radio factors' shared parameter blocks (owned by the caller, stable addresses).
+struct InsRadioBlocks {
+  std::array<double, 2> path_loss{};   // (A, η) of walk.yaml radio, held constant
+  std::map<int, double> range_bias_m;  // per anchor id (0 and constant unless estimated)
+  std::set<int> bias_prior_added;      // anchors whose bias prior is in the current problem
 };
 
 // The graph's states initialised from the front end's INS solution (placement per options).
@@ -146,6 +179,16 @@ std::vector<InsFactor> InsGaugeFactors(const InsGraphContext& context, InsState*
 StatusOr<std::vector<InsFactor>> InsSegmentFactors(const InsGraphContext& context,
                                                    std::vector<InsState>* states, size_t k,
                                                    size_t n);
+
+// RSS and range factors of the readings in (t_k, t_{k+n}] (and at t_0 when k == 0), plus, with
+// estimate_range_bias, the prior of each anchor's bias not yet in blocks->bias_prior_added.
+StatusOr<std::vector<InsFactor>> InsRadioFactors(const InsGraphContext& context,
+                                                 std::vector<InsState>* states, size_t k, size_t n,
+                                                 InsRadioBlocks* blocks);
+
+// Holds the path loss constant, and the range biases unless estimate_range_bias.
+void HoldInsRadioBlocks(ceres::Problem* problem, InsRadioBlocks* blocks,
+                        const InsGraphOptions& options);
 
 // Moves the factors into `problem` (which takes ownership of costs and losses).
 void AddInsFactors(ceres::Problem* problem, std::vector<InsFactor>* factors);
