@@ -3,9 +3,9 @@
 // States x_k = (p_k, v_k, q_k, b_g,k, b_a,k) at stance epochs (mid-stance: the ZUPT sample
 // nearest the middle of every stance phase of the stride front end, strides.h — the phase's
 // edges hold the slow ends of the swing, and a state there biased the strides by ≈2 cm each
-// on jimenez-building) or every N IMU samples; the first IMU
-// sample and the last one are always states, and no two states are more than
-// max_state_interval_s apart. Factors (factors/):
+// on jimenez-building) or every N IMU samples; the first IMU sample and the last one are
+// always states, and no two states are more than max_state_interval_s apart. Factors
+// (factors/):
 //   ImuPreintegrationFactor  between consecutive states (Forster et al. 2017 eq. 45),
 //   BiasRandomWalkFactor     b_j − b_i for the gyro and the accelerometer biases,
 //   ZuptFactor               v_k = 0 at a state inside a stance (ZUPT sample of the front end),
@@ -13,9 +13,13 @@
 //                            (t_i, t_j] (σ = zaru_sigma/√m); ZARU and the preintegration use
 //                            the same readings, a small double count the EKF makes as well,
 //   InsPriorFactor           the gauge: position and yaw of the first state,
-//   BiasPriorFactor          turn-on bias priors on the first state (data-sheet bias stability).
+//   BiasPriorFactor          turn-on bias priors on the first state (data-sheet bias stability),
+//   RssFactor<3>             each rss.csv reading, dB domain, path loss (A, η) of walk.yaml held
+//                            constant, Cauchy loss (the integrator's factors/rss_factor.h),
+//   RangeFactor<3>           each range.csv reading, σ = radio.range_sigma_m, Cauchy loss,
+//                            per-anchor additive bias constant 0 or estimated (option).
 // Cost: Σ ‖r‖², one Ceres problem solved with SPARSE_NORMAL_CHOLESKY (single-threaded, hence
-// the same output for the same input). Gauge: IMU-only, position (3) and yaw (1) are
+// the same output for the same input). Gauge: without radio, position (3) and yaw (1) are
 // unobservable; the InsPriorFactor on the first state fixes them from walk.yaml initial_pose
 // (its x, y, heading and σ; z = 0 with σ initial_sigma_z_m), or without one at the origin with
 // yaw = the front end's initial yaw and σ = gauge_sigma_m / gauge_sigma_yaw_rad (then the
