@@ -37,6 +37,7 @@
 
 #include "walkgraph/measurements.h"
 #include "walkgraph/status.h"
+#include "walkgraph/strides.h"
 #include "walkgraph/walk.h"
 
 namespace walkgraph {
@@ -85,9 +86,12 @@ struct PdrOptions {
   double attitude_acc_gate_mps2 = 1.5;  // use the accelerometer only if |‖a‖ − g| below this
   double gravity_mps2 = 9.81;
 
+  // Foot-mounted IMUs: the stride front end (strides.h) that StepsForWalk uses instead.
+  StrideOptions stride;
+
   // Keys: detector (vertical-peak|fir-magnitude|energy), length_model
   // (weinberg|constant|linear), heading (gyro|complementary), forward_axis (body-x|pca), and
-  // every numeric field by its name.
+  // every numeric field by its name; stride (a map of StrideOptions keys).
   static StatusOr<PdrOptions> FromYaml(const YAML::Node& node);
 };
 
@@ -124,8 +128,9 @@ StatusOr<StepSequence> ComputeSteps(const Walk& walk, const PdrOptions& options)
 StepSequence StepsFromOdometry(const Walk& walk);
 
 // The steps every step-level estimator consumes, so that a comparison differs only in the
-// estimator: the odometry increments when the walk has odometry.csv, else ComputeSteps on a
-// waist/hip/handheld IMU. Fails for a walk with neither (or with only a foot-mounted IMU).
+// estimator: the odometry increments when the walk has odometry.csv, else the strides of
+// ComputeStrides (options.stride) on a foot-mounted IMU, else ComputeSteps on a
+// waist/hip/handheld IMU. Fails for a walk with neither odometry nor an IMU.
 StatusOr<StepSequence> StepsForWalk(const Walk& walk, const PdrOptions& options);
 
 }  // namespace walkgraph

@@ -8,6 +8,8 @@
 namespace walkgraph::internal {
 
 void RegisterOdometryDeadReckoning(EstimatorRegistry* registry);
+void RegisterZuptIns(EstimatorRegistry* registry);
+void RegisterInsGraphBatch(EstimatorRegistry* registry);
 void RegisterJimenezIez(EstimatorRegistry* registry);
 void RegisterTarrio(EstimatorRegistry* registry);  // filters/tarrio.cc
 void RegisterCorrea(EstimatorRegistry* registry);  // filters/correa.cc

@@ -7,6 +7,8 @@ const EstimatorRegistry& EstimatorRegistry::Builtin() {
   static const EstimatorRegistry* registry = [] {
     auto* r = new EstimatorRegistry();
     internal::RegisterOdometryDeadReckoning(r);
+    internal::RegisterZuptIns(r);
+    internal::RegisterInsGraphBatch(r);
     internal::RegisterJimenezIez(r);
     internal::RegisterTarrio(r);
     internal::RegisterCorrea(r);

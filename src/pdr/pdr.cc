@@ -253,7 +253,11 @@ StatusOr<PdrOptions> PdrOptions::FromYaml(const YAML::Node& node) {
   r.Read("attitude_gain", &o.attitude_gain);
   r.Read("attitude_acc_gate_mps2", &o.attitude_acc_gate_mps2);
   r.Read("gravity_mps2", &o.gravity_mps2);
+  const YAML::Node stride = r.Child("stride");
   WG_RETURN_IF_ERROR(r.Finish());
+  if (stride.IsDefined()) {
+    WG_ASSIGN_OR_RETURN(o.stride, StrideOptions::FromYaml(stride));
+  }
   if (!detector.empty() && !ParseEnum(detector, kDetectorNames, &o.detector)) {
     return InvalidArgument("pdr: detector must be " + EnumChoices(kDetectorNames));
   }
@@ -468,10 +472,7 @@ StatusOr<StepSequence> StepsForWalk(const Walk& walk, const PdrOptions& options)
   if (!walk.has_imu()) {
     return FailedPrecondition("walk '" + walk.meta.name + "' has neither odometry nor an IMU");
   }
-  if (walk.meta.imu_placement == ImuPlacement::kFoot) {
-    return FailedPrecondition("walk '" + walk.meta.name +
-                              "' has a foot-mounted IMU: step-level PDR needs waist/hip/handheld");
-  }
+  if (walk.meta.imu_placement == ImuPlacement::kFoot) return ComputeStrides(walk, options.stride);
   return ComputeSteps(walk, options);
 }
 

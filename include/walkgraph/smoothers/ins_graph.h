@@ -1,0 +1,215 @@
+// The foot-mounted INS factor graph (estimator id "fg-ins-batch") and its building blocks.
+//
+// States x_k = (p_k, v_k, q_k, b_g,k, b_a,k) at stance epochs (mid-stance: the ZUPT sample
+// nearest the middle of every stance phase of the stride front end, strides.h — the phase's
+// edges hold the slow ends of the swing, and a state there biased the strides by ≈2 cm each
+// on jimenez-building) or every N IMU samples; the first IMU sample and the last one are
+// always states, and no two states are more than max_state_interval_s apart. Factors
+// (factors/):
+//   ImuPreintegrationFactor  between consecutive states (Forster et al. 2017 eq. 45),
+//   BiasRandomWalkFactor     b_j − b_i for the gyro and the accelerometer biases,
+//   ZuptFactor               v_k = 0 at a state inside a stance (ZUPT sample of the front end),
+//   ZaruFactor               ω̄ − b_g,j = 0 with ω̄ the mean gyro over the still samples of
+//                            (t_i, t_j] (σ = zaru_sigma/√m); ZARU and the preintegration use
+//                            the same readings, a small double count the EKF makes as well,
+//   InsPriorFactor           the gauge: position and yaw of the first state,
+//   BiasPriorFactor          turn-on bias priors on the first state (data-sheet bias stability),
+//   RssFactor<3>             each rss.csv reading, dB domain, path loss (A, η) of walk.yaml held
+//                            constant, Cauchy loss (the integrator's factors/rss_factor.h),
+//   RangeFactor<3>           each range.csv reading, σ = radio.range_sigma_m, Cauchy loss,
+//                            per-anchor additive bias constant 0 or estimated (option).
+// Cost: Σ ‖r‖², one Ceres problem solved with SPARSE_NORMAL_CHOLESKY (single-threaded, hence
+// the same output for the same input). Gauge: without radio, position (3) and yaw (1) are
+// unobservable; the InsPriorFactor on the first state fixes them from walk.yaml initial_pose
+// (its x, y, heading and σ; z = 0 with σ initial_sigma_z_m), or without one at the origin with
+// yaw = the front end's initial yaw and σ = gauge_sigma_m / gauge_sigma_yaw_rad (then the
+// output is in an arbitrary frame: score it with --align-se2).
+// Initialization: every state from the ZUPT-aided INS of the front end at its sample (p, v, q,
+// biases). Relinearization: the preintegrations use the biases of their first state as b̄; after
+// a solve, if some b_i moved from b̄ by more than relinearize_*, the preintegrations are
+// rebuilt at the new estimate and the problem solved again (at most max_relinearizations).
+// Output: a pose every 1/output_rate_hz and at every state. Between states i and j the IMU is
+// integrated from state i with its biases (strapdown.h) and the end mismatch to state j is
+// spread linearly in time: p(t) = p_fwd(t) + α·(p_j − p_fwd(t_j)), likewise the yaw,
+// α = (t − t_i)/(t_j − t_i). Covariance of (x, y, yaw) per state from ceres::Covariance
+// (tangent space of NavQuaternionManifold: δ_z is the yaw), linearly interpolated between
+// states; when the covariance cannot be computed (rank deficiency) the trajectory comes
+// without it and diagnostics["covariance_ok"] = 0.
+//
+// Incremental use (the fixed-lag smoother): the graph is a chain, and every factor is made by
+// one of the functions below from states that the caller owns, so a window smoother adds, for
+// new states k+1..k+n after state k,
+//   InsSegmentFactors(context, &states, k, n)   (= InsBetweenFactors for each consecutive pair
+//                                                 + InsStateFactors of k+1..k+n),
+// having added the new states' blocks with AddInsStateBlocks; the k = 0 call also returns
+// InsGaugeFactors and InsStateFactors of state 0. Each InsFactor names its parameter blocks
+// (pointers into InsState), so the caller can marginalize the factors of leaving states.
+// Radio factors are one more call of the same shape: InsRadioFactors(context, &states, k, n,
+// &radio_blocks) for the readings of (t_k, t_{k+n}] (and t_0 when k == 0).
+//
+// Radio readings between states a and b are received at (1 − α)·p_a + α·p_b
+// (receiver_position.h) with α the progress along the front end's path at the reading's time,
+// α = clamp((p̃(t) − p̃_a)·(p̃_b − p̃_a)/‖p̃_b − p̃_a‖²), not the time fraction: between mid-stance
+// states the foot stands still for half the time. A reading at α < 1e-3 (> 1 − 1e-3) is tied
+// to state a (b) alone. Anchors are lowered by receiver_offset_z_m (distance from p + offset·ẑ
+// to a = distance from p to a − offset·ẑ). Without initial_pose but with radio, the gauge comes
+// from the anchors and the first state gets no position/yaw prior (the initial guess is then
+// the front end's arbitrary frame, which Ceres must rotate into the anchors' one).
+#ifndef WALKGRAPH_SMOOTHERS_INS_GRAPH_H_
+#define WALKGRAPH_SMOOTHERS_INS_GRAPH_H_
+
+#include <array>
+#include <map>
+#include <memory>
+#include <set>
+#include <string>
+#include <vector>
+
+#include <ceres/cost_function.h>
+#include <ceres/loss_function.h>
+#include <ceres/manifold.h>
+#include <ceres/problem.h>
+#include <yaml-cpp/yaml.h>
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include "walkgraph/estimator.h"
+#include "walkgraph/status.h"
+#include "walkgraph/strides.h"
+#include "walkgraph/walk.h"
+
+namespace walkgraph {
+
+enum class InsStatePlacement { kStance, kEveryN };
+
+struct InsGraphOptions {
+  // Stance detection, IMU noise model (also the preintegration's) and the initial solution.
+  StrideOptions front_end;
+  InsStatePlacement placement = InsStatePlacement::kStance;
+  int every_n_samples = 20;
+  double max_state_interval_s = 2.0;  // more states inside longer gaps (standstills)
+  double zupt_sigma_mps = 0.01;       // OpenShoe's ZUPT σ
+  bool use_zaru = true;
+  double zaru_sigma_radps = 0.0055;  // per reading (the gyro white noise); ÷√m for m readings
+  bool use_bias_prior = true;        // N(0, front_end.*_bias_sigma²) on the first state
+  double initial_sigma_z_m = 0.01;   // start height prior (z = 0)
+  double gauge_sigma_m = 1e-3;       // without initial_pose: the arbitrary origin's σ
+  double gauge_sigma_yaw_rad = 1e-3;
+  double output_rate_hz = 20.0;
+  bool compute_covariance = true;
+  int max_iterations = 100;
+  int max_relinearizations = 2;
+  double relinearize_gyro_bias_radps = 2e-3;
+  double relinearize_acc_bias_mps2 = 0.02;
+  // Radio: the walk's rss.csv (RssFactor<3>, dB domain, path loss = walk.yaml radio, held
+  // constant) and range.csv (RangeFactor<3>, σ = radio.range_sigma_m), robust losses
+  // (huber|cauchy|none, scale in σ of the whitened residual).
+  bool use_rss = true;
+  bool use_ranges = true;
+  double receiver_offset_z_m = 0.0;  // receiver above the IMU (jimenez-building sim: 1 m)
+  // Cauchy at 1σ: on prieto-laps (30 % NLOS, +6 dB / +3 m) 2-lap RMSE 0.38 m vs 0.62 m with
+  // Huber at 2σ (mean of 4 seeds); jimenez-building unchanged (0.18 m).
+  std::string rss_loss = "cauchy";
+  double rss_loss_scale = 1.0;
+  std::string range_loss = "cauchy";
+  double range_loss_scale = 1.0;
+  bool estimate_range_bias = false;  // per-anchor additive range bias, prior N(0, σ²)
+  double range_bias_sigma_m = 1.0;
+
+  // Keys: front_end (a map of StrideOptions keys), placement (stance|every-n) and every other
+  // field by its name.
+  static StatusOr<InsGraphOptions> FromYaml(const YAML::Node& node);
+};
+
+// One state's parameter blocks (the caller owns them; they must not move while a ceres::Problem
+// refers to them). q is q_nb in Eigen storage order (x, y, z, w).
+struct InsState {
+  double t_s = 0.0;
+  size_t imu_index = 0;
+  bool zupt = false;  // the front end applied a ZUPT at this sample
+  std::array<double, 3> p{}, v{};
+  std::array<double, 4> q{0.0, 0.0, 0.0, 1.0};
+  std::array<double, 3> bg{}, ba{};
+
+  Eigen::Vector3d position() const { return Eigen::Vector3d(p[0], p[1], p[2]); }
+  Eigen::Vector3d velocity() const { return Eigen::Vector3d(v[0], v[1], v[2]); }
+  Eigen::Quaterniond attitude() const { return Eigen::Quaterniond(q[3], q[0], q[1], q[2]); }
+  Eigen::Vector3d gyro_bias() const { return Eigen::Vector3d(bg[0], bg[1], bg[2]); }
+  Eigen::Vector3d acc_bias() const { return Eigen::Vector3d(ba[0], ba[1], ba[2]); }
+};
+
+// A cost function with its (optional) loss and the parameter blocks it acts on.
+struct InsFactor {
+  std::string kind;  // imu | bias_rw_gyro | bias_rw_acc | zupt | zaru | prior | bias_prior_*
+  std::unique_ptr<ceres::CostFunction> cost;
+  std::unique_ptr<ceres::LossFunction> loss;
+  std::vector<double*> blocks;
+};
+
+// What the factor makers read: the walk (IMU, initial_pose), per-sample still flags and the
+// options. The referenced objects must outlive the context.
+struct InsGraphContext {
+  const Walk* walk = nullptr;
+  const std::vector<bool>* still = nullptr;  // per IMU sample; null or empty: no ZARU
+  // Per IMU sample, the front end's path (radio interpolation); null: α = time fraction.
+  const std::vector<NavState>* path = nullptr;
+  InsGraphOptions options;
+};
+
+// The radio factors' shared parameter blocks (owned by the caller, stable addresses).
+struct InsRadioBlocks {
+  std::array<double, 2> path_loss{};   // (A, η) of walk.yaml radio, held constant
+  std::map<int, double> range_bias_m;  // per anchor id (0 and constant unless estimated)
+  std::set<int> bias_prior_added;      // anchors whose bias prior is in the current problem
+};
+
+// The graph's states initialised from the front end's INS solution (placement per options).
+StatusOr<std::vector<InsState>> InitialInsStates(const Walk& walk, const ZuptInsSolution& front,
+                                                 const InsGraphOptions& options);
+
+// Adds p, v, q (with `q_manifold`, e.g. a NavQuaternionManifold the problem owns), b_g, b_a.
+void AddInsStateBlocks(ceres::Problem* problem, InsState* state, ceres::Manifold* q_manifold);
+
+// Unary factors of a state: ZUPT when state->zupt.
+std::vector<InsFactor> InsStateFactors(const InsGraphContext& context, InsState* state);
+
+// Between consecutive states a, b (a->imu_index < b->imu_index): the preintegration of the
+// IMU intervals (a, b] at the biases a holds now, both bias random walks and the ZARU on b.
+StatusOr<std::vector<InsFactor>> InsBetweenFactors(const InsGraphContext& context, InsState* a,
+                                                   InsState* b);
+
+// The gauge of the first state (InsPriorFactor, bias priors, ZARU on its own sample).
+std::vector<InsFactor> InsGaugeFactors(const InsGraphContext& context, InsState* first);
+
+// Factors of the segment k..k+n of `states` (see the top of this file).
+StatusOr<std::vector<InsFactor>> InsSegmentFactors(const InsGraphContext& context,
+                                                   std::vector<InsState>* states, size_t k,
+                                                   size_t n);
+
+// RSS and range factors of the readings in (t_k, t_{k+n}] (and at t_0 when k == 0), plus, with
+// estimate_range_bias, the prior of each anchor's bias not yet in blocks->bias_prior_added.
+StatusOr<std::vector<InsFactor>> InsRadioFactors(const InsGraphContext& context,
+                                                 std::vector<InsState>* states, size_t k, size_t n,
+                                                 InsRadioBlocks* blocks);
+
+// Holds the path loss constant, and the range biases unless estimate_range_bias.
+void HoldInsRadioBlocks(ceres::Problem* problem, InsRadioBlocks* blocks,
+                        const InsGraphOptions& options);
+
+// Moves the factors into `problem` (which takes ownership of costs and losses).
+void AddInsFactors(ceres::Problem* problem, std::vector<InsFactor>* factors);
+
+// fg-ins-batch.
+class InsGraphBatch : public Estimator {
+ public:
+  explicit InsGraphBatch(InsGraphOptions options) : options_(std::move(options)) {}
+  Status CheckApplicable(const Walk& walk) const override;
+  StatusOr<EstimateResult> Run(const Walk& walk) const override;
+
+ private:
+  InsGraphOptions options_;
+};
+
+}  // namespace walkgraph
+
+#endif  // WALKGRAPH_SMOOTHERS_INS_GRAPH_H_

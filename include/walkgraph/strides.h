@@ -1,0 +1,129 @@
+// Stride front end for a foot-mounted IMU: a ZUPT/ZARU-aided strapdown INS whose error-state
+// EKF is reset at every stance, the "step-wise dead reckoning" of Nilsson, Skog, Händel
+// (OpenShoe, "Foot-mounted INS for everybody", EURASIP J. Embedded Syst. 2014) — one Step per
+// stride, stance to stance, with σ from the filter's covariance.
+//
+// Nominal state: strapdown.h (q_nb, v_n, p_n) driven by the bias-corrected readings, plus the
+// bias estimates b_a, b_g. Error state (15), navigation-frame attitude error δθ with
+// R = Exp(δθ)·R̂:  δx = [δp, δv, δθ, δb_a, δb_g].
+// Continuous error dynamics (f̂_n = R̂(f̃ − b̂_a)):
+//   δṗ = δv,   δv̇ = −[f̂_n]× δθ − R̂ δb_a − R̂ n_a,   δθ̇ = −R̂ δb_g − R̂ n_g,
+//   δḃ_a = n_ba,   δḃ_g = n_bg,
+// discretized per IMU interval dt as F = I + A·dt (plus the ½dt² terms of δp), with the
+// per-sample white noises σ_a, σ_g (the readings' σ, so Δv noise is σ_a·dt) and the bias random
+// walks σ_ba, σ_bg (per √s).
+// Updates (Joseph form, kalman.h KalmanUpdate):
+//   ZUPT at stance samples:  0 = v + n,   H = [0 I 0 0 0],  R = σ_zupt² I
+//   ZARU at still samples:   ω̃ = b_g + n, H = [0 0 0 0 I],  R = σ_zaru² I
+// then p += δp, v += δv, q ← Exp(δθ)⊗q, b += δb.
+// Initial attitude: roll and pitch levelled from the mean specific force of the first stance
+// phase; yaw (the ENU angle of the body x axis) = initial_pose.heading_rad, else 0. Initial gyro
+// bias: the mean gyro of the first still run (compensate_gyro_bias), else 0.
+//
+// Strides. The detector's stance samples form runs; runs shorter than min_stance_s are dropped
+// (neither ZUPT nor stride), runs separated by less than min_swing_s are one stance phase. A
+// stride ends at the last sample of each stance phase after the first (the first phase, or the
+// first sample when the walk starts moving, is the reference). At the end of stride k
+// (Nilsson et al. 2014 Sec. 4, step-wise dead reckoning):
+//   d_k = p_k − p_{k−1} (horizontal),  length = ‖d_k‖,  heading = atan2(d_y, d_x),
+//   dheading = ψ_k − ψ_{k−1} (yaw of the foot, gyro-integrated),
+//   C_k = Cov(δp_xy, δψ) from P (since the reset at k−1),
+//   σ_length = √(uᵀ C_xy u), σ_dir = √(nᵀ C_xy n)/max(length, 0.1 m)  (u ∥ d_k, n ⊥ u),
+//   σ_dheading = √C_ψψ,  σ_heading = √(σ_ψ0² + Σ_{j≤k} σ_dheading,j² + σ_dir²),
+// each floored by the options; then the rows and columns of P for δp and δψ = δθ_z are zeroed
+// (the reset: position and heading are unobservable, so the next stride starts from a known
+// reference and the strides' errors are independent). The reset changes only P; the nominal
+// trajectory is that of the ordinary ZUPT-aided INS.
+#ifndef WALKGRAPH_STRIDES_H_
+#define WALKGRAPH_STRIDES_H_
+
+#include <vector>
+
+#include <yaml-cpp/yaml.h>
+#include <Eigen/Core>
+
+#include "walkgraph/measurements.h"
+#include "walkgraph/stance.h"
+#include "walkgraph/status.h"
+#include "walkgraph/strapdown.h"
+#include "walkgraph/walk.h"
+
+namespace walkgraph {
+
+struct StrideOptions {
+  // Stance detector: OpenShoe's GLRT (stance.h) with γ = 3e3 instead of OpenShoe's 3e5. At
+  // 3e5 the simulated foot presets get ZUPTs while the foot still moves (precision 0.73 vs the
+  // truth labels on jimenez-building) and the EKF's accelerometer bias runs off to 0.4 m/s²;
+  // between 3e2 and 1e4 the ZUPT-INS error is flat (0.96–1.02 % of distance, ibid.).
+  StanceOptions stance = DefaultStance();
+  // Subtract the mean gyro of the first still run (≥ 0.5 s of `still` samples; else of the
+  // rest the walk starts with, ≥ 1 s of 0.5 s windows whose gyro and ‖a‖ spreads stay below the
+  // still thresholds) before detecting stance again: the GLRT assumes ω = 0 at rest, and a
+  // 1 °/s turn-on bias alone adds ≈ 300 to its statistic (≈ 3 °/s hides every still sample).
+  // The same mean initialises the gyro-bias estimate.
+  bool compensate_gyro_bias = true;
+  double gravity_mps2 = 9.81;
+  ImuSampling sampling = ImuSampling::kIntervalAverage;  // strapdown.h conventions
+  // IMU errors. Defaults: the Xsens MTi of 004 Table I as the foot presets simulate it
+  // (white noise per reading; turn-on bias σ = bias stability 0.02 m/s², 1 °/s; the bias random
+  // walks have no paper value: 1e-4 per √s).
+  double acc_noise_mps2 = 0.011;
+  double gyro_noise_radps = 0.0055;
+  double acc_bias_sigma_mps2 = 0.02;
+  double gyro_bias_sigma_radps = 0.017453292519943295;  // 1 °/s
+  double acc_bias_rw_mps2_sqrts = 1e-4;
+  double gyro_bias_rw_radps_sqrts = 1e-4;
+  // Pseudo-measurements: OpenShoe's ZUPT σ 0.01 m/s; ZARU σ = the gyro's white noise.
+  double zupt_sigma_mps = 0.01;
+  double zaru_sigma_radps = 0.0055;
+  bool use_zaru = true;
+  // Initial attitude: σ of the levelled roll/pitch (the acc bias, 0.02/g ≈ 0.12°, rounded up).
+  double tilt_sigma_rad = 0.0087;  // 0.5°
+  // Stance phases (no paper value: a stance shorter than 50 ms is a detector blip, a swing
+  // shorter than 0.2 s is no stride).
+  double min_stance_s = 0.05;
+  double min_swing_s = 0.2;
+  // Floors of the emitted σ (the filter's covariance is optimistic about unmodelled errors).
+  double min_sigma_length_m = 0.01;
+  double min_sigma_heading_rad = 0.002;
+  double min_sigma_dheading_rad = 0.002;
+
+  // Keys: sampling (interval-average|instantaneous), stance (a map, StanceOptions keys), and
+  // every other field by its name.
+  static StatusOr<StrideOptions> FromYaml(const YAML::Node& node);
+  static StanceOptions DefaultStance();
+};
+
+// A stance phase [begin, end] (IMU sample indices, inclusive).
+struct StancePhase {
+  size_t begin = 0;
+  size_t end = 0;
+};
+
+// Everything the front end computed: the per-sample INS solution (after the updates), the
+// stance detection and phases, and the strides.
+struct ZuptInsSolution {
+  std::vector<NavState> states;                // one per IMU sample
+  std::vector<Eigen::Vector3d> acc_bias_mps2;  // estimates per IMU sample
+  std::vector<Eigen::Vector3d> gyro_bias_radps;
+  // Per IMU sample: the filter's covariance of (δp_x, δp_y, δψ) since the last stride reset.
+  std::vector<Eigen::Matrix3d> stride_covariance;
+  StanceMask stance;
+  std::vector<bool> zupt;  // ZUPT applied at this sample (stance in a kept run)
+  std::vector<StancePhase> phases;
+  StepSequence strides;            // one per phase after the reference
+  std::vector<size_t> stride_end;  // IMU index of each stride's end
+  size_t reference_index = 0;      // IMU index where the first stride starts
+  // Per stride: Cov of (d_x, d_y, dheading) from the filter (floored σ not applied).
+  std::vector<Eigen::Matrix3d> stride_increment_covariance;
+};
+
+// Runs the ZUPT-aided INS over a foot-mounted walk's IMU.
+StatusOr<ZuptInsSolution> RunZuptIns(const Walk& walk, const StrideOptions& options);
+
+// The strides alone (RunZuptIns(...).strides). absolute_heading = the walk has initial_pose.
+StatusOr<StepSequence> ComputeStrides(const Walk& walk, const StrideOptions& options);
+
+}  // namespace walkgraph
+
+#endif  // WALKGRAPH_STRIDES_H_

@@ -1,0 +1,391 @@
+#include "walkgraph/strides.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "walkgraph/angle.h"
+#include "walkgraph/config.h"
+#include "walkgraph/filters/kalman.h"
+
+namespace walkgraph {
+
+namespace {
+
+// Error-state layout.
+constexpr int kP = 0, kV = 3, kTh = 6, kBa = 9, kBg = 12, kN = 15;
+
+// Yaw of a body-to-ENU rotation: the ENU angle of the body x axis on the horizontal.
+double Yaw(const Eigen::Quaterniond& q) {
+  const Eigen::Matrix3d r = q.toRotationMatrix();
+  return std::atan2(r(1, 0), r(0, 0));
+}
+
+// R = Rz(ψ)·Ry(θ)·Rx(φ) with roll and pitch such that R·f̄ points up (f̄: specific force at rest).
+Eigen::Quaterniond LevelledAttitude(const Eigen::Vector3d& f, double yaw) {
+  const double roll = std::atan2(f.y(), f.z());
+  const double pitch = std::atan2(-f.x(), std::hypot(f.y(), f.z()));
+  return (Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()) *
+          Eigen::AngleAxisd(pitch, Eigen::Vector3d::UnitY()) *
+          Eigen::AngleAxisd(roll, Eigen::Vector3d::UnitX()))
+      .normalized();
+}
+
+// Stance runs → phases: drop runs shorter than min_stance_s, merge runs whose gap is shorter
+// than min_swing_s. `zupt` marks the samples of the kept runs.
+std::vector<StancePhase> StancePhases(const std::vector<ImuSample>& imu,
+                                      const std::vector<bool>& stance, const StrideOptions& o,
+                                      std::vector<bool>* zupt) {
+  std::vector<StancePhase> runs;
+  const size_t n = stance.size();
+  for (size_t i = 0; i < n;) {
+    if (!stance[i]) {
+      ++i;
+      continue;
+    }
+    size_t j = i;
+    while (j + 1 < n && stance[j + 1]) ++j;
+    if (imu[j].t_s - imu[i].t_s >= o.min_stance_s) runs.push_back({i, j});
+    i = j + 1;
+  }
+  zupt->assign(n, false);
+  std::vector<StancePhase> phases;
+  for (const StancePhase& r : runs) {
+    for (size_t i = r.begin; i <= r.end; ++i) (*zupt)[i] = true;
+    if (!phases.empty() && imu[r.begin].t_s - imu[phases.back().end].t_s < o.min_swing_s) {
+      phases.back().end = r.end;
+    } else {
+      phases.push_back(r);
+    }
+  }
+  return phases;
+}
+
+Status CheckOptions(const StrideOptions& o) {
+  if (!(o.gravity_mps2 > 0) || !(o.acc_noise_mps2 > 0) || !(o.gyro_noise_radps > 0) ||
+      o.acc_bias_sigma_mps2 < 0 || o.gyro_bias_sigma_radps < 0 || o.acc_bias_rw_mps2_sqrts < 0 ||
+      o.gyro_bias_rw_radps_sqrts < 0 || !(o.zupt_sigma_mps > 0) || !(o.zaru_sigma_radps > 0) ||
+      o.tilt_sigma_rad < 0 || o.min_stance_s < 0 || o.min_swing_s < 0 || o.min_sigma_length_m < 0 ||
+      o.min_sigma_heading_rad < 0 || o.min_sigma_dheading_rad < 0) {
+    return InvalidArgument(
+        "strides: need gravity, white noises and pseudo-measurement sigmas > 0, every other "
+        "sigma and duration >= 0");
+  }
+  return Status::Ok();
+}
+
+// Mean gyro over the first run of `flags` lasting at least min_s.
+bool FirstRunGyroMean(const std::vector<ImuSample>& imu, const std::vector<bool>& flags,
+                      double min_s, Eigen::Vector3d* mean) {
+  for (size_t i = 0; i < flags.size();) {
+    if (!flags[i]) {
+      ++i;
+      continue;
+    }
+    size_t j = i;
+    while (j + 1 < flags.size() && flags[j + 1]) ++j;
+    if (imu[j].t_s - imu[i].t_s >= min_s) {
+      *mean = Eigen::Vector3d::Zero();
+      for (size_t k = i; k <= j; ++k) *mean += imu[k].gyro_radps;
+      *mean /= static_cast<double>(j - i + 1);
+      return true;
+    }
+    i = j + 1;
+  }
+  return false;
+}
+
+// Mean gyro over the rest the walk starts with: consecutive 0.5 s windows from the first sample
+// whose per-axis gyro std and ‖a‖ std stay below the still thresholds (spreads, not magnitudes:
+// they do not depend on the bias). False when that rest lasts less than 1 s.
+bool InitialRestGyroMean(const std::vector<ImuSample>& imu, const StanceOptions& o,
+                         Eigen::Vector3d* mean) {
+  size_t begin = 0, end = 0;  // accepted [0, end)
+  while (begin < imu.size()) {
+    size_t stop = begin;
+    while (stop < imu.size() && imu[stop].t_s - imu[begin].t_s < 0.5) ++stop;
+    if (stop == imu.size() || stop - begin < 3) break;
+    Eigen::Vector3d m = Eigen::Vector3d::Zero(), m2 = Eigen::Vector3d::Zero();
+    double a = 0.0, a2 = 0.0;
+    for (size_t k = begin; k < stop; ++k) {
+      m += imu[k].gyro_radps;
+      m2 += imu[k].gyro_radps.cwiseAbs2();
+      const double an = imu[k].acc_mps2.norm();
+      a += an;
+      a2 += an * an;
+    }
+    const double n = static_cast<double>(stop - begin);
+    const Eigen::Vector3d var = m2 / n - (m / n).cwiseAbs2();
+    const double acc_var = a2 / n - (a / n) * (a / n);
+    if (var.maxCoeff() > o.still_gyro_radps * o.still_gyro_radps ||
+        acc_var > o.still_acc_std_mps2 * o.still_acc_std_mps2) {
+      break;
+    }
+    end = stop;
+    begin = stop;
+  }
+  if (end == 0 || imu[end - 1].t_s - imu[0].t_s < 1.0) return false;
+  *mean = Eigen::Vector3d::Zero();
+  for (size_t k = 0; k < end; ++k) *mean += imu[k].gyro_radps;
+  *mean /= static_cast<double>(end);
+  return true;
+}
+
+}  // namespace
+
+StanceOptions StrideOptions::DefaultStance() {
+  StanceOptions s;
+  s.glrt_threshold = 3e3;
+  return s;
+}
+
+StatusOr<StrideOptions> StrideOptions::FromYaml(const YAML::Node& node) {
+  StrideOptions o;
+  ConfigReader r(node, "strides");
+  std::string sampling;
+  r.Read("sampling", &sampling);
+  const YAML::Node stance = r.Child("stance");
+  r.Read("compensate_gyro_bias", &o.compensate_gyro_bias);
+  r.Read("gravity_mps2", &o.gravity_mps2);
+  r.Read("acc_noise_mps2", &o.acc_noise_mps2);
+  r.Read("gyro_noise_radps", &o.gyro_noise_radps);
+  r.Read("acc_bias_sigma_mps2", &o.acc_bias_sigma_mps2);
+  r.Read("gyro_bias_sigma_radps", &o.gyro_bias_sigma_radps);
+  r.Read("acc_bias_rw_mps2_sqrts", &o.acc_bias_rw_mps2_sqrts);
+  r.Read("gyro_bias_rw_radps_sqrts", &o.gyro_bias_rw_radps_sqrts);
+  r.Read("zupt_sigma_mps", &o.zupt_sigma_mps);
+  r.Read("zaru_sigma_radps", &o.zaru_sigma_radps);
+  r.Read("use_zaru", &o.use_zaru);
+  r.Read("tilt_sigma_rad", &o.tilt_sigma_rad);
+  r.Read("min_stance_s", &o.min_stance_s);
+  r.Read("min_swing_s", &o.min_swing_s);
+  r.Read("min_sigma_length_m", &o.min_sigma_length_m);
+  r.Read("min_sigma_heading_rad", &o.min_sigma_heading_rad);
+  r.Read("min_sigma_dheading_rad", &o.min_sigma_dheading_rad);
+  WG_RETURN_IF_ERROR(r.Finish());
+  if (stance.IsDefined()) {
+    // Keys absent from the map keep this front end's defaults (not stance.h's).
+    YAML::Node merged = YAML::Clone(stance);
+    if (merged.IsMap() && !merged["glrt_threshold"])
+      merged["glrt_threshold"] = o.stance.glrt_threshold;
+    WG_ASSIGN_OR_RETURN(o.stance, StanceOptions::FromYaml(merged));
+  }
+  if (sampling == "instantaneous") {
+    o.sampling = ImuSampling::kInstantaneous;
+  } else if (!sampling.empty() && sampling != "interval-average") {
+    return InvalidArgument("strides: sampling must be interval-average|instantaneous");
+  }
+  WG_RETURN_IF_ERROR(CheckOptions(o));
+  return o;
+}
+
+StatusOr<ZuptInsSolution> RunZuptIns(const Walk& walk, const StrideOptions& o) {
+  WG_RETURN_IF_ERROR(CheckOptions(o));
+  if (walk.imu.size() < 10) return FailedPrecondition("strides: the walk needs an IMU (imu.csv)");
+  for (size_t i = 1; i < walk.imu.size(); ++i) {
+    if (!(walk.imu[i].t_s > walk.imu[i - 1].t_s)) {
+      return InvalidArgument("strides: IMU time does not increase at sample " + std::to_string(i));
+    }
+  }
+  const std::vector<ImuSample>& imu = walk.imu;
+  const size_t n = imu.size();
+  ZuptInsSolution out;
+  WG_ASSIGN_OR_RETURN(out.stance, DetectStance(walk, o.stance));
+  Eigen::Vector3d bg0 = Eigen::Vector3d::Zero();
+  // The first still run (≥ 0.5 s), else the rest the walk starts with (found by spreads, for
+  // when the bias itself keeps ‖ω‖ above the still threshold).
+  if (o.compensate_gyro_bias && (FirstRunGyroMean(imu, out.stance.still, 0.5, &bg0) ||
+                                 InitialRestGyroMean(imu, o.stance, &bg0))) {
+    Walk compensated;
+    compensated.meta = walk.meta;
+    compensated.imu = imu;
+    for (ImuSample& s : compensated.imu) s.gyro_radps -= bg0;
+    WG_ASSIGN_OR_RETURN(out.stance, DetectStance(compensated, o.stance));
+  }
+  out.phases = StancePhases(imu, out.stance.stance, o, &out.zupt);
+  const bool zaru = o.use_zaru && out.stance.still.size() == n;
+
+  // Reference: the end of a stance phase the walk starts in, else the first sample.
+  size_t first_phase = 0;
+  out.reference_index = 0;
+  if (!out.phases.empty() && imu[out.phases[0].begin].t_s - imu[0].t_s < o.min_swing_s) {
+    out.reference_index = out.phases[0].end;
+    first_phase = 1;
+  }
+
+  // Initial attitude from the mean specific force of the first stance phase (at most 2 s of
+  // it), else of the first 20 samples.
+  size_t lev_begin = 0, lev_end = std::min<size_t>(n - 1, 19);
+  if (!out.phases.empty()) {
+    lev_begin = out.phases[0].begin;
+    lev_end = out.phases[0].end;
+    while (lev_end > lev_begin && imu[lev_end].t_s - imu[lev_begin].t_s > 2.0) --lev_end;
+  }
+  Eigen::Vector3d f_mean = Eigen::Vector3d::Zero();
+  for (size_t i = lev_begin; i <= lev_end; ++i) f_mean += imu[i].acc_mps2;
+  f_mean /= static_cast<double>(lev_end - lev_begin + 1);
+  if (f_mean.norm() < 1e-6) return FailedPrecondition("strides: zero specific force at rest");
+
+  const InitialPose* pose0 = walk.meta.initial_pose ? &*walk.meta.initial_pose : nullptr;
+  NavState x;
+  x.t_s = imu[0].t_s;
+  x.q_nb = LevelledAttitude(f_mean, pose0 ? pose0->heading_rad : 0.0);
+  if (pose0) x.p_n = Eigen::Vector3d(pose0->x_m, pose0->y_m, 0.0);
+  Eigen::Vector3d ba = Eigen::Vector3d::Zero(), bg = bg0;
+
+  Eigen::MatrixXd P = Eigen::MatrixXd::Zero(kN, kN);
+  P.block<3, 3>(kV, kV).diagonal().setConstant(o.zupt_sigma_mps * o.zupt_sigma_mps);
+  P(kTh, kTh) = P(kTh + 1, kTh + 1) = o.tilt_sigma_rad * o.tilt_sigma_rad;
+  P.block<3, 3>(kBa, kBa).diagonal().setConstant(o.acc_bias_sigma_mps2 * o.acc_bias_sigma_mps2);
+  P.block<3, 3>(kBg, kBg).diagonal().setConstant(o.gyro_bias_sigma_radps * o.gyro_bias_sigma_radps);
+
+  StrapdownOptions sd;
+  sd.gravity_mps2 = o.gravity_mps2;
+  sd.sampling = o.sampling;
+
+  out.states.resize(n);
+  out.acc_bias_mps2.resize(n);
+  out.gyro_bias_radps.resize(n);
+  out.stride_covariance.resize(n);
+  out.strides.absolute_heading = pose0 != nullptr;
+
+  auto correct = [&](const Eigen::VectorXd& dx) {
+    x.p_n += dx.segment<3>(kP);
+    x.v_n += dx.segment<3>(kV);
+    x.q_nb = (QuaternionExp(dx.segment<3>(kTh)) * x.q_nb).normalized();
+    ba += dx.segment<3>(kBa);
+    bg += dx.segment<3>(kBg);
+  };
+  auto update = [&](const Eigen::VectorXd& innovation, const Eigen::MatrixXd& H,
+                    double sigma) -> Status {
+    Eigen::VectorXd dx = Eigen::VectorXd::Zero(kN);
+    const Eigen::MatrixXd R =
+        Eigen::MatrixXd::Identity(innovation.size(), innovation.size()) * (sigma * sigma);
+    WG_ASSIGN_OR_RETURN(UpdateOutcome u, KalmanUpdate(innovation, H, R, 0.0, &dx, &P));
+    (void)u;
+    correct(dx);
+    return Status::Ok();
+  };
+  const std::vector<int> reset_rows = {kP, kP + 1, kP + 2, kTh + 2};
+  auto reset = [&]() {
+    for (int r : reset_rows) {
+      P.row(r).setZero();
+      P.col(r).setZero();
+    }
+  };
+  auto record = [&](size_t k) {
+    out.states[k] = x;
+    out.acc_bias_mps2[k] = ba;
+    out.gyro_bias_radps[k] = bg;
+    const int idx[3] = {kP, kP + 1, kTh + 2};
+    Eigen::Matrix3d c;
+    for (int a = 0; a < 3; ++a) {
+      for (int b = 0; b < 3; ++b) c(a, b) = P(idx[a], idx[b]);
+    }
+    out.stride_covariance[k] = 0.5 * (c + c.transpose());
+  };
+
+  Eigen::MatrixXd H_zupt = Eigen::MatrixXd::Zero(3, kN);
+  H_zupt.block<3, 3>(0, kV).setIdentity();
+  Eigen::MatrixXd H_zaru = Eigen::MatrixXd::Zero(3, kN);
+  H_zaru.block<3, 3>(0, kBg).setIdentity();
+
+  Eigen::Vector3d p_ref = x.p_n;
+  double yaw_ref = Yaw(x.q_nb), t_ref = imu[0].t_s;
+  double heading_var = pose0 ? pose0->sigma_heading_rad * pose0->sigma_heading_rad : 0.0;
+  size_t next_phase = first_phase;
+  auto emit_or_reset = [&](size_t k) {
+    if (k == out.reference_index) {
+      p_ref = x.p_n;
+      yaw_ref = Yaw(x.q_nb);
+      t_ref = imu[k].t_s;
+      reset();
+      return;
+    }
+    if (next_phase >= out.phases.size() || out.phases[next_phase].end != k) return;
+    ++next_phase;
+    const Eigen::Vector2d d = (x.p_n - p_ref).head<2>();
+    const double yaw = Yaw(x.q_nb);
+    const Eigen::Matrix3d& c = out.stride_covariance[k];
+    Step s;
+    s.t_s = imu[k].t_s;
+    s.duration_s = imu[k].t_s - t_ref;
+    s.length_m = d.norm();
+    const Eigen::Vector2d u = s.length_m > 1e-9 ? Eigen::Vector2d(d / s.length_m)
+                                                : Eigen::Vector2d(std::cos(yaw), std::sin(yaw));
+    const Eigen::Vector2d nrm(-u.y(), u.x());
+    s.heading_rad = NormalizeAngle(std::atan2(u.y(), u.x()));
+    s.dheading_rad = NormalizeAngle(yaw - yaw_ref);
+    const Eigen::Matrix2d cxy = c.topLeftCorner<2, 2>();
+    s.sigma_length_m = std::max(std::sqrt(std::max(0.0, u.dot(cxy * u))), o.min_sigma_length_m);
+    const double sigma_dir =
+        std::sqrt(std::max(0.0, nrm.dot(cxy * nrm))) / std::max(s.length_m, 0.1);
+    s.sigma_dheading_rad = std::max(std::sqrt(std::max(0.0, c(2, 2))), o.min_sigma_dheading_rad);
+    heading_var += s.sigma_dheading_rad * s.sigma_dheading_rad;
+    s.sigma_heading_rad =
+        std::max(std::sqrt(heading_var + sigma_dir * sigma_dir), o.min_sigma_heading_rad);
+    out.strides.steps.push_back(s);
+    out.stride_end.push_back(k);
+    out.stride_increment_covariance.push_back(c);
+    p_ref = x.p_n;
+    yaw_ref = yaw;
+    t_ref = imu[k].t_s;
+    reset();
+  };
+
+  // Sample 0: updates at the first sample, then the per-interval loop.
+  if (out.zupt[0]) WG_RETURN_IF_ERROR(update(-x.v_n, H_zupt, o.zupt_sigma_mps));
+  if (zaru && out.stance.still[0]) {
+    WG_RETURN_IF_ERROR(update(imu[0].gyro_radps - bg, H_zaru, o.zaru_sigma_radps));
+  }
+  record(0);
+  emit_or_reset(0);
+  const double sa2 = o.acc_noise_mps2 * o.acc_noise_mps2;
+  const double sg2 = o.gyro_noise_radps * o.gyro_noise_radps;
+  Eigen::MatrixXd F = Eigen::MatrixXd::Identity(kN, kN);
+  Eigen::MatrixXd Q = Eigen::MatrixXd::Zero(kN, kN);
+  for (size_t k = 1; k < n; ++k) {
+    const double dt = imu[k].t_s - imu[k - 1].t_s;
+    const Eigen::Matrix3d R = x.q_nb.toRotationMatrix();
+    const Eigen::Vector3d f_b =
+        o.sampling == ImuSampling::kIntervalAverage
+            ? Eigen::Vector3d(imu[k].acc_mps2 - ba)
+            : Eigen::Vector3d(0.5 * (imu[k - 1].acc_mps2 + imu[k].acc_mps2) - ba);
+    const Eigen::Matrix3d fx = Skew(R * f_b);
+    sd.acc_bias_mps2 = ba;
+    sd.gyro_bias_radps = bg;
+    x = StrapdownStep(x, imu[k - 1], imu[k], sd);
+    // Error-state transition and process noise over dt (see the header).
+    F.setIdentity();
+    F.block<3, 3>(kP, kV) = Eigen::Matrix3d::Identity() * dt;
+    F.block<3, 3>(kP, kTh) = -0.5 * fx * dt * dt;
+    F.block<3, 3>(kP, kBa) = -0.5 * R * dt * dt;
+    F.block<3, 3>(kV, kTh) = -fx * dt;
+    F.block<3, 3>(kV, kBa) = -R * dt;
+    F.block<3, 3>(kTh, kBg) = -R * dt;
+    Q.setZero();
+    const Eigen::Matrix3d I3 = Eigen::Matrix3d::Identity();
+    Q.block<3, 3>(kP, kP) = 0.25 * sa2 * dt * dt * dt * dt * I3;
+    Q.block<3, 3>(kP, kV) = 0.5 * sa2 * dt * dt * dt * I3;
+    Q.block<3, 3>(kV, kP) = 0.5 * sa2 * dt * dt * dt * I3;
+    Q.block<3, 3>(kV, kV) = sa2 * dt * dt * I3;
+    Q.block<3, 3>(kTh, kTh) = sg2 * dt * dt * I3;
+    Q.block<3, 3>(kBa, kBa) = o.acc_bias_rw_mps2_sqrts * o.acc_bias_rw_mps2_sqrts * dt * I3;
+    Q.block<3, 3>(kBg, kBg) = o.gyro_bias_rw_radps_sqrts * o.gyro_bias_rw_radps_sqrts * dt * I3;
+    P = F * P * F.transpose() + Q;
+    Symmetrize(&P);
+    if (out.zupt[k]) WG_RETURN_IF_ERROR(update(-x.v_n, H_zupt, o.zupt_sigma_mps));
+    if (zaru && out.stance.still[k]) {
+      WG_RETURN_IF_ERROR(update(imu[k].gyro_radps - bg, H_zaru, o.zaru_sigma_radps));
+    }
+    record(k);
+    emit_or_reset(k);
+  }
+  return out;
+}
+
+StatusOr<StepSequence> ComputeStrides(const Walk& walk, const StrideOptions& options) {
+  WG_ASSIGN_OR_RETURN(ZuptInsSolution s, RunZuptIns(walk, options));
+  return std::move(s.strides);
+}
+
+}  // namespace walkgraph

@@ -1,0 +1,610 @@
+#include "walkgraph/smoothers/ins_graph.h"
+
+#include <algorithm>
+#include <cmath>
+#include <set>
+#include <utility>
+
+#include <ceres/covariance.h>
+#include <ceres/normal_prior.h>
+#include <ceres/solver.h>
+
+#include "estimators/builtin.h"
+#include "factors/bias_random_walk_factor.h"
+#include "factors/imu_preintegration_factor.h"
+#include "factors/ins_prior_factor.h"
+#include "factors/nav_quaternion_manifold.h"
+#include "factors/range_factor.h"
+#include "factors/rss_factor.h"
+#include "factors/zaru_factor.h"
+#include "factors/zupt_factor.h"
+#include "walkgraph/angle.h"
+#include "walkgraph/config.h"
+#include "walkgraph/filters/kalman.h"
+
+namespace walkgraph {
+
+namespace {
+
+Status CheckOptions(const InsGraphOptions& o) {
+  if (o.every_n_samples < 1 || !(o.zupt_sigma_mps > 0) || !(o.zaru_sigma_radps > 0) ||
+      !(o.initial_sigma_z_m > 0) || !(o.gauge_sigma_m > 0) || !(o.gauge_sigma_yaw_rad > 0) ||
+      !(o.output_rate_hz > 0) || o.max_iterations < 1 || o.max_relinearizations < 0 ||
+      !(o.relinearize_gyro_bias_radps > 0) || !(o.relinearize_acc_bias_mps2 > 0) ||
+      !(o.max_state_interval_s > 0) || !(o.front_end.acc_bias_sigma_mps2 > 0) ||
+      !(o.front_end.gyro_bias_sigma_radps > 0) || !(o.front_end.acc_bias_rw_mps2_sqrts > 0) ||
+      !(o.front_end.gyro_bias_rw_radps_sqrts > 0) || !(o.rss_loss_scale > 0) ||
+      !(o.range_loss_scale > 0) || !(o.range_bias_sigma_m > 0)) {
+    return InvalidArgument(
+        "fg-ins-batch: need every_n_samples >= 1, max_iterations >= 1, max_relinearizations >= "
+        "0, and every sigma, rate, interval and threshold > 0 (bias sigmas and random walks "
+        "of front_end included)");
+  }
+  return Status::Ok();
+}
+
+StatusOr<ceres::LossFunction*> MakeLoss(const std::string& name, double scale) {
+  if (name == "none") return static_cast<ceres::LossFunction*>(nullptr);
+  if (name == "huber") return static_cast<ceres::LossFunction*>(new ceres::HuberLoss(scale));
+  if (name == "cauchy") return static_cast<ceres::LossFunction*>(new ceres::CauchyLoss(scale));
+  return InvalidArgument("fg-ins-batch: loss must be none|huber|cauchy, not '" + name + "'");
+}
+
+InsFactor MakeFactor(std::string kind, ceres::CostFunction* cost, std::vector<double*> blocks) {
+  InsFactor f;
+  f.kind = std::move(kind);
+  f.cost.reset(cost);
+  f.blocks = std::move(blocks);
+  return f;
+}
+
+NavState ToNavState(const InsState& s) {
+  NavState n;
+  n.t_s = s.t_s;
+  n.p_n = s.position();
+  n.v_n = s.velocity();
+  n.q_nb = s.attitude().normalized();
+  return n;
+}
+
+double Yaw(const Eigen::Quaterniond& q) { return QuaternionYaw(q); }
+
+// The ZUPT sample nearest the middle of a stance phase: the foot is stillest there (the
+// phase's edges hold the slow ends of the swing, where a ZUPT state would be biased).
+size_t MidStance(const ZuptInsSolution& front, const StancePhase& ph) {
+  const size_t mid = (ph.begin + ph.end) / 2;
+  for (size_t d = 0; d <= (ph.end - ph.begin) / 2 + 1; ++d) {
+    if (mid >= ph.begin + d && front.zupt[mid - d]) return mid - d;
+    if (mid + d <= ph.end && front.zupt[mid + d]) return mid + d;
+  }
+  return mid;
+}
+
+bool UsesRss(const InsGraphContext& c) {
+  return c.options.use_rss && c.walk->has_rss() && !c.walk->anchors.empty();
+}
+bool UsesRanges(const InsGraphContext& c) {
+  return c.options.use_ranges && c.walk->has_ranges() && !c.walk->anchors.empty();
+}
+bool HasRadio(const InsGraphContext& c) { return UsesRss(c) || UsesRanges(c); }
+
+}  // namespace
+
+StatusOr<InsGraphOptions> InsGraphOptions::FromYaml(const YAML::Node& node) {
+  InsGraphOptions o;
+  ConfigReader r(node, "fg-ins-batch");
+  const YAML::Node front = r.Child("front_end");
+  std::string placement;
+  r.Read("placement", &placement);
+  r.Read("every_n_samples", &o.every_n_samples);
+  r.Read("max_state_interval_s", &o.max_state_interval_s);
+  r.Read("zupt_sigma_mps", &o.zupt_sigma_mps);
+  r.Read("use_zaru", &o.use_zaru);
+  r.Read("zaru_sigma_radps", &o.zaru_sigma_radps);
+  r.Read("use_bias_prior", &o.use_bias_prior);
+  r.Read("initial_sigma_z_m", &o.initial_sigma_z_m);
+  r.Read("gauge_sigma_m", &o.gauge_sigma_m);
+  r.Read("gauge_sigma_yaw_rad", &o.gauge_sigma_yaw_rad);
+  r.Read("output_rate_hz", &o.output_rate_hz);
+  r.Read("compute_covariance", &o.compute_covariance);
+  r.Read("max_iterations", &o.max_iterations);
+  r.Read("max_relinearizations", &o.max_relinearizations);
+  r.Read("relinearize_gyro_bias_radps", &o.relinearize_gyro_bias_radps);
+  r.Read("relinearize_acc_bias_mps2", &o.relinearize_acc_bias_mps2);
+  r.Read("use_rss", &o.use_rss);
+  r.Read("use_ranges", &o.use_ranges);
+  r.Read("receiver_offset_z_m", &o.receiver_offset_z_m);
+  r.Read("rss_loss", &o.rss_loss);
+  r.Read("rss_loss_scale", &o.rss_loss_scale);
+  r.Read("range_loss", &o.range_loss);
+  r.Read("range_loss_scale", &o.range_loss_scale);
+  r.Read("estimate_range_bias", &o.estimate_range_bias);
+  r.Read("range_bias_sigma_m", &o.range_bias_sigma_m);
+  WG_RETURN_IF_ERROR(r.Finish());
+  for (const std::string* loss : {&o.rss_loss, &o.range_loss}) {
+    WG_ASSIGN_OR_RETURN(ceres::LossFunction * l, MakeLoss(*loss, 1.0));
+    delete l;
+  }
+  if (front.IsDefined()) {
+    WG_ASSIGN_OR_RETURN(o.front_end, StrideOptions::FromYaml(front));
+  }
+  if (placement == "every-n") {
+    o.placement = InsStatePlacement::kEveryN;
+  } else if (!placement.empty() && placement != "stance") {
+    return InvalidArgument("fg-ins-batch: placement must be stance|every-n");
+  }
+  WG_RETURN_IF_ERROR(CheckOptions(o));
+  return o;
+}
+
+StatusOr<std::vector<InsState>> InitialInsStates(const Walk& walk, const ZuptInsSolution& front,
+                                                 const InsGraphOptions& o) {
+  WG_RETURN_IF_ERROR(CheckOptions(o));
+  const size_t n = walk.imu.size();
+  if (n < 2 || front.states.size() != n) {
+    return FailedPrecondition("fg-ins-batch: the front end's solution does not match the IMU");
+  }
+  std::set<size_t> idx = {0, n - 1};
+  if (o.placement == InsStatePlacement::kStance) {
+    for (const StancePhase& ph : front.phases) idx.insert(MidStance(front, ph));
+  } else {
+    for (size_t k = 0; k < n; k += static_cast<size_t>(o.every_n_samples)) idx.insert(k);
+  }
+  // No interval longer than max_state_interval_s (long standstills, walks without stance).
+  std::vector<size_t> sorted(idx.begin(), idx.end());
+  std::vector<size_t> all;
+  for (size_t s = 0; s < sorted.size(); ++s) {
+    all.push_back(sorted[s]);
+    if (s + 1 == sorted.size()) break;
+    const size_t a = sorted[s], b = sorted[s + 1];
+    const double span = walk.imu[b].t_s - walk.imu[a].t_s;
+    const int pieces = static_cast<int>(std::ceil(span / o.max_state_interval_s));
+    for (int j = 1; j < pieces; ++j) {
+      const size_t k =
+          a + static_cast<size_t>(std::llround(static_cast<double>(b - a) * j / pieces));
+      if (k > all.back() && k < b) all.push_back(k);
+    }
+  }
+  std::vector<InsState> states;
+  states.reserve(all.size());
+  for (size_t k : all) {
+    InsState s;
+    s.t_s = walk.imu[k].t_s;
+    s.imu_index = k;
+    s.zupt = front.zupt[k];
+    const NavState& x = front.states[k];
+    for (int i = 0; i < 3; ++i) {
+      s.p[i] = x.p_n[i];
+      s.v[i] = x.v_n[i];
+      s.bg[i] = front.gyro_bias_radps[k][i];
+      s.ba[i] = front.acc_bias_mps2[k][i];
+    }
+    const Eigen::Quaterniond q = x.q_nb.normalized();
+    s.q = {q.x(), q.y(), q.z(), q.w()};
+    states.push_back(s);
+  }
+  return states;
+}
+
+void AddInsStateBlocks(ceres::Problem* problem, InsState* s, ceres::Manifold* q_manifold) {
+  problem->AddParameterBlock(s->p.data(), 3);
+  problem->AddParameterBlock(s->v.data(), 3);
+  problem->AddParameterBlock(s->q.data(), 4, q_manifold);
+  problem->AddParameterBlock(s->bg.data(), 3);
+  problem->AddParameterBlock(s->ba.data(), 3);
+}
+
+std::vector<InsFactor> InsStateFactors(const InsGraphContext& c, InsState* s) {
+  std::vector<InsFactor> out;
+  if (s->zupt) {
+    out.push_back(MakeFactor("zupt", ZuptFactor::Create(c.options.zupt_sigma_mps), {s->v.data()}));
+  }
+  return out;
+}
+
+StatusOr<std::vector<InsFactor>> InsBetweenFactors(const InsGraphContext& c, InsState* a,
+                                                   InsState* b) {
+  const std::vector<ImuSample>& imu = c.walk->imu;
+  const InsGraphOptions& o = c.options;
+  if (!(a->imu_index < b->imu_index) || b->imu_index >= imu.size()) {
+    return InvalidArgument("fg-ins-batch: states must be in IMU order inside the walk");
+  }
+  const Eigen::Vector3d bg = a->gyro_bias(), ba = a->acc_bias();
+  ImuPreintegration pim(bg, ba, o.front_end.gyro_noise_radps, o.front_end.acc_noise_mps2);
+  for (size_t k = a->imu_index + 1; k <= b->imu_index; ++k) {
+    const double dt = imu[k].t_s - imu[k - 1].t_s;
+    if (o.front_end.sampling == ImuSampling::kIntervalAverage) {
+      pim.Integrate(dt, imu[k].gyro_radps, imu[k].acc_mps2);
+    } else {
+      // Point samples: the trapezoid of strapdown.h in the frame of t_{k−1} (coning omitted).
+      const Eigen::Vector3d w = 0.5 * (imu[k - 1].gyro_radps + imu[k].gyro_radps);
+      const Eigen::Matrix3d e = QuaternionExp((w - bg) * dt).toRotationMatrix();
+      const Eigen::Vector3d f =
+          0.5 * ((imu[k - 1].acc_mps2 - ba) + e * (imu[k].acc_mps2 - ba)) + ba;
+      pim.Integrate(dt, w, f);
+    }
+  }
+  std::vector<InsFactor> out;
+  out.push_back(MakeFactor("imu", ImuPreintegrationFactor::Create(pim, o.front_end.gravity_mps2),
+                           {a->p.data(), a->v.data(), a->q.data(), a->bg.data(), a->ba.data(),
+                            b->p.data(), b->v.data(), b->q.data()}));
+  const double dt = b->t_s - a->t_s;
+  out.push_back(MakeFactor("bias_rw_gyro",
+                           BiasRandomWalkFactor::Create(o.front_end.gyro_bias_rw_radps_sqrts, dt),
+                           {a->bg.data(), b->bg.data()}));
+  out.push_back(MakeFactor("bias_rw_acc",
+                           BiasRandomWalkFactor::Create(o.front_end.acc_bias_rw_mps2_sqrts, dt),
+                           {a->ba.data(), b->ba.data()}));
+  if (o.use_zaru && c.still != nullptr && c.still->size() == imu.size()) {
+    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+    int m = 0;
+    for (size_t k = a->imu_index + 1; k <= b->imu_index; ++k) {
+      if (!(*c.still)[k]) continue;
+      sum += imu[k].gyro_radps;
+      ++m;
+    }
+    if (m > 0) {
+      out.push_back(MakeFactor(
+          "zaru",
+          ZaruFactor::Create(sum / m, o.zaru_sigma_radps / std::sqrt(static_cast<double>(m))),
+          {b->bg.data()}));
+    }
+  }
+  return out;
+}
+
+std::vector<InsFactor> InsGaugeFactors(const InsGraphContext& c, InsState* first) {
+  const InsGraphOptions& o = c.options;
+  std::vector<InsFactor> out;
+  Eigen::Vector3d p0 = first->position(), sigma_p = Eigen::Vector3d::Constant(o.gauge_sigma_m);
+  double yaw0 = Yaw(first->attitude()), sigma_yaw = o.gauge_sigma_yaw_rad;
+  if (c.walk->meta.initial_pose) {
+    const InitialPose& ip = *c.walk->meta.initial_pose;
+    p0 = Eigen::Vector3d(ip.x_m, ip.y_m, 0.0);
+    sigma_p = Eigen::Vector3d(ip.sigma_xy_m, ip.sigma_xy_m, o.initial_sigma_z_m);
+    yaw0 = ip.heading_rad;
+    sigma_yaw = ip.sigma_heading_rad;
+  }
+  // Without a known start but with radio, the anchors fix the gauge.
+  if (c.walk->meta.initial_pose || !HasRadio(c)) {
+    out.push_back(MakeFactor("prior", InsPriorFactor::Create(p0, sigma_p, yaw0, sigma_yaw),
+                             {first->p.data(), first->q.data()}));
+  }
+  if (o.use_bias_prior) {
+    out.push_back(MakeFactor(
+        "bias_prior_gyro",
+        BiasPriorFactor::Create(Eigen::Vector3d::Zero(), o.front_end.gyro_bias_sigma_radps),
+        {first->bg.data()}));
+    out.push_back(MakeFactor(
+        "bias_prior_acc",
+        BiasPriorFactor::Create(Eigen::Vector3d::Zero(), o.front_end.acc_bias_sigma_mps2),
+        {first->ba.data()}));
+  }
+  if (o.use_zaru && c.still != nullptr && c.still->size() == c.walk->imu.size() &&
+      (*c.still)[first->imu_index]) {
+    out.push_back(MakeFactor(
+        "zaru", ZaruFactor::Create(c.walk->imu[first->imu_index].gyro_radps, o.zaru_sigma_radps),
+        {first->bg.data()}));
+  }
+  return out;
+}
+
+StatusOr<std::vector<InsFactor>> InsSegmentFactors(const InsGraphContext& c,
+                                                   std::vector<InsState>* states, size_t k,
+                                                   size_t n) {
+  if (k + n >= states->size()) return InvalidArgument("fg-ins-batch: segment beyond the states");
+  std::vector<InsFactor> out;
+  auto append = [&out](std::vector<InsFactor> more) {
+    for (InsFactor& f : more) out.push_back(std::move(f));
+  };
+  if (k == 0) {
+    append(InsGaugeFactors(c, &(*states)[0]));
+    append(InsStateFactors(c, &(*states)[0]));
+  }
+  for (size_t j = k + 1; j <= k + n; ++j) {
+    WG_ASSIGN_OR_RETURN(std::vector<InsFactor> between,
+                        InsBetweenFactors(c, &(*states)[j - 1], &(*states)[j]));
+    append(std::move(between));
+    append(InsStateFactors(c, &(*states)[j]));
+  }
+  return out;
+}
+
+StatusOr<std::vector<InsFactor>> InsRadioFactors(const InsGraphContext& c,
+                                                 std::vector<InsState>* states, size_t k, size_t n,
+                                                 InsRadioBlocks* blocks) {
+  if (k + n >= states->size()) return InvalidArgument("fg-ins-batch: segment beyond the states");
+  const Walk& w = *c.walk;
+  const InsGraphOptions& o = c.options;
+  std::vector<InsFactor> out;
+  const double t_lo = (*states)[k].t_s, t_hi = (*states)[k + n].t_s;
+  auto inside = [&](double t) { return (t > t_lo || (k == 0 && t == t_lo)) && t <= t_hi; };
+  // The receiver at time t: the bracketing states and α along the front end's path.
+  struct Where {
+    InsState* a;
+    InsState* b;  // null: at a alone
+    double alpha;
+  };
+  auto where = [&](double t) -> Where {
+    size_t j = static_cast<size_t>(
+        std::upper_bound(states->begin() + static_cast<long>(k),
+                         states->begin() + static_cast<long>(k + n + 1), t,
+                         [](double x, const InsState& s) { return x < s.t_s; }) -
+        states->begin());
+    if (j == 0) j = 1;
+    if (j > k + n) return {&(*states)[k + n], nullptr, 0.0};
+    InsState* a = &(*states)[j - 1];
+    InsState* b = &(*states)[j];
+    double alpha = (t - a->t_s) / (b->t_s - a->t_s);
+    if (c.path != nullptr && c.path->size() == w.imu.size()) {
+      const Eigen::Vector3d pa = (*c.path)[a->imu_index].p_n, pb = (*c.path)[b->imu_index].p_n;
+      const Eigen::Vector3d d = pb - pa;
+      if (d.squaredNorm() > 1e-4) {
+        // The IMU sample at or after t.
+        size_t m = a->imu_index;
+        while (m < b->imu_index && w.imu[m].t_s < t) ++m;
+        alpha = ((*c.path)[m].p_n - pa).dot(d) / d.squaredNorm();
+      }
+    }
+    alpha = std::clamp(alpha, 0.0, 1.0);
+    if (alpha < 1e-3) return {a, nullptr, 0.0};
+    if (alpha > 1.0 - 1e-3) return {b, nullptr, 0.0};
+    return {a, b, alpha};
+  };
+  const Eigen::Vector3d lower(0.0, 0.0, o.receiver_offset_z_m);
+  if (UsesRss(c)) {
+    const RadioDefaults& radio = w.meta.radio;
+    blocks->path_loss = {radio.path_loss.A_dbm, radio.path_loss.eta};
+    for (const RssSample& r : w.rss) {
+      if (!inside(r.t_s)) continue;
+      const int ai = w.AnchorIndex(r.anchor_id);
+      if (ai < 0) return InvalidArgument("fg-ins-batch: rss from an unknown anchor");
+      RssFactor<3>::Reading reading;
+      reading.rss = r.rss;
+      reading.anchor_m = w.anchors[static_cast<size_t>(ai)].position_m - lower;
+      reading.sigma_db = radio.path_loss.sigma_db;
+      reading.sign = radio.units == RssUnits::kRfcode ? -1.0 : 1.0;
+      reading.d0_m = radio.path_loss.d0_m;
+      const Where at = where(r.t_s);
+      InsFactor f;
+      if (at.b == nullptr) {
+        f = MakeFactor("rss", RssFactor<3>::Create(reading),
+                       {at.a->p.data(), blocks->path_loss.data()});
+      } else {
+        f = MakeFactor("rss", RssFactor<3>::CreateInterpolated(reading, at.alpha),
+                       {at.a->p.data(), at.b->p.data(), blocks->path_loss.data()});
+      }
+      WG_ASSIGN_OR_RETURN(ceres::LossFunction * loss, MakeLoss(o.rss_loss, o.rss_loss_scale));
+      f.loss.reset(loss);
+      out.push_back(std::move(f));
+    }
+  }
+  if (UsesRanges(c)) {
+    for (const RangeSample& r : w.ranges) {
+      if (!inside(r.t_s)) continue;
+      const int ai = w.AnchorIndex(r.anchor_id);
+      if (ai < 0) return InvalidArgument("fg-ins-batch: range from an unknown anchor");
+      const Eigen::Vector3d anchor = w.anchors[static_cast<size_t>(ai)].position_m - lower;
+      double* bias = &blocks->range_bias_m[r.anchor_id];
+      if (o.estimate_range_bias && blocks->bias_prior_added.insert(r.anchor_id).second) {
+        out.push_back(MakeFactor(
+            "range_bias_prior",
+            new ceres::NormalPrior(Eigen::MatrixXd::Constant(1, 1, 1.0 / o.range_bias_sigma_m),
+                                   Eigen::VectorXd::Zero(1)),
+            {bias}));
+      }
+      const double sigma = w.meta.radio.range_sigma_m;
+      const Where at = where(r.t_s);
+      InsFactor f;
+      if (at.b == nullptr) {
+        f = MakeFactor("range", RangeFactor<3>::Create(r.range_m, anchor, sigma),
+                       {at.a->p.data(), bias});
+      } else {
+        f = MakeFactor("range",
+                       RangeFactor<3>::CreateInterpolated(r.range_m, anchor, sigma, at.alpha),
+                       {at.a->p.data(), at.b->p.data(), bias});
+      }
+      WG_ASSIGN_OR_RETURN(ceres::LossFunction * loss, MakeLoss(o.range_loss, o.range_loss_scale));
+      f.loss.reset(loss);
+      out.push_back(std::move(f));
+    }
+  }
+  return out;
+}
+
+void HoldInsRadioBlocks(ceres::Problem* problem, InsRadioBlocks* blocks,
+                        const InsGraphOptions& options) {
+  if (problem->HasParameterBlock(blocks->path_loss.data())) {
+    problem->SetParameterBlockConstant(blocks->path_loss.data());
+  }
+  if (options.estimate_range_bias) return;
+  for (auto& [id, bias] : blocks->range_bias_m) {
+    if (problem->HasParameterBlock(&bias)) problem->SetParameterBlockConstant(&bias);
+  }
+}
+
+void AddInsFactors(ceres::Problem* problem, std::vector<InsFactor>* factors) {
+  for (InsFactor& f : *factors) {
+    problem->AddResidualBlock(f.cost.release(), f.loss.release(), f.blocks);
+  }
+  factors->clear();
+}
+
+Status InsGraphBatch::CheckApplicable(const Walk& walk) const {
+  if (walk.meta.imu_placement != ImuPlacement::kFoot) {
+    return FailedPrecondition("fg-ins-batch needs a foot-mounted IMU (imu_placement: foot)");
+  }
+  if (walk.imu.size() < 10) return FailedPrecondition("fg-ins-batch needs imu.csv");
+  return Status::Ok();
+}
+
+StatusOr<EstimateResult> InsGraphBatch::Run(const Walk& walk) const {
+  WG_RETURN_IF_ERROR(CheckApplicable(walk));
+  const InsGraphOptions& o = options_;
+  WG_ASSIGN_OR_RETURN(ZuptInsSolution front, RunZuptIns(walk, o.front_end));
+  WG_ASSIGN_OR_RETURN(std::vector<InsState> states, InitialInsStates(walk, front, o));
+  InsGraphContext context;
+  context.walk = &walk;
+  context.still = &front.stance.still;
+  context.path = &front.states;
+  context.options = o;
+
+  EstimateResult result;
+  ceres::Solver::Options solver;
+  solver.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
+  solver.num_threads = 1;
+  solver.max_num_iterations = o.max_iterations;
+  solver.logging_type = ceres::SILENT;
+  solver.minimizer_progress_to_stdout = false;
+
+  std::unique_ptr<ceres::Problem> problem;
+  int iterations = 0, relinearizations = 0;
+  size_t num_radio = 0;
+  InsRadioBlocks radio;
+  double initial_cost = 0.0, final_cost = 0.0;
+  bool converged = false;
+  for (int round = 0; round <= o.max_relinearizations; ++round) {
+    problem = std::make_unique<ceres::Problem>();
+    ceres::Manifold* manifold = new NavQuaternionManifold;  // owned by the problem
+    for (InsState& s : states) AddInsStateBlocks(problem.get(), &s, manifold);
+    WG_ASSIGN_OR_RETURN(std::vector<InsFactor> factors,
+                        InsSegmentFactors(context, &states, 0, states.size() - 1));
+    AddInsFactors(problem.get(), &factors);
+    radio.bias_prior_added.clear();  // a new problem: priors again, bias values kept
+    WG_ASSIGN_OR_RETURN(std::vector<InsFactor> radio_factors,
+                        InsRadioFactors(context, &states, 0, states.size() - 1, &radio));
+    num_radio = radio_factors.size();
+    AddInsFactors(problem.get(), &radio_factors);
+    HoldInsRadioBlocks(problem.get(), &radio, o);
+    std::vector<std::array<double, 6>> linearization(states.size());
+    for (size_t i = 0; i < states.size(); ++i) {
+      for (int k = 0; k < 3; ++k) {
+        linearization[i][k] = states[i].bg[k];
+        linearization[i][3 + k] = states[i].ba[k];
+      }
+    }
+    ceres::Solver::Summary summary;
+    ceres::Solve(solver, problem.get(), &summary);
+    if (!summary.IsSolutionUsable()) {
+      return InternalError("fg-ins-batch: Ceres failed: " + summary.message);
+    }
+    if (round == 0) initial_cost = summary.initial_cost;
+    final_cost = summary.final_cost;
+    iterations += static_cast<int>(summary.iterations.size());
+    converged = summary.termination_type == ceres::CONVERGENCE;
+    double dg = 0.0, da = 0.0;
+    for (size_t i = 0; i < states.size(); ++i) {
+      for (int k = 0; k < 3; ++k) {
+        dg = std::max(dg, std::fabs(states[i].bg[k] - linearization[i][k]));
+        da = std::max(da, std::fabs(states[i].ba[k] - linearization[i][3 + k]));
+      }
+    }
+    if (dg <= o.relinearize_gyro_bias_radps && da <= o.relinearize_acc_bias_mps2) break;
+    if (round < o.max_relinearizations) ++relinearizations;
+  }
+
+  // Marginal covariances of (x, y, yaw) per state.
+  std::vector<Eigen::Matrix3d> cov(states.size(), Eigen::Matrix3d::Zero());
+  bool cov_ok = false;
+  if (o.compute_covariance) {
+    ceres::Covariance::Options co;
+    co.algorithm_type = ceres::SPARSE_QR;
+    co.num_threads = 1;
+    ceres::Covariance covariance(co);
+    std::vector<std::pair<const double*, const double*>> blocks;
+    for (const InsState& s : states) {
+      blocks.emplace_back(s.p.data(), s.p.data());
+      blocks.emplace_back(s.q.data(), s.q.data());
+      blocks.emplace_back(s.p.data(), s.q.data());
+    }
+    if (covariance.Compute(blocks, problem.get())) {
+      cov_ok = true;
+      for (size_t i = 0; i < states.size() && cov_ok; ++i) {
+        double pp[9], qq[9], pq[9];
+        cov_ok =
+            covariance.GetCovarianceBlock(states[i].p.data(), states[i].p.data(), pp) &&
+            covariance.GetCovarianceBlockInTangentSpace(states[i].q.data(), states[i].q.data(),
+                                                        qq) &&
+            covariance.GetCovarianceBlockInTangentSpace(states[i].p.data(), states[i].q.data(), pq);
+        if (!cov_ok) break;
+        Eigen::Matrix3d c;
+        c << pp[0], pp[1], pq[2], pp[3], pp[4], pq[5], pq[2], pq[5], qq[8];
+        Eigen::MatrixXd cx = c;
+        Symmetrize(&cx);
+        cov[i] = cx;
+      }
+    }
+  }
+
+  // Output: every state and a grid of 1/output_rate_hz, filled in by strapdown between states.
+  const std::vector<ImuSample>& imu = walk.imu;
+  StrapdownOptions sd;
+  sd.gravity_mps2 = o.front_end.gravity_mps2;
+  sd.sampling = o.front_end.sampling;
+  const double period = 1.0 / o.output_rate_hz;
+  double next_tick = imu[states.front().imu_index].t_s;
+  auto emit = [&](double t, const Eigen::Vector3d& p, double yaw, const Eigen::Matrix3d& c) {
+    TrajectoryPoint pt;
+    pt.t_s = t;
+    pt.position_m = p;
+    pt.heading_rad = NormalizeAngle(yaw);
+    if (cov_ok) pt.covariance = c;
+    result.trajectory.points.push_back(pt);
+  };
+  emit(states[0].t_s, states[0].position(), Yaw(states[0].attitude()), cov[0]);
+  next_tick += period;
+  for (size_t s = 0; s + 1 < states.size(); ++s) {
+    const InsState& a = states[s];
+    const InsState& b = states[s + 1];
+    sd.gyro_bias_radps = a.gyro_bias();
+    sd.acc_bias_mps2 = a.acc_bias();
+    std::vector<NavState> fwd;
+    std::vector<size_t> at;
+    NavState x = ToNavState(a);
+    for (size_t k = a.imu_index + 1; k <= b.imu_index; ++k) {
+      x = StrapdownStep(x, imu[k - 1], imu[k], sd);
+      if (k < b.imu_index && imu[k].t_s + 1e-9 >= next_tick) {
+        fwd.push_back(x);
+        at.push_back(k);
+        while (next_tick <= imu[k].t_s + 1e-9) next_tick += period;
+      }
+    }
+    const Eigen::Vector3d dp = b.position() - x.p_n;
+    const double dyaw = NormalizeAngle(Yaw(b.attitude()) - Yaw(x.q_nb));
+    const double span = b.t_s - a.t_s;
+    for (size_t m = 0; m < fwd.size(); ++m) {
+      const double alpha = (fwd[m].t_s - a.t_s) / span;
+      emit(fwd[m].t_s, fwd[m].p_n + alpha * dp, Yaw(fwd[m].q_nb) + alpha * dyaw,
+           (1.0 - alpha) * cov[s] + alpha * cov[s + 1]);
+    }
+    emit(b.t_s, b.position(), Yaw(b.attitude()), cov[s + 1]);
+    while (next_tick <= b.t_s + 1e-9) next_tick += period;
+  }
+
+  result.diagnostics["num_states"] = static_cast<double>(states.size());
+  result.diagnostics["num_strides"] = static_cast<double>(front.strides.steps.size());
+  result.diagnostics["num_radio_factors"] = static_cast<double>(num_radio);
+  result.diagnostics["ceres_iterations"] = iterations;
+  result.diagnostics["ceres_initial_cost"] = initial_cost;
+  result.diagnostics["ceres_final_cost"] = final_cost;
+  result.diagnostics["ceres_converged"] = converged ? 1.0 : 0.0;
+  result.diagnostics["relinearizations"] = relinearizations;
+  result.diagnostics["covariance_ok"] = cov_ok ? 1.0 : 0.0;
+  return result;
+}
+
+namespace internal {
+
+void RegisterInsGraphBatch(EstimatorRegistry* registry) {
+  registry->Register(
+      {"fg-ins-batch",
+       "foot-INS factor graph: Forster preintegration between stance states, ZUPT, ZARU, bias "
+       "random walks; one Ceres problem (foot IMU)",
+       [](const YAML::Node& config) -> StatusOr<std::unique_ptr<Estimator>> {
+         WG_ASSIGN_OR_RETURN(auto options, InsGraphOptions::FromYaml(config));
+         return std::unique_ptr<Estimator>(new InsGraphBatch(options));
+       }});
+}
+
+}  // namespace internal
+}  // namespace walkgraph

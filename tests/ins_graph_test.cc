@@ -1,0 +1,236 @@
+#include "walkgraph/smoothers/ins_graph.h"
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <map>
+#include <string>
+
+#include <ceres/problem.h>
+#include <gtest/gtest.h>
+#include <Eigen/Eigenvalues>
+
+#include "factors/nav_quaternion_manifold.h"
+#include "test_util.h"
+#include "walkgraph/convert.h"
+#include "walkgraph/estimator.h"
+#include "walkgraph/metrics.h"
+#include "walkgraph/simulate.h"
+
+namespace walkgraph {
+namespace {
+
+StatusOr<EstimateResult> RunEstimator(const std::string& id, const Walk& walk,
+                                      const std::string& config = "{}") {
+  WG_ASSIGN_OR_RETURN(auto est, EstimatorRegistry::Builtin().Create(id, YAML::Load(config)));
+  return est->Run(walk);
+}
+
+double Rmse(const Walk& walk, const EstimateResult& r, Alignment a = Alignment::kNone) {
+  auto e = ComputeErrors(walk, r.trajectory, a);
+  EXPECT_TRUE(e.ok()) << e.status().ToString();
+  if (!e.ok()) return 1e9;
+  return SummarizeErrors(e->error_m, walk.TruthDistance()).rmse_m;
+}
+
+// The brief's accuracy criterion: with the walk's radio, the graph is well below the
+// strapdown + ZUPT dead reckoning of the same front end.
+TEST(InsGraphBatch, WellBelowZuptDeadReckoningOnSimulatedFootPresets) {
+  const int runs = testing::MonteCarloRuns(3);
+  const std::string laps = testing::kSanitized ? "{laps: 1}" : "{laps: 3}";
+  // jimenez-building simulates the reader 1 m above the foot (sim.rx_height_offset_m).
+  const std::map<std::string, std::string> config = {
+      {"jimenez-building", "{receiver_offset_z_m: 1.0}"}, {"prieto-laps", "{}"}};
+  for (const auto& [scenario, cfg] : config) {
+    double dr = 0.0, graph = 0.0;
+    for (int i = 0; i < runs; ++i) {
+      auto w = SimulateScenario(scenario, 200 + i, YAML::Load(laps));
+      ASSERT_TRUE(w.ok()) << w.status().ToString();
+      auto a = RunEstimator("zupt-ins", *w);
+      auto b = RunEstimator("fg-ins-batch", *w, cfg);
+      ASSERT_TRUE(a.ok()) << a.status().ToString();
+      ASSERT_TRUE(b.ok()) << b.status().ToString();
+      EXPECT_GT(b->diagnostics.at("num_radio_factors"), 0.0);
+      const double ra = Rmse(*w, *a), rb = Rmse(*w, *b);
+      std::printf("%s seed %d %s: zupt-ins %.3f m, fg-ins-batch %.3f m RMSE\n", scenario.c_str(),
+                  200 + i, laps.c_str(), ra, rb);
+      dr += ra / runs;
+      graph += rb / runs;
+    }
+    std::printf("%s mean RMSE: zupt-ins %.3f m, fg-ins-batch %.3f m (ratio %.2f)\n",
+                scenario.c_str(), dr, graph, graph / dr);
+    if (!testing::kSanitized) EXPECT_LT(graph, 0.6 * dr) << scenario;
+  }
+}
+
+// PyShoe VICON trial 2017-11-22-11-48-35. The converted walk's Vicon frame and the IMU's
+// frame differ in handedness (the INS turns clockwise where Vicon turns counter-clockwise;
+// mirrored, the SE(2)-aligned RMSE drops from ≈1.6 m to ≈0.07 m), so the truth's y is negated
+// here before scoring. Stance threshold and point-sample convention for this 200 Hz VN-100.
+TEST(InsGraphBatch, PyshoeViconTrial) {
+  const std::string csv =
+      std::string(WALKGRAPH_SHARED_DATASETS) + "/pyshoe_vicon/2017-11-22-11-48-35.csv";
+  if (!std::filesystem::exists(csv)) GTEST_SKIP() << csv << " not present";
+  auto w = Convert("pyshoe", {csv});
+  ASSERT_TRUE(w.ok()) << w.status().ToString();
+  for (TruthSample& t : w->truth) t.position_m.y() = -t.position_m.y();
+  const std::string front =
+      "{front_end: {sampling: instantaneous, gyro_noise_radps: 0.01, stance: {glrt_threshold: "
+      "1e5}}}";
+  auto dr = RunEstimator("zupt-ins", *w, front);
+  auto graph = RunEstimator("fg-ins-batch", *w, front);
+  ASSERT_TRUE(dr.ok()) << dr.status().ToString();
+  ASSERT_TRUE(graph.ok()) << graph.status().ToString();
+  const double a = Rmse(*w, *dr, Alignment::kSE2), b = Rmse(*w, *graph, Alignment::kSE2);
+  std::printf("pyshoe 2017-11-22-11-48-35 (align-se2): zupt-ins %.3f m, fg-ins-batch %.3f m\n", a,
+              b);
+  EXPECT_LT(b, 0.10);
+  EXPECT_LT(b, a);
+  // No initial_pose: the gauge prior holds the first state at the origin.
+  EXPECT_LT(graph->trajectory.points.front().position_m.head<2>().norm(), 0.01);
+}
+
+TEST(InsGraphBatch, CovarianceIsReportedAndRoughlyConsistent) {
+  auto w = SimulateScenario("jimenez-building", 5, YAML::Load("{laps: 1}"));
+  ASSERT_TRUE(w.ok());
+  // The simulator's initial_pose is the true start with σ = 0.5 m, 5°: draw the start the
+  // estimator is given from that σ, so that the prior is a fair one.
+  InitialPose& p0 = *w->meta.initial_pose;
+  p0.x_m += 0.5 * p0.sigma_xy_m;
+  p0.y_m -= 0.8 * p0.sigma_xy_m;
+  p0.heading_rad += 0.6 * p0.sigma_heading_rad;
+  auto r = RunEstimator("fg-ins-batch", *w, "{receiver_offset_z_m: 1.0}");
+  ASSERT_TRUE(r.ok()) << r.status().ToString();
+  EXPECT_EQ(r->diagnostics.at("covariance_ok"), 1.0);
+  ASSERT_GT(r->trajectory.size(), 100u);
+  double nees = 0.0;
+  int n = 0;
+  size_t j = 0;
+  for (size_t i = 0; i < r->trajectory.size(); ++i) {
+    const TrajectoryPoint& p = r->trajectory.points[i];
+    if (i > 0) EXPECT_GT(p.t_s, r->trajectory.points[i - 1].t_s);
+    ASSERT_TRUE(p.covariance.has_value());
+    Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(*p.covariance);
+    EXPECT_GT(eig.eigenvalues().minCoeff(), 0.0);
+    EXPECT_LT((*p.covariance - p.covariance->transpose()).norm(), 1e-12);
+    while (j + 1 < w->truth.size() && w->truth[j].t_s < p.t_s) ++j;
+    const Eigen::Vector2d e = p.position_m.head<2>() - w->truth[j].position_m.head<2>();
+    nees += e.dot(p.covariance->topLeftCorner<2, 2>().inverse() * e);
+    ++n;
+  }
+  nees /= n;
+  std::printf("mean position NEES %.2f (2 for a consistent estimate)\n", nees);
+  // The errors of one walk are one draw, correlated in time: only a broad band around 2.
+  // Measured 0.33 (0.56 with rss_loss: none; the Cauchy loss lowers every reading's weight).
+  EXPECT_GT(nees, 0.1);
+  EXPECT_LT(nees, 10.0);
+}
+
+TEST(InsGraphBatch, RankDeficientCovarianceIsADiagnosticNotAFailure) {
+  // Standing still without bias priors or ZARU: the horizontal accelerometer bias trades with
+  // the tilt, and the yaw of later states with the z gyro bias — the information is singular.
+  Walk w;
+  w.meta.imu_placement = ImuPlacement::kFoot;
+  for (int i = 0; i < 400; ++i) {
+    ImuSample s;
+    s.t_s = 0.01 * i;
+    s.acc_mps2 = Eigen::Vector3d(0.0, 0.0, 9.81);
+    w.imu.push_back(s);
+  }
+  auto r = RunEstimator("fg-ins-batch", w, "{use_bias_prior: false, use_zaru: false}");
+  ASSERT_TRUE(r.ok()) << r.status().ToString();
+  EXPECT_EQ(r->diagnostics.at("covariance_ok"), 0.0);
+  ASSERT_FALSE(r->trajectory.empty());
+  for (const TrajectoryPoint& p : r->trajectory.points) {
+    EXPECT_FALSE(p.covariance.has_value());
+    EXPECT_LT(p.position_m.norm(), 1e-3);
+  }
+}
+
+// The incremental building blocks make the same graph as one batch call: same factors, same
+// cost at the same values.
+TEST(InsGraphBatch, SegmentFactorsComposeToTheBatchGraph) {
+  auto w = SimulateScenario("prieto-laps", 9, YAML::Load("{duration_s: 40}"));
+  ASSERT_TRUE(w.ok());
+  InsGraphOptions o;
+  auto front = RunZuptIns(*w, o.front_end);
+  ASSERT_TRUE(front.ok());
+  auto states = InitialInsStates(*w, *front, o);
+  ASSERT_TRUE(states.ok());
+  ASSERT_GT(states->size(), 12u);
+  InsGraphContext c;
+  c.walk = &*w;
+  c.still = &front->stance.still;
+  c.path = &front->states;
+  c.options = o;
+  auto cost_of = [&](const std::vector<std::pair<size_t, size_t>>& segments,
+                     std::map<std::string, int>* counts) {
+    std::vector<InsState> s = *states;
+    ceres::Problem problem;
+    ceres::Manifold* m = new NavQuaternionManifold;
+    for (InsState& x : s) AddInsStateBlocks(&problem, &x, m);
+    InsRadioBlocks radio;
+    for (const auto& [k, n] : segments) {
+      auto f = InsSegmentFactors(c, &s, k, n);
+      auto rf = InsRadioFactors(c, &s, k, n, &radio);
+      EXPECT_TRUE(f.ok() && rf.ok());
+      for (const InsFactor& x : *f) ++(*counts)[x.kind];
+      for (const InsFactor& x : *rf) ++(*counts)[x.kind];
+      AddInsFactors(&problem, &*f);
+      AddInsFactors(&problem, &*rf);
+    }
+    HoldInsRadioBlocks(&problem, &radio, o);
+    double cost = 0.0;
+    problem.Evaluate(ceres::Problem::EvaluateOptions(), &cost, nullptr, nullptr, nullptr);
+    return cost;
+  };
+  const size_t last = states->size() - 1;
+  std::map<std::string, int> whole, split;
+  const double a = cost_of({{0, last}}, &whole);
+  const double b = cost_of({{0, 5}, {5, 4}, {9, last - 9}}, &split);
+  EXPECT_EQ(whole, split);
+  EXPECT_NEAR(a, b, 1e-9 * a);
+  EXPECT_EQ(whole["imu"], static_cast<int>(last));
+  EXPECT_EQ(whole["prior"], 1);
+  EXPECT_GT(whole["rss"] + whole["range"], 0);
+  EXPECT_FALSE(InsSegmentFactors(c, &*states, last, 1).ok());
+}
+
+TEST(InsGraphBatch, SameInputSameOutputAndEveryNPlacement) {
+  auto w = SimulateScenario("jimenez-building", 2, YAML::Load("{duration_s: 30}"));
+  ASSERT_TRUE(w.ok());
+  auto a = RunEstimator("fg-ins-batch", *w);
+  auto b = RunEstimator("fg-ins-batch", *w);
+  ASSERT_TRUE(a.ok() && b.ok());
+  ASSERT_EQ(a->trajectory.size(), b->trajectory.size());
+  for (size_t i = 0; i < a->trajectory.size(); ++i) {
+    EXPECT_EQ(a->trajectory.points[i].position_m, b->trajectory.points[i].position_m);
+  }
+  auto n = RunEstimator("fg-ins-batch", *w, "{placement: every-n, every_n_samples: 25}");
+  ASSERT_TRUE(n.ok()) << n.status().ToString();
+  // One state every 25 samples (plus the last).
+  EXPECT_NEAR(n->diagnostics.at("num_states"), std::ceil(w->imu.size() / 25.0) + 1, 1.0);
+  EXPECT_LT(Rmse(*w, *n), 1.0);
+}
+
+TEST(InsGraphBatch, OptionsAndApplicability) {
+  EXPECT_FALSE(InsGraphOptions::FromYaml(YAML::Load("{placement: sometimes}")).ok());
+  EXPECT_FALSE(InsGraphOptions::FromYaml(YAML::Load("{rss_loss: tukey}")).ok());
+  EXPECT_FALSE(InsGraphOptions::FromYaml(YAML::Load("{every_n_samples: 0}")).ok());
+  EXPECT_FALSE(InsGraphOptions::FromYaml(YAML::Load("{zupt_sigma: 0.01}")).ok());
+  auto o = InsGraphOptions::FromYaml(
+      YAML::Load("{front_end: {zupt_sigma_mps: 0.02}, output_rate_hz: 10, range_loss: huber}"));
+  ASSERT_TRUE(o.ok()) << o.status().ToString();
+  EXPECT_DOUBLE_EQ(o->front_end.zupt_sigma_mps, 0.02);
+  EXPECT_EQ(o->range_loss, "huber");
+  auto waist = SimulateScenario("tarrio-circle", 1, YAML::Load("{duration_s: 20}"));
+  ASSERT_TRUE(waist.ok());
+  auto est = EstimatorRegistry::Builtin().Create("fg-ins-batch");
+  ASSERT_TRUE(est.ok());
+  EXPECT_FALSE((*est)->CheckApplicable(*waist).ok());
+  EXPECT_FALSE((*est)->Run(*waist).ok());
+  EXPECT_NE(EstimatorRegistry::Builtin().Find("zupt-ins"), nullptr);
+}
+
+}  // namespace
+}  // namespace walkgraph
