@@ -8,6 +8,7 @@
 namespace walkgraph::internal {
 
 void RegisterOdometryDeadReckoning(EstimatorRegistry* registry);
+void RegisterPrieto(EstimatorRegistry* registry);
 
 }  // namespace walkgraph::internal
 
