@@ -14,10 +14,8 @@ const EstimatorRegistry& EstimatorRegistry::Builtin() {
 }
 
 Status EstimatorRegistry::Register(EstimatorInfo info) {
-  if (info.id.empty() || !info.factory)
-    return InvalidArgument("estimator needs an id and a factory");
-  if (Find(info.id) != nullptr)
-    return InvalidArgument("estimator id '" + info.id + "' registered twice");
+  if (info.id.empty() || !info.factory) return InvalidArgument("estimator needs an id and a factory");
+  if (Find(info.id) != nullptr) return InvalidArgument("estimator id '" + info.id + "' registered twice");
   entries_.push_back(std::move(info));
   return Status::Ok();
 }
