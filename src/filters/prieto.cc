@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <memory>
 
 #include <Eigen/Cholesky>
@@ -174,7 +175,7 @@ Eigen::Vector3d ReceiverOffset(const MeasurementParams& p) {
 
 }  // namespace
 
-NominalState Retract(const NominalState& y, const Eigen::VectorXd& d) {
+NominalState Retract(const NominalState& y, const Eigen::Ref<const Eigen::VectorXd>& d) {
   NominalState out = y;
   out.x += d.segment<3>(kPos);
   out.v += d.segment<3>(kVel);
@@ -190,6 +191,12 @@ NominalState Retract(const NominalState& y, const Eigen::VectorXd& d) {
 
 Eigen::VectorXd Local(const NominalState& from, const NominalState& to, int dim) {
   Eigen::VectorXd d(dim);
+  LocalInto(from, to, d);
+  return d;
+}
+
+void LocalInto(const NominalState& from, const NominalState& to, Eigen::Ref<Eigen::VectorXd> d) {
+  const int dim = static_cast<int>(d.size());
   d.segment<3>(kPos) = to.x - from.x;
   d.segment<3>(kVel) = to.v - from.v;
   d.segment<3>(kAcc) = to.a - from.a;
@@ -199,7 +206,6 @@ Eigen::VectorXd Local(const NominalState& from, const NominalState& to, int dim)
     d.segment<3>(kAccBias) = to.b_f - from.b_f;
     d.segment<3>(kGyroBias) = to.b_w - from.b_w;
   }
-  return d;
 }
 
 NominalState Propagate(const NominalState& y, double dt) {
@@ -414,17 +420,18 @@ using prieto::MeasurementKind;
 using prieto::MeasurementParams;
 using prieto::NominalState;
 
-// P ← (P + Pᵀ)/2, and when it is not positive definite its eigenvalues are floored at
-// 1e-12·max(λ_max, 1). Returns true when a repair was needed.
-bool MakePositiveDefinite(Eigen::MatrixXd* P) {
+// P ← (P + Pᵀ)/2 and its Cholesky factor; when P is not positive definite its eigenvalues are
+// floored at 1e-12·max(λ_max, 1) first. Returns true when a repair was needed.
+bool MakePositiveDefinite(Eigen::MatrixXd* P, Eigen::LLT<Eigen::MatrixXd>* llt) {
   Symmetrize(P);
-  const Eigen::LLT<Eigen::MatrixXd> llt(*P);
-  if (llt.info() == Eigen::Success) return false;
+  llt->compute(*P);
+  if (llt->info() == Eigen::Success) return false;
   const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(*P);
   const double floor = 1e-12 * std::max(es.eigenvalues().maxCoeff(), 1.0);
   const Eigen::VectorXd lambda = es.eigenvalues().cwiseMax(floor);
   *P = es.eigenvectors() * lambda.asDiagonal() * es.eigenvectors().transpose();
   Symmetrize(P);
+  llt->compute(*P);
   return true;
 }
 
@@ -523,6 +530,7 @@ class PrietoCore {
   Status PredictEkf(double dt) {
     const Eigen::MatrixXd F = prieto::TransitionJacobian(y_, dt, n_);
     y_ = prieto::Propagate(y_, dt);
+    llt_current_ = false;
     // P ← F P Fᵀ + Q, as F (F P)ᵀ with P symmetric.
     LeftMultiplyTransition(F, &P_);
     Eigen::MatrixXd FPt = P_.transpose();
@@ -533,17 +541,20 @@ class PrietoCore {
     return Status::Ok();
   }
 
+  // Symmetrizes P (repairing it if needed) and caches its Cholesky factor llt_.
+  Status FactorCovariance() {
+    if (MakePositiveDefinite(&P_, &llt_)) pd_repairs_ += 1.0;
+    if (llt_.info() != Eigen::Success) {
+      return NumericalError("prieto-ukf: covariance is not positive definite");
+    }
+    llt_current_ = true;
+    return Status::Ok();
+  }
+
   // Columns: the sigma-point offsets in the error chart at y_ (column 0 is zero).
   StatusOr<Eigen::MatrixXd> SigmaOffsets() {
-    Eigen::LLT<Eigen::MatrixXd> llt(P_);
-    if (llt.info() != Eigen::Success) {
-      if (MakePositiveDefinite(&P_)) pd_repairs_ += 1.0;
-      llt.compute(P_);
-      if (llt.info() != Eigen::Success) {
-        return NumericalError("prieto-ukf: covariance is not positive definite");
-      }
-    }
-    const Eigen::MatrixXd L = std::sqrt(n_ + lambda_) * llt.matrixL().toDenseMatrix();
+    if (!llt_current_) WG_RETURN_IF_ERROR(FactorCovariance());
+    const Eigen::MatrixXd L = std::sqrt(n_ + lambda_) * llt_.matrixL().toDenseMatrix();
     Eigen::MatrixXd S = Eigen::MatrixXd::Zero(n_, 2 * n_ + 1);
     S.middleCols(1, n_) = L;
     S.rightCols(n_) = -L;
@@ -594,7 +605,7 @@ class PrietoCore {
     }
     const NominalState mean = SigmaMean(pts);
     Eigen::MatrixXd dev(n_, m);
-    for (int i = 0; i < m; ++i) dev.col(i) = prieto::Local(mean, pts[i], n_);
+    for (int i = 0; i < m; ++i) prieto::LocalInto(mean, pts[i], dev.col(i));
     Eigen::VectorXd wc(m);
     for (int i = 0; i < m; ++i) wc[i] = Wc(i);
     Eigen::MatrixXd P_new =
@@ -602,13 +613,11 @@ class PrietoCore {
     if (clone_) {
       // Statistically linearized transition F = Dᵀ P⁻¹, D = Σ W^c s_i dev_iᵀ.
       const Eigen::MatrixXd D = S * wc.asDiagonal() * dev.transpose();
-      const Eigen::LDLT<Eigen::MatrixXd> ldlt(P_);
-      clone_->P_cj = D.transpose() * ldlt.solve(clone_->P_cj);
+      clone_->P_cj = D.transpose() * llt_.solve(clone_->P_cj);  // llt_: the prior P
     }
     y_ = mean;
     P_ = std::move(P_new);
-    if (MakePositiveDefinite(&P_)) pd_repairs_ += 1.0;
-    return Status::Ok();
+    return FactorCovariance();
   }
 
   // Applies an accepted correction δ to the clone (M = Cov(z, e_j), K = current gain).
@@ -623,6 +632,7 @@ class PrietoCore {
 
   // y ← y ⊞ δ, P ← G P Gᵀ (and the clone's cross-covariance ← G P_cj).
   void Inject(const Eigen::VectorXd& delta) {
+    llt_current_ = false;
     y_ = prieto::Retract(y_, delta);
     if (n_ >= prieto::kFullDim) {
       // G = ResetJacobian(δ) differs from I only in its attitude block: G P Gᵀ in O(n²).
@@ -652,6 +662,7 @@ class PrietoCore {
     }
     Eigen::VectorXd delta = Eigen::VectorXd::Zero(n_);
     WG_ASSIGN_OR_RETURN(UpdateOutcome out, KalmanUpdate(nu, H, m.R, gate, &delta, &P_));
+    llt_current_ = false;
     if (!out.accepted) return out;
     if (clone_) UpdateClone(M, K, S_llt, nu);
     Inject(delta);
@@ -699,14 +710,13 @@ class PrietoCore {
     const Eigen::MatrixXd K = S_llt.solve(C.transpose()).transpose();  // C S⁻¹
     if (clone_) {
       // Statistically linearized H = Cᵀ P⁻¹: Cov(z, e_j) = Cᵀ P⁻¹ P_cj.
-      const Eigen::LDLT<Eigen::MatrixXd> ldlt(P_);
-      const Eigen::MatrixXd M = C.transpose() * ldlt.solve(clone_->P_cj);
+      const Eigen::MatrixXd M = C.transpose() * llt_.solve(clone_->P_cj);  // llt_: prior P
       UpdateClone(M, K, S_llt, nu);
     }
     const Eigen::VectorXd delta = K * nu;
     P_ -= K * S * K.transpose();
-    if (MakePositiveDefinite(&P_)) pd_repairs_ += 1.0;
     Inject(delta);
+    WG_RETURN_IF_ERROR(FactorCovariance());
     return out;
   }
 
@@ -718,6 +728,8 @@ class PrietoCore {
   std::unique_ptr<Clone> clone_;
   double lambda_ = 0.0, wm0_ = 0.0, wc0_ = 0.0, wi_ = 0.0;
   double pd_repairs_ = 0.0;
+  Eigen::LLT<Eigen::MatrixXd> llt_;  // of P_, when llt_current_ (UKF)
+  bool llt_current_ = false;
 };
 
 struct RadioReading {
@@ -951,6 +963,7 @@ StatusOr<EstimateResult> RunPrietoFilter(const Walk& walk, const PrietoOptions& 
   const bool interval = o.imu_sampling == ImuSampling::kIntervalAverage;
   // Radio-only: the trajectory holds the estimates at the radio epochs (see prieto.h).
   const bool output_at_radio = o.sensors == PrietoSensors::kRadioOnly;
+  double q_norm_error = 0.0, asymmetry = 0.0, not_pd = 0.0;
   for (size_t k = 0; k < times.size(); ++k) {
     const double t = times[k];
     if (k > 0) {
@@ -970,6 +983,13 @@ StatusOr<EstimateResult> RunPrietoFilter(const Walk& walk, const PrietoOptions& 
     } else {
       if (!(t >= next_out - 1e-9) && k + 1 != times.size()) continue;
       while (next_out <= t + 1e-9) next_out += period;
+    }
+    {  // Health of the state at the output epochs: unit quaternion, P symmetric PD.
+      const Eigen::MatrixXd& P = core.P();
+      q_norm_error = std::max(q_norm_error, std::fabs(core.y().q_nb.norm() - 1.0));
+      asymmetry = std::max(asymmetry, (P - P.transpose()).cwiseAbs().maxCoeff() /
+                                          std::max(P.cwiseAbs().maxCoeff(), 1e-300));
+      if (Eigen::LLT<Eigen::MatrixXd>(P).info() != Eigen::Success) not_pd += 1.0;
     }
     if (!o.smooth) {
       result.trajectory.points.push_back(ToPoint(t, core.y(), core.P()));
@@ -1016,6 +1036,9 @@ StatusOr<EstimateResult> RunPrietoFilter(const Walk& walk, const PrietoOptions& 
   }
   result.diagnostics["gated_updates"] = gated;
   result.diagnostics["pd_repairs"] = core.pd_repairs();
+  result.diagnostics["quaternion_norm_error_max"] = q_norm_error;
+  result.diagnostics["covariance_asymmetry_max"] = asymmetry;
+  result.diagnostics["covariance_not_pd_epochs"] = not_pd;
   result.diagnostics["filter_epochs"] = static_cast<double>(times.size());
   return result;
 }
@@ -1074,7 +1097,11 @@ void RegisterPrieto(EstimatorRegistry* registry) {
     defaults.filter = v.filter;
     defaults.sensors = v.sensors;
     defaults.smooth = v.smooth;
-    if (v.sensors == PrietoSensors::kRadioOnly) defaults.radio_epoch_s = 1.0;
+    if (v.sensors == PrietoSensors::kRadioOnly) {  // see prieto.h
+      defaults.sigma_jerk_mps3 = 1.0;
+      defaults.radio_epoch_s = 1.0;
+      defaults.gate_probability = 0.0;
+    }
     const std::string id = v.id;
     registry->Register(
         {id, v.description,
