@@ -442,10 +442,6 @@ struct Clone {
   Eigen::MatrixXd P_cj;   // P_{kj|k}: current error × clone error
 };
 
-struct Counters {
-  double pd_repairs = 0.0;
-};
-
 class PrietoCore {
  public:
   PrietoCore(const PrietoOptions& o, const MeasurementParams& mp, int dim, NominalState y,
@@ -460,7 +456,6 @@ class PrietoCore {
 
   const NominalState& y() const { return y_; }
   const Eigen::MatrixXd& P() const { return P_; }
-  int dim() const { return n_; }
   double pd_repairs() const { return pd_repairs_; }
   bool cloning() const { return clone_ != nullptr; }
   const Clone& clone() const { return *clone_; }

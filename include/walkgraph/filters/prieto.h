@@ -74,9 +74,10 @@
 //   if P is not PD its eigenvalues are floored (counted in "pd_repairs").
 // Both filters share Propagate (f), the measurement functions (h), ⊞/⊟, Q and R.
 //
-// RTS (smooth = true, "-rts"): Rauch–Tung–Striebel at the output rate, so memory is
-// O(epochs at output_rate_hz) (≈11 KB per epoch: two 21×21 covariances and one 21×21 map),
-// not O(IMU samples). Between two stored epochs j < m the filter also carries a clone of the
+// Output: (x, y, heading) and its covariance every 1/output_rate_hz (10 Hz; the filter runs at
+// the IMU rate). RTS (smooth = true, "-rts"): Rauch–Tung–Striebel at the output rate, so memory
+// is O(output epochs) (≈11 KB each: P_prior, P_post and the map F, 21×21 doubles; ≈110 KB per
+// second of walk at 10 Hz), not O(IMU samples) (10× that at 100 Hz). Between two stored epochs j < m the filter also carries a clone of the
 // state at j (stochastic cloning): its correction δ_j, P_{j|m} and the cross-covariance
 // P_{mj|m}, updated by every measurement (EKF: with F and H; UKF: with their statistical
 // linearizations F = Dᵀ P⁻¹, H = C_xzᵀ P⁻¹ from the same sigma points — the URTS assumption of
@@ -96,9 +97,10 @@
 // (0.3–3 give 2.9–3.1 m) and fuse each ~1 s set jointly (radio_epoch_s = 1, ungated: gating
 // an extrapolating prior locks it out); their trajectory holds the estimates at the radio
 // epochs (the positions "obtained by only fusing RSS and TOA").
-// Its vertical axis has no process noise: no radio reading observes the height (the APs and
-// the receiver are near one plane), and a jerk random walk in z grows without bound (t^2.5)
-// until it spreads the UKF's sigma points kilometres away (measured: 16 m RMSE instead of 3).
+// Its vertical axis has no process noise and starts with known (zero) vertical velocity and
+// acceleration: no radio reading observes the height (the APs and the receiver are near one
+// plane), and an unobserved jerk random walk in z grows without bound (t^2.5) until it spreads
+// the UKF's sigma points kilometres away (measured: 16 m RMSE instead of 3).
 #ifndef WALKGRAPH_FILTERS_PRIETO_H_
 #define WALKGRAPH_FILTERS_PRIETO_H_
 
@@ -117,9 +119,9 @@
 namespace walkgraph {
 
 enum class PrietoFilterKind { kEkf, kUkf };
+enum class PrietoSensors { kFusion, kImuOnly, kRadioOnly };
 // The stance detector 002 uses: Jiménez's multi-condition detector [33] (stance.h values).
 StanceOptions PrietoDefaultStance();
-enum class PrietoSensors { kFusion, kImuOnly, kRadioOnly };
 
 struct PrietoOptions {
   // Fixed by the estimator id (not YAML keys).
@@ -128,7 +130,7 @@ struct PrietoOptions {
   bool smooth = false;
 
   // Dynamic model, Sec. IV-A (per-second rates; see the top of this file).
-  double sigma_jerk_mps3 = 4.5e2;         // σ_d(3), eq. 1
+  double sigma_jerk_mps3 = 4.5e2;         // σ_d(3), eq. 1 (radio-only ids: 1, see top)
   double sigma_attitude_rate_ps = 1e-4;   // σ_q̄', eq. 3
   double sigma_omega_rate_radps2 = 10.0;  // σ_ω', eq. 4
   double sigma_acc_bias_mps2 = 13.5e-2;   // σ_bf, eq. 4
@@ -152,7 +154,7 @@ struct PrietoOptions {
   double toa_beta = 1.0;     // β^τ
   double toa_sigma_m = std::numeric_limits<double>::quiet_NaN();
   double receiver_offset_z_m = 0.0;  // receiver above the IMU
-  double gate_probability = 0.99;    // χ²(1) gate on each radio reading; 0 = off (see top)
+  double gate_probability = 0.99;  // χ²(1) gate per radio reading; 0 = off (radio-only ids)
   // > 0: the readings within radio_epoch_s of a group's first one are fused as one vector
   // (eq. 5–6 with z^s ∈ R^{L^s}, z^τ ∈ R^{L^τ}, as the paper's ~1 s measurement sets) at the
   // group's last time stamp; 0: every reading at its own time. Default 0, radio-only 1 s.
