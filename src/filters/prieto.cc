@@ -793,11 +793,6 @@ void InitialState(const Walk& walk, const PrietoOptions& o, int dim, NominalStat
   }
 }
 
-struct StoredEpoch {
-  NominalState y;   // the filter state x_{m|m} (chart origin)
-  FilterEpoch rts;  // in that chart: x_prior = 0, x_post = δ (clone), F from the previous one
-};
-
 TrajectoryPoint ToPoint(double t, const NominalState& y, const Eigen::MatrixXd& P) {
   const prieto::PlanarPose pose = prieto::ToPlanarPose(y, P);
   TrajectoryPoint pt;
@@ -951,7 +946,10 @@ StatusOr<EstimateResult> RunPrietoFilter(const Walk& walk, const PrietoOptions& 
     return update(m, 0.0);
   };
 
-  std::vector<StoredEpoch> stored;
+  // RTS epochs: the filter state x_{m|m} (chart origin) and, in that chart, x_prior = 0,
+  // x_post = δ (the clone's correction), F from the previous epoch (see prieto.h).
+  std::vector<NominalState> stored;
+  std::vector<FilterEpoch> epochs;
   const double period = 1.0 / o.output_rate_hz;
   double next_out = times.front();
   size_t ri = 0;
@@ -990,33 +988,30 @@ StatusOr<EstimateResult> RunPrietoFilter(const Walk& walk, const PrietoOptions& 
       result.trajectory.points.push_back(ToPoint(t, core.y(), core.P()));
       continue;
     }
-    StoredEpoch e;
-    e.y = core.y();
-    e.rts.t_s = t;
-    e.rts.x_prior = Eigen::VectorXd::Zero(dim);
-    e.rts.P_prior = core.P();
-    e.rts.x_post = e.rts.x_prior;
-    e.rts.P_post = e.rts.P_prior;
-    e.rts.F = Eigen::MatrixXd::Identity(dim, dim);
+    FilterEpoch e;
+    e.t_s = t;
+    e.x_prior = Eigen::VectorXd::Zero(dim);
+    e.P_prior = core.P();
+    e.x_post = e.x_prior;
+    e.P_post = e.P_prior;  // until the next epoch closes the clone (the last one keeps it)
+    e.F = Eigen::MatrixXd::Identity(dim, dim);
     if (core.cloning()) {
       const Clone& c = core.clone();
-      stored.back().rts.x_post = c.delta;
-      stored.back().rts.P_post = c.P_jj;
+      epochs.back().x_post = c.delta;
+      epochs.back().P_post = c.P_jj;
       // F with F P_{j|m} = P_{mj|m}, so that RtsSmooth's C = P_{j|m} Fᵀ P_{m|m}⁻¹.
       const Eigen::LDLT<Eigen::MatrixXd> ldlt(c.P_jj);
-      e.rts.F = ldlt.solve(c.P_cj.transpose()).transpose();
+      e.F = ldlt.solve(c.P_cj.transpose()).transpose();
     }
-    stored.push_back(std::move(e));
+    stored.push_back(core.y());
+    epochs.push_back(std::move(e));
     core.StartClone();
   }
 
   if (o.smooth) {
-    std::vector<FilterEpoch> epochs;
-    epochs.reserve(stored.size());
-    for (const StoredEpoch& e : stored) epochs.push_back(e.rts);
     WG_ASSIGN_OR_RETURN(const std::vector<SmoothedState> smoothed, RtsSmooth(epochs));
     for (size_t i = 0; i < stored.size(); ++i) {
-      const NominalState ys = prieto::Retract(stored[i].y, smoothed[i].x);
+      const NominalState ys = prieto::Retract(stored[i], smoothed[i].x);
       result.trajectory.points.push_back(ToPoint(smoothed[i].t_s, ys, smoothed[i].P));
     }
     result.diagnostics["rts_epochs"] = static_cast<double>(stored.size());

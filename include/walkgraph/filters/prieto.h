@@ -76,8 +76,10 @@
 //
 // Output: (x, y, heading) and its covariance every 1/output_rate_hz (10 Hz; the filter runs at
 // the IMU rate). RTS (smooth = true, "-rts"): Rauch–Tung–Striebel at the output rate, so memory
-// is O(output epochs) (≈11 KB each: P_prior, P_post and the map F, 21×21 doubles; ≈110 KB per
-// second of walk at 10 Hz), not O(IMU samples) (10× that at 100 Hz). Between two stored epochs j < m the filter also carries a clone of the
+// is O(output epochs), not O(IMU samples): ≈14 KB each (P_prior, P_post, the map F and the
+// smoothed P, 21×21 doubles), ≈0.14 MB per second of walk at 10 Hz (measured process peak for
+// 8 laps, 16 min: 0.17 GB, 0.03 GB without RTS); 10× that if it kept every 100 Hz epoch.
+// Lower output_rate_hz for longer walks. Between two stored epochs j < m the filter also carries a clone of the
 // state at j (stochastic cloning): its correction δ_j, P_{j|m} and the cross-covariance
 // P_{mj|m}, updated by every measurement (EKF: with F and H; UKF: with their statistical
 // linearizations F = Dᵀ P⁻¹, H = C_xzᵀ P⁻¹ from the same sigma points — the URTS assumption of
@@ -154,7 +156,7 @@ struct PrietoOptions {
   double toa_beta = 1.0;     // β^τ
   double toa_sigma_m = std::numeric_limits<double>::quiet_NaN();
   double receiver_offset_z_m = 0.0;  // receiver above the IMU
-  double gate_probability = 0.99;  // χ²(1) gate per radio reading; 0 = off (radio-only ids)
+  double gate_probability = 0.99;    // χ²(1) gate per radio reading; 0 = off (radio-only ids)
   // > 0: the readings within radio_epoch_s of a group's first one are fused as one vector
   // (eq. 5–6 with z^s ∈ R^{L^s}, z^τ ∈ R^{L^τ}, as the paper's ~1 s measurement sets) at the
   // group's last time stamp; 0: every reading at its own time. Default 0, radio-only 1 s.
