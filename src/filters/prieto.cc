@@ -1090,7 +1090,6 @@ void RegisterPrieto(EstimatorRegistry* registry) {
     if (v.sensors == PrietoSensors::kRadioOnly) {  // see prieto.h
       defaults.sigma_jerk_mps3 = 1.0;
       defaults.radio_epoch_s = 1.0;
-      defaults.gate_probability = 0.0;
     }
     const std::string id = v.id;
     registry->Register(
