@@ -8,6 +8,7 @@
 namespace walkgraph::internal {
 
 void RegisterOdometryDeadReckoning(EstimatorRegistry* registry);
+void RegisterPrieto(EstimatorRegistry* registry);
 void RegisterZuptIns(EstimatorRegistry* registry);
 void RegisterInsGraphBatch(EstimatorRegistry* registry);
 void RegisterJimenezIez(EstimatorRegistry* registry);

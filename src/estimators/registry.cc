@@ -7,6 +7,7 @@ const EstimatorRegistry& EstimatorRegistry::Builtin() {
   static const EstimatorRegistry* registry = [] {
     auto* r = new EstimatorRegistry();
     internal::RegisterOdometryDeadReckoning(r);
+    internal::RegisterPrieto(r);
     internal::RegisterZuptIns(r);
     internal::RegisterInsGraphBatch(r);
     internal::RegisterJimenezIez(r);

@@ -1,0 +1,1105 @@
+#include "walkgraph/filters/prieto.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <memory>
+
+#include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
+
+#include "estimators/builtin.h"
+#include "walkgraph/angle.h"
+#include "walkgraph/config.h"
+#include "walkgraph/filters/kalman.h"
+#include "walkgraph/filters/ranges.h"
+#include "walkgraph/path_loss.h"
+
+namespace walkgraph {
+
+namespace {
+
+// The prieto stance defaults as StanceOptions keys: Jiménez's multi-condition detector [33]
+// (Sec. III-C), with its thresholds as in stance.h. User keys under `stance:` override these.
+const char* const kStanceDefaults = "{detector: multi-condition}";
+
+StatusOr<StanceOptions> StanceFromYaml(const YAML::Node& user) {
+  YAML::Node merged = YAML::Load(kStanceDefaults);
+  if (user.IsDefined() && !user.IsNull()) {
+    if (!user.IsMap()) return StanceOptions::FromYaml(user);  // reports the type error
+    for (const auto& kv : user) {
+      if (!kv.first.IsScalar()) return StanceOptions::FromYaml(user);
+      merged[kv.first.Scalar()] = kv.second;
+    }
+  }
+  return StanceOptions::FromYaml(merged);
+}
+
+}  // namespace
+
+StanceOptions PrietoDefaultStance() {
+  auto s = StanceFromYaml(YAML::Node());
+  return s.ok() ? *s : StanceOptions();
+}
+
+StatusOr<PrietoOptions> PrietoOptions::FromYaml(const YAML::Node& node,
+                                                const std::string& context) {
+  return FromYaml(node, context, PrietoOptions());
+}
+
+StatusOr<PrietoOptions> PrietoOptions::FromYaml(const YAML::Node& node, const std::string& context,
+                                                const PrietoOptions& defaults) {
+  PrietoOptions o = defaults;
+  ConfigReader r(node, context);
+  r.Read("sigma_jerk_mps3", &o.sigma_jerk_mps3);
+  r.Read("sigma_attitude_rate_ps", &o.sigma_attitude_rate_ps);
+  r.Read("sigma_omega_rate_radps2", &o.sigma_omega_rate_radps2);
+  r.Read("sigma_acc_bias_mps2", &o.sigma_acc_bias_mps2);
+  r.Read("sigma_gyro_bias_radps", &o.sigma_gyro_bias_radps);
+  r.Read("sigma_v0_mps", &o.sigma_v0_mps);
+  r.Read("sigma_a0_mps2", &o.sigma_a0_mps2);
+  r.Read("sigma_w0_radps", &o.sigma_w0_radps);
+  r.Read("sigma_acc_mps2", &o.sigma_acc_mps2);
+  r.Read("sigma_gyro_radps", &o.sigma_gyro_radps);
+  std::string sampling;
+  r.Read("imu_sampling", &sampling);
+  r.Read("gravity_mps2", &o.gravity_mps2);
+  r.Read("use_rss", &o.use_rss);
+  r.Read("use_toa", &o.use_toa);
+  r.Read("rss_alpha_dbm", &o.rss_alpha_dbm);
+  r.Read("rss_beta", &o.rss_beta);
+  r.Read("rss_sigma_db", &o.rss_sigma_db);
+  r.Read("toa_alpha_m", &o.toa_alpha_m);
+  r.Read("toa_beta", &o.toa_beta);
+  r.Read("toa_sigma_m", &o.toa_sigma_m);
+  r.Read("receiver_offset_z_m", &o.receiver_offset_z_m);
+  r.Read("gate_probability", &o.gate_probability);
+  r.Read("radio_epoch_s", &o.radio_epoch_s);
+  r.Read("ukf_alpha", &o.ukf_alpha);
+  r.Read("ukf_beta", &o.ukf_beta);
+  r.Read("ukf_kappa", &o.ukf_kappa);
+  r.Read("ukf_mean_iterations", &o.ukf_mean_iterations);
+  r.Read("init_sigma_m", &o.init_sigma_m);
+  r.Read("init_sigma_z_m", &o.init_sigma_z_m);
+  r.Read("init_sigma_v_mps", &o.init_sigma_v_mps);
+  r.Read("init_sigma_a_mps2", &o.init_sigma_a_mps2);
+  r.Read("init_sigma_tilt_rad", &o.init_sigma_tilt_rad);
+  r.Read("init_sigma_omega_radps", &o.init_sigma_omega_radps);
+  r.Read("init_sigma_acc_bias_mps2", &o.init_sigma_acc_bias_mps2);
+  r.Read("init_sigma_gyro_bias_radps", &o.init_sigma_gyro_bias_radps);
+  r.Read("init_attitude_window_s", &o.init_attitude_window_s);
+  r.Read("radio_only_step_s", &o.radio_only_step_s);
+  r.Read("output_rate_hz", &o.output_rate_hz);
+  const YAML::Node stance = r.Child("stance");
+  WG_RETURN_IF_ERROR(r.Finish());
+  if (stance.IsDefined()) {
+    auto s = StanceFromYaml(stance);
+    if (!s.ok()) return InvalidArgument(context + ": " + s.status().message());
+    o.stance = *s;
+  }
+  if (sampling == "interval-average") {
+    o.imu_sampling = ImuSampling::kIntervalAverage;
+  } else if (sampling == "instantaneous") {
+    o.imu_sampling = ImuSampling::kInstantaneous;
+  } else if (!sampling.empty()) {
+    return InvalidArgument(context + ": imu_sampling must be interval-average or instantaneous");
+  }
+  const double positive[] = {o.sigma_jerk_mps3,
+                             o.sigma_omega_rate_radps2,
+                             o.sigma_v0_mps,
+                             o.sigma_a0_mps2,
+                             o.sigma_w0_radps,
+                             o.sigma_acc_mps2,
+                             o.sigma_gyro_radps,
+                             o.gravity_mps2,
+                             o.toa_beta,
+                             o.ukf_alpha,
+                             o.init_sigma_m,
+                             o.init_sigma_z_m,
+                             o.init_sigma_v_mps,
+                             o.init_sigma_a_mps2,
+                             o.init_sigma_tilt_rad,
+                             o.init_sigma_omega_radps,
+                             o.init_sigma_acc_bias_mps2,
+                             o.init_sigma_gyro_bias_radps,
+                             o.radio_only_step_s,
+                             o.output_rate_hz};
+  for (double v : positive) {
+    if (!(v > 0.0) || !std::isfinite(v)) {
+      return InvalidArgument(context + ": sigmas, gravity, toa_beta, ukf_alpha, steps and rates " +
+                             "must be finite and > 0");
+    }
+  }
+  if (!(o.sigma_attitude_rate_ps >= 0) || !(o.sigma_acc_bias_mps2 >= 0) ||
+      !(o.sigma_gyro_bias_radps >= 0) || !(o.init_attitude_window_s >= 0)) {
+    return InvalidArgument(context + ": attitude and bias noise, init window must be >= 0");
+  }
+  for (double v : {o.rss_beta, o.rss_sigma_db, o.toa_sigma_m}) {
+    if (!std::isnan(v) && !(v > 0.0)) {
+      return InvalidArgument(context + ": rss_beta, rss_sigma_db, toa_sigma_m must be > 0");
+    }
+  }
+  if (!(o.radio_epoch_s >= 0 && o.radio_epoch_s <= 60)) {
+    return InvalidArgument(context + ": radio_epoch_s must be in [0, 60]");
+  }
+  if (o.gate_probability < 0 || o.gate_probability >= 1) {
+    return InvalidArgument(context + ": gate_probability must be in [0, 1)");
+  }
+  if (o.ukf_mean_iterations < 1 || o.ukf_mean_iterations > 50) {
+    return InvalidArgument(context + ": ukf_mean_iterations must be in [1, 50]");
+  }
+  if (!(o.ukf_beta >= 0) || !(o.ukf_alpha <= 1.0)) {
+    return InvalidArgument(context + ": need 0 < ukf_alpha <= 1 and ukf_beta >= 0");
+  }
+  return o;
+}
+
+namespace prieto {
+
+namespace {
+
+// Right Jacobian of SO(3): Exp(φ + δ) ≈ Exp(φ) Exp(J_r(φ) δ).
+Eigen::Matrix3d RightJacobian(const Eigen::Vector3d& phi) {
+  const double t = phi.norm();
+  const Eigen::Matrix3d K = Skew(phi);
+  if (t < 1e-6) return Eigen::Matrix3d::Identity() - 0.5 * K + K * K / 6.0;
+  return Eigen::Matrix3d::Identity() - (1.0 - std::cos(t)) / (t * t) * K +
+         (t - std::sin(t)) / (t * t * t) * K * K;
+}
+
+Eigen::Vector3d Gravity(double g) { return Eigen::Vector3d(0.0, 0.0, -g); }
+
+Eigen::Vector3d ReceiverOffset(const MeasurementParams& p) {
+  return Eigen::Vector3d(0.0, 0.0, p.receiver_offset_z_m);
+}
+
+}  // namespace
+
+NominalState Retract(const NominalState& y, const Eigen::Ref<const Eigen::VectorXd>& d) {
+  NominalState out = y;
+  out.x += d.segment<3>(kPos);
+  out.v += d.segment<3>(kVel);
+  out.a += d.segment<3>(kAcc);
+  if (d.size() >= kFullDim) {
+    out.q_nb = (y.q_nb * QuaternionExp(d.segment<3>(kAtt))).normalized();  // footnote 2
+    out.w += d.segment<3>(kOmega);
+    out.b_f += d.segment<3>(kAccBias);
+    out.b_w += d.segment<3>(kGyroBias);
+  }
+  return out;
+}
+
+Eigen::VectorXd Local(const NominalState& from, const NominalState& to, int dim) {
+  Eigen::VectorXd d(dim);
+  LocalInto(from, to, d);
+  return d;
+}
+
+void LocalInto(const NominalState& from, const NominalState& to, Eigen::Ref<Eigen::VectorXd> d) {
+  const int dim = static_cast<int>(d.size());
+  d.segment<3>(kPos) = to.x - from.x;
+  d.segment<3>(kVel) = to.v - from.v;
+  d.segment<3>(kAcc) = to.a - from.a;
+  if (dim >= kFullDim) {
+    d.segment<3>(kAtt) = QuaternionLog(from.q_nb.conjugate() * to.q_nb);
+    d.segment<3>(kOmega) = to.w - from.w;
+    d.segment<3>(kAccBias) = to.b_f - from.b_f;
+    d.segment<3>(kGyroBias) = to.b_w - from.b_w;
+  }
+}
+
+NominalState Propagate(const NominalState& y, double dt) {
+  NominalState out = y;
+  out.x = y.x + dt * y.v + 0.5 * dt * dt * y.a;  // eq. 1
+  out.v = y.v + dt * y.a;
+  out.q_nb = (y.q_nb * QuaternionExp(y.w * dt)).normalized();  // eq. 3 (conjugated, renormalized)
+  return out;                                                  // ω, b_f, b_ω: eq. 4
+}
+
+Eigen::MatrixXd TransitionJacobian(const NominalState& y, double dt, int dim) {
+  Eigen::MatrixXd F = Eigen::MatrixXd::Identity(dim, dim);
+  const Eigen::Matrix3d I = Eigen::Matrix3d::Identity();
+  F.block<3, 3>(kPos, kVel) = dt * I;  // eq. 1
+  F.block<3, 3>(kPos, kAcc) = 0.5 * dt * dt * I;
+  F.block<3, 3>(kVel, kAcc) = dt * I;
+  if (dim >= kFullDim) {
+    const Eigen::Vector3d phi = y.w * dt;  // eq. 3: δθ' = Exp(ωΔ)ᵀ δθ + J_r(ωΔ) Δ δω
+    F.block<3, 3>(kAtt, kAtt) = QuaternionExp(phi).toRotationMatrix().transpose();
+    F.block<3, 3>(kAtt, kOmega) = RightJacobian(phi) * dt;
+  }
+  return F;
+}
+
+Eigen::MatrixXd ProcessNoise(const PrietoOptions& o, double dt, int dim) {
+  Eigen::MatrixXd Q = Eigen::MatrixXd::Zero(dim, dim);
+  // eq. 1: discrete Wiener process acceleration, increment σ_j·Δ through Γ = [½Δ², Δ, 1].
+  const double sv = o.sigma_jerk_mps3 * dt;
+  const Eigen::Vector3d gamma(0.5 * dt * dt, dt, 1.0);
+  const Eigen::Matrix3d Qa = sv * sv * gamma * gamma.transpose();
+  const int base[3] = {kPos, kVel, kAcc};
+  // The radio-only state keeps its height: with the anchors' heights fixed nothing observes the
+  // vertical axis, and its jerk random walk would grow without bound (see prieto.h).
+  const int axes = dim >= kFullDim ? 3 : 2;
+  for (int axis = 0; axis < axes; ++axis) {
+    for (int r = 0; r < 3; ++r) {
+      for (int c = 0; c < 3; ++c) Q(base[r] + axis, base[c] + axis) = Qa(r, c);
+    }
+  }
+  if (dim >= kFullDim) {
+    const double s_att = 2.0 * o.sigma_attitude_rate_ps * dt;  // eq. 3 noise on δθ
+    const double s_w = o.sigma_omega_rate_radps2 * dt;         // eq. 4
+    const double s_bf = o.sigma_acc_bias_mps2 * dt;
+    const double s_bw = o.sigma_gyro_bias_radps * dt;
+    for (int i = 0; i < 3; ++i) {
+      Q(kAtt + i, kAtt + i) = s_att * s_att;
+      Q(kOmega + i, kOmega + i) = s_w * s_w;
+      Q(kAccBias + i, kAccBias + i) = s_bf * s_bf;
+      Q(kGyroBias + i, kGyroBias + i) = s_bw * s_bw;
+    }
+  }
+  return Q;
+}
+
+Eigen::MatrixXd ResetJacobian(const Eigen::VectorXd& delta) {
+  const int dim = static_cast<int>(delta.size());
+  Eigen::MatrixXd G = Eigen::MatrixXd::Identity(dim, dim);
+  if (dim >= kFullDim) {
+    G.block<3, 3>(kAtt, kAtt) -= 0.5 * Skew(delta.segment<3>(kAtt));
+  }
+  return G;
+}
+
+Measurement StackMeasurements(std::vector<Measurement> parts) {
+  Measurement out;
+  out.kind = MeasurementKind::kStack;
+  int rows = 0;
+  for (const Measurement& m : parts) rows += static_cast<int>(m.z.size());
+  out.z.resize(rows);
+  out.R = Eigen::MatrixXd::Zero(rows, rows);
+  int r = 0;
+  for (const Measurement& m : parts) {
+    const int k = static_cast<int>(m.z.size());
+    out.z.segment(r, k) = m.z;
+    out.R.block(r, r, k, k) = m.R;
+    r += k;
+  }
+  out.parts = std::move(parts);
+  return out;
+}
+
+Eigen::VectorXd PredictMeasurement(const MeasurementParams& p, const Measurement& m,
+                                   const NominalState& y) {
+  switch (m.kind) {
+    case MeasurementKind::kStack: {
+      Eigen::VectorXd h(m.z.size());
+      int r = 0;
+      for (const Measurement& part : m.parts) {
+        const Eigen::VectorXd hp = PredictMeasurement(p, part, y);
+        h.segment(r, hp.size()) = hp;
+        r += static_cast<int>(hp.size());
+      }
+      return h;
+    }
+    case MeasurementKind::kImu:
+    case MeasurementKind::kImuStance: {
+      const bool stance = m.kind == MeasurementKind::kImuStance;
+      Eigen::VectorXd h(stance ? 15 : 6);
+      const Eigen::Matrix3d R = y.q_nb.toRotationMatrix();
+      h.segment<3>(0) = R.transpose() * (y.a - Gravity(p.gravity_mps2)) + y.b_f;  // eq. 7
+      h.segment<3>(3) = y.w + y.b_w;                                              // eq. 8
+      if (stance) {                                                               // eq. 9
+        h.segment<3>(6) = y.v;
+        h.segment<3>(9) = y.a;
+        h.segment<3>(12) = y.w;
+      }
+      return h;
+    }
+    case MeasurementKind::kRss: {
+      const PathLossModel model({p.rss_alpha_dbm, p.rss_beta, p.rss_d0_m, 1.0},
+                                p.rss_sign > 0 ? RssUnits::kDbm : RssUnits::kRfcode);
+      const double d = (y.x + ReceiverOffset(p) - m.anchor_m).norm();
+      return Eigen::VectorXd::Constant(1, model.ExpectedRss(d));  // eq. 5
+    }
+    case MeasurementKind::kToa: {
+      const double d = (y.x + ReceiverOffset(p) - m.anchor_m).norm();
+      return Eigen::VectorXd::Constant(1, p.toa_alpha_m + p.toa_beta * d);  // eq. 6
+    }
+  }
+  return Eigen::VectorXd();
+}
+
+Eigen::MatrixXd MeasurementJacobian(const MeasurementParams& p, const Measurement& m,
+                                    const NominalState& y, int dim) {
+  const Eigen::Matrix3d I = Eigen::Matrix3d::Identity();
+  switch (m.kind) {
+    case MeasurementKind::kStack: {
+      Eigen::MatrixXd H(m.z.size(), dim);
+      int r = 0;
+      for (const Measurement& part : m.parts) {
+        const Eigen::MatrixXd Hp = MeasurementJacobian(p, part, y, dim);
+        H.middleRows(r, Hp.rows()) = Hp;
+        r += static_cast<int>(Hp.rows());
+      }
+      return H;
+    }
+    case MeasurementKind::kImu:
+    case MeasurementKind::kImuStance: {
+      const bool stance = m.kind == MeasurementKind::kImuStance;
+      Eigen::MatrixXd H = Eigen::MatrixXd::Zero(stance ? 15 : 6, dim);
+      const Eigen::Matrix3d Rt = y.q_nb.toRotationMatrix().transpose();
+      // eq. 7: h = Exp(−δθ) R̂ᵀ (a − g) + b_f ⇒ ∂h/∂δθ = [R̂ᵀ(a − g)]×.
+      H.block<3, 3>(0, kAcc) = Rt;
+      H.block<3, 3>(0, kAtt) = Skew(Rt * (y.a - Gravity(p.gravity_mps2)));
+      H.block<3, 3>(0, kAccBias) = I;
+      H.block<3, 3>(3, kOmega) = I;  // eq. 8
+      H.block<3, 3>(3, kGyroBias) = I;
+      if (stance) {  // eq. 9
+        H.block<3, 3>(6, kVel) = I;
+        H.block<3, 3>(9, kAcc) = I;
+        H.block<3, 3>(12, kOmega) = I;
+      }
+      return H;
+    }
+    case MeasurementKind::kRss:
+    case MeasurementKind::kToa: {
+      Eigen::MatrixXd H = Eigen::MatrixXd::Zero(1, dim);
+      const Eigen::Vector3d r = y.x + ReceiverOffset(p) - m.anchor_m;
+      const double d = std::max(r.norm(), 1e-3);
+      if (m.kind == MeasurementKind::kRss) {
+        // eq. 5: ∂/∂x of −s·10β·log10(d) = −s·10β/(ln10·d²)·rᵀ
+        H.block<1, 3>(0, kPos) =
+            -p.rss_sign * 10.0 * p.rss_beta / (std::log(10.0) * d * d) * r.transpose();
+      } else {
+        H.block<1, 3>(0, kPos) = p.toa_beta / d * r.transpose();  // eq. 6
+      }
+      return H;
+    }
+  }
+  return Eigen::MatrixXd();
+}
+
+PlanarPose ToPlanarPose(const NominalState& y, const Eigen::MatrixXd& P) {
+  const int dim = static_cast<int>(P.rows());
+  PlanarPose out;
+  Eigen::MatrixXd J = Eigen::MatrixXd::Zero(3, dim);
+  J(0, kPos) = 1.0;
+  J(1, kPos + 1) = 1.0;
+  double heading_var_cap = kPi * kPi;
+  if (dim >= kFullDim) {
+    // Heading of the body x axis r = R̂ Exp(δθ) e_x: ∂r/∂δθ = −R̂ [e_x]×.
+    const Eigen::Matrix3d R = y.q_nb.toRotationMatrix();
+    const Eigen::Vector3d r = R.col(0);
+    const double n2 = std::max(r.x() * r.x() + r.y() * r.y(), 1e-12);
+    out.pose = Eigen::Vector3d(y.x.x(), y.x.y(), NormalizeAngle(std::atan2(r.y(), r.x())));
+    const Eigen::RowVector3d dpsi_dr(-r.y() / n2, r.x() / n2, 0.0);
+    J.block<1, 3>(2, kAtt) = dpsi_dr * (-R * Skew(Eigen::Vector3d::UnitX()));
+  } else {
+    // Radio-only: the direction of the velocity (undefined at rest: variance capped at π²).
+    const Eigen::Vector2d v = y.v.head<2>();
+    const double n2 = std::max(v.squaredNorm(), 1e-12);
+    out.pose = Eigen::Vector3d(y.x.x(), y.x.y(), NormalizeAngle(std::atan2(v.y(), v.x())));
+    J(2, kVel) = -v.y() / n2;
+    J(2, kVel + 1) = v.x() / n2;
+  }
+  out.covariance = J * P * J.transpose();
+  out.covariance = 0.5 * (out.covariance + out.covariance.transpose()).eval();
+  if (!(out.covariance(2, 2) <= heading_var_cap)) {
+    out.covariance.row(2).setZero();
+    out.covariance.col(2).setZero();
+    out.covariance(2, 2) = heading_var_cap;
+  }
+  return out;
+}
+
+}  // namespace prieto
+
+namespace {
+
+using prieto::Measurement;
+using prieto::MeasurementKind;
+using prieto::MeasurementParams;
+using prieto::NominalState;
+
+// P ← (P + Pᵀ)/2 and its Cholesky factor; when P is not positive definite its eigenvalues are
+// floored at 1e-12·max(λ_max, 1) first. Returns true when a repair was needed.
+bool MakePositiveDefinite(Eigen::MatrixXd* P, Eigen::LLT<Eigen::MatrixXd>* llt) {
+  Symmetrize(P);
+  llt->compute(*P);
+  if (llt->info() == Eigen::Success) return false;
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(*P);
+  const double floor = 1e-12 * std::max(es.eigenvalues().maxCoeff(), 1.0);
+  const Eigen::VectorXd lambda = es.eigenvalues().cwiseMax(floor);
+  *P = es.eigenvectors() * lambda.asDiagonal() * es.eigenvectors().transpose();
+  Symmetrize(P);
+  llt->compute(*P);
+  return true;
+}
+
+// The state at the last stored (RTS) epoch j, carried along with the filter (see prieto.h).
+struct Clone {
+  Eigen::VectorXd delta;  // δ_j: correction of x_{j|j} in its chart
+  Eigen::MatrixXd P_jj;   // P_{j|k}
+  Eigen::MatrixXd P_cj;   // P_{kj|k}: current error × clone error
+};
+
+class PrietoCore {
+ public:
+  PrietoCore(const PrietoOptions& o, const MeasurementParams& mp, int dim, NominalState y,
+             Eigen::MatrixXd P)
+      : o_(o), mp_(mp), n_(dim), y_(std::move(y)), P_(std::move(P)) {
+    const double n = n_;
+    lambda_ = o.ukf_alpha * o.ukf_alpha * (n + o.ukf_kappa) - n;
+    wm0_ = lambda_ / (n + lambda_);
+    wc0_ = wm0_ + 1.0 - o.ukf_alpha * o.ukf_alpha + o.ukf_beta;
+    wi_ = 1.0 / (2.0 * (n + lambda_));
+  }
+
+  const NominalState& y() const { return y_; }
+  const Eigen::MatrixXd& P() const { return P_; }
+  double pd_repairs() const { return pd_repairs_; }
+  bool cloning() const { return clone_ != nullptr; }
+  const Clone& clone() const { return *clone_; }
+
+  Status CheckUkfWeights() const {
+    if (o_.filter == PrietoFilterKind::kUkf && !(n_ + lambda_ > 1e-12)) {
+      return InvalidArgument("prieto-ukf: α²(n + κ) must be > 0");
+    }
+    return Status::Ok();
+  }
+
+  // Starts a new clone of the current state (RTS epoch).
+  void StartClone() {
+    clone_ = std::make_unique<Clone>();
+    clone_->delta = Eigen::VectorXd::Zero(n_);
+    clone_->P_jj = P_;
+    clone_->P_cj = P_;
+  }
+
+  Status Predict(double dt) {
+    if (!(dt > 0.0)) return Status::Ok();
+    return o_.filter == PrietoFilterKind::kEkf ? PredictEkf(dt) : PredictUkf(dt);
+  }
+
+  StatusOr<UpdateOutcome> Update(const Measurement& m, double gate) {
+    return o_.filter == PrietoFilterKind::kEkf ? UpdateEkf(m, gate) : UpdateUkf(m, gate);
+  }
+
+  // NIS of a measurement against the current prior, without updating (for gating the rows of
+  // a stacked radio set one by one).
+  StatusOr<double> Nis(const Measurement& m) {
+    Eigen::VectorXd nu;
+    Eigen::MatrixXd S;
+    if (o_.filter == PrietoFilterKind::kEkf) {
+      nu = m.z - prieto::PredictMeasurement(mp_, m, y_);
+      const Eigen::MatrixXd H = prieto::MeasurementJacobian(mp_, m, y_, n_);
+      S = H * P_ * H.transpose() + m.R;
+    } else {
+      WG_ASSIGN_OR_RETURN(const Eigen::MatrixXd Sg, SigmaOffsets());
+      Eigen::MatrixXd C;
+      Eigen::VectorXd zbar;
+      UnscentedMeasurement(m, Sg, &zbar, &S, &C);
+      nu = m.z - zbar;
+    }
+    Symmetrize(&S);
+    const Eigen::LLT<Eigen::MatrixXd> llt(S);
+    if (llt.info() != Eigen::Success) {
+      return NumericalError("prieto: innovation covariance is not positive definite");
+    }
+    return nu.dot(llt.solve(nu));
+  }
+
+ private:
+  // M ← F M for F = TransitionJacobian (identity but the rows of x, v and δθ), in O(n²).
+  void LeftMultiplyTransition(const Eigen::MatrixXd& F, Eigen::MatrixXd* M) const {
+    using prieto::kAcc, prieto::kAtt, prieto::kOmega, prieto::kPos, prieto::kVel;
+    const double dt = F(kPos, kVel), half_dt2 = F(kPos, kAcc);
+    M->middleRows<3>(kPos) += dt * M->middleRows<3>(kVel) + half_dt2 * M->middleRows<3>(kAcc);
+    M->middleRows<3>(kVel) += dt * M->middleRows<3>(kAcc);
+    if (n_ >= prieto::kFullDim) {
+      const Eigen::MatrixXd att = F.block<3, 3>(kAtt, kAtt) * M->middleRows<3>(kAtt) +
+                                  F.block<3, 3>(kAtt, kOmega) * M->middleRows<3>(kOmega);
+      M->middleRows<3>(kAtt) = att;
+    }
+  }
+
+  Status PredictEkf(double dt) {
+    const Eigen::MatrixXd F = prieto::TransitionJacobian(y_, dt, n_);
+    y_ = prieto::Propagate(y_, dt);
+    llt_current_ = false;
+    // P ← F P Fᵀ + Q, as F (F P)ᵀ with P symmetric.
+    LeftMultiplyTransition(F, &P_);
+    Eigen::MatrixXd FPt = P_.transpose();
+    LeftMultiplyTransition(F, &FPt);
+    P_ = FPt + prieto::ProcessNoise(o_, dt, n_);
+    Symmetrize(&P_);
+    if (clone_) LeftMultiplyTransition(F, &clone_->P_cj);
+    return Status::Ok();
+  }
+
+  // Symmetrizes P (repairing it if needed) and caches its Cholesky factor llt_.
+  Status FactorCovariance() {
+    if (MakePositiveDefinite(&P_, &llt_)) pd_repairs_ += 1.0;
+    if (llt_.info() != Eigen::Success) {
+      return NumericalError("prieto-ukf: covariance is not positive definite");
+    }
+    llt_current_ = true;
+    return Status::Ok();
+  }
+
+  // Columns: the sigma-point offsets in the error chart at y_ (column 0 is zero).
+  StatusOr<Eigen::MatrixXd> SigmaOffsets() {
+    if (!llt_current_) WG_RETURN_IF_ERROR(FactorCovariance());
+    const Eigen::MatrixXd L = std::sqrt(n_ + lambda_) * llt_.matrixL().toDenseMatrix();
+    Eigen::MatrixXd S = Eigen::MatrixXd::Zero(n_, 2 * n_ + 1);
+    S.middleCols(1, n_) = L;
+    S.rightCols(n_) = -L;
+    return S;
+  }
+
+  double Wm(int i) const { return i == 0 ? wm0_ : wi_; }
+  double Wc(int i) const { return i == 0 ? wc0_ : wi_; }
+
+  // Quaternion-aware weighted mean of sigma points (prieto.h): vector parts by weights, the
+  // attitude by iterating the weighted mean of Log(q̄⁻¹ q_i) about q̄ (start: point 0).
+  NominalState SigmaMean(const std::vector<NominalState>& pts) const {
+    NominalState mean = pts[0];
+    mean.x.setZero();
+    mean.v.setZero();
+    mean.a.setZero();
+    mean.w.setZero();
+    mean.b_f.setZero();
+    mean.b_w.setZero();
+    for (size_t i = 0; i < pts.size(); ++i) {
+      const double w = Wm(static_cast<int>(i));
+      mean.x += w * pts[i].x;
+      mean.v += w * pts[i].v;
+      mean.a += w * pts[i].a;
+      mean.w += w * pts[i].w;
+      mean.b_f += w * pts[i].b_f;
+      mean.b_w += w * pts[i].b_w;
+    }
+    if (n_ >= prieto::kFullDim) {
+      for (int it = 0; it < o_.ukf_mean_iterations; ++it) {
+        Eigen::Vector3d e = Eigen::Vector3d::Zero();
+        for (size_t i = 0; i < pts.size(); ++i) {
+          e += Wm(static_cast<int>(i)) * QuaternionLog(mean.q_nb.conjugate() * pts[i].q_nb);
+        }
+        mean.q_nb = (mean.q_nb * QuaternionExp(e)).normalized();
+        if (e.norm() < 1e-12) break;
+      }
+    }
+    return mean;
+  }
+
+  Status PredictUkf(double dt) {
+    WG_ASSIGN_OR_RETURN(const Eigen::MatrixXd S, SigmaOffsets());
+    const int m = 2 * n_ + 1;
+    std::vector<NominalState> pts(m);
+    for (int i = 0; i < m; ++i) {
+      pts[i] = prieto::Propagate(prieto::Retract(y_, S.col(i)), dt);
+    }
+    const NominalState mean = SigmaMean(pts);
+    Eigen::MatrixXd dev(n_, m);
+    for (int i = 0; i < m; ++i) prieto::LocalInto(mean, pts[i], dev.col(i));
+    Eigen::VectorXd wc(m);
+    for (int i = 0; i < m; ++i) wc[i] = Wc(i);
+    Eigen::MatrixXd P_new =
+        dev * wc.asDiagonal() * dev.transpose() + prieto::ProcessNoise(o_, dt, n_);
+    if (clone_) {
+      // Statistically linearized transition F = Dᵀ P⁻¹, D = Σ W^c s_i dev_iᵀ.
+      const Eigen::MatrixXd D = S * wc.asDiagonal() * dev.transpose();
+      clone_->P_cj = D.transpose() * llt_.solve(clone_->P_cj);  // llt_: the prior P
+    }
+    y_ = mean;
+    P_ = std::move(P_new);
+    return FactorCovariance();
+  }
+
+  // Applies an accepted correction δ to the clone (M = Cov(z, e_j), K = current gain).
+  void UpdateClone(const Eigen::MatrixXd& M, const Eigen::MatrixXd& K,
+                   const Eigen::LLT<Eigen::MatrixXd>& S_llt, const Eigen::VectorXd& nu) {
+    const Eigen::MatrixXd SinvM = S_llt.solve(M);  // S⁻¹ M
+    clone_->delta += SinvM.transpose() * nu;       // K_j ν, K_j = Mᵀ S⁻¹
+    clone_->P_jj -= M.transpose() * SinvM;         // K_j S K_jᵀ
+    Symmetrize(&clone_->P_jj);
+    clone_->P_cj -= K * M;
+  }
+
+  // y ← y ⊞ δ, P ← G P Gᵀ (and the clone's cross-covariance ← G P_cj).
+  void Inject(const Eigen::VectorXd& delta) {
+    llt_current_ = false;
+    y_ = prieto::Retract(y_, delta);
+    if (n_ >= prieto::kFullDim) {
+      // G = ResetJacobian(δ) differs from I only in its attitude block: G P Gᵀ in O(n²).
+      const Eigen::Matrix3d Ga =  // the attitude block of prieto::ResetJacobian(δ)
+          Eigen::Matrix3d::Identity() - 0.5 * Skew(delta.segment<3>(prieto::kAtt));
+      P_.middleRows<3>(prieto::kAtt) = (Ga * P_.middleRows<3>(prieto::kAtt)).eval();
+      P_.middleCols<3>(prieto::kAtt) = (P_.middleCols<3>(prieto::kAtt) * Ga.transpose()).eval();
+      Symmetrize(&P_);
+      if (clone_) {
+        clone_->P_cj.middleRows<3>(prieto::kAtt) =
+            (Ga * clone_->P_cj.middleRows<3>(prieto::kAtt)).eval();
+      }
+    }
+  }
+
+  StatusOr<UpdateOutcome> UpdateEkf(const Measurement& m, double gate) {
+    const Eigen::VectorXd nu = m.z - prieto::PredictMeasurement(mp_, m, y_);
+    const Eigen::MatrixXd H = prieto::MeasurementJacobian(mp_, m, y_, n_);
+    Eigen::MatrixXd M, K;
+    Eigen::LLT<Eigen::MatrixXd> S_llt;
+    if (clone_) {
+      M = H * clone_->P_cj;
+      Eigen::MatrixXd S = H * P_ * H.transpose() + m.R;
+      Symmetrize(&S);
+      S_llt.compute(S);
+      K = S_llt.solve(H * P_).transpose();
+    }
+    Eigen::VectorXd delta = Eigen::VectorXd::Zero(n_);
+    WG_ASSIGN_OR_RETURN(UpdateOutcome out, KalmanUpdate(nu, H, m.R, gate, &delta, &P_));
+    llt_current_ = false;
+    if (!out.accepted) return out;
+    if (clone_) UpdateClone(M, K, S_llt, nu);
+    Inject(delta);
+    return out;
+  }
+
+  // Unscented transform of h over the sigma offsets Sg: mean z̄, S = Σ W^c ΔzΔzᵀ + R and the
+  // cross-covariance C = Σ W^c s_i Δz_iᵀ.
+  void UnscentedMeasurement(const Measurement& m, const Eigen::MatrixXd& Sg, Eigen::VectorXd* zbar,
+                            Eigen::MatrixXd* S, Eigen::MatrixXd* C) const {
+    const int np = 2 * n_ + 1;
+    const int nz = static_cast<int>(m.z.size());
+    Eigen::MatrixXd Z(nz, np);
+    for (int i = 0; i < np; ++i) {
+      Z.col(i) = prieto::PredictMeasurement(mp_, m, prieto::Retract(y_, Sg.col(i)));
+    }
+    *zbar = Eigen::VectorXd::Zero(nz);
+    Eigen::VectorXd wc(np);
+    for (int i = 0; i < np; ++i) {
+      *zbar += Wm(i) * Z.col(i);
+      wc[i] = Wc(i);
+    }
+    const Eigen::MatrixXd dZ = Z.colwise() - *zbar;
+    *S = dZ * wc.asDiagonal() * dZ.transpose() + m.R;
+    Symmetrize(S);
+    *C = Sg * wc.asDiagonal() * dZ.transpose();  // n × nz
+  }
+
+  StatusOr<UpdateOutcome> UpdateUkf(const Measurement& m, double gate) {
+    WG_ASSIGN_OR_RETURN(const Eigen::MatrixXd Sg, SigmaOffsets());
+    const int nz = static_cast<int>(m.z.size());
+    Eigen::VectorXd zbar;
+    Eigen::MatrixXd S, C;
+    UnscentedMeasurement(m, Sg, &zbar, &S, &C);
+    const Eigen::LLT<Eigen::MatrixXd> S_llt(S);
+    if (S_llt.info() != Eigen::Success) {
+      return NumericalError("prieto-ukf: innovation covariance is not positive definite");
+    }
+    const Eigen::VectorXd nu = m.z - zbar;
+    UpdateOutcome out;
+    out.nis = nu.dot(S_llt.solve(nu));
+    if (!std::isfinite(out.nis)) return NumericalError("prieto-ukf: non-finite NIS");
+    if (gate > 0.0 && out.nis > ChiSquareQuantile(gate, nz)) return out;
+    out.accepted = true;
+    const Eigen::MatrixXd K = S_llt.solve(C.transpose()).transpose();  // C S⁻¹
+    if (clone_) {
+      // Statistically linearized H = Cᵀ P⁻¹: Cov(z, e_j) = Cᵀ P⁻¹ P_cj.
+      const Eigen::MatrixXd M = C.transpose() * llt_.solve(clone_->P_cj);  // llt_: prior P
+      UpdateClone(M, K, S_llt, nu);
+    }
+    const Eigen::VectorXd delta = K * nu;
+    P_ -= K * S * K.transpose();
+    Inject(delta);
+    WG_RETURN_IF_ERROR(FactorCovariance());
+    return out;
+  }
+
+  const PrietoOptions& o_;
+  const MeasurementParams mp_;
+  const int n_;
+  NominalState y_;
+  Eigen::MatrixXd P_;
+  std::unique_ptr<Clone> clone_;
+  double lambda_ = 0.0, wm0_ = 0.0, wc0_ = 0.0, wi_ = 0.0;
+  double pd_repairs_ = 0.0;
+  Eigen::LLT<Eigen::MatrixXd> llt_;  // of P_, when llt_current_ (UKF)
+  bool llt_current_ = false;
+};
+
+struct RadioReading {
+  double t_s = 0.0;
+  Measurement m;
+};
+
+// Initial state and covariance (see prieto.h).
+void InitialState(const Walk& walk, const PrietoOptions& o, int dim, NominalState* y,
+                  Eigen::MatrixXd* P) {
+  Eigen::VectorXd var = Eigen::VectorXd::Zero(dim);
+  double yaw = 0.0, sigma_yaw = kPi;
+  double sigma_xy = o.init_sigma_m;
+  if (walk.meta.initial_pose) {
+    const InitialPose& p = *walk.meta.initial_pose;
+    y->x = Eigen::Vector3d(p.x_m, p.y_m, 0.0);
+    yaw = p.heading_rad;
+    sigma_yaw = p.sigma_heading_rad;
+    sigma_xy = p.sigma_xy_m;
+  } else {
+    Eigen::Vector3d c = Eigen::Vector3d::Zero();
+    for (const Anchor& a : walk.anchors) c += a.position_m;
+    if (!walk.anchors.empty()) c /= static_cast<double>(walk.anchors.size());
+    y->x = Eigen::Vector3d(c.x(), c.y(), 0.0);
+  }
+  var.segment<3>(prieto::kPos) = Eigen::Vector3d(sigma_xy * sigma_xy, sigma_xy * sigma_xy,
+                                                 o.init_sigma_z_m * o.init_sigma_z_m);
+  var.segment<3>(prieto::kVel).setConstant(o.init_sigma_v_mps * o.init_sigma_v_mps);
+  var.segment<3>(prieto::kAcc).setConstant(o.init_sigma_a_mps2 * o.init_sigma_a_mps2);
+  if (dim < prieto::kFullDim) {
+    // Radio-only: the height is held (no vertical noise, see ProcessNoise), so its velocity and
+    // acceleration start known; their uncertainty would otherwise grow z as t²·σ_a.
+    var[prieto::kVel + 2] = var[prieto::kAcc + 2] = 1e-12;
+    *P = var.asDiagonal();
+    return;
+  }
+  *P = var.asDiagonal();
+  // Roll and pitch from the mean specific force at the start: f ∝ R_nbᵀ (0, 0, g).
+  Eigen::Vector3d f = Eigen::Vector3d::Zero();
+  int count = 0;
+  const double t0 = walk.imu.front().t_s;
+  for (const ImuSample& s : walk.imu) {
+    if (s.t_s > t0 + o.init_attitude_window_s && count > 0) break;
+    f += s.acc_mps2;
+    ++count;
+  }
+  const double roll = std::atan2(f.y(), f.z());
+  const double pitch = std::atan2(-f.x(), std::hypot(f.y(), f.z()));
+  const Eigen::Matrix3d R = (Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()) *
+                             Eigen::AngleAxisd(pitch, Eigen::Vector3d::UnitY()) *
+                             Eigen::AngleAxisd(roll, Eigen::Vector3d::UnitX()))
+                                .toRotationMatrix();
+  y->q_nb = Eigen::Quaterniond(R).normalized();
+  // Nav-frame attitude errors φ_n (tilt, tilt, yaw) map to the body-frame δθ = Rᵀ φ_n.
+  const Eigen::Vector3d nav_var(o.init_sigma_tilt_rad * o.init_sigma_tilt_rad,
+                                o.init_sigma_tilt_rad * o.init_sigma_tilt_rad,
+                                sigma_yaw * sigma_yaw);
+  P->block<3, 3>(prieto::kAtt, prieto::kAtt) = R.transpose() * nav_var.asDiagonal() * R;
+  for (int i = 0; i < 3; ++i) {
+    (*P)(prieto::kOmega + i, prieto::kOmega + i) =
+        o.init_sigma_omega_radps * o.init_sigma_omega_radps;
+    (*P)(prieto::kAccBias + i, prieto::kAccBias + i) =
+        o.init_sigma_acc_bias_mps2 * o.init_sigma_acc_bias_mps2;
+    (*P)(prieto::kGyroBias + i, prieto::kGyroBias + i) =
+        o.init_sigma_gyro_bias_radps * o.init_sigma_gyro_bias_radps;
+  }
+}
+
+TrajectoryPoint ToPoint(double t, const NominalState& y, const Eigen::MatrixXd& P) {
+  const prieto::PlanarPose pose = prieto::ToPlanarPose(y, P);
+  TrajectoryPoint pt;
+  pt.t_s = t;
+  pt.position_m = Eigen::Vector3d(pose.pose.x(), pose.pose.y(), 0.0);
+  pt.heading_rad = pose.pose.z();
+  pt.covariance = pose.covariance;
+  return pt;
+}
+
+}  // namespace
+
+StatusOr<EstimateResult> RunPrietoFilter(const Walk& walk, const PrietoOptions& o) {
+  const bool use_imu = o.sensors != PrietoSensors::kRadioOnly;
+  const bool use_radio = o.sensors != PrietoSensors::kImuOnly;
+  const int dim = use_imu ? prieto::kFullDim : prieto::kKinematicDim;
+  const bool has_imu = walk.imu.size() >= 2;
+  if (use_imu && !has_imu) return FailedPrecondition("prieto: needs imu.csv (>= 2 samples)");
+
+  // Radio readings (eq. 5–6), parameters from the walk unless set.
+  const PathLossParams& pl = walk.meta.radio.path_loss;
+  MeasurementParams mp;
+  mp.gravity_mps2 = o.gravity_mps2;
+  mp.rss_alpha_dbm = std::isnan(o.rss_alpha_dbm) ? pl.A_dbm : o.rss_alpha_dbm;
+  mp.rss_beta = std::isnan(o.rss_beta) ? pl.eta : o.rss_beta;
+  mp.rss_d0_m = pl.d0_m;
+  mp.rss_sign = PathLossModel(pl, walk.meta.radio.units).sign();
+  mp.toa_alpha_m = o.toa_alpha_m;
+  mp.toa_beta = o.toa_beta;
+  mp.receiver_offset_z_m = o.receiver_offset_z_m;
+  const double rss_sigma = std::isnan(o.rss_sigma_db) ? pl.sigma_db : o.rss_sigma_db;
+  const double toa_sigma =
+      std::isnan(o.toa_sigma_m) ? walk.meta.radio.range_sigma_m : o.toa_sigma_m;
+  if (!(rss_sigma > 0) || !(toa_sigma > 0)) {
+    return FailedPrecondition("prieto: the walk's sigma_db and range_sigma_m must be > 0");
+  }
+  std::vector<RadioReading> radio;
+  if (use_radio) {
+    WG_ASSIGN_OR_RETURN(const std::vector<RangeMeasurement> readings,
+                        RangeMeasurementsFromWalk(walk));
+    for (const RangeMeasurement& r : readings) {
+      if (r.from_rss ? !o.use_rss : !o.use_toa) continue;
+      RadioReading rr;
+      rr.t_s = r.t_s;
+      rr.m.kind = r.from_rss ? MeasurementKind::kRss : MeasurementKind::kToa;
+      rr.m.z = Eigen::VectorXd::Constant(1, r.from_rss ? r.rss : r.range_m);
+      const double s = r.from_rss ? rss_sigma : toa_sigma;
+      rr.m.R = Eigen::MatrixXd::Constant(1, 1, s * s);
+      rr.m.anchor_m = r.anchor_m;
+      radio.push_back(rr);
+    }
+    if (radio.empty()) return FailedPrecondition("prieto: no RSS or TOA readings to fuse");
+  }
+  // Radio sets: readings within radio_epoch_s of the set's first one, fused at its last time.
+  struct RadioGroup {
+    double t_s = 0.0;
+    std::vector<Measurement> parts;
+  };
+  std::vector<RadioGroup> groups;
+  for (size_t i = 0; i < radio.size();) {
+    RadioGroup g;
+    const double t_first = radio[i].t_s;
+    do {
+      g.t_s = radio[i].t_s;
+      g.parts.push_back(radio[i].m);
+      ++i;
+    } while (o.radio_epoch_s > 0 && i < radio.size() && radio[i].t_s < t_first + o.radio_epoch_s);
+    groups.push_back(std::move(g));
+  }
+
+  // Timeline: the IMU samples (also for radio-only, when the walk has them), else a grid.
+  std::vector<double> times;
+  if (has_imu) {
+    for (const ImuSample& s : walk.imu) times.push_back(s.t_s);
+  } else {
+    const double t0 = radio.front().t_s, t1 = radio.back().t_s;
+    const long n = static_cast<long>(std::ceil((t1 - t0) / o.radio_only_step_s - 1e-9));
+    if (n > 50'000'000) return InvalidArgument("prieto: radio_only_step_s too small");
+    for (long i = 0; i <= n; ++i)
+      times.push_back(t0 + static_cast<double>(i) * o.radio_only_step_s);
+  }
+
+  StanceMask stance;
+  if (use_imu) {
+    WG_ASSIGN_OR_RETURN(stance, DetectStance(walk, o.stance));
+  }
+
+  NominalState y0;
+  Eigen::MatrixXd P0;
+  InitialState(walk, o, dim, &y0, &P0);  // reads the IMU only for the full state
+  PrietoCore core(o, mp, dim, y0, P0);
+  WG_RETURN_IF_ERROR(core.CheckUkfWeights());
+
+  // Measurement noise of the IMU block (eq. 7–9).
+  Eigen::VectorXd r_imu(15);
+  r_imu << Eigen::Vector3d::Constant(o.sigma_acc_mps2 * o.sigma_acc_mps2),
+      Eigen::Vector3d::Constant(o.sigma_gyro_radps * o.sigma_gyro_radps),
+      Eigen::Vector3d::Constant(o.sigma_v0_mps * o.sigma_v0_mps),
+      Eigen::Vector3d::Constant(o.sigma_a0_mps2 * o.sigma_a0_mps2),
+      Eigen::Vector3d::Constant(o.sigma_w0_radps * o.sigma_w0_radps);
+  Measurement imu_only, imu_stance;
+  imu_only.kind = MeasurementKind::kImu;
+  imu_only.R = r_imu.head<6>().asDiagonal();
+  imu_only.z = Eigen::VectorXd::Zero(6);
+  imu_stance.kind = MeasurementKind::kImuStance;
+  imu_stance.R = r_imu.asDiagonal();
+  imu_stance.z = Eigen::VectorXd::Zero(15);
+
+  EstimateResult result;
+  double nis_sum[5] = {0, 0, 0, 0, 0}, nis_n[5] = {0, 0, 0, 0, 0};
+  double gated = 0.0;
+  auto update = [&](const Measurement& m, double gate) -> Status {
+    WG_ASSIGN_OR_RETURN(const UpdateOutcome out, core.Update(m, gate));
+    const int kind = static_cast<int>(m.kind);
+    if (!out.accepted) {
+      gated += 1.0;
+      return Status::Ok();
+    }
+    nis_sum[kind] += out.nis;
+    nis_n[kind] += 1.0;
+    if (m.kind != MeasurementKind::kImu && m.kind != MeasurementKind::kImuStance) {
+      result.nis.push_back(out.nis);
+    }
+    return Status::Ok();
+  };
+  // A radio set: one reading alone (gated by update), or the stacked readings, each row gated
+  // against the prior first.
+  const double gate_quantile =
+      o.gate_probability > 0 ? ChiSquareQuantile(o.gate_probability, 1) : 0.0;
+  auto radio_update = [&](const std::vector<Measurement>& parts) -> Status {
+    if (parts.size() == 1) return update(parts[0], o.gate_probability);
+    std::vector<Measurement> kept;
+    for (const Measurement& m : parts) {
+      if (o.gate_probability > 0) {
+        WG_ASSIGN_OR_RETURN(const double nis, core.Nis(m));
+        if (nis > gate_quantile) {
+          gated += 1.0;
+          continue;
+        }
+      }
+      kept.push_back(m);
+    }
+    if (kept.empty()) return Status::Ok();
+    return update(kept.size() == 1 ? kept[0] : prieto::StackMeasurements(std::move(kept)), 0.0);
+  };
+  auto imu_update = [&](size_t k) -> Status {
+    const ImuSample& s = walk.imu[k];
+    Measurement& m = stance.stance[k] ? imu_stance : imu_only;
+    m.z.head<3>() = s.acc_mps2;        // eq. 7
+    m.z.segment<3>(3) = s.gyro_radps;  // eq. 8 (stance rows stay 0: eq. 9)
+    return update(m, 0.0);
+  };
+
+  // RTS epochs: the filter state x_{m|m} (chart origin) and, in that chart, x_prior = 0,
+  // x_post = δ (the clone's correction), F from the previous epoch (see prieto.h).
+  std::vector<NominalState> stored;
+  std::vector<FilterEpoch> epochs;
+  const double period = 1.0 / o.output_rate_hz;
+  double next_out = times.front();
+  size_t ri = 0;
+  const bool interval = o.imu_sampling == ImuSampling::kIntervalAverage;
+  // Radio-only: the trajectory holds the estimates at the radio epochs (see prieto.h).
+  const bool output_at_radio = o.sensors == PrietoSensors::kRadioOnly;
+  double q_norm_error = 0.0, asymmetry = 0.0, not_pd = 0.0;
+  for (size_t k = 0; k < times.size(); ++k) {
+    const double t = times[k];
+    if (k > 0) {
+      if (use_imu && interval) WG_RETURN_IF_ERROR(imu_update(k));
+      WG_RETURN_IF_ERROR(core.Predict(t - times[k - 1]));
+      if (use_imu && !interval) WG_RETURN_IF_ERROR(imu_update(k));
+    } else if (use_imu && !interval) {
+      WG_RETURN_IF_ERROR(imu_update(0));
+    }
+    bool radio_epoch = false;
+    for (; ri < groups.size() && groups[ri].t_s <= t; ++ri) {
+      WG_RETURN_IF_ERROR(radio_update(groups[ri].parts));
+      radio_epoch = true;
+    }
+    if (output_at_radio) {
+      if (!radio_epoch) continue;
+    } else {
+      if (!(t >= next_out - 1e-9) && k + 1 != times.size()) continue;
+      while (next_out <= t + 1e-9) next_out += period;
+    }
+    {  // Health of the state at the output epochs: unit quaternion, P symmetric PD.
+      const Eigen::MatrixXd& P = core.P();
+      q_norm_error = std::max(q_norm_error, std::fabs(core.y().q_nb.norm() - 1.0));
+      asymmetry = std::max(asymmetry, (P - P.transpose()).cwiseAbs().maxCoeff() /
+                                          std::max(P.cwiseAbs().maxCoeff(), 1e-300));
+      if (Eigen::LLT<Eigen::MatrixXd>(P).info() != Eigen::Success) not_pd += 1.0;
+    }
+    if (!o.smooth) {
+      result.trajectory.points.push_back(ToPoint(t, core.y(), core.P()));
+      continue;
+    }
+    FilterEpoch e;
+    e.t_s = t;
+    e.x_prior = Eigen::VectorXd::Zero(dim);
+    e.P_prior = core.P();
+    e.x_post = e.x_prior;
+    e.P_post = e.P_prior;  // until the next epoch closes the clone (the last one keeps it)
+    e.F = Eigen::MatrixXd::Identity(dim, dim);
+    if (core.cloning()) {
+      const Clone& c = core.clone();
+      epochs.back().x_post = c.delta;
+      epochs.back().P_post = c.P_jj;
+      // F with F P_{j|m} = P_{mj|m}, so that RtsSmooth's C = P_{j|m} Fᵀ P_{m|m}⁻¹.
+      const Eigen::LDLT<Eigen::MatrixXd> ldlt(c.P_jj);
+      e.F = ldlt.solve(c.P_cj.transpose()).transpose();
+    }
+    stored.push_back(core.y());
+    epochs.push_back(std::move(e));
+    core.StartClone();
+  }
+
+  if (o.smooth) {
+    WG_ASSIGN_OR_RETURN(const std::vector<SmoothedState> smoothed, RtsSmooth(epochs));
+    for (size_t i = 0; i < stored.size(); ++i) {
+      const NominalState ys = prieto::Retract(stored[i], smoothed[i].x);
+      result.trajectory.points.push_back(ToPoint(smoothed[i].t_s, ys, smoothed[i].P));
+    }
+    result.diagnostics["rts_epochs"] = static_cast<double>(stored.size());
+  }
+
+  const char* names[5] = {"imu", "imu_stance", "rss", "toa", "radio_set"};
+  for (int i = 0; i < 5; ++i) {
+    result.diagnostics[std::string("updates_") + names[i]] = nis_n[i];
+    if (nis_n[i] > 0) {
+      result.diagnostics[std::string("nis_mean_") + names[i]] = nis_sum[i] / nis_n[i];
+    }
+  }
+  result.diagnostics["gated_updates"] = gated;
+  result.diagnostics["pd_repairs"] = core.pd_repairs();
+  result.diagnostics["quaternion_norm_error_max"] = q_norm_error;
+  result.diagnostics["covariance_asymmetry_max"] = asymmetry;
+  result.diagnostics["covariance_not_pd_epochs"] = not_pd;
+  result.diagnostics["filter_epochs"] = static_cast<double>(times.size());
+  return result;
+}
+
+Status PrietoFilter::CheckApplicable(const Walk& walk) const {
+  const bool use_imu = options_.sensors != PrietoSensors::kRadioOnly;
+  const bool use_radio = options_.sensors != PrietoSensors::kImuOnly;
+  if (use_imu && walk.imu.size() < 2) return FailedPrecondition("prieto: needs imu.csv");
+  if (use_radio) {
+    const bool rss = options_.use_rss && walk.has_rss();
+    const bool toa = options_.use_toa && walk.has_ranges();
+    if (!rss && !toa) return FailedPrecondition("prieto: needs rss.csv or range.csv");
+  }
+  if (!use_radio && !walk.meta.initial_pose) {
+    return FailedPrecondition("prieto IMU-only: needs initial_pose in walk.yaml (a known start)");
+  }
+  return Status::Ok();
+}
+
+StatusOr<EstimateResult> PrietoFilter::Run(const Walk& walk) const {
+  WG_RETURN_IF_ERROR(CheckApplicable(walk));
+  return RunPrietoFilter(walk, options_);
+}
+
+namespace internal {
+
+void RegisterPrieto(EstimatorRegistry* registry) {
+  struct Variant {
+    const char* id;
+    const char* description;
+    PrietoFilterKind filter;
+    PrietoSensors sensors;
+    bool smooth;
+  };
+  const Variant variants[] = {
+      {"prieto-ekf", "002 eq. 1-9: EKF, foot IMU as measurements + stance evidences + RSS/TOA",
+       PrietoFilterKind::kEkf, PrietoSensors::kFusion, false},
+      {"prieto-ukf",
+       "002 eq. 1-9: UKF (scaled sigma points, quaternion mean), IMU + stance + RSS/TOA",
+       PrietoFilterKind::kUkf, PrietoSensors::kFusion, false},
+      {"prieto-ekf-rts", "002: prieto-ekf + RTS smoother at the output rate (stochastic cloning)",
+       PrietoFilterKind::kEkf, PrietoSensors::kFusion, true},
+      {"prieto-ukf-rts", "002: prieto-ukf + unscented RTS at the output rate (stochastic cloning)",
+       PrietoFilterKind::kUkf, PrietoSensors::kFusion, true},
+      {"prieto-ekf-imu", "002 Table I EKF-IMU: IMU + stance evidences only (no radio)",
+       PrietoFilterKind::kEkf, PrietoSensors::kImuOnly, false},
+      {"prieto-ukf-imu", "002 Table I UKF-IMU: IMU + stance evidences only (no radio)",
+       PrietoFilterKind::kUkf, PrietoSensors::kImuOnly, false},
+      {"prieto-ekf-wifi", "002 Table I EKF-WiFi: RSS + TOA only, state [x v a]",
+       PrietoFilterKind::kEkf, PrietoSensors::kRadioOnly, false},
+      {"prieto-ukf-wifi", "002 Table I UKF-WiFi: RSS + TOA only, state [x v a]",
+       PrietoFilterKind::kUkf, PrietoSensors::kRadioOnly, false},
+  };
+  for (const Variant& v : variants) {
+    PrietoOptions defaults;
+    defaults.filter = v.filter;
+    defaults.sensors = v.sensors;
+    defaults.smooth = v.smooth;
+    if (v.sensors == PrietoSensors::kRadioOnly) {  // see prieto.h
+      defaults.sigma_jerk_mps3 = 1.0;
+      defaults.radio_epoch_s = 1.0;
+    }
+    const std::string id = v.id;
+    registry->Register(
+        {id, v.description,
+         [id, defaults](const YAML::Node& config) -> StatusOr<std::unique_ptr<Estimator>> {
+           WG_ASSIGN_OR_RETURN(auto options, PrietoOptions::FromYaml(config, id, defaults));
+           return std::unique_ptr<Estimator>(new PrietoFilter(options));
+         }});
+  }
+}
+
+}  // namespace internal
+}  // namespace walkgraph
