@@ -201,7 +201,7 @@ TEST(StepGraphTest, OptionsAreStrict) {
   EXPECT_FALSE(reg.Create("fg-batch", YAML::Load("{pdr: {detector: nope}}")).ok());
 }
 
-TEST(StepGraphTest, WalkWithoutStepsIsNotApplicable) {
+TEST(StepGraphTest, WalkWithoutStepsNeedsThreeAnchors) {
   Walk w;
   w.meta.name = "radio only";
   w.anchors = {{1, Eigen::Vector3d::Zero()}};
@@ -209,6 +209,35 @@ TEST(StepGraphTest, WalkWithoutStepsIsNotApplicable) {
   auto est = EstimatorRegistry::Builtin().Create("fg-batch");
   ASSERT_TRUE(est.ok());
   EXPECT_FALSE((*est)->CheckApplicable(w).ok());
+  w.anchors.push_back({2, Eigen::Vector3d(10, 0, 0)});
+  w.anchors.push_back({3, Eigen::Vector3d(0, 10, 0)});
+  EXPECT_TRUE((*est)->CheckApplicable(w).ok());
+}
+
+// A radio-only walk (no steps): the random-walk graph tracks a walker from exact ranges.
+TEST(StepGraphTest, RadioOnlyWalkFollowsTheRanges) {
+  Walk w;
+  w.meta.name = "radio only";
+  w.meta.radio.kind = RadioKind::kRange;
+  w.meta.radio.range_sigma_m = 0.1;
+  w.anchors = {{1, Eigen::Vector3d(0, 0, 0)},
+               {2, Eigen::Vector3d(20, 0, 0)},
+               {3, Eigen::Vector3d(0, 20, 0)},
+               {4, Eigen::Vector3d(20, 20, 0)}};
+  for (int k = 0; k <= 200; ++k) {  // 0.5 m/s along y = 10 for 20 s, a reading every 0.1 s
+    const double t = 0.1 * k;
+    const Eigen::Vector3d p(0.5 * t, 10.0, 0.0);
+    const Anchor& a = w.anchors[k % 4];
+    w.ranges.push_back({t, a.id, (p - a.position_m).norm()});
+    w.truth.push_back({t, p, false});
+  }
+  auto r = RunId("fg-batch", w, YAML::Load("{range_bias: none, range_scale: none}"));
+  ASSERT_TRUE(r.ok()) << r.status().message();
+  auto e = ComputeErrors(w, r->trajectory);
+  ASSERT_TRUE(e.ok());
+  // A node per 0.5 s holds the position between nodes; at 0.5 m/s that is ≤ 0.25 m.
+  EXPECT_LT(SummarizeErrors(e->error_m, 10.0).max_m, 0.3);
+  EXPECT_TRUE(r->trajectory.points.front().covariance.has_value());
 }
 
 TEST(StepGraphRealData, Plaza1BatchWithRangeBiasesAndRobustLoss) {
