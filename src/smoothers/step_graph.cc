@@ -228,6 +228,21 @@ struct StepGraph::Impl {
   std::shared_ptr<const ceres::LossFunction> rss_loss, range_loss, mag_loss;
 
   int PathLossGroup(int anchor) const { return o.path_loss == "per-anchor" ? anchor : 0; }
+
+  // Dead reckoning: node k's (p, θ) from node k − 1's by its increment (odometry: move along
+  // the heading, then turn; a step: turn, then move along the new heading; radio-only: stay).
+  Eigen::Vector3d Predict(int k, Eigen::Vector3d x) const {
+    if (odometry) {
+      const OdometrySample& s = odom[k - 1];
+      x.head<2>() += s.dist_m * Eigen::Vector2d(std::cos(x[2]), std::sin(x[2]));
+      x[2] = NormalizeAngle(x[2] + s.dheading_rad);
+    } else if (!radio_only) {
+      const Step& s = steps[k - 1];
+      x[2] = NormalizeAngle(x[2] + s.dheading_rad);
+      x.head<2>() += s.length_m * Eigen::Vector2d(std::cos(x[2]), std::sin(x[2]));
+    }
+    return x;
+  }
   int RangeBiasGroup(int anchor) const { return o.range_bias == "per-anchor" ? anchor : 0; }
   int RangeScaleGroup(int anchor) const { return o.range_scale == "per-anchor" ? anchor : 0; }
 };
@@ -294,17 +309,7 @@ StatusOr<std::unique_ptr<StepGraph>> StepGraph::Build(const Walk& walk, const St
   if (m.start) x = Eigen::Vector3d(m.start->x_m, m.start->y_m, m.start->heading_rad);
   g->init_.push_back(x);
   for (int k = 1; k < n; ++k) {
-    if (m.radio_only) {
-      // stays: positions come from the radio fixes below
-    } else if (m.odometry) {
-      const OdometrySample& s = m.odom[k - 1];
-      x.head<2>() += s.dist_m * Eigen::Vector2d(std::cos(x[2]), std::sin(x[2]));
-      x[2] = NormalizeAngle(x[2] + s.dheading_rad);
-    } else {
-      const Step& s = m.steps[k - 1];
-      x[2] = NormalizeAngle(x[2] + s.dheading_rad);
-      x.head<2>() += s.length_m * Eigen::Vector2d(std::cos(x[2]), std::sin(x[2]));
-    }
+    x = m.Predict(k, x);  // radio-only walks: positions come from the radio fixes below
     g->init_.push_back(x);
   }
 
@@ -494,21 +499,8 @@ std::vector<SmootherState> StepGraph::StaticStates() const {
 std::vector<SmootherState> StepGraph::NodeStates(int k, const Eigen::Vector2d& prev_p,
                                                  double prev_theta) const {
   const Impl& m = *impl_;
-  Eigen::Vector3d x = init_[0];
-  if (k > 0) {
-    x = Eigen::Vector3d(prev_p.x(), prev_p.y(), prev_theta);
-    if (m.radio_only) {
-      // random walk: the best prediction is where the walker was
-    } else if (m.odometry) {
-      const OdometrySample& s = m.odom[k - 1];
-      x.head<2>() += s.dist_m * Eigen::Vector2d(std::cos(x[2]), std::sin(x[2]));
-      x[2] = NormalizeAngle(x[2] + s.dheading_rad);
-    } else {
-      const Step& s = m.steps[k - 1];
-      x[2] = NormalizeAngle(x[2] + s.dheading_rad);
-      x.head<2>() += s.length_m * Eigen::Vector2d(std::cos(x[2]), std::sin(x[2]));
-    }
-  }
+  const Eigen::Vector3d x =
+      k > 0 ? m.Predict(k, Eigen::Vector3d(prev_p.x(), prev_p.y(), prev_theta)) : init_[0];
   SmootherState p, th;
   p.key = PositionKey(k);
   p.t_s = node_t_[k];
