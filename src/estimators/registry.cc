@@ -10,6 +10,7 @@ const EstimatorRegistry& EstimatorRegistry::Builtin() {
     internal::RegisterPrieto(r);
     internal::RegisterZuptIns(r);
     internal::RegisterInsGraphBatch(r);
+    internal::RegisterInsGraphWindow(r);
     internal::RegisterJimenezIez(r);
     internal::RegisterTarrio(r);
     internal::RegisterCorrea(r);
