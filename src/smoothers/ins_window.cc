@@ -218,7 +218,7 @@ StatusOr<EstimateResult> InsGraphWindow::Run(const Walk& walk) const {
             it = key_of.emplace(block, RangeBiasKey(ai)).first;
             SmootherState st;
             st.key = it->second;
-            st.value = {bias};
+            st.value = std::vector<double>(1, bias);
             st.constant = !g.estimate_range_bias;
             new_states.push_back(std::move(st));
             break;
@@ -228,7 +228,7 @@ StatusOr<EstimateResult> InsGraphWindow::Run(const Walk& walk) const {
         if (it->second == kPathLossKey && statics_added.insert(kPathLossKey).second) {
           SmootherState st;
           st.key = kPathLossKey;
-          st.value = {radio.path_loss[0], radio.path_loss[1]};
+          st.value = std::vector<double>(radio.path_loss.begin(), radio.path_loss.end());
           st.constant = true;  // the walk's path loss, as in fg-ins-batch
           new_states.push_back(std::move(st));
         }
@@ -268,10 +268,20 @@ StatusOr<EstimateResult> InsGraphWindow::Run(const Walk& walk) const {
       if (b == kQ) st.manifold = manifold;
       new_states.push_back(std::move(st));
     }
-    const size_t k = i == 0 ? 0 : i - 1, m = i == 0 ? 0 : 1;
-    WG_ASSIGN_OR_RETURN(std::vector<InsFactor> segment, InsSegmentFactors(context, &build, k, m));
-    WG_ASSIGN_OR_RETURN(std::vector<InsFactor> readings,
-                        InsRadioFactors(context, &build, k, m, &radio));
+    // State 0: the gauge and its unary factors; state i > 0: the segment i−1 → i alone
+    // (InsSegmentFactors(·, 0, ·) would return the gauge again). The readings at t_0 come with
+    // those of (t_0, t_1] (InsRadioFactors with k = 0 takes both), so none is added twice.
+    std::vector<InsFactor> segment, readings;
+    if (i == 0) {
+      WG_ASSIGN_OR_RETURN(segment, InsSegmentFactors(context, &build, 0, 0));
+    } else {
+      WG_ASSIGN_OR_RETURN(segment, InsBetweenFactors(context, &build[i - 1], &build[i]));
+      for (InsFactor& f : InsStateFactors(context, &build[i])) segment.push_back(std::move(f));
+    }
+    if (i > 0 || n == 1) {
+      WG_ASSIGN_OR_RETURN(readings, InsRadioFactors(context, &build, i == 0 ? 0 : i - 1,
+                                                    i == 0 ? 0 : 1, &radio));
+    }
     num_radio += readings.size();
     WG_RETURN_IF_ERROR(to_smoother(&segment));
     WG_RETURN_IF_ERROR(to_smoother(&readings));
