@@ -279,8 +279,8 @@ StatusOr<EstimateResult> InsGraphWindow::Run(const Walk& walk) const {
       for (InsFactor& f : InsStateFactors(context, &build[i])) segment.push_back(std::move(f));
     }
     if (i > 0 || n == 1) {
-      WG_ASSIGN_OR_RETURN(readings, InsRadioFactors(context, &build, i == 0 ? 0 : i - 1,
-                                                    i == 0 ? 0 : 1, &radio));
+      WG_ASSIGN_OR_RETURN(
+          readings, InsRadioFactors(context, &build, i == 0 ? 0 : i - 1, i == 0 ? 0 : 1, &radio));
     }
     num_radio += readings.size();
     WG_RETURN_IF_ERROR(to_smoother(&segment));
