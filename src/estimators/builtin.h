@@ -11,6 +11,7 @@ void RegisterOdometryDeadReckoning(EstimatorRegistry* registry);
 void RegisterPrieto(EstimatorRegistry* registry);
 void RegisterZuptIns(EstimatorRegistry* registry);
 void RegisterInsGraphBatch(EstimatorRegistry* registry);
+void RegisterInsGraphWindow(EstimatorRegistry* registry);  // smoothers/ins_window.cc
 void RegisterJimenezIez(EstimatorRegistry* registry);
 void RegisterTarrio(EstimatorRegistry* registry);  // filters/tarrio.cc
 void RegisterCorrea(EstimatorRegistry* registry);  // filters/correa.cc

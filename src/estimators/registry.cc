@@ -17,6 +17,7 @@ const EstimatorRegistry& EstimatorRegistry::Builtin() {
     internal::RegisterJimenezIez(r);
     internal::RegisterStepGraphSmoothers(r);
     internal::RegisterInsGraphBatch(r);
+    internal::RegisterInsGraphWindow(r);
     return r;
   }();
   return *registry;

@@ -34,11 +34,12 @@ Status CheckOptions(const InsGraphOptions& o) {
       !(o.max_state_interval_s > 0) || !(o.front_end.acc_bias_sigma_mps2 > 0) ||
       !(o.front_end.gyro_bias_sigma_radps > 0) || !(o.front_end.acc_bias_rw_mps2_sqrts > 0) ||
       !(o.front_end.gyro_bias_rw_radps_sqrts > 0) || !(o.rss_loss_scale > 0) ||
-      !(o.range_loss_scale > 0) || !(o.range_bias_sigma_m > 0)) {
+      !(o.range_loss_scale > 0) || !(o.range_bias_sigma_m > 0) || !(o.function_tolerance > 0) ||
+      !(o.parameter_tolerance > 0) || !(o.gradient_tolerance > 0)) {
     return InvalidArgument(
         "fg-ins-batch: need every_n_samples >= 1, max_iterations >= 1, max_relinearizations >= "
         "0, and every sigma, rate, interval and threshold > 0 (bias sigmas and random walks "
-        "of front_end included)");
+        "of front_end included, and Ceres tolerances)");
   }
   return Status::Ok();
 }
@@ -108,6 +109,9 @@ StatusOr<InsGraphOptions> InsGraphOptions::FromYaml(const YAML::Node& node) {
   r.Read("output_rate_hz", &o.output_rate_hz);
   r.Read("compute_covariance", &o.compute_covariance);
   r.Read("max_iterations", &o.max_iterations);
+  r.Read("function_tolerance", &o.function_tolerance);
+  r.Read("parameter_tolerance", &o.parameter_tolerance);
+  r.Read("gradient_tolerance", &o.gradient_tolerance);
   r.Read("max_relinearizations", &o.max_relinearizations);
   r.Read("relinearize_gyro_bias_radps", &o.relinearize_gyro_bias_radps);
   r.Read("relinearize_acc_bias_mps2", &o.relinearize_acc_bias_mps2);
@@ -430,6 +434,62 @@ void AddInsFactors(ceres::Problem* problem, std::vector<InsFactor>* factors) {
   factors->clear();
 }
 
+Trajectory InsStatesTrajectory(const Walk& walk, const std::vector<InsState>& states,
+                               const std::vector<std::optional<Eigen::Matrix3d>>& cov,
+                               const InsGraphOptions& o, bool close_segments) {
+  Trajectory out;
+  if (states.empty()) return out;
+  const std::vector<ImuSample>& imu = walk.imu;
+  StrapdownOptions sd;
+  sd.gravity_mps2 = o.front_end.gravity_mps2;
+  sd.sampling = o.front_end.sampling;
+  const double period = 1.0 / o.output_rate_hz;
+  double next_tick = imu[states.front().imu_index].t_s;
+  auto emit = [&](double t, const Eigen::Vector3d& p, double yaw,
+                  const std::optional<Eigen::Matrix3d>& c) {
+    TrajectoryPoint pt;
+    pt.t_s = t;
+    pt.position_m = p;
+    pt.heading_rad = NormalizeAngle(yaw);
+    pt.covariance = c;
+    out.points.push_back(pt);
+  };
+  emit(states[0].t_s, states[0].position(), Yaw(states[0].attitude()), cov[0]);
+  next_tick += period;
+  for (size_t s = 0; s + 1 < states.size(); ++s) {
+    const InsState& a = states[s];
+    const InsState& b = states[s + 1];
+    sd.gyro_bias_radps = a.gyro_bias();
+    sd.acc_bias_mps2 = a.acc_bias();
+    std::vector<NavState> fwd;
+    NavState x = ToNavState(a);
+    for (size_t k = a.imu_index + 1; k <= b.imu_index; ++k) {
+      x = StrapdownStep(x, imu[k - 1], imu[k], sd);
+      if (k < b.imu_index && imu[k].t_s + 1e-9 >= next_tick) {
+        fwd.push_back(x);
+        while (next_tick <= imu[k].t_s + 1e-9) next_tick += period;
+      }
+    }
+    const double w = close_segments ? 1.0 : 0.0;
+    const Eigen::Vector3d dp = w * (b.position() - x.p_n);
+    const double dyaw = w * NormalizeAngle(Yaw(b.attitude()) - Yaw(x.q_nb));
+    const double span = b.t_s - a.t_s;
+    for (const NavState& f : fwd) {
+      const double alpha = (f.t_s - a.t_s) / span;
+      std::optional<Eigen::Matrix3d> c;
+      if (!close_segments) {
+        c = cov[s];
+      } else if (cov[s] && cov[s + 1]) {
+        c = Eigen::Matrix3d((1.0 - alpha) * *cov[s] + alpha * *cov[s + 1]);
+      }
+      emit(f.t_s, f.p_n + alpha * dp, Yaw(f.q_nb) + alpha * dyaw, c);
+    }
+    emit(b.t_s, b.position(), Yaw(b.attitude()), cov[s + 1]);
+    while (next_tick <= b.t_s + 1e-9) next_tick += period;
+  }
+  return out;
+}
+
 Status InsGraphBatch::CheckApplicable(const Walk& walk) const {
   if (walk.meta.imu_placement != ImuPlacement::kFoot) {
     return FailedPrecondition("fg-ins-batch needs a foot-mounted IMU (imu_placement: foot)");
@@ -454,6 +514,9 @@ StatusOr<EstimateResult> InsGraphBatch::Run(const Walk& walk) const {
   solver.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
   solver.num_threads = 1;
   solver.max_num_iterations = o.max_iterations;
+  solver.function_tolerance = o.function_tolerance;
+  solver.parameter_tolerance = o.parameter_tolerance;
+  solver.gradient_tolerance = o.gradient_tolerance;
   solver.logging_type = ceres::SILENT;
   solver.minimizer_progress_to_stdout = false;
 
@@ -536,50 +599,9 @@ StatusOr<EstimateResult> InsGraphBatch::Run(const Walk& walk) const {
     }
   }
 
-  // Output: every state and a grid of 1/output_rate_hz, filled in by strapdown between states.
-  const std::vector<ImuSample>& imu = walk.imu;
-  StrapdownOptions sd;
-  sd.gravity_mps2 = o.front_end.gravity_mps2;
-  sd.sampling = o.front_end.sampling;
-  const double period = 1.0 / o.output_rate_hz;
-  double next_tick = imu[states.front().imu_index].t_s;
-  auto emit = [&](double t, const Eigen::Vector3d& p, double yaw, const Eigen::Matrix3d& c) {
-    TrajectoryPoint pt;
-    pt.t_s = t;
-    pt.position_m = p;
-    pt.heading_rad = NormalizeAngle(yaw);
-    if (cov_ok) pt.covariance = c;
-    result.trajectory.points.push_back(pt);
-  };
-  emit(states[0].t_s, states[0].position(), Yaw(states[0].attitude()), cov[0]);
-  next_tick += period;
-  for (size_t s = 0; s + 1 < states.size(); ++s) {
-    const InsState& a = states[s];
-    const InsState& b = states[s + 1];
-    sd.gyro_bias_radps = a.gyro_bias();
-    sd.acc_bias_mps2 = a.acc_bias();
-    std::vector<NavState> fwd;
-    std::vector<size_t> at;
-    NavState x = ToNavState(a);
-    for (size_t k = a.imu_index + 1; k <= b.imu_index; ++k) {
-      x = StrapdownStep(x, imu[k - 1], imu[k], sd);
-      if (k < b.imu_index && imu[k].t_s + 1e-9 >= next_tick) {
-        fwd.push_back(x);
-        at.push_back(k);
-        while (next_tick <= imu[k].t_s + 1e-9) next_tick += period;
-      }
-    }
-    const Eigen::Vector3d dp = b.position() - x.p_n;
-    const double dyaw = NormalizeAngle(Yaw(b.attitude()) - Yaw(x.q_nb));
-    const double span = b.t_s - a.t_s;
-    for (size_t m = 0; m < fwd.size(); ++m) {
-      const double alpha = (fwd[m].t_s - a.t_s) / span;
-      emit(fwd[m].t_s, fwd[m].p_n + alpha * dp, Yaw(fwd[m].q_nb) + alpha * dyaw,
-           (1.0 - alpha) * cov[s] + alpha * cov[s + 1]);
-    }
-    emit(b.t_s, b.position(), Yaw(b.attitude()), cov[s + 1]);
-    while (next_tick <= b.t_s + 1e-9) next_tick += period;
-  }
+  std::vector<std::optional<Eigen::Matrix3d>> state_cov(states.size());
+  if (cov_ok) state_cov.assign(cov.begin(), cov.end());
+  result.trajectory = InsStatesTrajectory(walk, states, state_cov, o, /*close_segments=*/true);
 
   result.diagnostics["num_states"] = static_cast<double>(states.size());
   result.diagnostics["num_strides"] = static_cast<double>(front.strides.steps.size());

@@ -61,6 +61,7 @@
 #include <array>
 #include <map>
 #include <memory>
+#include <optional>
 #include <set>
 #include <string>
 #include <vector>
@@ -98,6 +99,10 @@ struct InsGraphOptions {
   double output_rate_hz = 20.0;
   bool compute_covariance = true;
   int max_iterations = 100;
+  // Ceres' stopping rules (its defaults; the fixed-lag version uses the first two as well).
+  double function_tolerance = 1e-6;
+  double parameter_tolerance = 1e-8;
+  double gradient_tolerance = 1e-10;
   int max_relinearizations = 2;
   double relinearize_gyro_bias_radps = 2e-3;
   double relinearize_acc_bias_mps2 = 0.02;
@@ -198,6 +203,16 @@ void HoldInsRadioBlocks(ceres::Problem* problem, InsRadioBlocks* blocks,
 
 // Moves the factors into `problem` (which takes ownership of costs and losses).
 void AddInsFactors(ceres::Problem* problem, std::vector<InsFactor>* factors);
+
+// The output trajectory of a set of state estimates (time order): a pose at every state and
+// every 1/output_rate_hz between, by strapdown from state i with its biases. close_segments:
+// the end mismatch to state i+1 is spread linearly in time (fg-ins-batch, the lagged window
+// output; see the top of this file), else not (the online output, where state i+1 is the
+// future). cov[i]: (x, y, yaw) covariance of state i or none; between states it is
+// interpolated (close_segments) or state i's, and none where a state it needs has none.
+Trajectory InsStatesTrajectory(const Walk& walk, const std::vector<InsState>& states,
+                               const std::vector<std::optional<Eigen::Matrix3d>>& cov,
+                               const InsGraphOptions& options, bool close_segments);
 
 // fg-ins-batch.
 class InsGraphBatch : public Estimator {
