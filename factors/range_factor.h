@@ -13,6 +13,8 @@
 #ifndef WALKGRAPH_FACTORS_RANGE_FACTOR_H_
 #define WALKGRAPH_FACTORS_RANGE_FACTOR_H_
 
+#include <type_traits>
+
 #include <ceres/autodiff_cost_function.h>
 #include <Eigen/Core>
 
@@ -20,90 +22,75 @@
 
 namespace walkgraph {
 
-template <int kDim>
-class RangeFactor {
+// kScaled = false: blocks p [, p_b], b; true: p [, p_b], b, s (see the top of this file).
+template <int kDim, bool kScaled>
+class RangeFactorT {
  public:
-  RangeFactor(double range_m, const Eigen::Vector3d& anchor_m, double sigma_m,
-              double receiver_height_m, double alpha)
+  RangeFactorT(double range_m, const Eigen::Vector3d& anchor_m, double sigma_m,
+               double receiver_height_m, double alpha)
       : range_m_(range_m), inv_sigma_(1.0 / sigma_m) {
     receiver_.anchor_m = anchor_m;
     receiver_.receiver_height_m = receiver_height_m;
     receiver_.alpha = alpha;
   }
 
-  template <typename T>
+  template <typename T, bool S = kScaled, std::enable_if_t<!S, int> = 0>
   bool operator()(const T* p, const T* bias, T* residual) const {
-    residual[0] = (T(range_m_) - receiver_.Distance(p, static_cast<const T*>(nullptr)) - bias[0]) *
-                  T(inv_sigma_);
-    return true;
+    return Residual(p, static_cast<const T*>(nullptr), bias, static_cast<const T*>(nullptr),
+                    residual);
   }
-  template <typename T>
+  template <typename T, bool S = kScaled, std::enable_if_t<!S, int> = 0>
   bool operator()(const T* p_a, const T* p_b, const T* bias, T* residual) const {
-    residual[0] = (T(range_m_) - receiver_.Distance(p_a, p_b) - bias[0]) * T(inv_sigma_);
-    return true;
+    return Residual(p_a, p_b, bias, static_cast<const T*>(nullptr), residual);
+  }
+  template <typename T, bool S = kScaled, std::enable_if_t<S, int> = 0>
+  bool operator()(const T* p, const T* bias, const T* scale, T* residual) const {
+    return Residual(p, static_cast<const T*>(nullptr), bias, scale, residual);
+  }
+  template <typename T, bool S = kScaled, std::enable_if_t<S, int> = 0>
+  bool operator()(const T* p_a, const T* p_b, const T* bias, const T* scale, T* residual) const {
+    return Residual(p_a, p_b, bias, scale, residual);
   }
 
-  // Blocks: p (kDim), b (1).
+  // Blocks: p (kDim), b (1) [, s (1)].
   static ceres::CostFunction* Create(double range_m, const Eigen::Vector3d& anchor_m,
                                      double sigma_m, double receiver_height_m = 0.0) {
-    return new ceres::AutoDiffCostFunction<RangeFactor, 1, kDim, 1>(
-        new RangeFactor(range_m, anchor_m, sigma_m, receiver_height_m, 0.0));
+    auto* f = new RangeFactorT(range_m, anchor_m, sigma_m, receiver_height_m, 0.0);
+    if constexpr (kScaled) {
+      return new ceres::AutoDiffCostFunction<RangeFactorT, 1, kDim, 1, 1>(f);
+    } else {
+      return new ceres::AutoDiffCostFunction<RangeFactorT, 1, kDim, 1>(f);
+    }
   }
-  // Blocks: p_a (kDim), p_b (kDim), b (1); received at (1 − α)·p_a + α·p_b.
+  // Blocks: p_a (kDim), p_b (kDim), b (1) [, s (1)]; received at (1 − α)·p_a + α·p_b.
   static ceres::CostFunction* CreateInterpolated(double range_m, const Eigen::Vector3d& anchor_m,
                                                  double sigma_m, double alpha,
                                                  double receiver_height_m = 0.0) {
-    return new ceres::AutoDiffCostFunction<RangeFactor, 1, kDim, kDim, 1>(
-        new RangeFactor(range_m, anchor_m, sigma_m, receiver_height_m, alpha));
+    auto* f = new RangeFactorT(range_m, anchor_m, sigma_m, receiver_height_m, alpha);
+    if constexpr (kScaled) {
+      return new ceres::AutoDiffCostFunction<RangeFactorT, 1, kDim, kDim, 1, 1>(f);
+    } else {
+      return new ceres::AutoDiffCostFunction<RangeFactorT, 1, kDim, kDim, 1>(f);
+    }
   }
 
  private:
+  template <typename T>
+  bool Residual(const T* p_a, const T* p_b, const T* bias, const T* scale, T* residual) const {
+    T d = receiver_.Distance(p_a, p_b);
+    if (scale != nullptr) d *= T(1.0) + scale[0];
+    residual[0] = (T(range_m_) - d - bias[0]) * T(inv_sigma_);
+    return true;
+  }
+
   double range_m_, inv_sigma_;
   factors_internal::Receiver<kDim> receiver_;
 };
 
 template <int kDim>
-class ScaledRangeFactor {
- public:
-  ScaledRangeFactor(double range_m, const Eigen::Vector3d& anchor_m, double sigma_m,
-                    double receiver_height_m, double alpha)
-      : range_m_(range_m), inv_sigma_(1.0 / sigma_m) {
-    receiver_.anchor_m = anchor_m;
-    receiver_.receiver_height_m = receiver_height_m;
-    receiver_.alpha = alpha;
-  }
-
-  template <typename T>
-  bool operator()(const T* p, const T* bias, const T* scale, T* residual) const {
-    const T d = receiver_.Distance(p, static_cast<const T*>(nullptr));
-    residual[0] = (T(range_m_) - (T(1.0) + scale[0]) * d - bias[0]) * T(inv_sigma_);
-    return true;
-  }
-  template <typename T>
-  bool operator()(const T* p_a, const T* p_b, const T* bias, const T* scale, T* residual) const {
-    const T d = receiver_.Distance(p_a, p_b);
-    residual[0] = (T(range_m_) - (T(1.0) + scale[0]) * d - bias[0]) * T(inv_sigma_);
-    return true;
-  }
-
-  // Blocks: p (kDim), b (1), s (1).
-  static ceres::CostFunction* Create(double range_m, const Eigen::Vector3d& anchor_m,
-                                     double sigma_m, double receiver_height_m = 0.0) {
-    return new ceres::AutoDiffCostFunction<ScaledRangeFactor, 1, kDim, 1, 1>(
-        new ScaledRangeFactor(range_m, anchor_m, sigma_m, receiver_height_m, 0.0));
-  }
-  // Blocks: p_a (kDim), p_b (kDim), b (1), s (1); received at (1 − α)·p_a + α·p_b.
-  static ceres::CostFunction* CreateInterpolated(double range_m, const Eigen::Vector3d& anchor_m,
-                                                 double sigma_m, double alpha,
-                                                 double receiver_height_m = 0.0) {
-    return new ceres::AutoDiffCostFunction<ScaledRangeFactor, 1, kDim, kDim, 1, 1>(
-        new ScaledRangeFactor(range_m, anchor_m, sigma_m, receiver_height_m, alpha));
-  }
-
- private:
-  double range_m_, inv_sigma_;
-  factors_internal::Receiver<kDim> receiver_;
-};
+using RangeFactor = RangeFactorT<kDim, false>;
+template <int kDim>
+using ScaledRangeFactor = RangeFactorT<kDim, true>;
 
 }  // namespace walkgraph
 

@@ -12,6 +12,7 @@
 #include "factors/heading_factor.h"
 #include "factors/heading_increment_factor.h"
 #include "factors/odometry_factor.h"
+#include "factors/position_random_walk_factor.h"
 #include "factors/range_factor.h"
 #include "factors/rss_factor.h"
 #include "factors/rss_range_factor.h"
@@ -89,6 +90,15 @@ TEST(OdometryFactorTest, MatchesPose2Between) {
   EXPECT_NEAR(r[0], 0.1 * std::cos(kPi / 4) / 0.05, 1e-12);
   EXPECT_NEAR(r[1], -0.1 * std::sin(kPi / 4) / 0.02, 1e-12);
   ExpectGradientsMatch(*f, {p0, t0, p2, t1}, {1, 3});
+}
+
+TEST(PositionRandomWalkFactorTest, WhitensByTheDiffusion) {
+  std::unique_ptr<ceres::CostFunction> f(PositionRandomWalkFactor::Create(0.25, 1.0));
+  const double a[2] = {1.0, 2.0}, b[2] = {1.3, 1.6};  // σ = 1·√0.25 = 0.5 m
+  const auto r = Residuals(*f, {a, b});
+  EXPECT_NEAR(r[0], 0.6, 1e-12);
+  EXPECT_NEAR(r[1], -0.8, 1e-12);
+  ExpectGradientsMatch(*f, {a, b});
 }
 
 TEST(RssFactorTest, ResidualMatchesPathLossModelInBothUnits) {

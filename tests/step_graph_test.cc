@@ -3,6 +3,7 @@
 // on the exactly linear-Gaussian walk, then accuracy on simulated and real walks.
 #include "walkgraph/smoothers/step_graph.h"
 
+#include <algorithm>
 #include <cmath>
 #include <map>
 #include <string>
@@ -200,7 +201,7 @@ TEST(StepGraphTest, OptionsAreStrict) {
   EXPECT_FALSE(reg.Create("fg-batch", YAML::Load("{pdr: {detector: nope}}")).ok());
 }
 
-TEST(StepGraphTest, WalkWithoutStepsIsNotApplicable) {
+TEST(StepGraphTest, WalkWithoutStepsNeedsThreeAnchors) {
   Walk w;
   w.meta.name = "radio only";
   w.anchors = {{1, Eigen::Vector3d::Zero()}};
@@ -208,6 +209,35 @@ TEST(StepGraphTest, WalkWithoutStepsIsNotApplicable) {
   auto est = EstimatorRegistry::Builtin().Create("fg-batch");
   ASSERT_TRUE(est.ok());
   EXPECT_FALSE((*est)->CheckApplicable(w).ok());
+  w.anchors.push_back({2, Eigen::Vector3d(10, 0, 0)});
+  w.anchors.push_back({3, Eigen::Vector3d(0, 10, 0)});
+  EXPECT_TRUE((*est)->CheckApplicable(w).ok());
+}
+
+// A radio-only walk (no steps): the random-walk graph tracks a walker from exact ranges.
+TEST(StepGraphTest, RadioOnlyWalkFollowsTheRanges) {
+  Walk w;
+  w.meta.name = "radio only";
+  w.meta.radio.kind = RadioKind::kRange;
+  w.meta.radio.range_sigma_m = 0.1;
+  w.anchors = {{1, Eigen::Vector3d(0, 0, 0)},
+               {2, Eigen::Vector3d(20, 0, 0)},
+               {3, Eigen::Vector3d(0, 20, 0)},
+               {4, Eigen::Vector3d(20, 20, 0)}};
+  for (int k = 0; k <= 200; ++k) {  // 0.5 m/s along y = 10 for 20 s, a reading every 0.1 s
+    const double t = 0.1 * k;
+    const Eigen::Vector3d p(0.5 * t, 10.0, 0.0);
+    const Anchor& a = w.anchors[k % 4];
+    w.ranges.push_back({t, a.id, (p - a.position_m).norm()});
+    w.truth.push_back({t, p, false});
+  }
+  auto r = RunId("fg-batch", w, YAML::Load("{range_bias: none, range_scale: none}"));
+  ASSERT_TRUE(r.ok()) << r.status().message();
+  auto e = ComputeErrors(w, r->trajectory);
+  ASSERT_TRUE(e.ok());
+  // A node per 0.5 s holds the position between nodes; at 0.5 m/s that is ≤ 0.25 m.
+  EXPECT_LT(SummarizeErrors(e->error_m, 10.0).max_m, 0.3);
+  EXPECT_TRUE(r->trajectory.points.front().covariance.has_value());
 }
 
 TEST(StepGraphRealData, Plaza1BatchWithRangeBiasesAndRobustLoss) {
@@ -380,6 +410,39 @@ TEST(StepGraphConsistency, BatchNeesInsideTheChiSquareBand) {
     EXPECT_GE(mean, lo);
     EXPECT_LE(mean, hi);
   }
+}
+
+// Path-loss self-calibration (004 Table II's sweep): the exponent the smoother is configured
+// with goes from 1.5 to 4.0 while the simulated building keeps p = 2.3; fg-batch-selfcal's
+// RMSE varies by at most 15 % across the sweep and it recovers p within ±0.2 every time.
+// 1-lap walks and 10 runs per value keep the suite's time (README has the 8-lap figures).
+TEST(StepGraphSelfCalibration, ExponentSweepOnTheSimulatedBuilding) {
+  const int runs = testing::MonteCarloRuns(10);
+  std::vector<double> rmse;
+  for (double eta : {1.5, 2.3, 3.0, 4.0}) {
+    auto est = EstimatorRegistry::Builtin().Create(
+        "fg-batch-selfcal",
+        YAML::Load("{receiver_height_m: 1.0, eta: " + std::to_string(eta) + "}"));
+    ASSERT_TRUE(est.ok()) << est.status().message();
+    double sum_rmse = 0.0, sum_eta = 0.0;
+    for (int i = 0; i < runs; ++i) {
+      auto w = SimulateScenario("jimenez-building", MonteCarloSeed(4, i), YAML::Load("{laps: 1}"));
+      ASSERT_TRUE(w.ok());
+      auto r = (*est)->Run(*w);
+      ASSERT_TRUE(r.ok()) << r.status().message();
+      auto e = ComputeErrors(*w, r->trajectory);
+      ASSERT_TRUE(e.ok());
+      sum_rmse += SummarizeErrors(e->error_m, w->TruthDistance()).rmse_m;
+      sum_eta += r->diagnostics.at("path_loss_eta");
+      if (!testing::kSanitized) EXPECT_NEAR(r->diagnostics.at("path_loss_eta"), 2.3, 0.2) << eta;
+    }
+    rmse.push_back(sum_rmse / runs);
+    std::printf("configured eta %.1f: RMSE %.3f m, estimated eta %.3f\n", eta, rmse.back(),
+                sum_eta / runs);
+  }
+  const double lo = *std::min_element(rmse.begin(), rmse.end());
+  const double hi = *std::max_element(rmse.begin(), rmse.end());
+  if (!testing::kSanitized) EXPECT_LE(hi, 1.15 * lo);
 }
 
 }  // namespace

@@ -6,15 +6,17 @@ namespace walkgraph {
 const EstimatorRegistry& EstimatorRegistry::Builtin() {
   static const EstimatorRegistry* registry = [] {
     auto* r = new EstimatorRegistry();
+    // Order of tables and `walkgraph list`: dead reckoning and the papers' baselines and
+    // filters (000 … 004), then walkgraph's factor-graph smoothers.
     internal::RegisterOdometryDeadReckoning(r);
-    internal::RegisterPrieto(r);
     internal::RegisterZuptIns(r);
-    internal::RegisterInsGraphBatch(r);
-    internal::RegisterJimenezIez(r);
     internal::RegisterTarrio(r);
     internal::RegisterCorrea(r);
+    internal::RegisterPrieto(r);
     internal::RegisterGadeke(r);
+    internal::RegisterJimenezIez(r);
     internal::RegisterStepGraphSmoothers(r);
+    internal::RegisterInsGraphBatch(r);
     return r;
   }();
   return *registry;

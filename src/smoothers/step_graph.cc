@@ -16,6 +16,7 @@
 #include "factors/heading_factor.h"
 #include "factors/heading_increment_factor.h"
 #include "factors/odometry_factor.h"
+#include "factors/position_random_walk_factor.h"
 #include "factors/range_factor.h"
 #include "factors/rss_factor.h"
 #include "factors/rss_range_factor.h"
@@ -73,6 +74,8 @@ StatusOr<StepGraphOptions> StepGraphOptions::FromYaml(const YAML::Node& node,
   r.Read("min_sigma_length_m", &o.min_sigma_length_m);
   r.Read("min_sigma_dheading_rad", &o.min_sigma_dheading_rad);
   r.Read("max_step_duration_s", &o.max_step_duration_s);
+  r.Read("radio_epoch_s", &o.radio_epoch_s);
+  r.Read("motion_sigma_mps", &o.motion_sigma_mps);
   r.Read("estimate_gyro_bias", &o.estimate_gyro_bias);
   r.Read("gyro_bias_prior_sigma_radps", &o.gyro_bias_prior_sigma_radps);
   r.Read("use_mag_heading", &o.use_mag_heading);
@@ -128,6 +131,8 @@ StatusOr<StepGraphOptions> StepGraphOptions::FromYaml(const YAML::Node& node,
   WG_RETURN_IF_ERROR(positive(o.min_sigma_length_m, "min_sigma_length_m"));
   WG_RETURN_IF_ERROR(positive(o.min_sigma_dheading_rad, "min_sigma_dheading_rad"));
   WG_RETURN_IF_ERROR(positive(o.max_step_duration_s, "max_step_duration_s"));
+  WG_RETURN_IF_ERROR(positive(o.radio_epoch_s, "radio_epoch_s"));
+  WG_RETURN_IF_ERROR(positive(o.motion_sigma_mps, "motion_sigma_mps"));
   WG_RETURN_IF_ERROR(positive(o.gyro_bias_prior_sigma_radps, "gyro_bias_prior_sigma_radps"));
   WG_RETURN_IF_ERROR(positive(o.mag_heading_sigma_rad, "mag_heading_sigma_rad"));
   WG_RETURN_IF_ERROR(positive(o.mag_heading_loss_scale, "mag_heading_loss_scale"));
@@ -210,6 +215,7 @@ struct Reading {
 struct StepGraph::Impl {
   StepGraphOptions o;
   bool odometry = false;
+  bool radio_only = false;           // no steps: random-walk motion between radio epochs
   std::vector<Step> steps;           // node k ≥ 1 ends steps[k − 1] (PDR walks)
   std::vector<OdometrySample> odom;  // node k ≥ 1 ends odom[k − 1] (odometry walks)
   std::vector<Anchor> anchors;
@@ -222,6 +228,21 @@ struct StepGraph::Impl {
   std::shared_ptr<const ceres::LossFunction> rss_loss, range_loss, mag_loss;
 
   int PathLossGroup(int anchor) const { return o.path_loss == "per-anchor" ? anchor : 0; }
+
+  // Dead reckoning: node k's (p, θ) from node k − 1's by its increment (odometry: move along
+  // the heading, then turn; a step: turn, then move along the new heading; radio-only: stay).
+  Eigen::Vector3d Predict(int k, Eigen::Vector3d x) const {
+    if (odometry) {
+      const OdometrySample& s = odom[k - 1];
+      x.head<2>() += s.dist_m * Eigen::Vector2d(std::cos(x[2]), std::sin(x[2]));
+      x[2] = NormalizeAngle(x[2] + s.dheading_rad);
+    } else if (!radio_only) {
+      const Step& s = steps[k - 1];
+      x[2] = NormalizeAngle(x[2] + s.dheading_rad);
+      x.head<2>() += s.length_m * Eigen::Vector2d(std::cos(x[2]), std::sin(x[2]));
+    }
+    return x;
+  }
   int RangeBiasGroup(int anchor) const { return o.range_bias == "per-anchor" ? anchor : 0; }
   int RangeScaleGroup(int anchor) const { return o.range_scale == "per-anchor" ? anchor : 0; }
 };
@@ -245,7 +266,21 @@ StatusOr<std::unique_ptr<StepGraph>> StepGraph::Build(const Walk& walk, const St
   m.mag_loss = MakeLoss(o.mag_heading_loss, o.mag_heading_loss_scale);
 
   std::vector<double> t;
-  if (m.odometry) {
+  m.radio_only = !walk.has_odometry() && !walk.has_imu();
+  if (m.radio_only) {
+    // No steps: one node per radio epoch (a new node once radio_epoch_s has passed), joined by
+    // the random-walk motion model; the first reading's time is node 0.
+    std::vector<double> rt;
+    for (const RssSample& s : walk.rss) rt.push_back(s.t_s);
+    for (const RangeSample& s : walk.ranges) rt.push_back(s.t_s);
+    std::sort(rt.begin(), rt.end());
+    if (rt.empty()) return FailedPrecondition("step graph: the walk has no steps and no radio");
+    double node = rt.front();
+    for (double x : rt) {
+      if (x >= node + o.radio_epoch_s) t.push_back(node = x);
+    }
+    if (t.empty()) t.push_back(rt.back() + o.radio_epoch_s);
+  } else if (m.odometry) {
     m.odom = walk.odometry;
     for (const OdometrySample& s : m.odom) t.push_back(s.t_s);
   } else {
@@ -260,9 +295,11 @@ StatusOr<std::unique_ptr<StepGraph>> StepGraph::Build(const Walk& walk, const St
                              " at " + std::to_string(t[i]) + " s)");
     }
   }
-  const double first_duration = m.odometry ? 0.0 : m.steps.front().duration_s;
+  const double first_duration = m.odometry || m.radio_only ? 0.0 : m.steps.front().duration_s;
   const double t0 =
-      std::min(walk.StartTime(), t.front() - std::max(std::min(first_duration, 1.0), 0.01));
+      m.radio_only
+          ? t.front() - o.radio_epoch_s
+          : std::min(walk.StartTime(), t.front() - std::max(std::min(first_duration, 1.0), 0.01));
   g->node_t_.push_back(t0);
   g->node_t_.insert(g->node_t_.end(), t.begin(), t.end());
   const int n = g->num_nodes();
@@ -272,15 +309,7 @@ StatusOr<std::unique_ptr<StepGraph>> StepGraph::Build(const Walk& walk, const St
   if (m.start) x = Eigen::Vector3d(m.start->x_m, m.start->y_m, m.start->heading_rad);
   g->init_.push_back(x);
   for (int k = 1; k < n; ++k) {
-    if (m.odometry) {
-      const OdometrySample& s = m.odom[k - 1];
-      x.head<2>() += s.dist_m * Eigen::Vector2d(std::cos(x[2]), std::sin(x[2]));
-      x[2] = NormalizeAngle(x[2] + s.dheading_rad);
-    } else {
-      const Step& s = m.steps[k - 1];
-      x[2] = NormalizeAngle(x[2] + s.dheading_rad);
-      x.head<2>() += s.length_m * Eigen::Vector2d(std::cos(x[2]), std::sin(x[2]));
-    }
+    x = m.Predict(k, x);  // radio-only walks: positions come from the radio fixes below
     g->init_.push_back(x);
   }
 
@@ -289,6 +318,12 @@ StatusOr<std::unique_ptr<StepGraph>> StepGraph::Build(const Walk& walk, const St
   m.anchor_has_range.assign(walk.anchors.size(), false);
   m.readings_at.assign(n, {});
   auto attach = [&](double ts, Reading r) {
+    if (m.radio_only) {  // the epoch's node: the last node at or before the reading
+      const auto up = std::upper_bound(g->node_t_.begin(), g->node_t_.end(), ts);
+      r.node_a = std::max(0, static_cast<int>(up - g->node_t_.begin()) - 1);
+      m.readings_at[r.node_a].push_back(r);
+      return;
+    }
     const auto it = std::lower_bound(g->node_t_.begin(), g->node_t_.end(), ts);
     if (it == g->node_t_.begin()) {
       r.node_a = 0;
@@ -327,9 +362,43 @@ StatusOr<std::unique_ptr<StepGraph>> StepGraph::Build(const Walk& walk, const St
     attach(s.t_s, Reading{a, false, s.range_m});
   }
 
-  // Without a known start: align the dead reckoning to the first radio fixes; with no radio
-  // either, node 0 is the gauge.
-  if (!m.start) {
+  if (m.radio_only) {
+    // Initial positions: the radio position fixes, interpolated in time (the anchors' centroid
+    // where no fix exists); headings are not states of a radio-only walk (held at 0).
+    Eigen::Vector2d centroid = Eigen::Vector2d::Zero();
+    for (const Anchor& a : walk.anchors) centroid += a.position_m.head<2>();
+    if (!walk.anchors.empty()) centroid /= static_cast<double>(walk.anchors.size());
+    std::vector<std::pair<double, Eigen::Vector2d>> fixes;
+    EpochOptions eo;
+    eo.receiver_height_m = o.receiver_height_m;
+    eo.window_s = std::max(o.radio_epoch_s, 1.0);
+    auto result = PositionWalk(walk, eo, PositioningMethod::kNonlinearLs);
+    if (result.ok()) {
+      for (const FixResult& f : *result) {
+        if (f.ok()) fixes.emplace_back(f.fix.t_s, f.fix.position_m);
+      }
+    }
+    for (int k = 0; k < n; ++k) {
+      Eigen::Vector2d q = centroid;
+      if (!fixes.empty()) {
+        const double tk = g->node_t_[k];
+        auto it = std::lower_bound(fixes.begin(), fixes.end(), tk,
+                                   [](const auto& f, double t) { return f.first < t; });
+        if (it == fixes.begin()) {
+          q = fixes.front().second;
+        } else if (it == fixes.end()) {
+          q = fixes.back().second;
+        } else {
+          const auto& a = *(it - 1);
+          const double w = (tk - a.first) / (it->first - a.first);
+          q = (1 - w) * a.second + w * it->second;
+        }
+      }
+      g->init_[k] = Eigen::Vector3d(q.x(), q.y(), 0.0);
+    }
+  } else if (!m.start) {
+    // Without a known start: align the dead reckoning to the first radio fixes; with no radio
+    // either, node 0 is the gauge.
     std::vector<Eigen::Vector2d> src, dst;
     if (m.any_rss || m.any_range) {
       EpochOptions eo;
@@ -418,7 +487,7 @@ std::vector<SmootherState> StepGraph::StaticStates() const {
       out.push_back(std::move(s));
     }
   }
-  if (!m.odometry && m.o.estimate_gyro_bias) {
+  if (!m.odometry && !m.radio_only && m.o.estimate_gyro_bias) {
     SmootherState s;
     s.key = kGyroBiasKey;
     s.value = {0.0};
@@ -430,19 +499,8 @@ std::vector<SmootherState> StepGraph::StaticStates() const {
 std::vector<SmootherState> StepGraph::NodeStates(int k, const Eigen::Vector2d& prev_p,
                                                  double prev_theta) const {
   const Impl& m = *impl_;
-  Eigen::Vector3d x = init_[0];
-  if (k > 0) {
-    x = Eigen::Vector3d(prev_p.x(), prev_p.y(), prev_theta);
-    if (m.odometry) {
-      const OdometrySample& s = m.odom[k - 1];
-      x.head<2>() += s.dist_m * Eigen::Vector2d(std::cos(x[2]), std::sin(x[2]));
-      x[2] = NormalizeAngle(x[2] + s.dheading_rad);
-    } else {
-      const Step& s = m.steps[k - 1];
-      x[2] = NormalizeAngle(x[2] + s.dheading_rad);
-      x.head<2>() += s.length_m * Eigen::Vector2d(std::cos(x[2]), std::sin(x[2]));
-    }
-  }
+  const Eigen::Vector3d x =
+      k > 0 ? m.Predict(k, Eigen::Vector3d(prev_p.x(), prev_p.y(), prev_theta)) : init_[0];
   SmootherState p, th;
   p.key = PositionKey(k);
   p.t_s = node_t_[k];
@@ -452,6 +510,7 @@ std::vector<SmootherState> StepGraph::NodeStates(int k, const Eigen::Vector2d& p
   th.value = {x[2]};
   th.manifold = m.angle;
   if (k == 0 && fix_first_node_) p.constant = th.constant = true;
+  if (m.radio_only) th.constant = true;  // no heading information without steps
   return {p, th};
 }
 
@@ -501,6 +560,9 @@ std::vector<SmootherFactor> StepGraph::FactorsAt(int k) const {
                   {s.key});
       }
     }
+  } else if (m.radio_only) {
+    add(PositionRandomWalkFactor::Create(node_t_[k] - node_t_[k - 1], o.motion_sigma_mps),
+        {PositionKey(k - 1), PositionKey(k)});
   } else if (m.odometry) {
     const OdometrySample& s = m.odom[k - 1];
     const double sd =
@@ -575,8 +637,10 @@ std::vector<SmootherFactor> StepGraph::FactorsAt(int k) const {
 namespace {
 
 Status CheckStepWalk(const Walk& walk) {
-  if (!walk.has_odometry() && !walk.has_imu()) {
-    return FailedPrecondition("the step graph needs odometry.csv or an IMU (steps)");
+  if (!walk.has_odometry() && !walk.has_imu() &&
+      (!(walk.has_rss() || walk.has_ranges()) || walk.anchors.size() < 3)) {
+    return FailedPrecondition(
+        "the step graph needs odometry.csv or an IMU (steps), or radio to >= 3 anchors");
   }
   return Status::Ok();
 }
@@ -614,6 +678,16 @@ TrajectoryPoint MakePoint(double t, const double* p, double theta) {
   pt.position_m = Eigen::Vector3d(p[0], p[1], 0.0);
   pt.heading_rad = NormalizeAngle(theta);
   return pt;
+}
+
+// (x, y, θ) covariance from a node's tangent-space covariance: 3×3, or 2×2 when the heading
+// is not a state (radio-only walks: θ uniform, variance π²/3).
+Eigen::Matrix3d PoseCovariance(const Eigen::MatrixXd& c) {
+  if (c.rows() == 3) return Eigen::Matrix3d(c);
+  Eigen::Matrix3d out = Eigen::Matrix3d::Zero();
+  out.topLeftCorner<2, 2>() = c.topLeftCorner<2, 2>();
+  out(2, 2) = kPi * kPi / 3.0;
+  return out;
 }
 
 // The graph's own motion model between nodes: a step moves the walker only during its last
@@ -756,8 +830,7 @@ StatusOr<EstimateResult> StepGraphBatch::Run(const Walk& walk) const {
       d["covariance_failed"] = 1.0;  // e.g. rank-deficient: trajectory without covariances
     } else {
       for (int k = 0; k < n; ++k) {
-        if ((*cov)[k].rows() == 3)
-          result.trajectory.points[k].covariance = Eigen::Matrix3d((*cov)[k]);
+        result.trajectory.points[k].covariance = PoseCovariance((*cov)[k]);
       }
     }
   }
@@ -803,7 +876,7 @@ StatusOr<EstimateResult> RunWindowNodes(const Walk& walk, const StepGraphOptions
     auto c = smoother.MarginalCovariances(groups);
     if (!c.ok()) return;  // rank-deficient window: these nodes go without covariance
     for (size_t i = 0; i < nodes.size(); ++i) {
-      points[nodes[i]].covariance = Eigen::Matrix3d(0.5 * ((*c)[i] + (*c)[i].transpose()));
+      points[nodes[i]].covariance = PoseCovariance(0.5 * ((*c)[i] + (*c)[i].transpose()));
     }
   };
   smoother.set_before_marginalize([&](const std::vector<StateKey>& keys) {

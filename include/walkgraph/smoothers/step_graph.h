@@ -14,6 +14,9 @@
 //                                             range bias, gyro bias (ceres::NormalPrior)
 // A step moves the walker only during the last max_step_duration_s before its node; a reading
 // in the pause before that is received at the previous node (stops are not smeared).
+// A walk without steps (radio only, e.g. the BLE tracks) gets a node per radio epoch of
+// radio_epoch_s and PositionRandomWalkFactor(p_{k−1}, p_k) as its motion model; headings are
+// not states there (held at 0; their output variance is π²/3).
 // Path loss: a constant (A, η) block (the walk's radio model) — or, self-calibrating, one free
 // block for the walk or one per anchor with a weak prior. Ranges: ρ = (1 + s)·d + b (002 eq. 6)
 // with a bias block b per anchor and a scale block s for the walk (Plaza-style ranging radios
@@ -58,8 +61,12 @@ struct StepGraphOptions {
   double dheading_sigma_scale = 1.0;  // × Step::sigma_dheading_rad
   double min_sigma_length_m = 0.01;   // floors
   double min_sigma_dheading_rad = 1e-3;
-  double max_step_duration_s = 1.0;  // motion interval of one step (see the top)
-  bool estimate_gyro_bias = true;    // constant vertical gyro bias in heading increments
+  double max_step_duration_s = 1.0;
+  // Walks without steps (no odometry, no IMU): a node per radio epoch, random-walk motion.
+  double radio_epoch_s = 0.5;
+  double motion_sigma_mps =
+      1.0;  // PositionRandomWalkFactor σ_v  // motion interval of one step (see the top)
+  bool estimate_gyro_bias = true;  // constant vertical gyro bias in heading increments
   double gyro_bias_prior_sigma_radps = 0.02;
   bool use_mag_heading = true;  // HeadingFactor per step when the steps carry it
   double mag_heading_sigma_rad = 0.35;
