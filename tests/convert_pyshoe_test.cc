@@ -80,7 +80,9 @@ TEST(ConvertPyshoe, WholeTrialsConvert) {
   EXPECT_EQ(walk->meta.extra.at("convert.truth_held_dropped"), 108.0);  // numpy count
   EXPECT_EQ(walk->truth.size(), 6490u - 108u);
   EXPECT_LT(stance, 3955 - 60);
-  EXPECT_EQ(static_cast<double>(3955 - stance), walk->meta.extra.at("convert.stance_labels_held"));
+  // Labels change both ways near a hold (a stance repeat can also turn a 0 into the last 1), so
+  // the changed-label count bounds the net loss of stance labels from above.
+  EXPECT_GE(walk->meta.extra.at("convert.stance_labels_held"), static_cast<double>(3955 - stance));
   for (const auto& s : walk->stance_truth) {
     if (s.t_s > 13.30 && s.t_s < 13.60) EXPECT_FALSE(s.stance) << s.t_s;
   }
