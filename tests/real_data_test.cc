@@ -48,10 +48,12 @@ ErrorStats Score(const Walk& walk, const std::string& id, const YAML::Node& conf
 // Drops IMU and RSS samples before the first truth sample (IPIN: the first POSI landmark).
 void TrimToFirstTruth(Walk* w) {
   const double t0 = w->truth.front().t_s;
-  w->imu.erase(std::remove_if(w->imu.begin(), w->imu.end(), [&](const auto& s) { return s.t_s < t0; }),
-               w->imu.end());
-  w->rss.erase(std::remove_if(w->rss.begin(), w->rss.end(), [&](const auto& s) { return s.t_s < t0; }),
-               w->rss.end());
+  w->imu.erase(
+      std::remove_if(w->imu.begin(), w->imu.end(), [&](const auto& s) { return s.t_s < t0; }),
+      w->imu.end());
+  w->rss.erase(
+      std::remove_if(w->rss.begin(), w->rss.end(), [&](const auto& s) { return s.t_s < t0; }),
+      w->rss.end());
 }
 
 // RSS readings against the truth linearly interpolated at their times (horizontal distance when
@@ -115,7 +117,7 @@ TEST(RealData, IpinTrial21FactorGraphBelowEveryFilter) {
     EXPECT_LT(g.mean_m, f.mean_m) << id;
     EXPECT_LT(g.p75_m, f.p75_m) << id;
   }
-  // Absolute: the walk spans ≈40 m; BLE-only positioning is not below ≈10 m here.
+  // Absolute: half of the best filter's mean (gadeke-kf-rts, 11.39 m) on this walk.
   EXPECT_LT(g.mean_m, 5.0);
 }
 
