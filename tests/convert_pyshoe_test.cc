@@ -38,7 +38,9 @@ TEST(ConvertPyshoe, ConvertsASliceOfTheRealTrial) {
   auto walk = Convert("pyshoe", {(dir / "slice.csv").string()});
   ASSERT_TRUE(walk.ok()) << walk.status().ToString();
   ASSERT_EQ(walk->imu.size(), 200u);
-  ASSERT_EQ(walk->truth.size(), 200u);
+  // 6 of the first 200 Vicon samples repeat the previous one exactly (counted with numpy).
+  ASSERT_EQ(walk->truth.size(), 194u);
+  EXPECT_EQ(walk->meta.extra.at("convert.truth_held_dropped"), 6.0);
   ASSERT_EQ(walk->stance_truth.size(), 200u);
   EXPECT_EQ(walk->meta.imu_placement, ImuPlacement::kFoot);
   EXPECT_EQ(walk->meta.truth_kind, TruthKind::kContinuous);
@@ -48,6 +50,12 @@ TEST(ConvertPyshoe, ConvertsASliceOfTheRealTrial) {
   EXPECT_DOUBLE_EQ(walk->imu[0].acc_mps2.z(), -9.352644);
   EXPECT_DOUBLE_EQ(walk->imu[0].gyro_radps.y(), 0.01233494);
   EXPECT_DOUBLE_EQ(walk->truth[0].position_m.z(), 0.125979);
+  // Left-handed Vicon x-y → ENU: y negated, x and z kept (see src/convert/pyshoe.cc).
+  EXPECT_DOUBLE_EQ(walk->truth[0].position_m.x(), -0.02758145);
+  EXPECT_DOUBLE_EQ(walk->truth[0].position_m.y(), -0.06342755);
+  // Line 4 repeats line 3's position: dropped, so truth[2] is line 5's (t = 0.02013436).
+  EXPECT_DOUBLE_EQ(walk->truth[1].t_s, 0.01016036);
+  EXPECT_DOUBLE_EQ(walk->truth[2].t_s, 0.02013436);
   EXPECT_TRUE(walk->truth[0].has_z);
   EXPECT_TRUE(walk->stance_truth[0].stance);
   EXPECT_TRUE(ValidateWalk(*walk).ok());
@@ -67,7 +75,46 @@ TEST(ConvertPyshoe, WholeTrialsConvert) {
   EXPECT_EQ(walk->imu.size(), 6490u);
   long stance = 0;
   for (const auto& s : walk->stance_truth) stance += s.stance ? 1 : 0;
-  EXPECT_EQ(stance, 3955);
+  // 3955 labels of 1 in the file; over the Vicon dropout (13.24–13.61 s: 75 held samples in
+  // mid-swing) zv_vicon reads 1, and those labels become the swing label before the hold.
+  EXPECT_EQ(walk->meta.extra.at("convert.truth_held_dropped"), 108.0);  // numpy count
+  EXPECT_EQ(walk->truth.size(), 6490u - 108u);
+  EXPECT_LT(stance, 3955 - 60);
+  // Labels change both ways near a hold (a stance repeat can also turn a 0 into the last 1), so
+  // the changed-label count bounds the net loss of stance labels from above.
+  EXPECT_GE(walk->meta.extra.at("convert.stance_labels_held"), static_cast<double>(3955 - stance));
+  for (const auto& s : walk->stance_truth) {
+    if (s.t_s > 13.30 && s.t_s < 13.60) EXPECT_FALSE(s.stance) << s.t_s;
+  }
+}
+
+// A held position in swing (zv_vicon 1 from the stale velocity) becomes swing; a held position
+// inside a stance stays stance; the held samples leave the truth.
+TEST(ConvertPyshoe, HeldTruthIsDroppedAndItsLabelsRepeatTheLastFreshOne) {
+  const fs::path dir = Scratch("held");
+  std::string text =
+      "t_s,ax_mps2,ay_mps2,az_mps2,gx_radps,gy_radps,gz_radps,gt_x_m,gt_y_m,gt_z_m,zv_vicon\n";
+  // Samples 0..9 stance, moving by 10 µm; sample 5 repeats sample 4. Samples 10..29 swing
+  // moving 1 cm per sample, except 15..24 holding sample 14's position with zv_vicon 1.
+  for (int i = 0; i < 30; ++i) {
+    double x = i < 10 ? 1e-5 * i : 1e-4 + 0.01 * (i - 9);
+    if (i == 5) x = 1e-5 * 4;
+    if (i >= 15 && i <= 24) x = 1e-4 + 0.01 * (14 - 9);
+    const int zv = i < 10 || (i >= 15 && i <= 24) ? 1 : 0;
+    text += std::to_string(0.005 * (i + 1)) + ",0,0,-9.8,0,0,0," + std::to_string(x) + ",0.5,0.1," +
+            std::to_string(zv) + "\n";
+  }
+  std::ofstream(dir / "h.csv") << text;
+  auto walk = Convert("pyshoe", {(dir / "h.csv").string()});
+  ASSERT_TRUE(walk.ok()) << walk.status().ToString();
+  EXPECT_EQ(walk->truth.size(), 30u - 11u);
+  EXPECT_EQ(walk->meta.extra.at("convert.truth_held_dropped"), 11.0);
+  for (const auto& t : walk->truth) EXPECT_DOUBLE_EQ(t.position_m.y(), -0.5);
+  ASSERT_EQ(walk->stance_truth.size(), 30u);
+  for (int i = 0; i < 10; ++i) EXPECT_TRUE(walk->stance_truth[i].stance) << i;
+  for (int i = 10; i < 30; ++i) EXPECT_FALSE(walk->stance_truth[i].stance) << i;
+  EXPECT_EQ(walk->meta.extra.at("convert.stance_labels_held"), 10.0);
+  fs::remove_all(dir);
 }
 
 TEST(ConvertPyshoe, MalformedInputNamesFileAndLine) {

@@ -63,17 +63,15 @@ TEST(InsGraphBatch, WellBelowZuptDeadReckoningOnSimulatedFootPresets) {
   }
 }
 
-// PyShoe VICON trial 2017-11-22-11-48-35. The converted walk's Vicon frame and the IMU's
-// frame differ in handedness (the INS turns clockwise where Vicon turns counter-clockwise;
-// mirrored, the SE(2)-aligned RMSE drops from ≈1.6 m to ≈0.07 m), so the truth's y is negated
-// here before scoring. Stance threshold and point-sample convention for this 200 Hz VN-100.
+// PyShoe VICON trial 2017-11-22-11-48-35. The converter negates the Vicon y (its x-y is
+// left-handed; see src/convert/pyshoe.cc), so the walk is scored as converted. Stance
+// threshold and point-sample convention for this 200 Hz VN-100.
 TEST(InsGraphBatch, PyshoeViconTrial) {
   const std::string csv =
       std::string(WALKGRAPH_SHARED_DATASETS) + "/pyshoe_vicon/2017-11-22-11-48-35.csv";
   if (!std::filesystem::exists(csv)) GTEST_SKIP() << csv << " not present";
   auto w = Convert("pyshoe", {csv});
   ASSERT_TRUE(w.ok()) << w.status().ToString();
-  for (TruthSample& t : w->truth) t.position_m.y() = -t.position_m.y();
   const std::string front =
       "{front_end: {sampling: instantaneous, gyro_noise_radps: 0.01, stance: {glrt_threshold: "
       "1e5}}}";

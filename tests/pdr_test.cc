@@ -185,6 +185,12 @@ TEST(PdrTest, PcaFindsTheForwardAxis) {
   auto raw = ComputeSteps(w, o);
   ASSERT_TRUE(raw.ok());
   EXPECT_LT(std::fabs(NormalizeAngle(raw->steps[60].heading_rad - mount)), 0.1);
+  // Body y (a handheld phone's top edge) points 90° counter-clockwise of body x.
+  o.forward_axis = ForwardAxisMethod::kBodyY;
+  auto by = ComputeSteps(w, o);
+  ASSERT_TRUE(by.ok());
+  EXPECT_LT(std::fabs(NormalizeAngle(by->steps[60].heading_rad - (mount + kPi / 2))), 0.1);
+  EXPECT_TRUE(PdrOptions::FromYaml(YAML::Load("{forward_axis: body-y}")).ok());
 }
 
 TEST(PdrTest, StepsFromOdometryFollowTheIncrementConvention) {

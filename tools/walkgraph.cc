@@ -2,6 +2,7 @@
 // prints. Every failure prints "walkgraph: <message>" on stderr and exits non-zero.
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstdint>
 #include <cstdio>
 #include <iostream>
@@ -17,6 +18,7 @@
 #include "walkgraph/io.h"
 #include "walkgraph/logging.h"
 #include "walkgraph/pcrb.h"
+#include "walkgraph/radio.h"
 #include "walkgraph/simulate.h"
 #include "walkgraph/stance.h"
 #include "walkgraph/study.h"
@@ -54,6 +56,52 @@ int RunConvert(const std::string& format, const std::vector<std::string>& source
   const Status s = walkgraph::WriteWalk(*walk, out);
   if (!s.ok()) return Fail(s);
   std::cout << "wrote " << out << "\n";
+  return 0;
+}
+
+// Fits RSS = A − 10·η·log10(d/d0) to a walk's RSS readings against its truth (positions
+// linearly interpolated between truth samples; readings outside the truth's span are skipped;
+// the distance is 3-D when the truth has a height, else horizontal to the anchor's x-y with the
+// anchor's height against 0). Prints a `radio:` block for walk.yaml (global fit) and the fit per
+// anchor as comments. Meant to calibrate one walk's path loss for use on a different walk.
+int RunFitPathLoss(const std::string& walk_dir) {
+  auto walk = walkgraph::ReadWalk(walk_dir);
+  if (!walk.ok()) return Fail(walk.status());
+  const auto& truth = walk->truth;
+  if (truth.size() < 2) return Fail(walkgraph::FailedPrecondition("fit-path-loss: no truth"));
+  std::vector<walkgraph::PathLossObservation> obs;
+  for (const walkgraph::RssSample& r : walk->rss) {
+    const auto it =
+        std::lower_bound(truth.begin(), truth.end(), r.t_s,
+                         [](const walkgraph::TruthSample& t, double x) { return t.t_s < x; });
+    if (it == truth.end() || it == truth.begin() || r.t_s < truth.front().t_s) continue;
+    const auto& b = *it;
+    const auto& a = *(it - 1);
+    const double w = b.t_s > a.t_s ? (r.t_s - a.t_s) / (b.t_s - a.t_s) : 0.0;
+    Eigen::Vector3d p = (1 - w) * a.position_m + w * b.position_m;
+    if (!a.has_z || !b.has_z) p.z() = 0.0;
+    const walkgraph::Anchor* anchor = nullptr;
+    for (const auto& an : walk->anchors) {
+      if (an.id == r.anchor_id) anchor = &an;
+    }
+    if (anchor == nullptr) continue;
+    obs.push_back({r.anchor_id, (anchor->position_m - p).norm(), r.rss});
+  }
+  const auto units = walk->meta.radio.units;
+  const double d0 = walk->meta.radio.path_loss.d0_m;
+  auto fit = walkgraph::FitPathLoss(obs, units, d0);
+  if (!fit.ok()) return Fail(fit.status());
+  std::printf("# fit-path-loss %s: %d readings inside the truth's span\n", walk_dir.c_str(),
+              fit->num_observations);
+  auto per = walkgraph::FitPathLossPerAnchor(obs, units, d0);
+  if (per.ok()) {
+    for (const auto& f : *per) {
+      std::printf("# anchor %d: A %.2f eta %.3f sigma %.2f (n = %d)\n", f.anchor_id, f.params.A_dbm,
+                  f.params.eta, f.params.sigma_db, f.num_observations);
+    }
+  }
+  std::printf("A_dbm: %.3f\neta: %.4f\nsigma_db: %.3f\n", fit->params.A_dbm, fit->params.eta,
+              fit->params.sigma_db);
   return 0;
 }
 
@@ -287,6 +335,11 @@ int main(int argc, char** argv) {
   convert->add_option("SRC", sources, "source files or directories")->required();
   convert->add_option("--out", out, "walk directory to write")->required();
   convert->callback([&] { rc = RunConvert(format, sources, out); });
+
+  CLI::App* fit = app.add_subcommand(
+      "fit-path-loss", "fit A, eta, sigma of the log-distance path loss to a walk's RSS vs truth");
+  fit->add_option("WALK", walk_dir, "walk directory")->required();
+  fit->callback([&] { rc = RunFitPathLoss(walk_dir); });
 
   CLI::App* smooth = app.add_subcommand("smooth", "run one estimator, write a TUM trajectory");
   smooth->add_option("WALK", walk_dir, "walk directory")->required();

@@ -45,7 +45,10 @@ namespace walkgraph {
 enum class StepDetector { kVerticalPeak, kFirMagnitude, kEnergy };
 enum class StepLengthModel { kWeinberg, kConstant, kLinearFrequency };
 enum class HeadingMethod { kGyro, kComplementary };
-enum class ForwardAxisMethod { kBodyX, kPca };
+// The walking direction in the levelled body frame: the body x axis, the body y axis (a phone
+// held in portrait in front of the walker: Android's y runs along the screen to its top), or
+// the main axis of horizontal acceleration (PCA, 003).
+enum class ForwardAxisMethod { kBodyX, kBodyY, kPca };
 
 struct PdrOptions {
   StepDetector detector = StepDetector::kVerticalPeak;
@@ -90,7 +93,7 @@ struct PdrOptions {
   StrideOptions stride;
 
   // Keys: detector (vertical-peak|fir-magnitude|energy), length_model
-  // (weinberg|constant|linear), heading (gyro|complementary), forward_axis (body-x|pca), and
+  // (weinberg|constant|linear), heading (gyro|complementary), forward_axis (body-x|body-y|pca), and
   // every numeric field by its name; stride (a map of StrideOptions keys).
   static StatusOr<PdrOptions> FromYaml(const YAML::Node& node);
 };

@@ -43,7 +43,9 @@ const std::vector<std::pair<std::string, StepLengthModel>> kLengthNames = {
 const std::vector<std::pair<std::string, HeadingMethod>> kHeadingNames = {
     {"gyro", HeadingMethod::kGyro}, {"complementary", HeadingMethod::kComplementary}};
 const std::vector<std::pair<std::string, ForwardAxisMethod>> kForwardNames = {
-    {"body-x", ForwardAxisMethod::kBodyX}, {"pca", ForwardAxisMethod::kPca}};
+    {"body-x", ForwardAxisMethod::kBodyX},
+    {"body-y", ForwardAxisMethod::kBodyY},
+    {"pca", ForwardAxisMethod::kPca}};
 
 double MedianRateHz(const std::vector<ImuSample>& imu) {
   std::vector<double> dt;
@@ -365,8 +367,10 @@ StatusOr<StepSequence> ComputeSteps(const Walk& walk, const PdrOptions& o) {
   if (use_mag && !have_mag) {
     return FailedPrecondition("pdr: heading 'complementary' needs magnetometer samples");
   }
-  const double phi =
-      o.forward_axis == ForwardAxisMethod::kPca ? PcaForwardAngle(walk, s, events, o) : 0.0;
+  // Forward axis relative to body x (ENU yaw, counter-clockwise): body y is +90°.
+  const double phi = o.forward_axis == ForwardAxisMethod::kPca ? PcaForwardAngle(walk, s, events, o)
+                     : o.forward_axis == ForwardAxisMethod::kBodyY ? kPi / 2.0
+                                                                   : 0.0;
   auto mag_walk_heading = [&](size_t from, size_t to) {
     // Circular mean of the magnetometer heading over [from, to] (body x, then forward axis).
     double c = 0.0, sn = 0.0;

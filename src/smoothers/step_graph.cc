@@ -682,9 +682,16 @@ TrajectoryPoint MakePoint(double t, const double* p, double theta) {
 
 // (x, y, θ) covariance from a node's tangent-space covariance: 3×3, or 2×2 when the heading
 // is not a state (radio-only walks: θ uniform, variance π²/3).
+// c is the marginal of a node's variable blocks (position 2, heading 1); a constant block (the
+// gauge node of a walk with neither a known start nor radio) is exact and drops out of c.
 Eigen::Matrix3d PoseCovariance(const Eigen::MatrixXd& c) {
   if (c.rows() == 3) return Eigen::Matrix3d(c);
   Eigen::Matrix3d out = Eigen::Matrix3d::Zero();
+  if (c.rows() == 0) return out;  // both blocks constant
+  if (c.rows() == 1) {            // position constant, heading free
+    out(2, 2) = c(0, 0);
+    return out;
+  }
   out.topLeftCorner<2, 2>() = c.topLeftCorner<2, 2>();
   out(2, 2) = kPi * kPi / 3.0;
   return out;

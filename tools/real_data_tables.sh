@@ -1,0 +1,190 @@
+#!/usr/bin/env bash
+# Issue 8: every applicable estimator on the real recordings, as markdown tables.
+#
+#   tools/real_data_tables.sh BUILD_DIR SHARED_DATASETS_DIR
+#
+# Converts into a temporary directory (nothing is written into the project), runs
+# `walkgraph compare` and prints the tables on stdout. Needs jq. Walk-specific choices:
+#   Plaza1     the bundled datasets/plaza1; errors vs GPS-RTK truth.
+#   PyShoe     every VICON trial in pyshoe_vicon/; --align-se2 (no known start: the converter
+#              comment, src/convert/pyshoe.cc); library defaults and datasets/configs/pyshoe.yaml.
+#   IPIN       TrainingTrial01/05/21; the recording before the first POSI landmark is dropped
+#              (the scored span starts there; trial 01 has 61 s of phone handling before it);
+#              A/eta/sigma of the log-distance path loss fitted (`walkgraph fit-path-loss`) on a
+#              DIFFERENT trial: 21 -> used on 01 and 05, 01 -> used on 21;
+#              datasets/configs/ipin.yaml; landmark errors (mean, p75).
+#   BLE tracks A/eta/sigma fitted on straight_01, used on the other five tracks.
+set -euo pipefail
+if [[ $# -ne 2 ]]; then
+  echo "usage: $0 BUILD_DIR SHARED_DATASETS_DIR" >&2
+  exit 2
+fi
+BUILD=$(cd "$1" && pwd)
+SHARED=$(cd "$2" && pwd)
+ROOT=$(cd "$(dirname "$0")/.." && pwd)
+W="$BUILD/tools/walkgraph"
+TMP=$(mktemp -d)
+trap 'rm -rf "$TMP"' EXIT
+
+# compare WALK OUT [args...]: quiet run (failures of single estimators are in results.json).
+compare() {
+  local walk=$1 out=$2
+  shift 2
+  "$W" compare "$walk" --threads 2 --out "$out" "$@" >/dev/null 2>&1
+}
+
+# Keep rows with t >= the first truth time in imu.csv/rss.csv.
+trim_to_first_truth() {
+  local dir=$1 t0
+  t0=$(sed -n 2p "$dir/truth.csv" | cut -d, -f1)
+  for f in imu.csv rss.csv; do
+    awk -F, -v t0="$t0" 'NR == 1 || $1 + 0 >= t0 + 0' "$dir/$f" >"$dir/$f.tmp"
+    mv "$dir/$f.tmp" "$dir/$f"
+  done
+}
+
+# set_radio DIR FIT_OUTPUT: A_dbm, eta, sigma_db of walk.yaml's radio block from a fit.
+set_radio() {
+  local dir=$1 fit=$2 k v
+  for k in A_dbm eta sigma_db; do
+    v=$(grep "^$k:" "$fit" | awk '{print $2}')
+    sed -i "s/^\(  $k:\) .*/\1 $v/" "$dir/walk.yaml"
+  done
+}
+
+fit_line() { # "A -71.0 dBm, eta 1.98, sigma 4.8 dB (n = 80)"
+  local fit=$1
+  printf 'A %.1f dBm, eta %.2f, sigma %.1f dB (%s readings)' \
+    "$(grep '^A_dbm:' "$fit" | awk '{print $2}')" "$(grep '^eta:' "$fit" | awk '{print $2}')" \
+    "$(grep '^sigma_db:' "$fit" | awk '{print $2}')" \
+    "$(head -1 "$fit" | sed 's/.*: \([0-9]*\) readings.*/\1/')"
+}
+
+# cell RESULTS ID FIELD: a number with 3 decimals, or "fail".
+cell() {
+  jq -r --arg id "$2" --arg f "$3" \
+    '.estimators[$id] as $e | if $e == null then "n/a" elif ($e[$f] | type) == "number"
+     then ($e[$f] * 1000 | round / 1000 | tostring) else "fail" end' "$1"
+}
+ids() { jq -r '.estimators | keys_unsorted[]' "$1"; }
+
+echo "# Real-data tables (tools/real_data_tables.sh $1 $2)"
+echo
+
+# ---------------------------------------------------------------- Plaza1
+compare "$ROOT/datasets/plaza1" "$TMP/r_plaza"
+echo "## Plaza1 (bundled datasets/plaza1; error vs GPS-RTK, m)"
+echo
+echo "| estimator | RMSE | mean | p90 |"
+echo "|---|---|---|---|"
+for id in $(ids "$TMP/r_plaza/results.json"); do
+  r="$TMP/r_plaza/results.json"
+  echo "| $id | $(cell "$r" "$id" rmse_m) | $(cell "$r" "$id" mean_m) | $(cell "$r" "$id" p90_m) |"
+done
+echo
+
+# ---------------------------------------------------------------- PyShoe
+trials=()
+for csv in "$SHARED"/pyshoe_vicon/*.csv; do
+  t=$(basename "$csv" .csv)
+  trials+=("$t")
+  "$W" convert pyshoe "$csv" --out "$TMP/ps_$t" >/dev/null
+  compare "$TMP/ps_$t" "$TMP/rp_$t" --align-se2 --estimators zupt-ins,jimenez-iez,jimenez-iez-rts,fg-ins-batch
+  compare "$TMP/ps_$t" "$TMP/rpc_$t" --align-se2 --estimators zupt-ins,jimenez-iez,jimenez-iez-rts,fg-ins-batch \
+    --config "$ROOT/datasets/configs/pyshoe.yaml"
+done
+echo "## PyShoe VICON (every trial; position RMSE vs Vicon after --align-se2, m)"
+echo
+echo "config: library defaults / datasets/configs/pyshoe.yaml (fg-ins-batch and zupt-ins front end only)"
+echo
+hdr="| estimator | config |"
+sep="|---|---|"
+for t in "${trials[@]}"; do
+  hdr+=" $t |"
+  sep+="---|"
+done
+echo "$hdr mean |"
+echo "$sep---|"
+for id in zupt-ins jimenez-iez jimenez-iez-rts fg-ins-batch; do
+  for c in default pyshoe.yaml; do
+    row="| $id | $c |"
+    vals=()
+    for t in "${trials[@]}"; do
+      d="$TMP/rp_$t"
+      [[ $c == default ]] || d="$TMP/rpc_$t"
+      v=$(cell "$d/results.json" "$id" rmse_m)
+      vals+=("$v")
+      row+=" $v |"
+    done
+    mean=$(printf '%s\n' "${vals[@]}" | awk '{s += $1; n++} END {printf "%.3f", s / n}')
+    echo "$row $mean |"
+  done
+done
+echo
+
+# ---------------------------------------------------------------- IPIN 2023 Track 3
+ip() { echo "$SHARED/ipin2023_t3/IPIN2023_T3_TrainingTrial$1_repetition01.txt"; }
+for n in 01 05 21; do
+  "$W" convert ipin "$(ip "$n")" "$SHARED/ipin2023_t3/BLE_Locations.csv" --out "$TMP/ip$n" >/dev/null
+  trim_to_first_truth "$TMP/ip$n"
+  cp -r "$TMP/ip$n" "$TMP/ipfit$n" # the fit's source, before any radio edit
+done
+"$W" fit-path-loss "$TMP/ipfit21" >"$TMP/fit21.txt"
+"$W" fit-path-loss "$TMP/ipfit01" >"$TMP/fit01.txt"
+set_radio "$TMP/ip01" "$TMP/fit21.txt"
+set_radio "$TMP/ip05" "$TMP/fit21.txt"
+set_radio "$TMP/ip21" "$TMP/fit01.txt"
+for n in 01 05 21; do
+  compare "$TMP/ip$n" "$TMP/ri$n" --config "$ROOT/datasets/configs/ipin.yaml"
+done
+echo "## IPIN 2023 Track 3 (landmark errors, m: mean / p75; datasets/configs/ipin.yaml)"
+echo
+echo "path loss fitted on trial 21 (used on 01, 05): $(fit_line "$TMP/fit21.txt");"
+echo "on trial 01 (used on 21): $(fit_line "$TMP/fit01.txt")."
+echo "fail = the estimator could not run (e.g. no radio epoch gave a position fix: 05 and 21 hear"
+echo "too few beacons at once for a trilateration fix)."
+echo
+echo "| estimator | 01 mean | 01 p75 | 05 mean | 05 p75 | 21 mean | 21 p75 |"
+echo "|---|---|---|---|---|---|---|"
+for id in $(ids "$TMP/ri01/results.json"); do
+  row="| $id |"
+  for n in 01 05 21; do
+    r="$TMP/ri$n/results.json"
+    row+=" $(cell "$r" "$id" mean_m) | $(cell "$r" "$id" p75_m) |"
+  done
+  echo "$row"
+done
+echo
+
+# ---------------------------------------------------------------- BLE RSS tracks
+tracks=(straight_01 straight_02 straight_03 straight_04 rectangular_without_rotation
+  zigzagging_without_rotation)
+for t in "${tracks[@]}"; do
+  "$W" convert bletracks "$SHARED/ble_tracks/trk/${t}_all_sensors.mbd" \
+    "$SHARED/ble_tracks/cnf/tetam.dev" --out "$TMP/bt_$t" >/dev/null
+done
+"$W" fit-path-loss "$TMP/bt_straight_01" >"$TMP/fitbt.txt"
+for t in "${tracks[@]:1}"; do
+  set_radio "$TMP/bt_$t" "$TMP/fitbt.txt"
+  compare "$TMP/bt_$t" "$TMP/rb_$t"
+done
+echo "## BLE RSS tracks (radio only, 12 receivers; RMSE / mean vs camera truth, m)"
+echo
+echo "path loss fitted on straight_01 (used on the other tracks): $(fit_line "$TMP/fitbt.txt")."
+echo
+hdr="| estimator |"
+sep="|---|"
+for t in "${tracks[@]:1}"; do
+  hdr+=" $t RMSE | mean |"
+  sep+="---|---|"
+done
+echo "$hdr"
+echo "$sep"
+for id in $(ids "$TMP/rb_straight_02/results.json"); do
+  row="| $id |"
+  for t in "${tracks[@]:1}"; do
+    r="$TMP/rb_$t/results.json"
+    row+=" $(cell "$r" "$id" rmse_m) | $(cell "$r" "$id" mean_m) |"
+  done
+  echo "$row"
+done
