@@ -315,4 +315,17 @@ void FixedLagSmoother::Flush() const {
   }
 }
 
+void AddUpdateLatencyTimings(std::vector<double> latency_s,
+                             std::map<std::string, double>* timings) {
+  std::sort(latency_s.begin(), latency_s.end());
+  auto pct = [&](double q) {
+    return latency_s.empty() ? 0.0
+                             : latency_s[std::min(latency_s.size() - 1,
+                                                  static_cast<size_t>(q * latency_s.size()))];
+  };
+  (*timings)["update_latency_median_s"] = pct(0.5);
+  (*timings)["update_latency_p99_s"] = pct(0.99);
+  (*timings)["update_latency_max_s"] = latency_s.empty() ? 0.0 : latency_s.back();
+}
+
 }  // namespace walkgraph

@@ -343,16 +343,7 @@ StatusOr<EstimateResult> InsGraphWindow::Run(const Walk& walk) const {
   d["states_without_covariance"] = g.compute_covariance ? static_cast<double>(missing) : 0.0;
   d["covariance_ok"] = g.compute_covariance && missing == 0 ? 1.0 : 0.0;
 
-  std::vector<double> sorted = latency;
-  std::sort(sorted.begin(), sorted.end());
-  auto pct = [&](double q) {
-    return sorted.empty()
-               ? 0.0
-               : sorted[std::min(sorted.size() - 1, static_cast<size_t>(q * sorted.size()))];
-  };
-  result.timings["update_latency_median_s"] = pct(0.5);
-  result.timings["update_latency_p99_s"] = pct(0.99);
-  result.timings["update_latency_max_s"] = sorted.empty() ? 0.0 : sorted.back();
+  AddUpdateLatencyTimings(latency, &result.timings);
   const double run_s = std::chrono::duration<double>(Clock::now() - run_start).count();
   const double minutes = (walk.imu.back().t_s - walk.imu.front().t_s) / 60.0;
   result.timings["run_s"] = run_s;

@@ -969,16 +969,7 @@ StatusOr<EstimateResult> RunWindowNodes(const Walk& walk, const StepGraphOptions
   d["ceres_iterations"] = iterations;
   d["window_solves"] = solves;
   d["nodes"] = n;
-  std::vector<double> sorted = latency;
-  std::sort(sorted.begin(), sorted.end());
-  auto pct = [&](double q) {
-    return sorted.empty()
-               ? 0.0
-               : sorted[std::min(sorted.size() - 1, static_cast<size_t>(q * sorted.size()))];
-  };
-  result.timings["update_latency_median_s"] = pct(0.5);
-  result.timings["update_latency_p99_s"] = pct(0.99);
-  result.timings["update_latency_max_s"] = sorted.empty() ? 0.0 : sorted.back();
+  AddUpdateLatencyTimings(latency, &result.timings);
   AddStaticDiagnostics(
       graph->StaticStates(),
       [&](StateKey k) {

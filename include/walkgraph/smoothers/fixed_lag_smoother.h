@@ -35,6 +35,7 @@
 #include <memory>
 #include <optional>
 #include <set>
+#include <string>
 #include <vector>
 
 #include <ceres/ceres.h>
@@ -143,6 +144,10 @@ class FixedLagSmoother {
   MarginalizeCallback on_marginalize_;
   std::function<void(const std::vector<StateKey>&)> before_marginalize_;
 };
+
+// Wall-clock figures of a run's updates (seconds each): update_latency_median_s, _p99_s and
+// _max_s into `timings` (EstimateResult::timings), nearest-rank percentiles; 0 when empty.
+void AddUpdateLatencyTimings(std::vector<double> latency_s, std::map<std::string, double>* timings);
 
 }  // namespace walkgraph
 
