@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include "walkgraph/angle.h"
+#include "walkgraph/simulate.h"
 
 namespace walkgraph {
 namespace {
@@ -221,6 +222,63 @@ TEST(PdrTest, OptionsFromYamlAreStrict) {
   EXPECT_FALSE(PdrOptions::FromYaml(YAML::Load("{detector: peaks}")).ok());
   EXPECT_FALSE(PdrOptions::FromYaml(YAML::Load("{weinberg: 0.4}")).ok());
   EXPECT_FALSE(PdrOptions::FromYaml(YAML::Load("{complementary_w: 2.0}")).ok());
+}
+
+// Issue 4 on the simulator's hip walks: detected step count within 2 % of the true steps with
+// 000's vertical-peak detector (K = 0.45), and PDR-only drift (dead reckoning from the true
+// start; final error over the distance walked) inside the papers' 1-10 % band on the open
+// gadeke-outage path (003: 3.5-10 %). Measured, not asserted: 003's energy detector (threshold
+// 2 (m/s^2)^2 and body-x, the departures the simulated hip forces; see gadeke_test.cc)
+// over-counts by ≈ 6 % on gadeke-outage; on tarrio-circle the final error of the closed circle
+// says little and even the largest error is below 1 % of the distance: the simulated walker's
+// step length follows the estimator's own Weinberg model exactly.
+struct PdrCase {
+  const char* scenario;
+  const char* overrides;
+  const char* pdr;
+  bool assert_count;
+  bool assert_drift;
+};
+
+TEST(PdrTest, StepCountAndDriftOnSimulatedHipWalks) {
+  const char* energy = "{detector: energy, energy_threshold_m2ps4: 2, forward_axis: body-x}";
+  for (const PdrCase& c : {PdrCase{"tarrio-circle", "{duration_s: 300}", "{}", true, false},
+                           PdrCase{"gadeke-outage", "{}", "{}", true, true},
+                           PdrCase{"gadeke-outage", "{}", energy, false, true}}) {
+    for (uint64_t seed : {1, 2}) {
+      auto sim = SimulateScenarioDetailed(c.scenario, seed, YAML::Load(c.overrides));
+      ASSERT_TRUE(sim.ok()) << sim.status().message();
+      auto options = PdrOptions::FromYaml(YAML::Load(c.pdr));
+      ASSERT_TRUE(options.ok()) << options.status().message();
+      auto seq = ComputeSteps(sim->walk, *options);
+      ASSERT_TRUE(seq.ok()) << seq.status().message();
+      const double true_steps = static_cast<double>(sim->steps.size());
+      const double count_error = std::abs(seq->steps.size() - true_steps) / true_steps;
+      // Truth is at the IMU rate: compare each step's end with the truth sample at that time.
+      const auto& truth = sim->walk.truth;
+      Eigen::Vector2d p = truth.front().position_m.head<2>();
+      double max_err = 0.0;
+      size_t j = 0;
+      for (const Step& st : seq->steps) {
+        p += st.length_m * Eigen::Vector2d(std::cos(st.heading_rad), std::sin(st.heading_rad));
+        while (j + 1 < truth.size() && truth[j + 1].t_s <= st.t_s) ++j;
+        max_err = std::max(max_err, (p - truth[j].position_m.head<2>()).norm());
+      }
+      const double distance = sim->walk.TruthDistance();
+      const double drift = (p - truth.back().position_m.head<2>()).norm() / distance;
+      std::printf(
+          "%s %s seed %d: %zu steps detected / %.0f true (%.2f %%), PDR final error "
+          "%.2f %% of %.0f m (largest %.2f m)\n",
+          c.scenario, c.pdr, static_cast<int>(seed), seq->steps.size(), true_steps,
+          100.0 * count_error, 100.0 * drift, distance, max_err);
+      EXPECT_TRUE(seq->absolute_heading) << c.scenario;
+      if (c.assert_count) EXPECT_LT(count_error, 0.02) << c.scenario;
+      if (c.assert_drift) {
+        EXPECT_GT(drift, 0.01) << c.scenario;
+        EXPECT_LT(drift, 0.10) << c.scenario;
+      }
+    }
+  }
 }
 
 TEST(PdrTest, NoImuIsAnError) {
