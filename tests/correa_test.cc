@@ -155,31 +155,13 @@ TEST(CorreaEkfOptionsTest, DefaultsAndValidation) {
 
 Comparison CorreaMonteCarlo(const std::string& scenario, const std::string& overrides, int runs,
                             uint64_t seed) {
-  CompareOptions co;
-  co.estimator_ids = {"correa-ls", "correa-ekf", "correa-scmt-ekf", "correa-ekf-rts",
-                      "correa-scmt-ekf-rts"};
-  MonteCarloOptions mc;
-  mc.runs = runs;
-  mc.seed = seed;
-  auto c = CompareMonteCarlo(
-      [&](uint64_t s) { return SimulateScenario(scenario, s, YAML::Load(overrides)); }, co, mc);
-  EXPECT_TRUE(c.ok()) << c.status().message();
-  if (!c.ok()) return {};
-  for (const EstimatorOutcome& o : c->outcomes) {
-    EXPECT_TRUE(o.status.ok()) << o.id << ": " << o.status.message();
-    EXPECT_EQ(o.failed_runs, 0) << o.id;
-  }
-  return *c;
+  return testing::ScenarioMonteCarlo(
+      scenario, overrides,
+      {"correa-ls", "correa-ekf", "correa-scmt-ekf", "correa-ekf-rts", "correa-scmt-ekf-rts"}, runs,
+      seed);
 }
 
-const ErrorStats& StatsOf(const Comparison& c, const std::string& id) {
-  for (const EstimatorOutcome& o : c.outcomes) {
-    if (o.id == id) return o.stats;
-  }
-  static const ErrorStats none;
-  ADD_FAILURE() << "no outcome " << id;
-  return none;
-}
+using testing::StatsOf;
 
 void RecordStats(const Comparison& c) {
   for (const EstimatorOutcome& o : c.outcomes) {

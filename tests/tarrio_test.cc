@@ -220,31 +220,12 @@ TEST(TarrioTest, RtsEqualsBatchLeastSquares) {
 // paper leaves out: "the results ... correspond to the stationary state of the filter").
 
 Comparison TarrioMonteCarlo(const std::string& overrides, int runs, uint64_t seed) {
-  CompareOptions co;
-  co.estimator_ids = {"rss-only", "rss-pdr-reset", "pdr-only", "tarrio-kf", "tarrio-kf-rts"};
-  MonteCarloOptions mc;
-  mc.runs = runs;
-  mc.seed = seed;
-  auto c = CompareMonteCarlo(
-      [&](uint64_t s) { return SimulateScenario("tarrio-circle", s, YAML::Load(overrides)); }, co,
-      mc);
-  EXPECT_TRUE(c.ok()) << c.status().message();
-  if (!c.ok()) return {};
-  for (const EstimatorOutcome& o : c->outcomes) {
-    EXPECT_TRUE(o.status.ok()) << o.id << ": " << o.status.message();
-    EXPECT_EQ(o.failed_runs, 0) << o.id;
-  }
-  return *c;
+  return testing::ScenarioMonteCarlo(
+      "tarrio-circle", overrides,
+      {"rss-only", "rss-pdr-reset", "pdr-only", "tarrio-kf", "tarrio-kf-rts"}, runs, seed);
 }
 
-const ErrorStats& StatsOf(const Comparison& c, const std::string& id) {
-  for (const EstimatorOutcome& o : c.outcomes) {
-    if (o.id == id) return o.stats;
-  }
-  static const ErrorStats none;
-  ADD_FAILURE() << "no outcome " << id;
-  return none;
-}
+using testing::StatsOf;
 
 // Issue 5: tarrio-kf 90th-percentile error ≤ 2.6 m (paper: "In 90% of cases, the localization
 // error is below 2.4 m"), the KF below both baselines, and the RTS smoother below the KF.

@@ -3,6 +3,15 @@
 #define WALKGRAPH_TESTS_TEST_UTIL_H_
 
 #include <algorithm>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+#include <yaml-cpp/yaml.h>
+
+#include "walkgraph/compare.h"
+#include "walkgraph/simulate.h"
 
 namespace walkgraph::testing {
 
@@ -25,6 +34,36 @@ inline constexpr bool kSanitized =
 #else
     false;
 #endif
+
+// Seeded Monte Carlo of estimators `ids` on a simulator preset with YAML `overrides`; every
+// estimator must run on every walk (expectations), an empty Comparison when the study fails.
+inline Comparison ScenarioMonteCarlo(const std::string& scenario, const std::string& overrides,
+                                     const std::vector<std::string>& ids, int runs, uint64_t seed) {
+  CompareOptions co;
+  co.estimator_ids = ids;
+  MonteCarloOptions mc;
+  mc.runs = runs;
+  mc.seed = seed;
+  auto c = CompareMonteCarlo(
+      [&](uint64_t s) { return SimulateScenario(scenario, s, YAML::Load(overrides)); }, co, mc);
+  EXPECT_TRUE(c.ok()) << c.status().message();
+  if (!c.ok()) return {};
+  for (const EstimatorOutcome& o : c->outcomes) {
+    EXPECT_TRUE(o.status.ok()) << o.id << ": " << o.status.message();
+    EXPECT_EQ(o.failed_runs, 0) << o.id;
+  }
+  return *c;
+}
+
+// The aggregate statistics of estimator `id` in `c` (a test failure when it is absent).
+inline const ErrorStats& StatsOf(const Comparison& c, const std::string& id) {
+  for (const EstimatorOutcome& o : c.outcomes) {
+    if (o.id == id) return o.stats;
+  }
+  static const ErrorStats none;
+  ADD_FAILURE() << "no outcome " << id;
+  return none;
+}
 
 }  // namespace walkgraph::testing
 
