@@ -144,34 +144,47 @@ TEST(StepGraphTest, WindowLongerThanTheWalkEqualsBatch) {
 }
 
 TEST(StepGraphTest, FiniteLagEqualsFixedLagLinearSmoother) {
-  // Lag 3 s at 2 steps/s: node k leaves the window in the update of the first node j with
-  // t_j − 3 > t_k, and its lagged estimate must be E[s_k | readings up to node j].
+  // Lag 3 s at 2 steps/s. Per-update marginalization (batch 0): node k leaves the window in
+  // the update of the first node j with t_j − 3 > t_k, and its lagged estimate must be
+  // E[s_k | readings up to node j]. Batched (batch b): it leaves with the update that first
+  // finds the oldest node older than t_j − 3 − b, so j lies between that first node and the
+  // first with t_j − 3 − b > t_k; the estimate must equal one of those conditional means.
   auto w = SimulateScenario("linear-gaussian", 5, YAML::Load("{duration_s: 25}"));
   ASSERT_TRUE(w.ok());
   const double lag = 3.0;
-  auto window = RunId("fg-window", *w, LinearConfig(lag));
-  ASSERT_TRUE(window.ok()) << window.status().message();
   const int n = static_cast<int>(w->odometry.size()) + 1;
-  ASSERT_EQ(static_cast<int>(window->trajectory.size()), n);
   auto node_t = [&](int k) { return k == 0 ? 0.0 : w->odometry[k - 1].t_s; };
-  double worst = 0.0;
-  int checked = 0;
-  for (int k = 0; k < n; ++k) {
-    int j = k;
-    while (j < n && !(node_t(j) - lag > node_t(k))) ++j;
-    const Along ref = LinearRts(*w, j < n ? j : n - 1);
-    worst = std::max(worst, std::fabs(AlongOf(*w, window->trajectory.points[k]) - ref.s[k]));
-    ++checked;
+  for (double batch : {0.0, 1.2}) {
+    YAML::Node config = LinearConfig(lag);
+    config["window_marginalize_batch_s"] = batch;
+    auto window = RunId("fg-window", *w, config);
+    ASSERT_TRUE(window.ok()) << window.status().message();
+    ASSERT_EQ(static_cast<int>(window->trajectory.size()), n);
+    double worst = 0.0;
+    int batched = 0;  // nodes that left later than the first eligible update
+    for (int k = 0; k < n; ++k) {
+      const double est = AlongOf(*w, window->trajectory.points[k]);
+      int j = k;
+      while (j < n && !(node_t(j) - lag > node_t(k))) ++j;
+      double best = std::fabs(est - LinearRts(*w, j < n ? j : n - 1).s[k]);
+      int best_j = j;
+      for (int jj = j + 1; jj < n && !(node_t(jj - 1) - lag - batch > node_t(k)); ++jj) {
+        const double e = std::fabs(est - LinearRts(*w, jj).s[k]);
+        if (e < best) best = e, best_j = jj;
+      }
+      if (best_j > j && j < n) ++batched;
+      worst = std::max(worst, best);
+    }
+    EXPECT_LT(worst, 1e-6) << "batch " << batch;
+    if (batch > 0.0) EXPECT_GT(batched, n / 4) << "the batch setting changed nothing";
+    // And it is not the full smoother (the test would pass vacuously if the lag were ignored).
+    const Along full = LinearRts(*w);
+    double diff = 0.0;
+    for (int k = 0; k < n; ++k) {
+      diff = std::max(diff, std::fabs(AlongOf(*w, window->trajectory.points[k]) - full.s[k]));
+    }
+    EXPECT_GT(diff, 1e-3) << "batch " << batch;
   }
-  EXPECT_EQ(checked, n);
-  EXPECT_LT(worst, 1e-6);
-  // And it is not the full smoother (the test would pass vacuously if the lag were ignored).
-  const Along full = LinearRts(*w);
-  double diff = 0.0;
-  for (int k = 0; k < n; ++k) {
-    diff = std::max(diff, std::fabs(AlongOf(*w, window->trajectory.points[k]) - full.s[k]));
-  }
-  EXPECT_GT(diff, 1e-3);
 }
 
 TEST(StepGraphTest, OnlineOutputUsesOnlyPastData) {

@@ -105,10 +105,12 @@ StatusOr<FixedLagSmoother::UpdateResult> FixedLagSmoother::Update(
     solved_ = true;
     ceres::Solver::Options so;
     so.linear_solver_type = options_.linear_solver;
+    so.sparse_linear_algebra_library_type = options_.sparse_library;
     so.max_num_iterations = options_.max_iterations;
     so.function_tolerance = options_.function_tolerance;
     so.parameter_tolerance = options_.parameter_tolerance;
     so.num_threads = options_.num_threads;
+    so.initial_trust_region_radius = options_.initial_trust_region_radius;
     so.logging_type = ceres::SILENT;
     ceres::Solver::Summary summary;
     ceres::Solve(so, problem_.get(), &summary);
@@ -120,8 +122,14 @@ StatusOr<FixedLagSmoother::UpdateResult> FixedLagSmoother::Update(
     result.converged = summary.termination_type == ceres::CONVERGENCE;
   }
   if (newest_t_) {
-    WG_RETURN_IF_ERROR(
-        MarginalizeOlderThan(*newest_t_ - options_.lag_s, &result.marginalized_states));
+    const double cutoff = *newest_t_ - options_.lag_s;
+    std::optional<double> oldest;
+    for (const auto& [key, st] : states_) {
+      if (st.spec.t_s) oldest = std::min(oldest.value_or(*st.spec.t_s), *st.spec.t_s);
+    }
+    if (oldest && *oldest < cutoff - options_.marginalize_batch_s) {
+      WG_RETURN_IF_ERROR(MarginalizeOlderThan(cutoff, &result.marginalized_states));
+    }
   }
   return result;
 }

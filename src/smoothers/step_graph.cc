@@ -115,6 +115,8 @@ StatusOr<StepGraphOptions> StepGraphOptions::FromYaml(const YAML::Node& node,
   r.Read("window_output", &o.window_output);
   r.Read("window_linear_solver", &o.window_linear_solver);
   r.Read("window_update_s", &o.window_update_s);
+  r.Read("window_marginalize_batch_s", &o.window_marginalize_batch_s);
+  r.Read("window_initial_trust_region_radius", &o.window_initial_trust_region_radius);
   r.Read("init_lag_s", &o.init_lag_s);
   r.Read("init_update_s", &o.init_update_s);
   WG_RETURN_IF_ERROR(r.Finish());
@@ -146,6 +148,8 @@ StatusOr<StepGraphOptions> StepGraphOptions::FromYaml(const YAML::Node& node,
   WG_RETURN_IF_ERROR(positive(o.range_scale_prior_sigma, "range_scale_prior_sigma"));
   WG_RETURN_IF_ERROR(positive(o.align_window_s, "align_window_s"));
   WG_RETURN_IF_ERROR(positive(o.lag_s, "lag_s"));
+  WG_RETURN_IF_ERROR(
+      positive(o.window_initial_trust_region_radius, "window_initial_trust_region_radius"));
   WG_RETURN_IF_ERROR(positive(o.function_tolerance, "function_tolerance"));
   WG_RETURN_IF_ERROR(positive(o.parameter_tolerance, "parameter_tolerance"));
   if (o.odometry_sigma_dist_frac < 0 || o.odometry_sigma_dist_m < 0 ||
@@ -181,11 +185,14 @@ StatusOr<StepGraphOptions> StepGraphOptions::FromYaml(const YAML::Node& node,
     return InvalidArgument(context + ": initialization must be dead-reckoning, window or auto");
   }
   WG_RETURN_IF_ERROR(positive(o.init_lag_s, "init_lag_s"));
-  if (o.window_update_s < 0 || o.init_update_s < 0) {
-    return InvalidArgument(context + ": window_update_s and init_update_s must be >= 0");
+  if (o.window_update_s < 0 || o.init_update_s < 0 || o.window_marginalize_batch_s < 0) {
+    return InvalidArgument(context +
+                           ": window_update_s, init_update_s, window_marginalize_batch_s must "
+                           "be >= 0");
   }
-  if (!OneOf(o.window_linear_solver, {"dense", "sparse"})) {
-    return InvalidArgument(context + ": window_linear_solver must be 'dense' or 'sparse'");
+  if (!OneOf(o.window_linear_solver, {"dense", "sparse", "eigen-sparse"})) {
+    return InvalidArgument(context +
+                           ": window_linear_solver must be 'sparse', 'eigen-sparse' or 'dense'");
   }
   if (!OneOf(o.window_output, {"lagged", "online"})) {
     return InvalidArgument(context + ": window_output must be 'lagged' or 'online'");
@@ -864,9 +871,13 @@ StatusOr<EstimateResult> RunWindowNodes(const Walk& walk, const StepGraphOptions
 
   FixedLagSmoother::Options so;
   so.lag_s = options_.lag_s;
+  so.marginalize_batch_s = options_.window_marginalize_batch_s;
+  so.initial_trust_region_radius = options_.window_initial_trust_region_radius;
   so.max_iterations = options_.window_max_iterations;
   so.linear_solver = options_.window_linear_solver == "dense" ? ceres::DENSE_NORMAL_CHOLESKY
                                                               : ceres::SPARSE_NORMAL_CHOLESKY;
+  so.sparse_library =
+      options_.window_linear_solver == "eigen-sparse" ? ceres::EIGEN_SPARSE : ceres::SUITE_SPARSE;
   so.function_tolerance = options_.function_tolerance;
   so.parameter_tolerance = options_.parameter_tolerance;
   so.num_threads = options_.num_threads;

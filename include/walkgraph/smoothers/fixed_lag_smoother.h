@@ -12,11 +12,12 @@
 //
 // Update(): adds the new states and factors to one persistent ceres::Problem (built once and
 // edited in place, never rebuilt), solves it, then marginalizes every timed state older than
-// t_newest − lag: the factors touching those states (including the previous prior) are
-// linearized at the just-solved estimate and replaced by one MarginalizationPrior on their
-// Markov blanket (smoothers/marginalization.h). A marginalized state's estimate at that moment
-// is its lagged (smoothed with `lag` seconds of future data) estimate; it is handed to
-// `on_marginalize`, and the state and its factors are freed, so memory stays bounded.
+// t_newest − lag (at once per Options::marginalize_batch_s when that is set): the factors touching
+// those states (including the previous prior) are linearized at the just-solved estimate and
+// replaced by one MarginalizationPrior on their Markov blanket (smoothers/marginalization.h). A
+// marginalized state's estimate at that moment is its lagged (smoothed with `lag` seconds of future
+// data) estimate; it is handed to `on_marginalize`, and the state and its factors are freed, so
+// memory stays bounded.
 //
 // Linearization-point policy: the prior's Jacobian is fixed at its linearization point (first
 // estimate, in each block's tangent space); every other factor is relinearized at each solve,
@@ -68,11 +69,24 @@ class FixedLagSmoother {
     double function_tolerance = 1e-6;
     double parameter_tolerance = 1e-8;
     ceres::LinearSolverType linear_solver = ceres::SPARSE_NORMAL_CHOLESKY;
+    ceres::SparseLinearAlgebraLibraryType sparse_library = ceres::SUITE_SPARSE;
+    // Levenberg–Marquardt starts each update's solve with this trust-region radius (damping
+    // 1/radius on diag(JᵀJ)); Ceres' default, 1e4, suits a cold start. A warm-started window
+    // can take the Gauss–Newton step at once: with 1e4 the soft modes of a long chain
+    // (eigenvalues ≪ 1e-4 · diagonal) are damped and LM needs several growing steps.
+    double initial_trust_region_radius = 1e4;
     int num_threads = 1;
     double eigenvalue_tolerance = 1e-12;  // marginalization (see marginalization.h)
     // An update whose new factors all have ‖r‖² ≤ this at the current estimate is not solved
     // (it cannot move the optimum; see Update). Negative: always solve.
     double vanishing_residual_sq = 1e-20;
+    // States leave in batches: marginalization runs once the oldest timed state is older than
+    // t_newest − lag_s − marginalize_batch_s, and then takes every state older than
+    // t_newest − lag_s. Every state is still smoothed with at least lag_s of future data; the
+    // window spans lag_s … lag_s + marginalize_batch_s, and the marginalization (and any
+    // covariance query in before_marginalize) runs once per batch instead of once per state.
+    // 0: every update marginalizes what is older than the lag (GTSAM's behaviour).
+    double marginalize_batch_s = 0.0;
   };
   struct UpdateResult {
     int ceres_iterations = 0;
