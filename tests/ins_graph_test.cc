@@ -216,6 +216,9 @@ TEST(InsGraphBatch, OptionsAndApplicability) {
   EXPECT_FALSE(InsGraphOptions::FromYaml(YAML::Load("{rss_loss: tukey}")).ok());
   EXPECT_FALSE(InsGraphOptions::FromYaml(YAML::Load("{every_n_samples: 0}")).ok());
   EXPECT_FALSE(InsGraphOptions::FromYaml(YAML::Load("{zupt_sigma: 0.01}")).ok());
+  EXPECT_FALSE(InsGraphOptions::FromYaml(YAML::Load("{initialization: truth}")).ok());
+  EXPECT_FALSE(InsGraphOptions::FromYaml(YAML::Load("{init_lag_s: 0}")).ok());
+  EXPECT_FALSE(InsGraphOptions::FromYaml(YAML::Load("{initial_trust_region_radius: 0}")).ok());
   auto o = InsGraphOptions::FromYaml(
       YAML::Load("{front_end: {zupt_sigma_mps: 0.02}, output_rate_hz: 10, range_loss: huber}"));
   ASSERT_TRUE(o.ok()) << o.status().ToString();

@@ -211,6 +211,10 @@ TEST(StepGraphTest, OptionsAreStrict) {
   EXPECT_FALSE(reg.Create("fg-batch", YAML::Load("{rss_loss: magic}")).ok());
   EXPECT_FALSE(reg.Create("fg-batch", YAML::Load("{path_loss: global, rss_residual: range}")).ok());
   EXPECT_FALSE(reg.Create("fg-batch", YAML::Load("{lag_s: 0}")).ok());
+  EXPECT_FALSE(reg.Create("fg-window", YAML::Load("{window_marginalize_batch_s: -1}")).ok());
+  EXPECT_FALSE(reg.Create("fg-window", YAML::Load("{window_initial_trust_region_radius: 0}")).ok());
+  EXPECT_FALSE(reg.Create("fg-window", YAML::Load("{window_linear_solver: cg}")).ok());
+  EXPECT_TRUE(reg.Create("fg-window", YAML::Load("{window_linear_solver: sparse}")).ok());
   EXPECT_FALSE(reg.Create("fg-batch", YAML::Load("{pdr: {detector: nope}}")).ok());
 }
 

@@ -50,8 +50,13 @@ void SetBlock(InsState* s, int block, const std::vector<double>& v) {
   std::copy(v.begin(), v.begin() + BlockSize(block), BlockOf(s, block));
 }
 
-const char* const kWindowKeys[] = {"lag_s", "window_update_s", "window_max_iterations",
-                                   "window_output", "preintegration_bias"};
+const char* const kWindowKeys[] = {"lag_s",
+                                   "window_update_s",
+                                   "window_max_iterations",
+                                   "window_output",
+                                   "preintegration_bias",
+                                   "window_marginalize_batch_s",
+                                   "window_initial_trust_region_radius"};
 
 // The front end's motion from state a to state b carried into the frame of `estimate_a` (the
 // window's current estimate of a): see the top of ins_window.h.
@@ -99,13 +104,18 @@ StatusOr<InsWindowOptions> InsWindowOptions::FromYaml(const YAML::Node& node,
   r.Read("window_max_iterations", &o.window_max_iterations);
   r.Read("window_output", &o.window_output);
   r.Read("preintegration_bias", &o.preintegration_bias);
+  r.Read("window_marginalize_batch_s", &o.window_marginalize_batch_s);
+  r.Read("window_initial_trust_region_radius", &o.window_initial_trust_region_radius);
   WG_RETURN_IF_ERROR(r.Finish());
   StatusOr<InsGraphOptions> graph = InsGraphOptions::FromYaml(rest);
   if (!graph.ok()) return InvalidArgument(context + ": " + graph.status().message());
   o.graph = *graph;
-  if (!(o.lag_s > 0) || !(o.window_update_s >= 0) || o.window_max_iterations < 1) {
+  if (!(o.lag_s > 0) || !(o.window_update_s >= 0) || o.window_max_iterations < 1 ||
+      !(o.window_marginalize_batch_s >= 0) || !(o.window_initial_trust_region_radius > 0)) {
     return InvalidArgument(context +
-                           ": need lag_s > 0, window_update_s >= 0, window_max_iterations >= 1");
+                           ": need lag_s > 0, window_update_s >= 0, window_max_iterations >= 1, "
+                           "window_marginalize_batch_s >= 0, "
+                           "window_initial_trust_region_radius > 0");
   }
   if (o.window_output != "lagged" && o.window_output != "online") {
     return InvalidArgument(context + ": window_output must be lagged|online");
@@ -126,10 +136,13 @@ Status InsGraphWindow::CheckApplicable(const Walk& walk) const {
   return Status::Ok();
 }
 
-StatusOr<EstimateResult> InsGraphWindow::Run(const Walk& walk) const {
+namespace {
+
+// The window pass; `lagged_out` (optional) receives every state's lagged estimate.
+StatusOr<EstimateResult> RunInsWindow(const Walk& walk, const InsWindowOptions& options_,
+                                      std::vector<InsState>* lagged_out) {
   using Clock = std::chrono::steady_clock;
   const Clock::time_point run_start = Clock::now();
-  WG_RETURN_IF_ERROR(CheckApplicable(walk));
   const InsGraphOptions& g = options_.graph;
   const bool online = options_.window_output == "online";
   const bool bias_from_estimate = options_.preintegration_bias == "estimate";
@@ -151,6 +164,8 @@ StatusOr<EstimateResult> InsGraphWindow::Run(const Walk& walk) const {
   so.max_iterations = options_.window_max_iterations;
   so.function_tolerance = g.function_tolerance;
   so.parameter_tolerance = g.parameter_tolerance;
+  so.marginalize_batch_s = options_.window_marginalize_batch_s;
+  so.initial_trust_region_radius = options_.window_initial_trust_region_radius;
   FixedLagSmoother smoother(so);
   const auto manifold = std::make_shared<NavQuaternionManifold>();
 
@@ -348,7 +363,25 @@ StatusOr<EstimateResult> InsGraphWindow::Run(const Walk& walk) const {
   const double minutes = (walk.imu.back().t_s - walk.imu.front().t_s) / 60.0;
   result.timings["run_s"] = run_s;
   result.timings["run_s_per_walk_minute"] = minutes > 0 ? run_s / minutes : 0.0;
+  if (lagged_out) *lagged_out = std::move(lagged);
   return result;
+}
+
+}  // namespace
+
+StatusOr<EstimateResult> InsGraphWindow::Run(const Walk& walk) const {
+  WG_RETURN_IF_ERROR(CheckApplicable(walk));
+  return RunInsWindow(walk, options_, nullptr);
+}
+
+StatusOr<std::vector<InsState>> InsWindowLaggedStates(const Walk& walk,
+                                                      const InsWindowOptions& options) {
+  InsWindowOptions o = options;
+  o.window_output = "lagged";
+  WG_RETURN_IF_ERROR(InsGraphWindow(o).CheckApplicable(walk));
+  std::vector<InsState> lagged;
+  WG_RETURN_IF_ERROR(RunInsWindow(walk, o, &lagged).status());
+  return lagged;
 }
 
 namespace internal {
