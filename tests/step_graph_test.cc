@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <map>
 #include <string>
 #include <vector>
@@ -200,6 +201,33 @@ TEST(StepGraphTest, OnlineOutputUsesOnlyPastData) {
     worst = std::max(worst, std::fabs(AlongOf(*w, online->trajectory.points[k]) - ref.s[k]));
   }
   EXPECT_LT(worst, 1e-6);
+}
+
+// Memory: the window holds the nodes (and their factors) of the last lag_s +
+// window_marginalize_batch_s seconds however long the walk: a 10-minute walk's largest window
+// is within one batch of a 2-minute one's, far below the walk's size.
+TEST(StepGraphTest, WindowStaysBoundedOnALongWalk) {
+  std::map<double, std::pair<double, double>> largest;  // duration → (states, factors)
+  double nodes_long = 0.0;
+  for (double duration : {120.0, 600.0}) {
+    auto w = SimulateScenario("tarrio-circle", 4,
+                              YAML::Load("{duration_s: " + std::to_string(duration) + "}"));
+    ASSERT_TRUE(w.ok());
+    auto r = RunId("fg-window", *w, YAML::Load("{covariance: false}"));
+    ASSERT_TRUE(r.ok()) << r.status().message();
+    largest[duration] = {r->diagnostics.at("window_max_states"),
+                         r->diagnostics.at("window_max_factors")};
+    nodes_long = r->diagnostics.at("nodes");
+    std::printf("%.0f s walk: %.0f nodes, window at most %.0f states, %.0f factors\n", duration,
+                nodes_long, largest[duration].first, largest[duration].second);
+  }
+  // ≈ 1.7 steps/s: 10-11 s of nodes (2 states each) plus the static states.
+  const auto& [states_short, factors_short] = largest[120.0];
+  const auto& [states_long, factors_long] = largest[600.0];
+  EXPECT_GE(states_short, 2.0 * 1.7 * 10.0 * 0.8);
+  EXPECT_LE(states_long, states_short + 2.0 * 2.0 * 1.7);  // at most ~one batch more
+  EXPECT_LE(factors_long, 1.25 * factors_short);
+  EXPECT_LT(states_long, 0.1 * 2.0 * nodes_long);
 }
 
 TEST(StepGraphTest, OptionsAreStrict) {

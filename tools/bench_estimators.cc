@@ -87,6 +87,27 @@ double PeakRssMb() {
   return static_cast<double>(usage.ru_maxrss) / 1024.0;  // kB on Linux
 }
 
+// A /proc/self/status field in MB (VmRSS: resident now; VmHWM: its high-water mark); -1 if
+// unavailable.
+double ProcStatusMb(const std::string& field) {
+  std::ifstream in("/proc/self/status");
+  std::string line;
+  while (std::getline(in, line)) {
+    if (line.rfind(field + ":", 0) == 0) return std::stod(line.substr(field.size() + 1)) / 1024.0;
+  }
+  return -1.0;
+}
+
+// Resets VmHWM to the current RSS (Linux: "5" to /proc/self/clear_refs), so that after a run
+// VmHWM − VmRSS(before) is what the run itself added at its peak (the walk already in memory
+// excluded). False where the kernel does not offer it.
+bool ResetPeakRss() {
+  std::ofstream out("/proc/self/clear_refs");
+  out << "5";
+  out.flush();
+  return static_cast<bool>(out);
+}
+
 void RunEstimator(benchmark::State& state, const std::string& id, const WalkSpec& spec) {
   std::string error;
   const walkgraph::Walk* walk = GetWalk(spec, &error);
@@ -100,6 +121,8 @@ void RunEstimator(benchmark::State& state, const std::string& id, const WalkSpec
     return;
   }
   std::map<std::string, double> diagnostics;
+  const bool run_peak = ResetPeakRss();
+  const double rss_before_mb = ProcStatusMb("VmRSS");
   for (auto _ : state) {
     auto result = (*est)->Run(*walk);
     if (!result.ok()) {
@@ -115,6 +138,9 @@ void RunEstimator(benchmark::State& state, const std::string& id, const WalkSpec
   state.counters["realtime_x"] =
       benchmark::Counter(walk_s, benchmark::Counter::kIsIterationInvariantRate);
   state.counters["peak_rss_mb"] = PeakRssMb();
+  if (run_peak && rss_before_mb >= 0.0) {
+    state.counters["run_peak_rss_mb"] = ProcStatusMb("VmHWM") - rss_before_mb;
+  }
   for (const auto& [k, v] : diagnostics) state.counters[k] = v;
 }
 
@@ -150,8 +176,9 @@ int Summarize(const std::string& dir) {
   // One row per benchmark; then the log-log growth slope per estimator and walk family.
   std::ostringstream md;
   md << std::fixed;
-  md << "| estimator | walk | walk [min] | wall [s] | × real time | peak RSS [MB] | notes |\n";
-  md << "|---|---|---:|---:|---:|---:|---|\n";
+  md << "| estimator | walk | walk [min] | wall [s] | × real time | peak RSS [MB] | "
+        "run's own peak [MB] | notes |\n";
+  md << "|---|---|---:|---:|---:|---:|---:|---|\n";
   std::map<std::string, std::vector<std::pair<double, double>>> growth;  // (walk_s, wall_s)
   for (const auto& b : merged["benchmarks"]) {
     const std::string name = b.value("name", "");
@@ -160,7 +187,7 @@ int Summarize(const std::string& dir) {
     std::string walk = slash == std::string::npos ? "" : name.substr(slash + 1);
     walk = walk.substr(0, walk.find('/'));
     if (b.value("error_occurred", false)) {
-      md << "| " << id << " | " << walk << " | | | | | skipped: " << b.value("error_message", "")
+      md << "| " << id << " | " << walk << " | | | | | | skipped: " << b.value("error_message", "")
          << " |\n";
       continue;
     }
@@ -172,13 +199,14 @@ int Summarize(const std::string& dir) {
     std::ostringstream notes;
     for (const auto& [k, v] : b.items()) {
       if (k == "ceres_iterations" || k.rfind("update_latency", 0) == 0 ||
-          k.rfind("latency", 0) == 0) {
+          k.rfind("latency", 0) == 0 || k.rfind("window_max", 0) == 0) {
         notes << k << "=" << std::setprecision(4) << v.get<double>() << " ";
       }
     }
     md << "| " << id << " | " << walk << " | " << std::setprecision(1) << walk_s / 60.0 << " | "
        << std::setprecision(3) << wall << " | " << std::setprecision(0) << walk_s / wall << " | "
-       << std::setprecision(1) << b.value("peak_rss_mb", 0.0) << " | " << notes.str() << "|\n";
+       << std::setprecision(1) << b.value("peak_rss_mb", 0.0) << " | "
+       << b.value("run_peak_rss_mb", 0.0) << " | " << notes.str() << "|\n";
     const std::string family = walk.substr(0, walk.find('-'));
     if (family == "hip" || family == "foot")
       growth[id + " (" + family + ")"].push_back({walk_s, wall});

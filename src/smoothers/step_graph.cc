@@ -920,6 +920,7 @@ StatusOr<EstimateResult> RunWindowNodes(const Walk& walk, const StepGraphOptions
   std::vector<double> latency;
   latency.reserve(n);
   int iterations = 0, solves = 0;
+  size_t max_states = 0, max_factors = 0;  // the window's largest size (its memory)
   Eigen::Vector2d prev_p = graph->initial_nodes()[0].head<2>();
   double prev_theta = graph->initial_nodes()[0][2];
   // Nodes are fed one update each, or (window_update_s > 0) gathered into one update per
@@ -947,6 +948,8 @@ StatusOr<EstimateResult> RunWindowNodes(const Walk& walk, const StepGraphOptions
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
     iterations += u.ceres_iterations;
     solves += u.solved ? 1 : 0;
+    max_states = std::max(max_states, smoother.NumStates());
+    max_factors = std::max(max_factors, smoother.NumFactors());
     WG_ASSIGN_OR_RETURN(std::vector<double> p, smoother.Estimate(StepGraph::PositionKey(k)));
     WG_ASSIGN_OR_RETURN(std::vector<double> h, smoother.Estimate(StepGraph::HeadingKey(k)));
     prev_p = Eigen::Vector2d(p[0], p[1]);
@@ -979,6 +982,8 @@ StatusOr<EstimateResult> RunWindowNodes(const Walk& walk, const StepGraphOptions
   auto& d = result.diagnostics;
   d["ceres_iterations"] = iterations;
   d["window_solves"] = solves;
+  d["window_max_states"] = static_cast<double>(max_states);
+  d["window_max_factors"] = static_cast<double>(max_factors);
   d["nodes"] = n;
   AddUpdateLatencyTimings(latency, &result.timings);
   AddStaticDiagnostics(

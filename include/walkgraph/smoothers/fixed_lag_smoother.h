@@ -130,6 +130,10 @@ class FixedLagSmoother {
   // Timed states still in the window, oldest first.
   std::vector<StateKey> WindowKeys() const;
   bool Contains(StateKey key) const { return states_.count(key) > 0; }
+  // What the window holds now (timed and static states; factors including the prior): the
+  // smoother's memory, bounded by the lag however long the walk.
+  size_t NumStates() const { return states_.size(); }
+  size_t NumFactors() const { return factors_.size(); }
   // Finishes a run: hands every timed state still in the window to on_marginalize (oldest
   // first, with its current estimate) without removing it.
   void Flush() const;
