@@ -242,9 +242,13 @@ struct PdrCase {
 
 TEST(PdrTest, StepCountAndDriftOnSimulatedHipWalks) {
   const char* energy = "{detector: energy, energy_threshold_m2ps4: 2, forward_axis: body-x}";
+  const char* strongest =
+      "{detector: energy, energy_threshold_m2ps4: 2, forward_axis: body-x, "
+      "energy_lockout_keep: strongest}";
   for (const PdrCase& c : {PdrCase{"tarrio-circle", "{duration_s: 300}", "{}", true, false},
                            PdrCase{"gadeke-outage", "{}", "{}", true, true},
-                           PdrCase{"gadeke-outage", "{}", energy, false, true}}) {
+                           PdrCase{"gadeke-outage", "{}", energy, false, true},
+                           PdrCase{"gadeke-outage", "{}", strongest, false, true}}) {
     for (uint64_t seed : {1, 2}) {
       auto sim = SimulateScenarioDetailed(c.scenario, seed, YAML::Load(c.overrides));
       ASSERT_TRUE(sim.ok()) << sim.status().message();

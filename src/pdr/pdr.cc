@@ -151,6 +151,9 @@ StatusOr<std::vector<StepEvent>> DetectWithSignals(const Walk& walk, const ImuSi
           continue;
         }
         if (!peaks.empty() && walk.imu[i].t_s - walk.imu[peaks.back()].t_s < o.energy_lockout_s) {
+          if (o.energy_lockout_keep == "strongest" && energy[i] > energy[peaks.back()]) {
+            peaks.back() = i;
+          }
           continue;
         }
         peaks.push_back(i);
@@ -240,6 +243,7 @@ StatusOr<PdrOptions> PdrOptions::FromYaml(const YAML::Node& node) {
   r.Read("fir_peak_mps2", &o.fir_peak_mps2);
   r.Read("energy_threshold_m2ps4", &o.energy_threshold_m2ps4);
   r.Read("energy_lockout_s", &o.energy_lockout_s);
+  r.Read("energy_lockout_keep", &o.energy_lockout_keep);
   r.Read("min_step_interval_s", &o.min_step_interval_s);
   r.Read("weinberg_k", &o.weinberg_k);
   r.Read("constant_length_m", &o.constant_length_m);
@@ -278,6 +282,9 @@ StatusOr<PdrOptions> PdrOptions::FromYaml(const YAML::Node& node) {
     return InvalidArgument(
         "pdr: need fir_order >= 2, cut-offs > 0, 0 <= complementary_w <= 1, weinberg_k > 0, "
         "intervals >= 0, gravity_mps2 > 0");
+  }
+  if (o.energy_lockout_keep != "first" && o.energy_lockout_keep != "strongest") {
+    return InvalidArgument("pdr: energy_lockout_keep must be first|strongest");
   }
   return o;
 }

@@ -106,6 +106,7 @@ StatusOr<StepGraphOptions> StepGraphOptions::FromYaml(const YAML::Node& node,
   r.Read("align_window_s", &o.align_window_s);
   r.Read("initialization", &o.initialization);
   r.Read("max_iterations", &o.max_iterations);
+  r.Read("initial_trust_region_radius", &o.initial_trust_region_radius);
   r.Read("function_tolerance", &o.function_tolerance);
   r.Read("parameter_tolerance", &o.parameter_tolerance);
   r.Read("num_threads", &o.num_threads);
@@ -150,6 +151,7 @@ StatusOr<StepGraphOptions> StepGraphOptions::FromYaml(const YAML::Node& node,
   WG_RETURN_IF_ERROR(positive(o.lag_s, "lag_s"));
   WG_RETURN_IF_ERROR(
       positive(o.window_initial_trust_region_radius, "window_initial_trust_region_radius"));
+  WG_RETURN_IF_ERROR(positive(o.initial_trust_region_radius, "initial_trust_region_radius"));
   WG_RETURN_IF_ERROR(positive(o.function_tolerance, "function_tolerance"));
   WG_RETURN_IF_ERROR(positive(o.parameter_tolerance, "parameter_tolerance"));
   if (o.odometry_sigma_dist_frac < 0 || o.odometry_sigma_dist_m < 0 ||
@@ -770,6 +772,7 @@ StatusOr<EstimateResult> StepGraphBatch::Run(const Walk& walk) const {
   ceres::Solver::Options so;
   so.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
   so.max_num_iterations = options_.max_iterations;
+  so.initial_trust_region_radius = options_.initial_trust_region_radius;
   so.function_tolerance = options_.function_tolerance;
   so.parameter_tolerance = options_.parameter_tolerance;
   so.num_threads = options_.num_threads;

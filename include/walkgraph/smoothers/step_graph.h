@@ -113,6 +113,9 @@ struct StepGraphOptions {
   double init_lag_s = 20.0;
   double init_update_s = 5.0;
   int max_iterations = 100;
+  // fg-batch's LM start: Ceres' default 1e4 damps the soft modes of a long chain; measured on
+  // Plaza1 1e4 12 iterations, 1e8 5, same RMSE (0.311 m).
+  double initial_trust_region_radius = 1e8;
   double function_tolerance = 1e-6;  // Ceres' relative cost-change stop (both smoothers)
   double parameter_tolerance = 1e-8;
   int num_threads = 1;
