@@ -24,17 +24,20 @@
 // (its x, y, heading and σ; z = 0 with σ initial_sigma_z_m), or without one at the origin with
 // yaw = the front end's initial yaw and σ = gauge_sigma_m / gauge_sigma_yaw_rad (then the
 // output is in an arbitrary frame: score it with --align-se2).
-// Initialization: every state from the ZUPT-aided INS of the front end at its sample (p, v, q,
-// biases). Relinearization: the preintegrations use the biases of their first state as b̄; after
-// a solve, if some b_i moved from b̄ by more than relinearize_*, the preintegrations are
+// Initialization (option `initialization`): "window" (default), every state's lagged estimate
+// from a fast fg-ins-window pass over the same graph (ins_window.h), itself started from the
+// front end; "front-end", every state from the ZUPT-aided INS of the front end at its sample
+// (p, v, q, biases). Relinearization: the preintegrations use the biases of their first state as b̄;
+// after a solve, if some b_i moved from b̄ by more than relinearize_*, the preintegrations are
 // rebuilt at the new estimate and the problem solved again (at most max_relinearizations).
 // Output: a pose every 1/output_rate_hz and at every state. Between states i and j the IMU is
 // integrated from state i with its biases (strapdown.h) and the end mismatch to state j is
 // spread linearly in time: p(t) = p_fwd(t) + α·(p_j − p_fwd(t_j)), likewise the yaw,
-// α = (t − t_i)/(t_j − t_i). Covariance of (x, y, yaw) per state from ceres::Covariance
-// (tangent space of NavQuaternionManifold: δ_z is the yaw), linearly interpolated between
-// states; when the covariance cannot be computed (rank deficiency) the trajectory comes
-// without it and diagnostics["covariance_ok"] = 0.
+// α = (t − t_i)/(t_j − t_i). Covariance of (x, y, yaw) per state from the banded chain solver
+// (chain_covariance.h; ceres::Covariance if the graph is not chain-shaped) in the tangent space
+// of NavQuaternionManifold (δ_z is the yaw), linearly interpolated between states; when the
+// covariance cannot be computed (rank deficiency) the trajectory comes without it and
+// diagnostics["covariance_ok"] = 0.
 //
 // Incremental use (the fixed-lag smoother): the graph is a chain, and every factor is made by
 // one of the functions below from states that the caller owns, so a window smoother adds, for
