@@ -120,6 +120,7 @@ StatusOr<StepGraphOptions> StepGraphOptions::FromYaml(const YAML::Node& node,
   r.Read("window_initial_trust_region_radius", &o.window_initial_trust_region_radius);
   r.Read("init_lag_s", &o.init_lag_s);
   r.Read("init_update_s", &o.init_update_s);
+  r.Read("init_max_iterations", &o.init_max_iterations);
   WG_RETURN_IF_ERROR(r.Finish());
   if (pdr.IsDefined()) {
     WG_ASSIGN_OR_RETURN(o.pdr, PdrOptions::FromYaml(pdr));
@@ -163,8 +164,10 @@ StatusOr<StepGraphOptions> StepGraphOptions::FromYaml(const YAML::Node& node,
     return InvalidArgument(context +
                            ": eta, sigma_db must be > 0 (0: the walk's) and A_dbm finite");
   }
-  if (o.max_iterations < 1 || o.window_max_iterations < 1 || o.num_threads < 1) {
-    return InvalidArgument(context + ": max_iterations, window_max_iterations, num_threads >= 1");
+  if (o.max_iterations < 1 || o.window_max_iterations < 1 || o.init_max_iterations < 1 ||
+      o.num_threads < 1) {
+    return InvalidArgument(
+        context + ": max_iterations, window_max_iterations, init_max_iterations, num_threads >= 1");
   }
   if (!OneOf(o.rss_residual, {"db", "range"})) {
     return InvalidArgument(context + ": rss_residual must be 'db' or 'range'");
@@ -801,6 +804,7 @@ StatusOr<EstimateResult> StepGraphBatch::Run(const Walk& walk) const {
     wo.window_output = "lagged";
     wo.lag_s = options_.init_lag_s;
     wo.window_update_s = options_.init_update_s;
+    wo.window_max_iterations = options_.init_max_iterations;
     WG_ASSIGN_OR_RETURN(EstimateResult w, RunWindowNodes(walk, wo));
     if (static_cast<int>(w.trajectory.size()) != n) {
       return InternalError("fg-batch: window initialization returned a different node count");

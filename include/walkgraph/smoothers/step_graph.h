@@ -112,6 +112,7 @@ struct StepGraphOptions {
   std::string initialization = "auto";
   double init_lag_s = 20.0;
   double init_update_s = 5.0;
+  int init_max_iterations = 10;  // LM iterations per update of that pass
   int max_iterations = 100;
   // fg-batch's LM start: Ceres' default 1e4 damps the soft modes of a long chain; measured on
   // Plaza1 1e4 12 iterations, 1e8 5, same RMSE (0.311 m).
@@ -123,11 +124,10 @@ struct StepGraphOptions {
 
   // fg-window.
   double lag_s = 10.0;
-  // LM iterations per window update. The window is warm-started (previous optimum, radius
-  // 1e8): iteration 1 is the Gauss–Newton step and 2 refines it. Measured, 10 runs seed 3:
-  // tarrio-circle lagged RMSE 0.431 (10) / 0.432 (2) / 0.438 (1) m, gadeke-outage 5.657 /
-  // 5.674 / 5.694 m; Plaza1 0.279 m for all three, 2.87 / 2.64 / 2.26 s.
-  int window_max_iterations = 2;
+  // LM iterations per window update (to convergence). Fewer is faster but not safe: measured
+  // with 2, Plaza1 2.87 → 2.64 s at the same RMSE and the presets within 0.3 %, but IPIN
+  // trial 21 (real) 5.92 → 12.56 m mean landmark error.
+  int window_max_iterations = 10;
   // sparse: SPARSE_NORMAL_CHOLESKY on SuiteSparse; eigen-sparse: the same on Eigen's
   // SimplicialLDLT (less set-up per solve, which dominates on a window of ~100 blocks:
   // Plaza1 without covariances 2.62 → 2.28 s); dense: DENSE_NORMAL_CHOLESKY.
