@@ -92,7 +92,7 @@ void CalibrateFrom(const Walk& calibration, Walk* target) {
 // path loss fitted on TrainingTrial01. The fix-based estimators (pdr-only, rss-only, tarrio-*,
 // correa-*) cannot run here: the walk never hears three beacons in one epoch. fg-batch's
 // landmark mean and p75 must be below every filter's that runs (tools/real_data_tables.sh:
-// fg-batch 2.64 / 3.12 m, the best filter gadeke-kf-rts 11.39 / 18.52 m).
+// fg-batch 2.63 / 3.11 m, the best filter gadeke-kf-rts 11.39 / 18.52 m).
 TEST(RealData, IpinTrial21FactorGraphBelowEveryFilter) {
   const std::string dir = kShared + "/ipin2023_t3";
   if (!fs::exists(dir)) GTEST_SKIP() << dir << " not present";

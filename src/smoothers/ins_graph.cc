@@ -114,7 +114,7 @@ StatusOr<InsGraphOptions> InsGraphOptions::FromYaml(const YAML::Node& node) {
   r.Read("max_iterations", &o.max_iterations);
   r.Read("initialization", &o.initialization);
   r.Read("init_lag_s", &o.init_lag_s);
-  r.Read("init_update_s", &o.init_update_s);
+  r.Read("init_marginalize_batch_s", &o.init_marginalize_batch_s);
   r.Read("initial_trust_region_radius", &o.initial_trust_region_radius);
   r.Read("function_tolerance", &o.function_tolerance);
   r.Read("parameter_tolerance", &o.parameter_tolerance);
@@ -135,9 +135,11 @@ StatusOr<InsGraphOptions> InsGraphOptions::FromYaml(const YAML::Node& node) {
   if (o.initialization != "front-end" && o.initialization != "window") {
     return InvalidArgument("fg-ins-batch: initialization must be front-end|window");
   }
-  if (!(o.init_lag_s > 0) || !(o.init_update_s >= 0) || !(o.initial_trust_region_radius > 0)) {
+  if (!(o.init_lag_s > 0) || !(o.init_marginalize_batch_s >= 0) ||
+      !(o.initial_trust_region_radius > 0)) {
     return InvalidArgument(
-        "fg-ins-batch: need init_lag_s > 0, init_update_s >= 0, initial_trust_region_radius > 0");
+        "fg-ins-batch: need init_lag_s > 0, init_marginalize_batch_s >= 0, "
+        "initial_trust_region_radius > 0");
   }
   for (const std::string* loss : {&o.rss_loss, &o.range_loss}) {
     WG_ASSIGN_OR_RETURN(ceres::LossFunction * l, MakeLoss(*loss, 1.0));
@@ -522,7 +524,7 @@ StatusOr<EstimateResult> InsGraphBatch::Run(const Walk& walk) const {
     wo.graph = o;
     wo.graph.compute_covariance = false;
     wo.lag_s = o.init_lag_s;
-    wo.window_marginalize_batch_s = o.init_update_s;
+    wo.window_marginalize_batch_s = o.init_marginalize_batch_s;
     wo.window_initial_trust_region_radius = o.initial_trust_region_radius;
     WG_ASSIGN_OR_RETURN(std::vector<InsState> lagged, InsWindowLaggedStates(walk, wo));
     if (lagged.size() != states.size()) {

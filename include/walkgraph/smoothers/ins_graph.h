@@ -104,13 +104,13 @@ struct InsGraphOptions {
   int max_iterations = 100;
   // Initial values of the batch: "front-end" (the ZUPT-aided INS at each state) or "window"
   // (the lagged states of a fast fg-ins-window pass, ins_window.h: lag init_lag_s, states
-  // leaving in batches of init_update_s, no covariances). The front end's yaw and position
-  // drift grows with the walk and the batch must undo it: from the front end LM took 31
+  // leaving in batches of init_marginalize_batch_s, no covariances). The front end's yaw and
+  // position drift grows with the walk and the batch must undo it: from the front end LM took 31
   // iterations on a 16-min prieto-laps walk and 173 on 1 h; the window grows the solution
   // incrementally and hands the batch a start near its optimum.
   std::string initialization = "window";
   double init_lag_s = 10.0;
-  double init_update_s = 1.0;
+  double init_marginalize_batch_s = 1.0;
   // LM's starting trust-region radius (Ceres' default 1e4 damps a long chain's soft modes).
   double initial_trust_region_radius = 1e8;
   // Ceres' stopping rules (its defaults; the fixed-lag version uses the first two as well).
