@@ -40,6 +40,7 @@ YAML::Node LinearConfig(double lag_s = 10.0) {
   n["lag_s"] = lag_s;
   n["window_max_iterations"] = 50;
   n["function_tolerance"] = 1e-14;  // converge fully: the comparisons are at 1e-6
+  n["window_function_tolerance"] = 1e-14;
   n["parameter_tolerance"] = 1e-14;
   return n;
 }

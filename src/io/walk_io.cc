@@ -1,5 +1,6 @@
 #include <unistd.h>
 
+#include <charconv>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -37,7 +38,7 @@ std::string CheckTimeStrictlyIncreasing(double t, const double* prev_t) {
   if (prev_t == nullptr || t > *prev_t) return "";
   std::ostringstream s;
   s << std::setprecision(15) << "timestamp " << t
-    << (t == *prev_t ? " repeats the previous one" : " goes backwards (previous ") ;
+    << (t == *prev_t ? " repeats the previous one" : " goes backwards (previous ");
   if (t != *prev_t) s << *prev_t << ")";
   s << "; expected strictly increasing t_s";
   return s.str();
@@ -57,16 +58,15 @@ std::string CheckImu(const ImuSample& s, const ValidationLimits& lim) {
 
 std::string CheckRss(const RssSample& s, RssUnits units, const ValidationLimits& lim) {
   if (units == RssUnits::kDbm && (s.rss < lim.min_rss_dbm || s.rss > lim.max_rss_dbm)) {
-    return "rss " + G(s.rss) + " outside [" + G(lim.min_rss_dbm) + ", " +
-           G(lim.max_rss_dbm) + "] dBm";
+    return "rss " + G(s.rss) + " outside [" + G(lim.min_rss_dbm) + ", " + G(lim.max_rss_dbm) +
+           "] dBm";
   }
   return "";
 }
 
 std::string CheckRange(const RangeSample& s, const ValidationLimits& lim) {
   if (s.range_m < 0.0 || s.range_m > lim.max_range_m) {
-    return "range_m " + G(s.range_m) + " outside [0, " +
-           G(lim.max_range_m) + "] m";
+    return "range_m " + G(s.range_m) + " outside [0, " + G(lim.max_range_m) + "] m";
   }
   return "";
 }
@@ -76,8 +76,8 @@ std::string CheckRadioTime(double t, int anchor_id, double* last_t,
                            std::unordered_map<int, double>* last_by_anchor, bool first) {
   if (t < 0.0) return "t_s must be >= 0";
   if (!first && t < *last_t) {
-    return "timestamp " + G(t) + " goes backwards (previous " +
-           G(*last_t) + "); expected non-decreasing t_s";
+    return "timestamp " + G(t) + " goes backwards (previous " + G(*last_t) +
+           "); expected non-decreasing t_s";
   }
   auto it = last_by_anchor->find(anchor_id);
   if (it != last_by_anchor->end() && !(t > it->second)) {
@@ -217,8 +217,7 @@ Status ReadAnchors(const std::string& path, const ValidationLimits& lim,
     a.id = static_cast<int>(f[0]);
     a.position_m = Eigen::Vector3d(f[1], f[2], f[3]);
     if (a.position_m.cwiseAbs().maxCoeff() > lim.max_abs_coordinate_m) {
-      return InvalidArgument(r.Where() + "coordinate beyond " +
-                             G(lim.max_abs_coordinate_m) + " m");
+      return InvalidArgument(r.Where() + "coordinate beyond " + G(lim.max_abs_coordinate_m) + " m");
     }
     if (!ids.insert(a.id).second) {
       return InvalidArgument(r.Where() + "duplicate anchor id " + std::to_string(a.id));
@@ -348,15 +347,10 @@ bool Exists(const fs::path& p) {
 
 // Full precision, no trailing noise: shortest representation that round-trips.
 std::string Num(double v) {
-  char buf[32];
-  std::snprintf(buf, sizeof(buf), "%.17g", v);
-  // Try shorter representations that still round-trip (keeps files small and readable).
-  for (int p = 6; p < 17; ++p) {
-    char shorter[32];
-    std::snprintf(shorter, sizeof(shorter), "%.*g", p, v);
-    if (std::strtod(shorter, nullptr) == v) return shorter;
-  }
-  return buf;
+  // The shortest text that reads back to the same double (keeps files small and readable).
+  char buf[64];
+  const auto res = std::to_chars(buf, buf + sizeof(buf), v);
+  return std::string(buf, res.ptr);
 }
 
 }  // namespace
@@ -418,11 +412,13 @@ StatusOr<Walk> ReadWalk(const std::string& dir, const ValidationLimits& limits) 
                            "' but truth.csv is missing");
   }
   if (walk.meta.truth_kind == TruthKind::kNone && !walk.truth.empty()) {
-    return InvalidArgument(yaml.string() + ": truth.csv present; expected truth: "
+    return InvalidArgument(yaml.string() +
+                           ": truth.csv present; expected truth: "
                            "continuous|checkpoints in walk.yaml");
   }
   if (walk.imu.empty() && walk.rss.empty() && walk.ranges.empty() && walk.odometry.empty()) {
-    return InvalidArgument(dir + ": no measurements; expected at least one of imu.csv, rss.csv, "
+    return InvalidArgument(dir +
+                           ": no measurements; expected at least one of imu.csv, rss.csv, "
                            "range.csv, odometry.csv");
   }
   return walk;
@@ -431,7 +427,8 @@ StatusOr<Walk> ReadWalk(const std::string& dir, const ValidationLimits& limits) 
 Status ValidateWalk(const Walk& walk, const ValidationLimits& limits) {
   std::set<int> ids;
   for (size_t i = 0; i < walk.anchors.size(); ++i) {
-    if (walk.anchors[i].id < 0) return InvalidArgument("anchors[" + std::to_string(i) + "]: negative id");
+    if (walk.anchors[i].id < 0)
+      return InvalidArgument("anchors[" + std::to_string(i) + "]: negative id");
     if (!walk.anchors[i].position_m.allFinite()) {
       return InvalidArgument("anchors[" + std::to_string(i) + "]: non-finite position");
     }
@@ -450,7 +447,8 @@ Status ValidateWalk(const Walk& walk, const ValidationLimits& limits) {
     }
     std::string e = CheckTimeStrictlyIncreasing(s.t_s, i ? &walk.imu[i - 1].t_s : nullptr);
     if (e.empty()) e = CheckImu(s, limits);
-    if (e.empty() && s.has_mag != walk.imu[0].has_mag) e = "magnetometer present on some samples only";
+    if (e.empty() && s.has_mag != walk.imu[0].has_mag)
+      e = "magnetometer present on some samples only";
     if (!e.empty()) return InvalidArgument(where("imu", i) + e);
   }
   {
@@ -599,7 +597,8 @@ Status WriteWalkFiles(const Walk& walk, const fs::path& root) {
   if (!walk.rss.empty()) {
     WG_RETURN_IF_ERROR(WriteFileAtomically((root / "rss.csv").string(), [&](std::ostream& o) {
       o << "t_s,anchor_id,rss\n";
-      for (const RssSample& s : walk.rss) o << Num(s.t_s) << ',' << s.anchor_id << ',' << Num(s.rss) << '\n';
+      for (const RssSample& s : walk.rss)
+        o << Num(s.t_s) << ',' << s.anchor_id << ',' << Num(s.rss) << '\n';
       return true;
     }));
   }
@@ -717,8 +716,8 @@ StatusOr<Trajectory> ReadTumTrajectory(const std::string& path) {
     p.t_s = v[0];
     p.position_m = Eigen::Vector3d(v[1], v[2], v[3]);
     // yaw of the quaternion (x, y, z, w)
-    p.heading_rad = std::atan2(2.0 * (v[7] * v[6] + v[4] * v[5]),
-                               1.0 - 2.0 * (v[5] * v[5] + v[6] * v[6]));
+    p.heading_rad =
+        std::atan2(2.0 * (v[7] * v[6] + v[4] * v[5]), 1.0 - 2.0 * (v[5] * v[5] + v[6] * v[6]));
     if (!traj.points.empty() && !(p.t_s > traj.points.back().t_s)) {
       return InvalidArgument(path + ":" + std::to_string(n) + ": timestamps must increase");
     }

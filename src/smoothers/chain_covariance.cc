@@ -2,13 +2,15 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <string>
 
+#include <unordered_map>
+
 #include <ceres/cost_function.h>
-#include <ceres/crs_matrix.h>
 #include <ceres/loss_function.h>
+#include <ceres/manifold.h>
 #include <Eigen/Cholesky>
-#include <Eigen/SparseCore>
 
 namespace walkgraph {
 
@@ -88,9 +90,17 @@ Band BandInverse(const Band& l) {
 
 StatusOr<std::vector<Eigen::MatrixXd>> ChainMarginalCovariances(
     ceres::Problem* problem, const std::vector<std::vector<double*>>& groups,
-    const std::vector<double*>& statics, double inlier_sigma, int max_bandwidth) {
+    const std::vector<double*>& statics, double inlier_sigma, int max_bandwidth,
+    const std::vector<bool>& wanted) {
+  if (!wanted.empty() && wanted.size() != groups.size()) {
+    return InvalidArgument("covariance: 'wanted' must have one entry per group");
+  }
   // Column layout: the chain's variable blocks in order, then the statics.
-  std::vector<double*> blocks;
+  struct Column {
+    int offset = 0;
+    int size = 0;
+  };
+  std::unordered_map<const double*, Column> column_of;
   std::vector<std::vector<std::pair<int, int>>> group_cols(groups.size());  // (offset, size)
   int n_chain = 0;
   for (size_t g = 0; g < groups.size(); ++g) {
@@ -98,61 +108,118 @@ StatusOr<std::vector<Eigen::MatrixXd>> ChainMarginalCovariances(
       if (problem->IsParameterBlockConstant(b)) continue;
       const int t = problem->ParameterBlockTangentSize(b);
       group_cols[g].emplace_back(n_chain, t);
-      blocks.push_back(b);
+      column_of[b] = {n_chain, t};
       n_chain += t;
     }
   }
-  int n_static = 0;
+  int n = n_chain;
   for (double* b : statics) {
     if (problem->IsParameterBlockConstant(b)) continue;
-    blocks.push_back(b);
-    n_static += problem->ParameterBlockTangentSize(b);
+    const int t = problem->ParameterBlockTangentSize(b);
+    column_of[b] = {n, t};
+    n += t;
   }
-  const int n = n_chain + n_static;
+  const int n_static = n - n_chain;
   std::vector<Eigen::MatrixXd> out(groups.size());
   if (n_chain == 0) return out;
 
-  ceres::Problem::EvaluateOptions eo;
-  eo.parameter_blocks = blocks;
-  problem->GetResidualBlocks(&eo.residual_blocks);
-  eo.apply_loss_function = false;  // robust weights applied below, per residual block
-  ceres::CRSMatrix crs;
-  std::vector<double> residuals;
-  if (!problem->Evaluate(eo, nullptr, &residuals, nullptr, &crs)) {
-    return NumericalError("covariance: the problem could not be evaluated");
-  }
-  if (crs.num_cols != n) return InternalError("covariance: unexpected Jacobian width");
-  // Row weights: a robust residual block counts fully while ‖r‖ ≤ inlier_sigma (whitened), and
-  // with its loss's IRLS weight ρ′(‖r‖²) beyond — an outlier the loss discounted is not
-  // information, an inlier is (ρ′ of an aggressive loss would discount inliers too and
-  // overstate the covariance).
-  std::vector<double> row_weight(residuals.size(), 1.0);
-  int row = 0;
-  for (ceres::ResidualBlockId id : eo.residual_blocks) {
-    const int m = problem->GetCostFunctionForResidualBlock(id)->num_residuals();
-    const ceres::LossFunction* loss = problem->GetLossFunctionForResidualBlock(id);
+  // Each residual block's Jacobian in the tangent spaces of its variable blocks (the others are
+  // held), evaluated directly: a Problem::Evaluate would set up a whole program per call.
+  // Stored flat: per term its rows, then per variable block a (rows × tangent) row-major slab.
+  struct Slab {
+    Column column;
+    size_t at = 0;  // into `jac`
+  };
+  struct Term {
+    int rows = 0;
+    size_t first = 0, count = 0;  // into `slabs`
+  };
+  std::vector<ceres::ResidualBlockId> ids;
+  problem->GetResidualBlocks(&ids);
+  std::vector<Term> terms;
+  std::vector<Slab> slabs;
+  std::vector<double> jac;
+  terms.reserve(ids.size());
+  int w = 0;
+  std::vector<double*> params;
+  std::vector<double> ambient, plus, r;
+  std::vector<double*> jac_ptrs;
+  std::vector<size_t> ambient_at;
+  for (ceres::ResidualBlockId id : ids) {
+    const ceres::CostFunction* cost = problem->GetCostFunctionForResidualBlock(id);
+    problem->GetParameterBlocksForResidualBlock(id, &params);
+    const int m = cost->num_residuals();
+    size_t total = 0;
+    ambient_at.assign(params.size(), SIZE_MAX);
+    for (size_t i = 0; i < params.size(); ++i) {
+      if (!column_of.count(params[i])) continue;
+      ambient_at[i] = total;
+      total += static_cast<size_t>(m) * cost->parameter_block_sizes()[i];
+    }
+    if (total == 0) continue;
+    ambient.assign(total, 0.0);
+    jac_ptrs.assign(params.size(), nullptr);
+    for (size_t i = 0; i < params.size(); ++i) {
+      if (ambient_at[i] != SIZE_MAX) jac_ptrs[i] = ambient.data() + ambient_at[i];
+    }
+    r.assign(m, 0.0);
+    if (!cost->Evaluate(params.data(), r.data(), jac_ptrs.data())) {
+      return NumericalError("covariance: a residual block could not be evaluated");
+    }
+    // Row weight: a robust residual block counts fully while ‖r‖ ≤ inlier_sigma (whitened),
+    // and with its loss's IRLS weight ρ′(‖r‖²) beyond — an outlier the loss discounted is not
+    // information, an inlier is (ρ′ of an aggressive loss would discount inliers too and
+    // overstate the covariance).
     double s2 = 0.0;
-    for (int i = 0; i < m; ++i) s2 += residuals[row + i] * residuals[row + i];
+    for (double v : r) s2 += v * v;
+    if (!std::isfinite(s2)) return NumericalError("covariance: non-finite residual");
+    double weight = 1.0;
+    const ceres::LossFunction* loss = problem->GetLossFunctionForResidualBlock(id);
     if (loss != nullptr && s2 > inlier_sigma * inlier_sigma) {
       double rho[3];
       loss->Evaluate(s2, rho);
-      for (int i = 0; i < m; ++i) row_weight[row + i] = std::sqrt(std::max(rho[1], 0.0));
+      weight = std::sqrt(std::max(rho[1], 0.0));
     }
-    row += m;
-  }
-  for (int r = 0; r < crs.num_rows; ++r) {
-    for (int k = crs.rows[r]; k < crs.rows[r + 1]; ++k) crs.values[k] *= row_weight[r];
-  }
-  Eigen::Map<const Eigen::SparseMatrix<double, Eigen::RowMajor>> J(
-      crs.num_rows, crs.num_cols, static_cast<Eigen::Index>(crs.values.size()), crs.rows.data(),
-      crs.cols.data(), crs.values.data());
-  const Eigen::SparseMatrix<double> H = Eigen::SparseMatrix<double>(J.transpose() * J);
-
-  int w = 0;
-  for (int c = 0; c < n_chain; ++c) {
-    for (Eigen::SparseMatrix<double>::InnerIterator it(H, c); it; ++it) {
-      if (it.row() < n_chain) w = std::max(w, static_cast<int>(std::abs(it.row() - c)));
+    Term term;
+    term.rows = m;
+    term.first = slabs.size();
+    int lo = n_chain, hi = -1;
+    for (size_t i = 0; i < params.size(); ++i) {
+      if (jac_ptrs[i] == nullptr) continue;
+      const Column col = column_of.at(params[i]);
+      const int amb = cost->parameter_block_sizes()[i];
+      const double* ja = jac_ptrs[i];
+      Slab slab{col, jac.size()};
+      jac.resize(jac.size() + static_cast<size_t>(m) * col.size);
+      double* jt = jac.data() + slab.at;
+      const ceres::Manifold* manifold = problem->GetManifold(params[i]);
+      if (manifold != nullptr) {  // J_tangent = J_ambient · ∂Plus/∂δ (ambient × tangent)
+        plus.assign(static_cast<size_t>(amb) * col.size, 0.0);
+        if (!manifold->PlusJacobian(params[i], plus.data())) {
+          return NumericalError("covariance: a manifold's PlusJacobian failed");
+        }
+        for (int row = 0; row < m; ++row) {
+          for (int c = 0; c < col.size; ++c) {
+            double v = 0.0;
+            for (int a = 0; a < amb; ++a) v += ja[row * amb + a] * plus[a * col.size + c];
+            jt[row * col.size + c] = weight * v;
+          }
+        }
+      } else {
+        for (int e = 0; e < m * amb; ++e) jt[e] = weight * ja[e];
+      }
+      for (int e = 0; e < m * col.size; ++e) {
+        if (!std::isfinite(jt[e])) return NumericalError("covariance: non-finite Jacobian");
+      }
+      if (col.offset < n_chain) {
+        lo = std::min(lo, col.offset);
+        hi = std::max(hi, col.offset + col.size - 1);
+      }
+      slabs.push_back(slab);
     }
+    term.count = slabs.size() - term.first;
+    if (hi >= lo) w = std::max(w, hi - lo);
+    terms.push_back(term);
   }
   for (const auto& cols : group_cols) {  // a group's own entries must lie inside the band
     if (!cols.empty())
@@ -162,18 +229,37 @@ StatusOr<std::vector<Eigen::MatrixXd>> ChainMarginalCovariances(
     return FailedPrecondition("covariance: not chain-structured (half-bandwidth " +
                               std::to_string(w) + ")");
   }
+  // H = JᵀJ = [A B; Bᵀ C], assembled slab by slab: A's lower band, B, and C in full.
   Band a(n_chain, w);
   Eigen::MatrixXd B = Eigen::MatrixXd::Zero(n_chain, n_static);
   Eigen::MatrixXd C = Eigen::MatrixXd::Zero(n_static, n_static);
-  for (int c = 0; c < n; ++c) {
-    for (Eigen::SparseMatrix<double>::InnerIterator it(H, c); it; ++it) {
-      const int r = static_cast<int>(it.row());
-      if (r < n_chain && c < n_chain) {
-        if (r >= c) a.at(r, c) = it.value();
-      } else if (r < n_chain) {
-        B(r, c - n_chain) = it.value();
-      } else if (c >= n_chain) {
-        C(r - n_chain, c - n_chain) = it.value();
+  for (const Term& term : terms) {
+    for (size_t i = term.first; i < term.first + term.count; ++i) {
+      const Slab& si = slabs[i];
+      const double* ji = jac.data() + si.at;
+      for (size_t k = term.first; k < term.first + term.count; ++k) {
+        const Slab& sk = slabs[k];
+        const double* jk = jac.data() + sk.at;
+        for (int p = 0; p < si.column.size; ++p) {
+          const int row = si.column.offset + p;
+          for (int q = 0; q < sk.column.size; ++q) {
+            const int col = sk.column.offset + q;
+            const bool chain_row = row < n_chain, chain_col = col < n_chain;
+            if (chain_row && chain_col && row < col) continue;  // the upper half mirrors
+            if (!chain_row && chain_col) continue;              // Bᵀ mirrors B
+            double h = 0.0;
+            for (int e = 0; e < term.rows; ++e) {
+              h += ji[e * si.column.size + p] * jk[e * sk.column.size + q];
+            }
+            if (chain_row && chain_col) {
+              a.at(row, col) += h;
+            } else if (chain_row) {
+              B(row, col - n_chain) += h;
+            } else {
+              C(row - n_chain, col - n_chain) += h;
+            }
+          }
+        }
       }
     }
   }
@@ -193,6 +279,7 @@ StatusOr<std::vector<Eigen::MatrixXd>> ChainMarginalCovariances(
     Sinv = llt.solve(Eigen::MatrixXd::Identity(n_static, n_static));
   }
   for (size_t g = 0; g < groups.size(); ++g) {
+    if (!wanted.empty() && !wanted[g]) continue;
     std::vector<int> idx;
     for (const auto& [off, size] : group_cols[g]) {
       for (int i = 0; i < size; ++i) idx.push_back(off + i);

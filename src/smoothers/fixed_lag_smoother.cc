@@ -270,8 +270,10 @@ StatusOr<std::vector<Eigen::MatrixXd>> FixedLagSmoother::MarginalCovariances(
     chain.push_back(std::move(g));
   }
   std::vector<Eigen::MatrixXd> out;
-  auto banded = ChainMarginalCovariances(problem_.get(), chain, statics);
-  bool usable = banded.ok();
+  // Each requested group must be one chain state's blocks; only those chain states' marginals
+  // are formed.
+  bool usable = true;
+  std::vector<bool> wanted(chain.size(), false);
   for (const auto& g : groups) {
     for (StateKey k : g) {
       auto it = states_.find(k);
@@ -280,6 +282,12 @@ StatusOr<std::vector<Eigen::MatrixXd>> FixedLagSmoother::MarginalCovariances(
         usable = false;
       }
     }
+    if (usable) wanted[where[g.front()].first] = true;
+  }
+  StatusOr<std::vector<Eigen::MatrixXd>> banded = InternalError("not computed");
+  if (usable) {
+    banded = ChainMarginalCovariances(problem_.get(), chain, statics, 3.0, 64, wanted);
+    usable = banded.ok();
   }
   if (!usable) {  // fall back to Ceres, one group at a time
     for (const auto& g : groups) {

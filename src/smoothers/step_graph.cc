@@ -118,6 +118,7 @@ StatusOr<StepGraphOptions> StepGraphOptions::FromYaml(const YAML::Node& node,
   r.Read("window_update_s", &o.window_update_s);
   r.Read("window_marginalize_batch_s", &o.window_marginalize_batch_s);
   r.Read("window_initial_trust_region_radius", &o.window_initial_trust_region_radius);
+  r.Read("window_function_tolerance", &o.window_function_tolerance);
   r.Read("init_lag_s", &o.init_lag_s);
   r.Read("init_update_s", &o.init_update_s);
   r.Read("init_max_iterations", &o.init_max_iterations);
@@ -154,6 +155,7 @@ StatusOr<StepGraphOptions> StepGraphOptions::FromYaml(const YAML::Node& node,
       positive(o.window_initial_trust_region_radius, "window_initial_trust_region_radius"));
   WG_RETURN_IF_ERROR(positive(o.initial_trust_region_radius, "initial_trust_region_radius"));
   WG_RETURN_IF_ERROR(positive(o.function_tolerance, "function_tolerance"));
+  WG_RETURN_IF_ERROR(positive(o.window_function_tolerance, "window_function_tolerance"));
   WG_RETURN_IF_ERROR(positive(o.parameter_tolerance, "parameter_tolerance"));
   if (o.odometry_sigma_dist_frac < 0 || o.odometry_sigma_dist_m < 0 ||
       o.odometry_sigma_dist_frac + o.odometry_sigma_dist_m <= 0) {
@@ -885,7 +887,7 @@ StatusOr<EstimateResult> RunWindowNodes(const Walk& walk, const StepGraphOptions
                                                               : ceres::SPARSE_NORMAL_CHOLESKY;
   so.sparse_library =
       options_.window_linear_solver == "eigen-sparse" ? ceres::EIGEN_SPARSE : ceres::SUITE_SPARSE;
-  so.function_tolerance = options_.function_tolerance;
+  so.function_tolerance = options_.window_function_tolerance;
   so.parameter_tolerance = options_.parameter_tolerance;
   so.num_threads = options_.num_threads;
   FixedLagSmoother smoother(so);

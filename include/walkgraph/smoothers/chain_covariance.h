@@ -31,10 +31,12 @@ namespace walkgraph {
 // `statics`: the other variable blocks. Constant blocks are skipped. Returns each group's
 // joint covariance in its blocks' tangent spaces (stacked in group order). Fails — never
 // aborts — when H is not positive definite (an unobservable direction) or when the problem is
-// not chain-structured (half-bandwidth above max_bandwidth).
+// not chain-structured (half-bandwidth above max_bandwidth). `wanted` (empty: all) selects the
+// groups whose covariance is returned; the others come back empty (0 × 0).
 StatusOr<std::vector<Eigen::MatrixXd>> ChainMarginalCovariances(
     ceres::Problem* problem, const std::vector<std::vector<double*>>& groups,
-    const std::vector<double*>& statics, double inlier_sigma = 3.0, int max_bandwidth = 64);
+    const std::vector<double*>& statics, double inlier_sigma = 3.0, int max_bandwidth = 64,
+    const std::vector<bool>& wanted = {});
 
 }  // namespace walkgraph
 

@@ -117,7 +117,7 @@ struct StepGraphOptions {
   // fg-batch's LM start: Ceres' default 1e4 damps the soft modes of a long chain; measured on
   // Plaza1 1e4 12 iterations, 1e8 5, same RMSE (0.311 m).
   double initial_trust_region_radius = 1e8;
-  double function_tolerance = 1e-6;  // Ceres' relative cost-change stop (both smoothers)
+  double function_tolerance = 1e-6;  // Ceres' relative cost-change stop (fg-batch)
   double parameter_tolerance = 1e-8;
   int num_threads = 1;
   bool covariance = true;
@@ -141,6 +141,8 @@ struct StepGraphOptions {
   // window is warm-started, so it starts nearly undamped: measured on Plaza1, 1e4 (Ceres'
   // default) took 6.4 iterations per solve, 1e8 2.7, at the same RMSE (0.279 m).
   double window_initial_trust_region_radius = 1e8;
+  // Ceres' relative cost-change stop in each window solve (fg-batch: function_tolerance).
+  double window_function_tolerance = 1e-4;
 
   // Keys: every field by its name, `pdr` a PdrOptions map; absent keys keep `defaults`.
   static StatusOr<StepGraphOptions> FromYaml(const YAML::Node& node, const std::string& context,
