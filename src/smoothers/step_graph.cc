@@ -807,6 +807,9 @@ StatusOr<EstimateResult> StepGraphBatch::Run(const Walk& walk) const {
     wo.lag_s = options_.init_lag_s;
     wo.window_update_s = options_.init_update_s;
     wo.window_max_iterations = options_.init_max_iterations;
+    // fg-batch's own stop; fg-window's looser one moves fg-batch's local optimum on robust
+    // walks (BLE straight_03 1.231 → 1.254 m).
+    wo.window_function_tolerance = options_.function_tolerance;
     WG_ASSIGN_OR_RETURN(EstimateResult w, RunWindowNodes(walk, wo));
     if (static_cast<int>(w.trajectory.size()) != n) {
       return InternalError("fg-batch: window initialization returned a different node count");
