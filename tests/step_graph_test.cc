@@ -242,6 +242,8 @@ TEST(StepGraphTest, OptionsAreStrict) {
   EXPECT_FALSE(reg.Create("fg-batch", YAML::Load("{lag_s: 0}")).ok());
   EXPECT_FALSE(reg.Create("fg-window", YAML::Load("{window_marginalize_batch_s: -1}")).ok());
   EXPECT_FALSE(reg.Create("fg-window", YAML::Load("{window_initial_trust_region_radius: 0}")).ok());
+  EXPECT_FALSE(reg.Create("fg-window", YAML::Load("{window_function_tolerance: 0}")).ok());
+  EXPECT_TRUE(reg.Create("fg-window", YAML::Load("{window_function_tolerance: 1e-6}")).ok());
   EXPECT_FALSE(reg.Create("fg-window", YAML::Load("{window_linear_solver: cg}")).ok());
   EXPECT_TRUE(reg.Create("fg-window", YAML::Load("{window_linear_solver: sparse}")).ok());
   EXPECT_FALSE(reg.Create("fg-batch", YAML::Load("{pdr: {detector: nope}}")).ok());
