@@ -221,6 +221,29 @@ double Rmse(const Walk& walk, const std::string& id, const std::string& config =
   return SummarizeErrors(errors->error_m, walk.TruthDistance()).rmse_m;
 }
 
+// The INS filters refuse an IMU that is not on a foot (their stance evidences would be
+// wrong); the radio-only variants run anywhere with RSS.
+TEST(PrietoFilter, InsVariantsNeedAFootImu) {
+  auto hip = SimulateScenario("tarrio-circle", 1, YAML::Load("{duration_s: 20}"));  // waist IMU
+  ASSERT_TRUE(hip.ok()) << hip.status().message();
+  ASSERT_EQ(hip->meta.imu_placement, ImuPlacement::kWaist);
+  for (const char* id : {"prieto-ekf", "prieto-ukf", "prieto-ekf-imu", "prieto-ekf-rts"}) {
+    auto est = EstimatorRegistry::Builtin().Create(id, YAML::Node());
+    ASSERT_TRUE(est.ok()) << id;
+    const Status s = (*est)->CheckApplicable(*hip);
+    EXPECT_EQ(s.code(), StatusCode::kFailedPrecondition) << id;
+    EXPECT_NE(s.message().find("foot-mounted"), std::string::npos) << s.message();
+    EXPECT_FALSE((*est)->Run(*hip).ok()) << id;
+  }
+  auto wifi = EstimatorRegistry::Builtin().Create("prieto-ekf-wifi", YAML::Node());
+  ASSERT_TRUE(wifi.ok());
+  EXPECT_TRUE((*wifi)->CheckApplicable(*hip).ok());
+  const Walk foot = SimulateLaps(2, Duration(10));
+  auto ekf = EstimatorRegistry::Builtin().Create("prieto-ekf", YAML::Node());
+  ASSERT_TRUE(ekf.ok());
+  EXPECT_TRUE((*ekf)->CheckApplicable(foot).ok());
+}
+
 TEST(PrietoFilter, StateStaysOnItsManifoldAndCovariancesStayPd) {
   const Walk walk = SimulateLaps(3, Duration(60));
   for (const char* id : {"prieto-ekf", "prieto-ukf", "prieto-ekf-imu", "prieto-ukf-imu",

@@ -110,8 +110,13 @@ TEST(RealData, IpinTrial21FactorGraphBelowEveryFilter) {
   std::printf("fg-batch: landmark mean %.2f m, p75 %.2f m (n = %d)\n", g.mean_m, g.p75_m,
               g.n_points);
   EXPECT_EQ(g.n_points, 10);
-  for (const char* id : {"prieto-ekf", "prieto-ukf", "prieto-ekf-rts", "prieto-ukf-rts",
-                         "gadeke-kf", "gadeke-kf-rts"}) {
+  // prieto's INS filters need a foot IMU; this is a handheld phone.
+  for (const char* id : {"prieto-ekf", "prieto-ukf"}) {
+    auto est = EstimatorRegistry::Builtin().Create(id, YAML::Node());
+    ASSERT_TRUE(est.ok());
+    EXPECT_FALSE((*est)->CheckApplicable(*w).ok()) << id;
+  }
+  for (const char* id : {"prieto-ekf-wifi", "prieto-ukf-wifi", "gadeke-kf", "gadeke-kf-rts"}) {
     const ErrorStats f = Score(*w, id, *config);
     std::printf("%-16s landmark mean %.2f m, p75 %.2f m\n", id, f.mean_m, f.p75_m);
     EXPECT_LT(g.mean_m, f.mean_m) << id;

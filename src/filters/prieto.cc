@@ -1037,6 +1037,12 @@ Status PrietoFilter::CheckApplicable(const Walk& walk) const {
   const bool use_imu = options_.sensors != PrietoSensors::kRadioOnly;
   const bool use_radio = options_.sensors != PrietoSensors::kImuOnly;
   if (use_imu && walk.imu.size() < 2) return FailedPrecondition("prieto: needs imu.csv");
+  // 002 Sec. III-C: the stance evidences (zero v, a, ω) hold only on a foot.
+  if (use_imu && walk.meta.imu_placement != ImuPlacement::kFoot) {
+    return FailedPrecondition(
+        "prieto: needs a foot-mounted IMU (imu_placement: foot): its stance evidences of zero "
+        "velocity hold only on a foot (radio-only: prieto-ekf-wifi / prieto-ukf-wifi)");
+  }
   if (use_radio) {
     const bool rss = options_.use_rss && walk.has_rss();
     const bool toa = options_.use_toa && walk.has_ranges();
