@@ -1,3 +1,4 @@
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 
@@ -45,14 +46,43 @@ TEST(CompareOnWalk, UnknownOrInapplicableEstimatorIsAnError) {
   EXPECT_THAT(c.status().message(), HasSubstr("odometry"));
 }
 
+// score_from_s drops the truth before t_first + score_from_s from every figure and counts it
+// as skipped; the rest of the series is the whole walk's, unchanged.
+TEST(CompareOnWalk, ScoreFromLeavesOutTheStart) {
+  CompareOptions o;
+  o.estimator_ids = {"odometry-dr"};
+  auto whole = CompareOnWalk(SmallWalk(), o);
+  ASSERT_TRUE(whole.ok()) << whole.status().message();
+  o.score_from_s = 1.2;  // the fixture's truth is at 0, 0.5, ..., 2.0 s
+  auto late = CompareOnWalk(SmallWalk(), o);
+  ASSERT_TRUE(late.ok()) << late.status().message();
+  EXPECT_EQ(late->score_from_s, 1.2);
+  const EstimatorOutcome &w = whole->outcomes.front(), &l = late->outcomes.front();
+  ASSERT_TRUE(l.status.ok()) << l.status.message();
+  ASSERT_EQ(w.errors.t_s.size(), 5u);
+  EXPECT_EQ(l.errors.t_s, (std::vector<double>{1.5, 2.0}));
+  EXPECT_EQ(l.errors.error_m, (std::vector<double>{w.errors.error_m[3], w.errors.error_m[4]}));
+  EXPECT_EQ(l.errors.n_skipped, w.errors.n_skipped + 3);
+  EXPECT_EQ(l.stats.n_points, 2);
+  EXPECT_DOUBLE_EQ(l.stats.mean_m, 0.5 * (w.errors.error_m[3] + w.errors.error_m[4]));
+  EXPECT_EQ(l.stats.final_m, w.stats.final_m);
+  EXPECT_THAT(FormatComparisonTable(*late), HasSubstr("scored from 1.2 s"));
+  for (double bad : {-1.0, std::nan(""), 2.5}) {
+    o.score_from_s = bad;
+    auto c = CompareOnWalk(SmallWalk(), o);
+    ASSERT_FALSE(c.ok()) << bad;
+    EXPECT_THAT(c.status().message(), HasSubstr("score_from_s")) << bad;
+  }
+}
+
 TEST(WriteComparison, WritesEveryFileWithTheDocumentedSchema) {
   auto c = CompareOnWalk(SmallWalk(), {});
   ASSERT_TRUE(c.ok());
   const fs::path out = fs::temp_directory_path() / ("wg_compare_" + std::to_string(::getpid()));
   fs::remove_all(out);
   ASSERT_TRUE(WriteComparison(*c, out.string()).ok());
-  for (const char* f : {"results.json", "errors.csv", "report.html",
-                        "trajectories/odometry-dr.tum"}) {
+  for (const char* f :
+       {"results.json", "errors.csv", "report.html", "trajectories/odometry-dr.tum"}) {
     EXPECT_TRUE(fs::exists(out / f)) << f;
   }
   std::ifstream in(out / "results.json");

@@ -83,6 +83,37 @@ TEST(TarrioKfOptionsTest, PaperDefaultsAndStrictYaml) {
   EXPECT_TRUE(custom->smooth);
 }
 
+// The settling time against the covariance recursion of eq. 9, 11, 12 iterated to its fixed
+// point, and a start-up error's decay under the steady-state gain.
+TEST(TarrioTest, SettlingTimeFollowsTheSteadyStateGain) {
+  const TarrioKfOptions o;
+  const double dT = 2.0;
+  const double q = std::pow(0.5 * o.sigma_a_mps2 * dT * dT, 2) + std::pow(o.sigma_v_mps * dT, 2);
+  const double r = o.sigma_p_m * o.sigma_p_m;
+  double p = r, gain = 0.0;  // P0 = R, as the filter starts
+  for (int k = 0; k < 1000; ++k) {
+    const double prior = p + q;
+    gain = prior / (prior + r);
+    p = (1.0 - gain) * prior;
+  }
+  auto t = TarrioSettlingTime(o, dT);
+  ASSERT_TRUE(t.ok()) << t.status().message();
+  double e = 1.0;  // the start-up error, shrunk by (1 − K∞) per epoch
+  int epochs = 0;
+  while (e > 0.05) {
+    e *= 1.0 - gain;
+    ++epochs;
+  }
+  EXPECT_GT(*t, dT * (epochs - 1));
+  EXPECT_LE(*t, dT * epochs);
+  EXPECT_NEAR(*t, 42.4, 0.1);  // K∞ = 0.132 for 000's σ_a, σ_v, σ_p at ΔT = 2 s
+  EXPECT_FALSE(TarrioSettlingTime(o, 0.0).ok());
+  EXPECT_FALSE(TarrioSettlingTime(o, dT, 1.0).ok());
+  TarrioKfOptions still;
+  still.sigma_a_mps2 = still.sigma_v_mps = 0.0;
+  EXPECT_FALSE(TarrioSettlingTime(still, dT).ok());
+}
+
 TEST(TarrioTest, KalmanBeatsBothBaselinesOnNoisyCircle) {
   const Synth s = MakeCircle(7, 400.0, 3.0, 0.05);
   TarrioKfOptions o;
@@ -216,13 +247,15 @@ TEST(TarrioTest, RtsEqualsBatchLeastSquares) {
 // ------------------------------------------------------------------ simulator preset
 // 000 Sec. IV through the full front ends: the registry's estimators on SimulateScenario
 // ("tarrio-circle": 9 anchors over 400 m², r = 8 m circle at 1 m/s, 4 laps ≈ 201 s), seeded
-// Monte Carlo, metrics over the whole walk (including the filter's first seconds, which the
-// paper leaves out: "the results ... correspond to the stationary state of the filter").
+// Monte Carlo; metrics over the whole walk unless a test says otherwise (the paper leaves the
+// filter's start-up out: "the results ... correspond to the stationary state of the filter").
 
-Comparison TarrioMonteCarlo(const std::string& overrides, int runs, uint64_t seed) {
+Comparison TarrioMonteCarlo(const std::string& overrides, int runs, uint64_t seed,
+                            double score_from_s = 0.0) {
   return testing::ScenarioMonteCarlo(
       "tarrio-circle", overrides,
-      {"rss-only", "rss-pdr-reset", "pdr-only", "tarrio-kf", "tarrio-kf-rts"}, runs, seed);
+      {"rss-only", "rss-pdr-reset", "pdr-only", "tarrio-kf", "tarrio-kf-rts"}, runs, seed,
+      score_from_s);
 }
 
 using testing::StatsOf;
@@ -230,10 +263,11 @@ using testing::StatsOf;
 // Issue 5: tarrio-kf 90th-percentile error ≤ 2.6 m (paper: "In 90% of cases, the localization
 // error is below 2.4 m"), the KF below both baselines, and the RTS smoother below the KF.
 // The issue's second target — KF mean error ≥ 1.0 m below both baselines (paper ≈ 1.5 m) — is
-// NOT met on this preset (measured 0.91 m below rss-only with 100 runs): the preset beacons
-// every 0.5 s, so each 2 s epoch averages n = 4 readings per anchor and the RSS baselines are
-// better (mean ≈ 2.2 m) than the paper's. With the beacon period = ΔT of 000 Sec. III-A (n = 1)
-// the target holds: see the next test. It is recorded here, not asserted.
+// NOT met on this preset (measured 0.91 m below rss-only with 100 runs over the whole walk,
+// 0.99 m in the stationary state): the preset beacons every 0.5 s, so each 2 s epoch averages
+// n = 4 readings per anchor (000 Sec. IV: "n values ... averaged", n not given) and the RSS
+// baselines are better (mean ≈ 2.2 m) than the paper's. With one beacon per ΔT (000 Sec.
+// III-A) both targets hold: see the next test. It is recorded here, not asserted.
 TEST(TarrioPresetTest, KalmanFilterMeetsThe90thPercentileOnTarrioCircle) {
   const Comparison c = TarrioMonteCarlo("{}", testing::MonteCarloRuns(100), 1);
   ASSERT_EQ(c.outcomes.size(), 5u);
@@ -249,18 +283,30 @@ TEST(TarrioPresetTest, KalmanFilterMeetsThe90thPercentileOnTarrioCircle) {
   EXPECT_LE(rts.rmse_m, kf.rmse_m);
 }
 
-// The same circle with the anchors beaconing once per ΔT = 2 s, as 000 Sec. III-A describes
-// ("the anchor nodes send beacon messages periodically, with a period ΔT"): one reading per
-// anchor per epoch. The KF's mean error is ≥ 1.0 m below both baselines (paper ≈ 1.5 m).
-// (Its 90th percentile here, ≈ 2.75 m, is above the 2.6 m target: recorded, not asserted.)
-TEST(TarrioPresetTest, KalmanFilterIsAMetreBetterWithOneBeaconPerEpoch) {
-  const Comparison c = TarrioMonteCarlo("{beacon_period_s: 2}", testing::MonteCarloRuns(100), 2);
+// 000 as it describes itself: the anchors beacon once per ΔT = 2 s (Sec. III-A: "the anchor
+// nodes send beacon messages periodically, with a period ΔT"), one reading per anchor per
+// epoch, and the figures are "the stationary state of the filter" (Sec. IV). The stationary
+// state is read as three time constants of the steady-state gain (TarrioSettlingTime: 42.4 s
+// for 000's σ_a, σ_v, σ_p), derived from the filter's parameters, not from the targets. Both
+// targets hold here: p90 ≤ 2.6 m (paper < 2.4 m) and the KF mean ≥ 1.0 m below both baselines
+// (paper ≈ 1.5 m). Measured with 100 runs, seed 2 (seed 1): p90 2.52 (2.48) m, 1.76 (1.74) m
+// below rss-only, 1.98 (1.94) m below rss-pdr-reset. Scored over the whole walk the p90 is 2.75
+// m; from 20 s on 2.56 m, from 10 s on 2.65 m. The preset's own 0.5-s beacons scored the same
+// way: p90 1.67 m, 0.99 m below rss-only (the previous test's preset; recorded there).
+TEST(TarrioPresetTest, MeetsBothTargetsAsThePaperDescribesItsSimulation) {
+  auto settle = TarrioSettlingTime(TarrioKfOptions(), 2.0);
+  ASSERT_TRUE(settle.ok()) << settle.status().message();
+  const Comparison c =
+      TarrioMonteCarlo("{beacon_period_s: 2}", testing::MonteCarloRuns(100), 2, *settle);
   ASSERT_EQ(c.outcomes.size(), 5u);
   const ErrorStats &kf = StatsOf(c, "tarrio-kf"), &rts = StatsOf(c, "tarrio-kf-rts"),
                    &rss = StatsOf(c, "rss-only"), &reset = StatsOf(c, "rss-pdr-reset");
+  RecordProperty("score_from_s", std::to_string(*settle));
   RecordProperty("tarrio_kf_p90_m", std::to_string(kf.p90_m));
   RecordProperty("improvement_over_rss_only_m", std::to_string(rss.mean_m - kf.mean_m));
+  RecordProperty("improvement_over_rss_pdr_reset_m", std::to_string(reset.mean_m - kf.mean_m));
   if (testing::kSanitized) return;
+  EXPECT_LE(kf.p90_m, 2.6);
   EXPECT_GE(rss.mean_m - kf.mean_m, 1.0);
   EXPECT_GE(reset.mean_m - kf.mean_m, 1.0);
   EXPECT_LE(rts.rmse_m, kf.rmse_m);

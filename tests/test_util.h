@@ -38,9 +38,11 @@ inline constexpr bool kSanitized =
 // Seeded Monte Carlo of estimators `ids` on a simulator preset with YAML `overrides`; every
 // estimator must run on every walk (expectations), an empty Comparison when the study fails.
 inline Comparison ScenarioMonteCarlo(const std::string& scenario, const std::string& overrides,
-                                     const std::vector<std::string>& ids, int runs, uint64_t seed) {
+                                     const std::vector<std::string>& ids, int runs, uint64_t seed,
+                                     double score_from_s = 0.0) {
   CompareOptions co;
   co.estimator_ids = ids;
+  co.score_from_s = score_from_s;
   MonteCarloOptions mc;
   mc.runs = runs;
   mc.seed = seed;

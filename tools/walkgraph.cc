@@ -133,6 +133,7 @@ struct CompareArgs {
   std::string config_path;
   std::string scenario_config_path;
   bool align_se2 = false;
+  double score_from_s = 0.0;
   std::string out;
 };
 
@@ -168,6 +169,7 @@ int RunCompare(const CompareArgs& args) {
   walkgraph::CompareOptions options;
   options.estimator_ids = args.ids;
   options.alignment = args.align_se2 ? walkgraph::Alignment::kSE2 : walkgraph::Alignment::kNone;
+  options.score_from_s = args.score_from_s;
   auto config = LoadConfig(args.config_path);
   if (!config.ok()) return Fail(config.status());
   if (config->IsMap()) {
@@ -366,6 +368,11 @@ int main(int argc, char** argv) {
   compare->add_flag("--align-se2", cargs.align_se2,
                     "align each estimate to the truth by a best-fit rotation + translation "
                     "(for dead-reckoning-only walks)");
+  compare
+      ->add_option("--score-from", cargs.score_from_s,
+                   "score only truth from S seconds after its first sample on (a filter's "
+                   "start-up left out; default 0: the whole walk)")
+      ->check(CLI::NonNegativeNumber);
   compare->add_option("--out", cargs.out, "report folder")->required();
   compare->callback([&] { rc = RunCompare(cargs); });
 

@@ -41,6 +41,11 @@ struct CompareOptions {
   // Per-estimator configuration (YAML map of options), by id.
   std::map<std::string, YAML::Node> configs;
   Alignment alignment = Alignment::kNone;
+  // Score only truth at t >= t_first_truth + score_from_s (0 = the whole walk): a filter's
+  // start-up transient left out, as papers that report "the stationary state of the filter"
+  // (000 Sec. IV) do. The dropped points are counted in ErrorSeries::n_skipped; final_m and
+  // pct_distance are unchanged. Must be finite, >= 0 and leave at least one truth point.
+  double score_from_s = 0.0;
 };
 
 struct EstimatorOutcome {
@@ -64,6 +69,7 @@ struct Comparison {
   int runs = 1;
   std::optional<uint64_t> seed;  // Monte Carlo base seed S
   TruthKind truth_kind = TruthKind::kNone;
+  double score_from_s = 0.0;  // CompareOptions::score_from_s the figures were taken with
   std::vector<EstimatorOutcome> outcomes;
   // Posterior Cramér–Rao bound of the position RMSE (simulated scenarios; see pcrb.h):
   // smoothing bound (full-walk information) and filtering bound (Tichavský recursion).

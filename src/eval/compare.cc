@@ -20,10 +20,38 @@ namespace walkgraph {
 
 namespace fs = std::filesystem;
 
+namespace {
+
+// Removes the errors before t_s (they count as skipped).
+void DropBefore(double t_s, ErrorSeries* e) {
+  size_t kept = 0;
+  for (size_t i = 0; i < e->t_s.size(); ++i) {
+    if (e->t_s[i] < t_s) continue;
+    e->t_s[kept] = e->t_s[i];
+    e->error_m[kept] = e->error_m[i];
+    ++kept;
+  }
+  e->n_skipped += static_cast<int>(e->t_s.size() - kept);
+  e->t_s.resize(kept);
+  e->error_m.resize(kept);
+}
+
+}  // namespace
+
 StatusOr<Comparison> CompareOnWalk(const Walk& walk, const CompareOptions& options,
                                    const EstimatorRegistry& registry) {
   if (walk.truth.empty()) {
     return FailedPrecondition("walk '" + walk.meta.name + "' has no truth to compare against");
+  }
+  if (!(std::isfinite(options.score_from_s) && options.score_from_s >= 0.0)) {
+    return InvalidArgument("compare: score_from_s must be finite and >= 0");
+  }
+  const double score_from_t = walk.truth.front().t_s + options.score_from_s;
+  if (options.score_from_s > 0.0 && !(walk.truth.back().t_s >= score_from_t)) {
+    return InvalidArgument("compare: score_from_s " + std::to_string(options.score_from_s) +
+                           " s leaves no truth of walk '" + walk.meta.name + "' to score (" +
+                           std::to_string(walk.truth.back().t_s - walk.truth.front().t_s) +
+                           " s of truth)");
   }
   std::vector<std::string> ids = options.estimator_ids;
   const bool explicit_list = !ids.empty();
@@ -31,6 +59,7 @@ StatusOr<Comparison> CompareOnWalk(const Walk& walk, const CompareOptions& optio
   Comparison c;
   c.walk_name = walk.meta.name;
   c.truth_kind = walk.meta.truth_kind;
+  c.score_from_s = options.score_from_s;
   c.anchors = walk.anchors;
   c.truth = walk.truth;
   const double distance = walk.TruthDistance();
@@ -62,7 +91,13 @@ StatusOr<Comparison> CompareOnWalk(const Walk& walk, const CompareOptions& optio
         o.status = e.status();
       } else {
         o.errors = std::move(e).value();
-        o.stats = SummarizeErrors(o.errors.error_m, distance);
+        if (options.score_from_s > 0.0) DropBefore(score_from_t, &o.errors);
+        if (o.errors.error_m.empty()) {
+          o.status = FailedPrecondition(id + ": the estimate ends before the scored truth (from " +
+                                        std::to_string(score_from_t) + " s)");
+        } else {
+          o.stats = SummarizeErrors(o.errors.error_m, distance);
+        }
       }
     }
     c.outcomes.push_back(std::move(o));
@@ -172,8 +207,9 @@ std::string FormatComparisonTable(const Comparison& c) {
     for (size_t j = 0; j < row.size(); ++j) width[j] = std::max(width[j], row[j].size());
   }
   std::ostringstream out;
-  out << "walk: " << c.walk_name << "  (truth: " << ToString(c.truth_kind) << ", runs: " << c.runs
-      << ")\n";
+  out << "walk: " << c.walk_name << "  (truth: " << ToString(c.truth_kind) << ", runs: " << c.runs;
+  if (c.score_from_s > 0.0) out << ", scored from " << c.score_from_s << " s";
+  out << ")\n";
   auto print_row = [&](const std::vector<std::string>& row) {
     for (size_t j = 0; j < row.size(); ++j) {
       if (j == 0) {
@@ -209,6 +245,7 @@ Status WriteComparisonFiles(const Comparison& c, const fs::path& tmp) {
   j["walk"] = c.walk_name;
   j["runs"] = c.runs;
   if (c.seed) j["seed"] = *c.seed;
+  if (c.score_from_s > 0.0) j["score_from_s"] = c.score_from_s;
   j["truth_kind"] = ToString(c.truth_kind);
   j["estimators"] = nlohmann::ordered_json::object();
   const bool monte_carlo = c.runs > 1;

@@ -46,6 +46,7 @@ StatusOr<Comparison> AggregateRuns(const std::vector<Comparison>& runs) {
   out.walk_name = runs.front().walk_name;
   out.runs = static_cast<int>(runs.size());
   out.truth_kind = runs.front().truth_kind;
+  out.score_from_s = runs.front().score_from_s;
   out.anchors = runs.front().anchors;
   out.truth = runs.front().truth;
   // Estimators in order of first appearance.

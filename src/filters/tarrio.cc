@@ -52,6 +52,21 @@ struct Output {
 
 }  // namespace
 
+StatusOr<double> TarrioSettlingTime(const TarrioKfOptions& options, double epoch_s,
+                                    double fraction) {
+  if (!(epoch_s > 0.0) || !(fraction > 0.0 && fraction < 1.0)) {
+    return InvalidArgument("tarrio settling time: epoch_s must be > 0 and fraction in (0, 1)");
+  }
+  const double q = ProcessNoise(options, epoch_s)(0, 0);   // eq. 6
+  const double r = options.sigma_p_m * options.sigma_p_m;  // eq. 7
+  if (!(q > 0.0)) {
+    return InvalidArgument("tarrio settling time: Q = 0 (sigma_a and sigma_v are 0)");
+  }
+  const double p_prior = 0.5 * (q + std::sqrt(q * q + 4.0 * q * r));  // fixed point of eq. 9, 11
+  const double gain = p_prior / (p_prior + r);                        // eq. 12
+  return epoch_s * std::log(fraction) / std::log1p(-gain);
+}
+
 StatusOr<EstimateResult> RunTarrio(const StepSequence& steps, const std::vector<PositionFix>& fixes,
                                    const TarrioKfOptions& options, TarrioMode mode,
                                    std::optional<Eigen::Vector2d> start) {

@@ -68,6 +68,15 @@ StatusOr<EstimateResult> RunTarrio(const StepSequence& steps, const std::vector<
                                    const TarrioKfOptions& options, TarrioMode mode,
                                    std::optional<Eigen::Vector2d> start = std::nullopt);
 
+// Settling time of the filter at a constant epoch interval ΔT = `epoch_s`: the time after which
+// a start-up error has decayed to `fraction` of itself, (ΔT·ln fraction / ln(1 − K∞)), with K∞
+// the steady-state gain of eq. 9, 11, 12 (per axis: P⁻∞ = (q + √(q² + 4qr))/2, K∞ = P⁻∞/(P⁻∞ +
+// r), q from eq. 6, r = σ_p²). 000 Sec. IV scores "the stationary state of the filter" without
+// saying where it starts; fraction 0.05 (three time constants) is our reading. Fails for
+// ΔT <= 0, fraction outside (0, 1) or Q = 0 (the gain then decays to 0: no stationary state).
+StatusOr<double> TarrioSettlingTime(const TarrioKfOptions& options, double epoch_s,
+                                    double fraction = 0.05);
+
 struct TarrioEstimatorOptions {
   TarrioKfOptions filter;
   PdrOptions pdr;              // 000 Sec. III-B/IV: vertical peaks, Weinberg K = 0.45, gyro
