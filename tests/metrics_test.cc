@@ -84,6 +84,46 @@ TEST(ComputeErrors, Se2AlignmentRemovesRigidMotion) {
   EXPECT_LT(SummarizeErrors(aligned->error_m, 1).rmse_m, 1e-9);
 }
 
+// Position NEES eᵀP⁻¹e with the (x, y) block interpolated between poses; none when a pose has
+// no covariance or a non-positive-definite one.
+TEST(ComputeErrors, PositionNeesWithInterpolatedCovariance) {
+  const Walk w = LineWalk();
+  Trajectory t;
+  for (int i = 0; i <= 5; ++i) {  // poses every 2 s, offset (2, 1) m
+    TrajectoryPoint p;
+    p.t_s = 2.0 * i;
+    p.position_m = Eigen::Vector3d(2.0 * i + 2.0, 1.0, 0.0);
+    Eigen::Matrix3d c = Eigen::Matrix3d::Identity();
+    c.topLeftCorner<2, 2>() = (i % 2 == 0 ? 4.0 : 2.0) * Eigen::Vector2d(1.0, 0.25).asDiagonal();
+    c(0, 2) = c(2, 0) = 0.5;  // the heading block does not enter
+    p.covariance = c;
+    t.points.push_back(p);
+  }
+  auto e = ComputeErrors(w, t);
+  ASSERT_TRUE(e.ok());
+  ASSERT_EQ(e->nees.size(), 11u);
+  EXPECT_NEAR(e->nees[0], 4.0 / 4.0 + 1.0 / 1.0, 1e-12);   // P = diag(4, 1)
+  EXPECT_NEAR(e->nees[2], 4.0 / 2.0 + 1.0 / 0.5, 1e-12);   // P = diag(2, 0.5)
+  EXPECT_NEAR(e->nees[1], 4.0 / 3.0 + 1.0 / 0.75, 1e-12);  // halfway: diag(3, 0.75)
+  const ErrorStats s = SummarizeErrors(*e, 10.0);
+  double sum = 0.0;
+  for (double v : e->nees) sum += v;
+  EXPECT_NEAR(s.anees, sum / 11.0, 1e-12);
+  EXPECT_TRUE(std::isnan(SummarizeErrors(e->error_m, 10.0).anees));
+
+  Trajectory missing = t;
+  missing.points[3].covariance.reset();
+  auto m = ComputeErrors(w, missing);
+  ASSERT_TRUE(m.ok());
+  EXPECT_TRUE(m->nees.empty());
+  EXPECT_TRUE(std::isnan(SummarizeErrors(*m, 10.0).anees));
+  Trajectory indefinite = t;
+  (*indefinite.points[2].covariance)(1, 1) = -1.0;
+  auto n = ComputeErrors(w, indefinite);
+  ASSERT_TRUE(n.ok());
+  EXPECT_TRUE(n->nees.empty());
+}
+
 TEST(ComputeErrors, NoTruthIsAnError) {
   Walk w;
   Trajectory t;

@@ -3,9 +3,14 @@
 // Horizontal (2D) position error. With continuous truth the error is taken at every truth
 // sample; with checkpoints at each checkpoint. The estimate is linearly interpolated at the
 // truth time. Truth outside the estimate's time span is skipped (counted in n_skipped).
+// Consistency: when every trajectory point carries a covariance, the position NEES
+// eᵀP⁻¹e (e the 2D error, P the (x, y) block interpolated linearly at the truth time, rotated
+// with the estimate under kSE2) is taken at the same points; its mean (ANEES) is 2 for a
+// consistent estimator (χ²(2)), larger when it is overconfident, smaller when conservative.
 #ifndef WALKGRAPH_METRICS_H_
 #define WALKGRAPH_METRICS_H_
 
+#include <limits>
 #include <vector>
 
 #include "walkgraph/status.h"
@@ -17,6 +22,9 @@ namespace walkgraph {
 struct ErrorSeries {
   std::vector<double> t_s;
   std::vector<double> error_m;
+  // Position NEES at each point; empty when a trajectory point has no covariance or one is
+  // not positive definite (then no NEES is reported).
+  std::vector<double> nees;
   int n_skipped = 0;
 };
 
@@ -29,6 +37,8 @@ struct ErrorStats {
   double max_m = 0.0;
   double final_m = 0.0;       // error at the last scored truth point
   double pct_distance = 0.0;  // final error as % of the truth path length
+  // Mean position NEES over the points (2 = consistent); NaN when the series has no NEES.
+  double anees = std::numeric_limits<double>::quiet_NaN();
   int n_points = 0;
 };
 
@@ -41,6 +51,8 @@ StatusOr<ErrorSeries> ComputeErrors(const Walk& walk, const Trajectory& trajecto
 
 // Statistics of an error series; `distance_m` is the path length for pct_distance.
 ErrorStats SummarizeErrors(const std::vector<double>& errors_m, double distance_m);
+// The same, with anees from the series' NEES.
+ErrorStats SummarizeErrors(const ErrorSeries& series, double distance_m);
 
 // Linear-interpolation percentile (q in [0, 100]) of unsorted values; 0 for an empty vector.
 double Percentile(std::vector<double> values, double q);

@@ -24,16 +24,19 @@ namespace {
 
 // Removes the errors before t_s (they count as skipped).
 void DropBefore(double t_s, ErrorSeries* e) {
+  const bool with_nees = !e->nees.empty();
   size_t kept = 0;
   for (size_t i = 0; i < e->t_s.size(); ++i) {
     if (e->t_s[i] < t_s) continue;
     e->t_s[kept] = e->t_s[i];
     e->error_m[kept] = e->error_m[i];
+    if (with_nees) e->nees[kept] = e->nees[i];
     ++kept;
   }
   e->n_skipped += static_cast<int>(e->t_s.size() - kept);
   e->t_s.resize(kept);
   e->error_m.resize(kept);
+  if (with_nees) e->nees.resize(kept);
 }
 
 }  // namespace
@@ -96,7 +99,7 @@ StatusOr<Comparison> CompareOnWalk(const Walk& walk, const CompareOptions& optio
           o.status = FailedPrecondition(id + ": the estimate ends before the scored truth (from " +
                                         std::to_string(score_from_t) + " s)");
         } else {
-          o.stats = SummarizeErrors(o.errors.error_m, distance);
+          o.stats = SummarizeErrors(o.errors, distance);
         }
       }
     }
@@ -155,6 +158,7 @@ std::string FormatComparisonTable(const Comparison& c) {
   std::vector<std::vector<std::string>> rows;
   std::vector<std::string> header = {"estimator"};
   for (const Column& col : kColumns) header.push_back(col.name);
+  header.push_back("anees");  // not marked best: 2 is consistent, not the smallest
   header.push_back("runtime_s");
   header.push_back("n");
   if (with_pcrb) header.push_back("rmse/pcrb");
@@ -178,6 +182,15 @@ std::string FormatComparisonTable(const Comparison& c) {
       if (o.stats_std)
         cell += "+-" + Fixed((*o.stats_std).*(kColumns[j].field), kColumns[j].precision);
       row.push_back(cell + (v == best[j] ? "*" : " "));
+    }
+    if (std::isfinite(o.stats.anees)) {
+      std::string cell = Fixed(o.stats.anees, 2);
+      if (o.stats_std && std::isfinite(o.stats_std->anees)) {
+        cell += "+-" + Fixed(o.stats_std->anees, 2);
+      }
+      row.push_back(cell + " ");
+    } else {
+      row.push_back("- ");
     }
     row.push_back(Fixed(o.runtime_s, 3) + (o.runtime_s == best[ncol] ? "*" : " "));
     row.push_back(std::to_string(o.stats.n_points));
@@ -262,6 +275,10 @@ Status WriteComparisonFiles(const Comparison& c, const fs::path& tmp) {
         const std::string key = std::string(col.name) == "pct_dist" ? "pct_distance" : col.name;
         e[key] = o.stats.*(col.field);
         if (o.stats_std) e[key + "_std"] = (*o.stats_std).*(col.field);
+      }
+      if (std::isfinite(o.stats.anees)) {
+        e["anees"] = o.stats.anees;
+        if (o.stats_std && std::isfinite(o.stats_std->anees)) e["anees_std"] = o.stats_std->anees;
       }
       if (monte_carlo) {
         e["runtime_s"] = nullptr;

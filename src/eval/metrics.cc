@@ -2,7 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 
+#include <Eigen/Cholesky>
 #include <Eigen/Geometry>
 
 namespace walkgraph {
@@ -16,6 +18,36 @@ double Percentile(std::vector<double> values, double q) {
   const double w = pos - static_cast<double>(lo);
   return (1.0 - w) * values[lo] + w * values[hi];
 }
+
+namespace {
+
+// The (x, y) covariance block of `trajectory` at t_s (inside its span), linearly interpolated;
+// nullopt when a bracketing point has no covariance.
+std::optional<Eigen::Matrix2d> PositionCovarianceAt(const Trajectory& trajectory, double t_s) {
+  const auto& pts = trajectory.points;
+  auto it = std::lower_bound(pts.begin(), pts.end(), t_s,
+                             [](const TrajectoryPoint& p, double t) { return p.t_s < t; });
+  if (it == pts.end()) --it;
+  if (it->t_s == t_s || it == pts.begin()) {
+    if (!it->covariance) return std::nullopt;
+    return Eigen::Matrix2d(it->covariance->topLeftCorner<2, 2>());
+  }
+  const TrajectoryPoint &a = *(it - 1), &b = *it;
+  if (!a.covariance || !b.covariance) return std::nullopt;
+  const double w = (t_s - a.t_s) / (b.t_s - a.t_s);
+  return Eigen::Matrix2d((1.0 - w) * a.covariance->topLeftCorner<2, 2>() +
+                         w * b.covariance->topLeftCorner<2, 2>());
+}
+
+// eᵀP⁻¹e, or nullopt when P (symmetrized) is not positive definite.
+std::optional<double> Nees(const Eigen::Vector2d& e, const Eigen::Matrix2d& P) {
+  const Eigen::Matrix2d S = 0.5 * (P + P.transpose());
+  const Eigen::LLT<Eigen::Matrix2d> llt(S);
+  if (llt.info() != Eigen::Success || !S.allFinite()) return std::nullopt;
+  return e.dot(llt.solve(e));
+}
+
+}  // namespace
 
 StatusOr<ErrorSeries> ComputeErrors(const Walk& walk, const Trajectory& trajectory,
                                     Alignment alignment) {
@@ -36,6 +68,7 @@ StatusOr<ErrorSeries> ComputeErrors(const Walk& walk, const Trajectory& trajecto
     ref.push_back(s.position_m.head<2>());
   }
   if (t.empty()) return FailedPrecondition("no truth sample inside the trajectory's time span");
+  Eigen::Matrix2d rotation = Eigen::Matrix2d::Identity();
   if (alignment == Alignment::kSE2 && t.size() >= 2) {
     Eigen::Matrix2Xd src(2, est.size()), dst(2, ref.size());
     for (size_t i = 0; i < est.size(); ++i) {
@@ -43,13 +76,30 @@ StatusOr<ErrorSeries> ComputeErrors(const Walk& walk, const Trajectory& trajecto
       dst.col(static_cast<Eigen::Index>(i)) = ref[i];
     }
     const Eigen::Matrix3d T = Eigen::umeyama(src, dst, /*with_scaling=*/false);
-    for (Eigen::Vector2d& e : est) e = T.topLeftCorner<2, 2>() * e + T.topRightCorner<2, 1>();
+    rotation = T.topLeftCorner<2, 2>();
+    for (Eigen::Vector2d& e : est) e = rotation * e + T.topRightCorner<2, 1>();
   }
   ErrorSeries out;
   out.t_s = std::move(t);
   out.n_skipped = skipped;
   out.error_m.reserve(est.size());
   for (size_t i = 0; i < est.size(); ++i) out.error_m.push_back((est[i] - ref[i]).norm());
+  const bool has_covariance =
+      std::all_of(trajectory.points.begin(), trajectory.points.end(),
+                  [](const TrajectoryPoint& p) { return p.covariance.has_value(); });
+  if (has_covariance) {
+    out.nees.reserve(est.size());
+    for (size_t i = 0; i < est.size(); ++i) {
+      const std::optional<Eigen::Matrix2d> P = PositionCovarianceAt(trajectory, out.t_s[i]);
+      const std::optional<double> nees =
+          P ? Nees(est[i] - ref[i], rotation * *P * rotation.transpose()) : std::nullopt;
+      if (!nees) {
+        out.nees.clear();
+        break;
+      }
+      out.nees.push_back(*nees);
+    }
+  }
   return out;
 }
 
@@ -71,6 +121,16 @@ ErrorStats SummarizeErrors(const std::vector<double>& e, double distance_m) {
   s.p90_m = Percentile(e, 90.0);
   s.final_m = e.back();
   s.pct_distance = distance_m > 0.0 ? 100.0 * s.final_m / distance_m : 0.0;
+  return s;
+}
+
+ErrorStats SummarizeErrors(const ErrorSeries& series, double distance_m) {
+  ErrorStats s = SummarizeErrors(series.error_m, distance_m);
+  if (!series.nees.empty()) {
+    double sum = 0.0;
+    for (double v : series.nees) sum += v;
+    s.anees = sum / static_cast<double>(series.nees.size());
+  }
   return s;
 }
 

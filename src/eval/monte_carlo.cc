@@ -113,6 +113,17 @@ StatusOr<Comparison> AggregateRuns(const std::vector<Comparison>& runs) {
       stds.*kPooledFields[j] = Spread(v).std;
       agg.stats.*kPooledFields[j] = Percentile(agg.errors.error_m, kPooledQ[j]);
     }
+    // ANEES: mean over the runs, when every run has one.
+    bool all_nees = true;
+    for (size_t k = 0; k < ok.size(); ++k) {
+      v[k] = ok[k]->stats.anees;
+      all_nees = all_nees && std::isfinite(v[k]);
+    }
+    if (all_nees) {
+      const MeanStd m = Spread(v);
+      agg.stats.anees = m.mean;
+      stds.anees = m.std;
+    }
     for (size_t k = 0; k < ok.size(); ++k) v[k] = ok[k]->runtime_s;
     const MeanStd t = Spread(v);
     agg.runtime_s = t.mean;

@@ -174,12 +174,12 @@ std::string CdfPlot(const Comparison& c) {
 
 std::string Table(const Comparison& c) {
   const bool with_pcrb = c.pcrb_rmse_m.has_value();
-  const int ncols = with_pcrb ? 11 : 10;
+  const int ncols = with_pcrb ? 12 : 11;
   std::ostringstream s;
   s << std::fixed << std::setprecision(3);
   s << "<table id=\"results\"><tr><th>estimator</th><th>RMSE [m]</th><th>mean</th><th>median</th>"
-       "<th>p75</th><th>p90</th><th>max</th><th>final</th><th>% dist</th><th>runtime [s]</th>"
-       "<th>n</th>";
+       "<th>p75</th><th>p90</th><th>max</th><th>final</th><th>% dist</th><th>ANEES</th>"
+       "<th>runtime [s]</th><th>n</th>";
   if (with_pcrb) s << "<th>RMSE / PCRB</th>";
   s << "</tr>\n";
   for (size_t k = 0; k < c.outcomes.size(); ++k) {
@@ -199,6 +199,15 @@ std::string Table(const Comparison& c) {
       if (o.stats_std) s << " &plusmn; " << (*o.stats_std).*f;  // Monte Carlo spread
       s << "</td>";
     }
+    s << "<td>";  // position NEES mean (2 = consistent); empty without covariances
+    if (std::isfinite(e.anees)) {
+      s << std::setprecision(2) << e.anees;
+      if (o.stats_std && std::isfinite(o.stats_std->anees)) {
+        s << " &plusmn; " << o.stats_std->anees;
+      }
+      s << std::setprecision(3);
+    }
+    s << "</td>";
     s << "<td>" << o.runtime_s << "</td>";
     s << "<td>" << e.n_points << "</td>";
     if (with_pcrb) {
