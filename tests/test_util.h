@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cstdint>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -39,10 +40,12 @@ inline constexpr bool kSanitized =
 // estimator must run on every walk (expectations), an empty Comparison when the study fails.
 inline Comparison ScenarioMonteCarlo(const std::string& scenario, const std::string& overrides,
                                      const std::vector<std::string>& ids, int runs, uint64_t seed,
-                                     double score_from_s = 0.0) {
+                                     double score_from_s = 0.0,
+                                     const std::map<std::string, YAML::Node>& configs = {}) {
   CompareOptions co;
   co.estimator_ids = ids;
   co.score_from_s = score_from_s;
+  co.configs = configs;
   MonteCarloOptions mc;
   mc.runs = runs;
   mc.seed = seed;
