@@ -232,7 +232,9 @@ TEST(PdrTest, OptionsFromYamlAreStrict) {
 // over-counts by ≈ 6 % on gadeke-outage with the literal lockout (the first maximum wins), and
 // by 2.05 % / 0.47 % (seeds 1 / 2) with energy_lockout_keep: strongest; on tarrio-circle the final
 // error of the closed circle says little and even the largest error is below 1 % of the distance:
-// the simulated walker's step length follows the estimator's own Weinberg model exactly.
+// the simulated walker's step length follows the estimator's own Weinberg model exactly. The
+// correa presets (Sparkfun-stick noise, disturbed magnetometer): counts within 2 %; drift on the
+// 6-lap classroom 4.27 % / 2.73 % (asserted), on the 87-m corridor 13.4 % / 8.75 % (recorded).
 struct PdrCase {
   const char* scenario;
   const char* overrides;
@@ -249,7 +251,9 @@ TEST(PdrTest, StepCountAndDriftOnSimulatedHipWalks) {
   for (const PdrCase& c : {PdrCase{"tarrio-circle", "{duration_s: 300}", "{}", true, false},
                            PdrCase{"gadeke-outage", "{}", "{}", true, true},
                            PdrCase{"gadeke-outage", "{}", energy, false, true},
-                           PdrCase{"gadeke-outage", "{}", strongest, false, true}}) {
+                           PdrCase{"gadeke-outage", "{}", strongest, false, true},
+                           PdrCase{"correa-classroom", "{laps: 6}", "{}", true, true},
+                           PdrCase{"correa-corridor", "{}", "{}", true, false}}) {
     for (uint64_t seed : {1, 2}) {
       auto sim = SimulateScenarioDetailed(c.scenario, seed, YAML::Load(c.overrides));
       ASSERT_TRUE(sim.ok()) << sim.status().message();
