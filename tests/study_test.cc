@@ -171,6 +171,7 @@ TEST(Study, CsvMatchesIndependentlyComputedFigures) {
     const double pcrb = Num(off, "pcrb_rmse_m");
     EXPECT_NEAR(Num(off, "rmse_over_pcrb"), values[v] / pcrb, 1e-8);
     EXPECT_TRUE(off.at("error").empty());
+    EXPECT_TRUE(off.at("anees").empty());  // the test estimator reports no covariance
   }
   // The simulator sweep: the estimator sees range σ = value; the bound grows with it.
   auto b2 =
@@ -192,6 +193,39 @@ TEST(Study, CsvMatchesIndependentlyComputedFigures) {
   const std::string table = FormatStudyTable(*r);
   EXPECT_THAT(table, HasSubstr("sweep opt (rmse_m, runs 3)"));
   EXPECT_THAT(table, HasSubstr("failed"));
+}
+
+// score_from_s (top level, overridden per sweep) leaves the start of every cell's walk out.
+TEST(Study, ScoreFromLeavesOutTheStartOfEachCell) {
+  const std::string manifest = R"(name: late
+estimators: [offset]
+runs: 3
+seed: 5
+score_from_s: 5
+sweeps:
+  - name: late
+    scenario: linear-gaussian
+    overrides: {duration_s: 10}
+    estimator_option: offset_m
+    values: [0.1]
+  - name: whole
+    scenario: linear-gaussian
+    overrides: {duration_s: 10}
+    estimator_option: offset_m
+    values: [0.1]
+    score_from_s: 0
+)";
+  auto m = ParseStudyManifest(manifest, "late.yaml", TestRegistry());
+  ASSERT_TRUE(m.ok()) << m.status().message();
+  EXPECT_EQ(m->sweeps[0].score_from_s, 5.0);
+  EXPECT_EQ(m->sweeps[1].score_from_s, 0.0);
+  auto r = RunStudy(*m, {}, TestRegistry());
+  ASSERT_TRUE(r.ok()) << r.status().message();
+  const auto rows = ParseCsv(StudyCsv(*r));
+  ASSERT_EQ(rows.size(), 2u);
+  EXPECT_EQ(rows[0].at("n_points"), "33");  // 3 runs × the 11 truth samples at t >= 5 s
+  EXPECT_EQ(rows[1].at("n_points"), "63");  // 3 runs × 21
+  EXPECT_NEAR(Num(rows[0], "rmse_m"), 0.1, 1e-9);
 }
 
 TEST(Study, DeterministicForThreadsAndWrittenAtomically) {
@@ -269,6 +303,7 @@ TEST(Study, BadManifestsNameFileAndLine) {
        "unknown estimator 'fg-batch-selfcal'", 2},
       {"name: x\nruns: 0\nsweeps: []\n", "runs must be >= 1", 2},
       {"name: x\nmetric: accuracy\nsweeps: []\n", "unknown metric 'accuracy'", 2},
+      {"name: x\nscore_from_s: -1\nsweeps: []\n", "score_from_s must be a number >= 0", 2},
       {"name: x\nsweeps: [\n", "", 0},  // YAML syntax error: still file:line
   };
   for (const BadCase& c : cases) {

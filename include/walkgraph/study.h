@@ -9,7 +9,9 @@
 //   estimators: [id, ...]           # required: registered estimator ids
 //   configs: {id: {option: value}}  # optional base options per estimator
 //   metric: rmse_m                  # plotted metric (default rmse_m): rmse_m mean_m median_m
-//                                   #   p75_m p90_m max_m final_m pct_distance rmse_over_pcrb
+//                                   #   p75_m p90_m max_m final_m pct_distance anees
+//                                   #   rmse_over_pcrb
+//   score_from_s: 0                 # score truth from this many s on (compare --score-from)
 //   runs: 10                        # Monte Carlo runs per cell (default 1; scenarios only)
 //   seed: 1                         # base seed S (default 1)
 //   pcrb: true                      # compute the PCRB per scenario cell (default true)
@@ -26,7 +28,7 @@
 //                                             #   the sweep) or {id: key, ...} (those only)
 //       values: [5, 8, 16, 32, 71]  # required numbers, as the swept value
 //       estimators: [id]            # optional: replaces the top-level list for this sweep
-//       runs: 5 / seed: 2 / metric: final_m   # optional per-sweep settings
+//       runs: 5 / seed: 2 / metric: final_m / score_from_s: 40   # optional per-sweep settings
 //
 // Each (sweep, value) is a cell: a comparison (CompareScenario / CompareOnWalk) of the sweep's
 // estimators, with run i of every cell of a sweep using seed MonteCarloSeed(S, i) — common
@@ -37,8 +39,9 @@
 //
 // study.csv: one row per cell × estimator:
 //   sweep,parameter,value,estimator,runs,seed,failed_runs, then for each metric m of
-//   rmse_m mean_m median_m p75_m p90_m max_m final_m pct_distance: m,m_std (std empty for a
-//   single run), then n_points,pcrb_rmse_m,pcrb_filter_rmse_m,rmse_over_pcrb,error
+//   rmse_m mean_m median_m p75_m p90_m max_m final_m pct_distance anees: m,m_std (std empty
+//   for a single run; anees empty without covariances), then
+//   n_points,pcrb_rmse_m,pcrb_filter_rmse_m,rmse_over_pcrb,error
 //   (empty cells where a figure does not exist; error = why the estimator failed on every run).
 //   Run times, which differ between machines, are in timing.csv instead.
 // study.html: self-contained (inline SVG, no scripts): per sweep, the metric against the swept
@@ -80,6 +83,7 @@ struct StudySweep {
   std::string metric = "rmse_m";
   int runs = 1;
   uint64_t seed = 1;
+  double score_from_s = 0.0;  // CompareOptions::score_from_s of the sweep's cells
 };
 
 struct StudyManifest {

@@ -24,11 +24,12 @@ namespace fs = std::filesystem;
 
 namespace {
 
-const char* const kMetrics[] = {"rmse_m", "mean_m", "median_m", "p75_m",
-                                "p90_m",  "max_m",  "final_m",  "pct_distance"};
+const char* const kMetrics[] = {"rmse_m", "mean_m",  "median_m",     "p75_m", "p90_m",
+                                "max_m",  "final_m", "pct_distance", "anees"};
 const double ErrorStats::*const kMetricFields[] = {
-    &ErrorStats::rmse_m, &ErrorStats::mean_m, &ErrorStats::median_m, &ErrorStats::p75_m,
-    &ErrorStats::p90_m,  &ErrorStats::max_m,  &ErrorStats::final_m,  &ErrorStats::pct_distance};
+    &ErrorStats::rmse_m,  &ErrorStats::mean_m,       &ErrorStats::median_m,
+    &ErrorStats::p75_m,   &ErrorStats::p90_m,        &ErrorStats::max_m,
+    &ErrorStats::final_m, &ErrorStats::pct_distance, &ErrorStats::anees};
 
 bool KnownMetric(const std::string& m) {
   if (m == "rmse_over_pcrb") return true;
@@ -83,6 +84,12 @@ class Parser {
   StatusOr<int> PositiveInt(const YAML::Node& n, const std::string& what) const {
     WG_ASSIGN_OR_RETURN(int v, Scalar<int>(n, what, "positive integer"));
     if (v < 1) return Error(n, what + " must be >= 1");
+    return v;
+  }
+
+  StatusOr<double> NonNegative(const YAML::Node& n, const std::string& what) const {
+    WG_ASSIGN_OR_RETURN(double v, Scalar<double>(n, what, "number >= 0"));
+    if (!(std::isfinite(v) && v >= 0.0)) return Error(n, what + " must be a number >= 0");
     return v;
   }
 
@@ -176,15 +183,15 @@ bool ValidSweepName(const std::string& s) {
 StatusOr<StudySweep> ParseSweep(const Parser& p, const YAML::Node& node, const StudyManifest& m,
                                 const std::vector<std::string>& top_ids, int top_runs,
                                 uint64_t top_seed, const std::string& top_metric,
-                                const EstimatorRegistry& registry) {
+                                double top_score_from_s, const EstimatorRegistry& registry) {
   StudySweep s;
   s.line = p.Line(node);
   if (!node.IsMap()) return p.Error(node, "each sweep must be a map");
-  WG_RETURN_IF_ERROR(
-      p.CheckKeys(node,
-                  {"name", "title", "label", "scenario", "walk", "overrides", "scenario_override",
-                   "estimator_option", "values", "estimators", "runs", "seed", "metric"},
-                  "a sweep"));
+  WG_RETURN_IF_ERROR(p.CheckKeys(
+      node,
+      {"name", "title", "label", "scenario", "walk", "overrides", "scenario_override",
+       "estimator_option", "values", "estimators", "runs", "seed", "metric", "score_from_s"},
+      "a sweep"));
   if (!node["name"]) return p.Error(node, "a sweep needs a name");
   WG_ASSIGN_OR_RETURN(s.name, p.String(node["name"], "sweep name"));
   if (!ValidSweepName(s.name)) {
@@ -253,6 +260,10 @@ StatusOr<StudySweep> ParseSweep(const Parser& p, const YAML::Node& node, const S
   s.metric = top_metric;
   if (node["metric"]) {
     WG_ASSIGN_OR_RETURN(s.metric, p.Metric(node["metric"]));
+  }
+  s.score_from_s = top_score_from_s;
+  if (node["score_from_s"]) {
+    WG_ASSIGN_OR_RETURN(s.score_from_s, p.NonNegative(node["score_from_s"], "score_from_s"));
   }
   // What varies.
   if (!node["scenario_override"] == !node["estimator_option"]) {
@@ -334,7 +345,7 @@ StatusOr<StudyManifest> ParseStudyManifest(const std::string& text, const std::s
   if (!root.IsMap()) return p.Error(root, "a study manifest must be a map (see study.h)");
   WG_RETURN_IF_ERROR(p.CheckKeys(root,
                                  {"name", "description", "estimators", "configs", "metric", "runs",
-                                  "seed", "pcrb", "pcrb_options", "sweeps"},
+                                  "seed", "score_from_s", "pcrb", "pcrb_options", "sweeps"},
                                  "the manifest"));
   StudyManifest m;
   m.path = path;
@@ -374,6 +385,10 @@ StatusOr<StudyManifest> ParseStudyManifest(const std::string& text, const std::s
   if (root["seed"]) {
     WG_ASSIGN_OR_RETURN(seed, p.Seed(root["seed"], "seed"));
   }
+  double score_from_s = 0.0;
+  if (root["score_from_s"]) {
+    WG_ASSIGN_OR_RETURN(score_from_s, p.NonNegative(root["score_from_s"], "score_from_s"));
+  }
   if (root["pcrb"]) {
     WG_ASSIGN_OR_RETURN(m.pcrb, p.Scalar<bool>(root["pcrb"], "pcrb", "boolean (true/false)"));
   }
@@ -388,7 +403,8 @@ StatusOr<StudyManifest> ParseStudyManifest(const std::string& text, const std::s
   }
   std::set<std::string> names;
   for (const YAML::Node& node : sweeps) {
-    WG_ASSIGN_OR_RETURN(StudySweep s, ParseSweep(p, node, m, ids, runs, seed, metric, registry));
+    WG_ASSIGN_OR_RETURN(StudySweep s,
+                        ParseSweep(p, node, m, ids, runs, seed, metric, score_from_s, registry));
     if (!names.insert(s.name).second) {
       return p.Error(node["name"], "sweep name '" + s.name + "' used twice");
     }
@@ -439,6 +455,7 @@ StatusOr<StudyResult> RunStudy(const StudyManifest& m, const StudyOptions& optio
     for (size_t i = 0; i < s.values.size(); ++i) {
       CompareOptions co;
       co.estimator_ids = s.estimators;
+      co.score_from_s = s.score_from_s;
       for (const std::string& id : s.estimators) co.configs[id] = CellConfig(m, s, i, id);
       StatusOr<Comparison> c = FailedPrecondition("no comparison");
       if (walks[k]) {
@@ -508,12 +525,18 @@ std::optional<double> RatioOf(const StudyCell& c, const StudyRow& r) {
   return r.stats.rmse_m / *c.pcrb_rmse_m;
 }
 
+// v, or nothing when it is not finite (anees without covariances).
+std::optional<double> Finite(double v) {
+  if (!std::isfinite(v)) return std::nullopt;
+  return v;
+}
+
 // The plotted figure (and its Monte Carlo spread) of a row.
 std::optional<double> MetricOf(const StudyCell& c, const StudyRow& r, const std::string& metric) {
   if (!r.status.ok()) return std::nullopt;
   if (metric == "rmse_over_pcrb") return RatioOf(c, r);
   for (size_t j = 0; j < std::size(kMetrics); ++j) {
-    if (metric == kMetrics[j]) return r.stats.*kMetricFields[j];
+    if (metric == kMetrics[j]) return Finite(r.stats.*kMetricFields[j]);
   }
   return std::nullopt;
 }
@@ -522,7 +545,7 @@ std::optional<double> MetricStdOf(const StudyCell& c, const StudyRow& r,
                                   const std::string& metric) {
   if (!r.status.ok() || !r.stats_std || c.runs < 2) return std::nullopt;
   for (size_t j = 0; j < std::size(kMetrics); ++j) {
-    if (metric == kMetrics[j]) return (*r.stats_std).*kMetricFields[j];
+    if (metric == kMetrics[j]) return Finite((*r.stats_std).*kMetricFields[j]);
   }
   return std::nullopt;
 }
@@ -553,8 +576,9 @@ std::string StudyCsv(const StudyResult& r) {
           << row.failed_runs;
       for (size_t j = 0; j < std::size(kMetrics); ++j) {
         if (row.status.ok()) {
-          out << ',' << Num(row.stats.*kMetricFields[j]) << ','
-              << (row.stats_std && c.runs > 1 ? Num((*row.stats_std).*kMetricFields[j]) : "");
+          out << ',' << Opt(Finite(row.stats.*kMetricFields[j])) << ','
+              << (row.stats_std && c.runs > 1 ? Opt(Finite((*row.stats_std).*kMetricFields[j]))
+                                              : "");
         } else {
           out << ",,";
         }
