@@ -291,7 +291,7 @@ TEST(TarrioPresetTest, KalmanFilterMeetsThe90thPercentileOnTarrioCircle) {
 // targets hold here: p90 ≤ 2.6 m (paper < 2.4 m) and the KF mean ≥ 1.0 m below both baselines
 // (paper ≈ 1.5 m). Measured with 100 runs, seed 2 (seed 1): p90 2.52 (2.48) m, 1.76 (1.74) m
 // below rss-only, 1.98 (1.94) m below rss-pdr-reset. Scored over the whole walk the p90 is 2.75
-// m; from 20 s on 2.56 m, from 10 s on 2.65 m. The preset's own 0.5-s beacons scored the same
+// m; from 20 s on 2.57 m, from 10 s on 2.64 m. The preset's own 0.5-s beacons scored the same
 // way: p90 1.67 m, 0.99 m below rss-only (the previous test's preset; recorded there).
 TEST(TarrioPresetTest, MeetsBothTargetsAsThePaperDescribesItsSimulation) {
   auto settle = TarrioSettlingTime(TarrioKfOptions(), 2.0);
