@@ -216,10 +216,18 @@ TEST(GadekePresetTest, BridgesTheOutageLikePdrAndRecoversWithin30s) {
     // From 60 s into the outage (six velocity time constants τ = 0.1 s/ln(1/0.99) ≈ 10 s) the
     // filter's displacement is the sum of the PDR step vectors and the WSN-only track stands
     // still: the velocity term left moves either by at most |v|·τ·e⁻⁶ < 0.1 m for |v| < 4 m/s.
-    const double ta = t_out0 + 60.0;
+    // The reference is the filter's own state at its last epoch by then (an interpolated
+    // position would already hold part of the next epoch's step).
+    const double t_ref = t_out0 + 60.0;
+    double ta = t_ref;
+    Eigen::Vector3d kf_a = r_kf->trajectory.points.front().position_m;
+    for (const TrajectoryPoint& p : r_kf->trajectory.points) {
+      if (p.t_s > t_ref) break;
+      kf_a = p.position_m;
+      ta = p.t_s;
+    }
     auto steps = StepsForWalk(*walk, *pdr_options);
     ASSERT_TRUE(steps.ok());
-    const Eigen::Vector3d kf_a = r_kf->trajectory.PositionAt(ta);
     Eigen::Vector2d pdr_moved = Eigen::Vector2d::Zero();
     size_t si = 0;
     for (const TrajectoryPoint& p : r_kf->trajectory.points) {

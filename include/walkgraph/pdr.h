@@ -64,10 +64,11 @@ struct PdrOptions {
   double fir_peak_mps2 = 0.5;
   // (c) energy threshold and lockout (003 eq. 1).
   double energy_threshold_m2ps4 = 10.0;
-  double energy_lockout_s = 0.3;
+  double energy_lockout_s = 0.3;  // maxima at most this long after a step are rejected
   // Which maximum of a lockout span is the step: "first" (003's wording read literally: maxima
   // within 300 ms after a step are rejected) or "strongest" (a larger maximum within 300 ms
-  // replaces the step: one step per energy burst whatever its shape). 003 does not say which.
+  // replaces the step: one step per energy burst whatever its shape; the span still runs from
+  // the burst's first maximum). 003 does not say which.
   std::string energy_lockout_keep = "first";
   // Shortest time between two steps for (a) and (b) (no paper value; 0.25 s ≈ 4 steps/s).
   double min_step_interval_s = 0.25;

@@ -145,18 +145,22 @@ StatusOr<std::vector<StepEvent>> DetectWithSignals(const Walk& walk, const ImuSi
         energy[i] = a.squaredNorm();
       }
       std::vector<size_t> peaks;
+      double window_start_s = 0.0;  // the lockout runs from the step's first maximum
       for (size_t i = 1; i + 1 < energy.size(); ++i) {
         if (!(energy[i] > o.energy_threshold_m2ps4 && energy[i] > energy[i - 1] &&
               energy[i] >= energy[i + 1])) {
           continue;
         }
-        if (!peaks.empty() && walk.imu[i].t_s - walk.imu[peaks.back()].t_s < o.energy_lockout_s) {
+        // "Within 300 ms" inclusive: a maximum exactly 300 ms on (3 samples at 10 Hz) is
+        // rejected; 1 ns of slack since sample times carry rounding (0.1 + 0.2 > 0.3).
+        if (!peaks.empty() && walk.imu[i].t_s - window_start_s <= o.energy_lockout_s + 1e-9) {
           if (o.energy_lockout_keep == "strongest" && energy[i] > energy[peaks.back()]) {
-            peaks.back() = i;
+            peaks.back() = i;  // the step moves to the larger maximum; its window does not
           }
           continue;
         }
         peaks.push_back(i);
+        window_start_s = walk.imu[i].t_s;
       }
       return EventsFromPeaks(walk, s, peaks, 0.0);
     }
