@@ -9,27 +9,38 @@ namespace walkgraph {
 
 const char* ToString(ImuPlacement p) {
   switch (p) {
-    case ImuPlacement::kNone: return "none";
-    case ImuPlacement::kFoot: return "foot";
-    case ImuPlacement::kWaist: return "waist";
-    case ImuPlacement::kHip: return "hip";
-    case ImuPlacement::kHandheld: return "handheld";
+    case ImuPlacement::kNone:
+      return "none";
+    case ImuPlacement::kFoot:
+      return "foot";
+    case ImuPlacement::kWaist:
+      return "waist";
+    case ImuPlacement::kHip:
+      return "hip";
+    case ImuPlacement::kHandheld:
+      return "handheld";
   }
   return "none";
 }
 const char* ToString(TruthKind k) {
   switch (k) {
-    case TruthKind::kNone: return "none";
-    case TruthKind::kContinuous: return "continuous";
-    case TruthKind::kCheckpoints: return "checkpoints";
+    case TruthKind::kNone:
+      return "none";
+    case TruthKind::kContinuous:
+      return "continuous";
+    case TruthKind::kCheckpoints:
+      return "checkpoints";
   }
   return "none";
 }
 const char* ToString(RadioKind k) {
   switch (k) {
-    case RadioKind::kNone: return "none";
-    case RadioKind::kRss: return "rss";
-    case RadioKind::kRange: return "range";
+    case RadioKind::kNone:
+      return "none";
+    case RadioKind::kRss:
+      return "rss";
+    case RadioKind::kRange:
+      return "range";
   }
   return "none";
 }
@@ -70,15 +81,27 @@ double Walk::TruthDistance() const {
   return d;
 }
 
-Eigen::Vector3d Trajectory::PositionAt(double t_s) const {
-  if (t_s <= points.front().t_s) return points.front().position_m;
-  if (t_s >= points.back().t_s) return points.back().position_m;
+Trajectory::Bracket Trajectory::BracketAt(double t_s) const {
+  if (t_s <= points.front().t_s) return {0, 0, 0.0};
+  const size_t last = points.size() - 1;
+  if (t_s >= points.back().t_s) return {last, last, 0.0};
   const auto it = std::lower_bound(points.begin(), points.end(), t_s,
                                    [](const TrajectoryPoint& p, double t) { return p.t_s < t; });
-  const TrajectoryPoint& b = *it;
-  const TrajectoryPoint& a = *(it - 1);
-  const double w = (t_s - a.t_s) / (b.t_s - a.t_s);
-  return (1.0 - w) * a.position_m + w * b.position_m;
+  const size_t b = static_cast<size_t>(it - points.begin());
+  return {b - 1, b, (t_s - points[b - 1].t_s) / (points[b].t_s - points[b - 1].t_s)};
+}
+
+Eigen::Vector3d Trajectory::PositionAt(double t_s) const {
+  const Bracket k = BracketAt(t_s);
+  return (1.0 - k.w) * points[k.a].position_m + k.w * points[k.b].position_m;
+}
+
+std::optional<Eigen::Matrix2d> Trajectory::PositionCovarianceAt(double t_s) const {
+  const Bracket k = BracketAt(t_s);
+  const auto& ca = points[k.a].covariance;
+  const auto& cb = points[k.b].covariance;
+  if (!ca || !cb) return std::nullopt;
+  return Eigen::Matrix2d((1.0 - k.w) * ca->topLeftCorner<2, 2>() + k.w * cb->topLeftCorner<2, 2>());
 }
 
 }  // namespace walkgraph

@@ -162,13 +162,14 @@ TEST(ChainCovarianceTest, WantedSelectsGroupsWithTheSameValues) {
   auto all = ChainMarginalCovariances(c.problem.get(), c.groups, c.statics);
   std::vector<bool> wanted(c.groups.size(), false);
   wanted[0] = wanted[1] = true;
-  auto some = ChainMarginalCovariances(c.problem.get(), c.groups, c.statics, 3.0, 64, wanted);
+  auto some = ChainMarginalCovariances(c.problem.get(), c.groups, c.statics, kChainInlierSigma,
+                                       kChainMaxBandwidth, wanted);
   ASSERT_TRUE(all.ok() && some.ok());
   EXPECT_EQ(((*some)[0] - (*all)[0]).norm(), 0.0);
   EXPECT_EQ(((*some)[1] - (*all)[1]).norm(), 0.0);
   for (size_t g = 2; g < c.groups.size(); ++g) EXPECT_EQ((*some)[g].size(), 0) << g;
-  EXPECT_FALSE(ChainMarginalCovariances(c.problem.get(), c.groups, c.statics, 3.0, 64,
-                                        std::vector<bool>(3, true))
+  EXPECT_FALSE(ChainMarginalCovariances(c.problem.get(), c.groups, c.statics, kChainInlierSigma,
+                                        kChainMaxBandwidth, std::vector<bool>(3, true))
                    .ok());
 }
 

@@ -3,7 +3,7 @@
 // Horizontal (2D) position error. With continuous truth the error is taken at every truth
 // sample; with checkpoints at each checkpoint. The estimate is linearly interpolated at the
 // truth time. Truth outside the estimate's time span is skipped (counted in n_skipped).
-// Consistency: when every trajectory point carries a covariance, the position NEES
+// Consistency: when the trajectory carries covariances at the scored times, the position NEES
 // eᵀP⁻¹e (e the 2D error, P the (x, y) block interpolated linearly at the truth time, rotated
 // with the estimate under kSE2) is taken at the same points; its mean (ANEES) is 2 for a
 // consistent estimator (χ²(2)), larger when it is overconfident, smaller when conservative.

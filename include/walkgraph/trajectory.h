@@ -25,6 +25,16 @@ struct Trajectory {
   // Position at time t, linearly interpolated; clamped to the ends outside the span.
   // Requires a non-empty trajectory.
   Eigen::Vector3d PositionAt(double t_s) const;
+  // The (x, y) block of the covariance at time t, interpolated and clamped like PositionAt;
+  // nullopt when a bracketing point has no covariance. Requires a non-empty trajectory.
+  std::optional<Eigen::Matrix2d> PositionCovarianceAt(double t_s) const;
+
+ private:
+  struct Bracket {
+    size_t a, b;  // the points around t (equal at and beyond the ends)
+    double w;     // weight of b
+  };
+  Bracket BracketAt(double t_s) const;
 };
 
 }  // namespace walkgraph

@@ -21,24 +21,6 @@ double Percentile(std::vector<double> values, double q) {
 
 namespace {
 
-// The (x, y) covariance block of `trajectory` at t_s (inside its span), linearly interpolated;
-// nullopt when a bracketing point has no covariance.
-std::optional<Eigen::Matrix2d> PositionCovarianceAt(const Trajectory& trajectory, double t_s) {
-  const auto& pts = trajectory.points;
-  auto it = std::lower_bound(pts.begin(), pts.end(), t_s,
-                             [](const TrajectoryPoint& p, double t) { return p.t_s < t; });
-  if (it == pts.end()) --it;
-  if (it->t_s == t_s || it == pts.begin()) {
-    if (!it->covariance) return std::nullopt;
-    return Eigen::Matrix2d(it->covariance->topLeftCorner<2, 2>());
-  }
-  const TrajectoryPoint &a = *(it - 1), &b = *it;
-  if (!a.covariance || !b.covariance) return std::nullopt;
-  const double w = (t_s - a.t_s) / (b.t_s - a.t_s);
-  return Eigen::Matrix2d((1.0 - w) * a.covariance->topLeftCorner<2, 2>() +
-                         w * b.covariance->topLeftCorner<2, 2>());
-}
-
 // eᵀP⁻¹e, or nullopt when P (symmetrized) is not positive definite.
 std::optional<double> Nees(const Eigen::Vector2d& e, const Eigen::Matrix2d& P) {
   const Eigen::Matrix2d S = 0.5 * (P + P.transpose());
@@ -84,13 +66,10 @@ StatusOr<ErrorSeries> ComputeErrors(const Walk& walk, const Trajectory& trajecto
   out.n_skipped = skipped;
   out.error_m.reserve(est.size());
   for (size_t i = 0; i < est.size(); ++i) out.error_m.push_back((est[i] - ref[i]).norm());
-  const bool has_covariance =
-      std::all_of(trajectory.points.begin(), trajectory.points.end(),
-                  [](const TrajectoryPoint& p) { return p.covariance.has_value(); });
-  if (has_covariance) {
+  if (trajectory.points.front().covariance) {
     out.nees.reserve(est.size());
     for (size_t i = 0; i < est.size(); ++i) {
-      const std::optional<Eigen::Matrix2d> P = PositionCovarianceAt(trajectory, out.t_s[i]);
+      const std::optional<Eigen::Matrix2d> P = trajectory.PositionCovarianceAt(out.t_s[i]);
       const std::optional<double> nees =
           P ? Nees(est[i] - ref[i], rotation * *P * rotation.transpose()) : std::nullopt;
       if (!nees) {

@@ -57,8 +57,9 @@ StatusOr<Comparison> AggregateRuns(const std::vector<Comparison>& runs) {
     }
   }
   using Field = double ErrorStats::*;
-  const Field kMeanFields[] = {&ErrorStats::rmse_m, &ErrorStats::mean_m, &ErrorStats::max_m,
-                               &ErrorStats::final_m, &ErrorStats::pct_distance};
+  // anees: NaN (none) as soon as one run has none.
+  const Field kMeanFields[] = {&ErrorStats::rmse_m,  &ErrorStats::mean_m,       &ErrorStats::max_m,
+                               &ErrorStats::final_m, &ErrorStats::pct_distance, &ErrorStats::anees};
   const Field kPooledFields[] = {&ErrorStats::median_m, &ErrorStats::p75_m, &ErrorStats::p90_m};
   const double kPooledQ[] = {50.0, 75.0, 90.0};
   for (const std::string& id : ids) {
@@ -112,17 +113,6 @@ StatusOr<Comparison> AggregateRuns(const std::vector<Comparison>& runs) {
       for (size_t k = 0; k < ok.size(); ++k) v[k] = ok[k]->stats.*kPooledFields[j];
       stds.*kPooledFields[j] = Spread(v).std;
       agg.stats.*kPooledFields[j] = Percentile(agg.errors.error_m, kPooledQ[j]);
-    }
-    // ANEES: mean over the runs, when every run has one.
-    bool all_nees = true;
-    for (size_t k = 0; k < ok.size(); ++k) {
-      v[k] = ok[k]->stats.anees;
-      all_nees = all_nees && std::isfinite(v[k]);
-    }
-    if (all_nees) {
-      const MeanStd m = Spread(v);
-      agg.stats.anees = m.mean;
-      stds.anees = m.std;
     }
     for (size_t k = 0; k < ok.size(); ++k) v[k] = ok[k]->runtime_s;
     const MeanStd t = Spread(v);

@@ -286,7 +286,8 @@ StatusOr<std::vector<Eigen::MatrixXd>> FixedLagSmoother::MarginalCovariances(
   }
   StatusOr<std::vector<Eigen::MatrixXd>> banded = InternalError("not computed");
   if (usable) {
-    banded = ChainMarginalCovariances(problem_.get(), chain, statics, 3.0, 64, wanted);
+    banded = ChainMarginalCovariances(problem_.get(), chain, statics, kChainInlierSigma,
+                                      kChainMaxBandwidth, wanted);
     usable = banded.ok();
   }
   if (!usable) {  // fall back to Ceres, one group at a time

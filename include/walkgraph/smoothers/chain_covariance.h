@@ -33,10 +33,12 @@ namespace walkgraph {
 // aborts — when H is not positive definite (an unobservable direction) or when the problem is
 // not chain-structured (half-bandwidth above max_bandwidth). `wanted` (empty: all) selects the
 // groups whose covariance is returned; the others come back empty (0 × 0).
+inline constexpr double kChainInlierSigma = 3.0;
+inline constexpr int kChainMaxBandwidth = 64;
 StatusOr<std::vector<Eigen::MatrixXd>> ChainMarginalCovariances(
     ceres::Problem* problem, const std::vector<std::vector<double*>>& groups,
-    const std::vector<double*>& statics, double inlier_sigma = 3.0, int max_bandwidth = 64,
-    const std::vector<bool>& wanted = {});
+    const std::vector<double*>& statics, double inlier_sigma = kChainInlierSigma,
+    int max_bandwidth = kChainMaxBandwidth, const std::vector<bool>& wanted = {});
 
 }  // namespace walkgraph
 
