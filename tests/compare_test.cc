@@ -92,7 +92,7 @@ TEST(WriteComparison, WritesEveryFileWithTheDocumentedSchema) {
   EXPECT_EQ(j["truth_kind"], "continuous");
   const auto& e = j["estimators"]["odometry-dr"];
   for (const char* key : {"rmse_m", "mean_m", "median_m", "p75_m", "p90_m", "max_m", "final_m",
-                          "pct_distance", "anees", "runtime_s", "n_points"}) {
+                          "pct_distance", "mean_pct_distance", "anees", "runtime_s", "n_points"}) {
     EXPECT_TRUE(e.contains(key)) << key;
   }
   EXPECT_TRUE(j.contains("pcrb_rmse_m"));

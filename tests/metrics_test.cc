@@ -46,6 +46,34 @@ TEST(ComputeErrors, ConstantOffsetAndInterpolation) {
   EXPECT_EQ(s.n_points, 11);
 }
 
+// 003's relative error: a constant 1-m offset on a 1 m/s line is 100/d % at d = 1..10 m
+// (the start, d = 0, left out): the mean is 10·H_10 % (H_10 = 7381/2520).
+TEST(ComputeErrors, RelativeErrorIsTheMeanOfErrorOverDistanceWalked) {
+  const Walk w = LineWalk();
+  Trajectory t;
+  for (int i = 0; i <= 10; ++i) {
+    TrajectoryPoint p;
+    p.t_s = i;
+    p.position_m = Eigen::Vector3d(i, 1.0, 0.0);
+    t.points.push_back(p);
+  }
+  auto e = ComputeErrors(w, t);
+  ASSERT_TRUE(e.ok());
+  ASSERT_EQ(e->distance_m.size(), 11u);
+  for (int i = 0; i <= 10; ++i) EXPECT_NEAR(e->distance_m[i], i, 1e-12);
+  const ErrorStats s = SummarizeErrors(*e, w.TruthDistance());
+  EXPECT_NEAR(s.mean_pct_distance, 10.0 * 7381.0 / 2520.0, 1e-9);
+  EXPECT_NEAR(s.pct_distance, 10.0, 1e-12);
+  // Without distances (a bare error vector) there is no relative error.
+  EXPECT_TRUE(std::isnan(SummarizeErrors(e->error_m, w.TruthDistance()).mean_pct_distance));
+  // Nor when no point is 1 m from the start.
+  Walk still = w;
+  for (auto& x : still.truth) x.position_m.x() = 0.001 * x.t_s;
+  auto e0 = ComputeErrors(still, t);
+  ASSERT_TRUE(e0.ok());
+  EXPECT_TRUE(std::isnan(SummarizeErrors(*e0, still.TruthDistance()).mean_pct_distance));
+}
+
 TEST(ComputeErrors, SkipsTruthOutsideEstimateSpan) {
   const Walk w = LineWalk();
   Trajectory t;
@@ -59,6 +87,9 @@ TEST(ComputeErrors, SkipsTruthOutsideEstimateSpan) {
   ASSERT_TRUE(e.ok());
   EXPECT_EQ(e->error_m.size(), 4u);
   EXPECT_EQ(e->n_skipped, 7);
+  // Distances count from the walk's first truth sample, not from the first scored one.
+  ASSERT_EQ(e->distance_m.size(), 4u);
+  EXPECT_NEAR(e->distance_m.front(), 3.0, 1e-12);
 }
 
 TEST(ComputeErrors, Se2AlignmentRemovesRigidMotion) {

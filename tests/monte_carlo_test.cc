@@ -136,7 +136,8 @@ TEST(CompareMonteCarlo, ResultsJsonIsIdenticalForOneAndTwoThreads) {
   EXPECT_EQ(j["seed"], 2024);
   const auto& e = j["estimators"]["odometry-dr"];
   for (const char* key : {"rmse_m", "rmse_m_std", "p75_m", "p75_m_std", "max_m_std",
-                          "pct_distance_std", "anees", "anees_std", "n_points", "failed_runs"}) {
+                          "pct_distance_std", "mean_pct_distance", "mean_pct_distance_std", "anees",
+                          "anees_std", "n_points", "failed_runs"}) {
     EXPECT_TRUE(e.contains(key)) << key;
   }
   EXPECT_TRUE(e["runtime_s"].is_null());

@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include "walkgraph/angle.h"
+#include "walkgraph/metrics.h"
 #include "walkgraph/simulate.h"
 
 namespace walkgraph {
@@ -224,39 +225,31 @@ TEST(PdrTest, OptionsFromYamlAreStrict) {
   EXPECT_FALSE(PdrOptions::FromYaml(YAML::Load("{complementary_w: 2.0}")).ok());
 }
 
-// Issue 4 on the simulator's hip walks: detected step count within 2 % of the true steps, and
-// PDR-only drift (dead reckoning from the true start; final error over the distance walked)
-// inside the papers' 1-10 % band on the open gadeke-outage path (003: 3.5-10 %) and the
-// classroom. 000's vertical-peak detector (K = 0.45) everywhere; on gadeke-outage (10 Hz, 003's
-// rate) also 003's energy detector in both lockout readings, with threshold 2 (m/s^2)^2 and
-// body-x (the departures the simulated hip forces; see gadeke_test.cc): 1066 / 1065 of 1072
-// steps (seeds 1 / 2). Before the lockout was made inclusive and anchored at the step's first
-// maximum it over-counted by 6.2 % (first) and 2.05 % (strongest): at 10 Hz the second energy
-// peak of a step (the vertical minimum) falls 0.3 s after the first, and 0.1 + 0.2 > 0.3 in
-// floating point let it through. On tarrio-circle the final error of the closed circle says
-// little and even the largest error is below 1 % of the distance: the simulated walker's step
-// length follows the estimator's own Weinberg model exactly. The correa presets (Sparkfun-stick
-// noise, disturbed magnetometer): counts within 2 %; drift on the 6-lap classroom 4.27 % / 2.73 %
-// (asserted), on the 87-m corridor 13.4 % / 8.75 % (recorded).
+// Issue 4 on the simulator's hip walks: detected step count within 2 % of the true steps.
+// 000's vertical-peak detector (K = 0.45) everywhere; on gadeke-outage (10 Hz, 003's rate) also
+// 003's energy detector in both lockout readings, with threshold 2 (m/s^2)^2 and body-x (the
+// departures the simulated hip forces; see gadeke_test.cc): 1066 / 1065 of 1072 steps (seeds
+// 1 / 2). Before the lockout was made inclusive and anchored at the step's first maximum it
+// over-counted by 6.2 % (first) and 2.05 % (strongest): at 10 Hz the second energy peak of a
+// step (the vertical minimum) falls 0.3 s after the first, and 0.1 + 0.2 > 0.3 in floating
+// point let it through. The PDR-only final error (from the true start, over the distance
+// walked) is printed; it is not a drift measure on one walk (gadeke-outage seed 3: 0.24 % with
+// a 15-m largest error; closed paths cancel), see RelativeErrorOfEachPapersFrontEndOnItsHipWalk.
 struct PdrCase {
   const char* scenario;
   const char* overrides;
   const char* pdr;
-  bool assert_count;
-  bool assert_drift;
 };
 
-TEST(PdrTest, StepCountAndDriftOnSimulatedHipWalks) {
+TEST(PdrTest, StepCountOnSimulatedHipWalks) {
   const char* energy = "{detector: energy, energy_threshold_m2ps4: 2, forward_axis: body-x}";
   const char* strongest =
       "{detector: energy, energy_threshold_m2ps4: 2, forward_axis: body-x, "
       "energy_lockout_keep: strongest}";
-  for (const PdrCase& c : {PdrCase{"tarrio-circle", "{duration_s: 300}", "{}", true, false},
-                           PdrCase{"gadeke-outage", "{}", "{}", true, true},
-                           PdrCase{"gadeke-outage", "{}", energy, true, true},
-                           PdrCase{"gadeke-outage", "{}", strongest, true, true},
-                           PdrCase{"correa-classroom", "{laps: 6}", "{}", true, true},
-                           PdrCase{"correa-corridor", "{}", "{}", true, false}}) {
+  for (const PdrCase& c :
+       {PdrCase{"tarrio-circle", "{duration_s: 300}", "{}"}, PdrCase{"gadeke-outage", "{}", "{}"},
+        PdrCase{"gadeke-outage", "{}", energy}, PdrCase{"gadeke-outage", "{}", strongest},
+        PdrCase{"correa-classroom", "{laps: 6}", "{}"}, PdrCase{"correa-corridor", "{}", "{}"}}) {
     for (uint64_t seed : {1, 2}) {
       auto sim = SimulateScenarioDetailed(c.scenario, seed, YAML::Load(c.overrides));
       ASSERT_TRUE(sim.ok()) << sim.status().message();
@@ -284,11 +277,94 @@ TEST(PdrTest, StepCountAndDriftOnSimulatedHipWalks) {
           c.scenario, c.pdr, static_cast<int>(seed), seq->steps.size(), true_steps,
           100.0 * count_error, 100.0 * drift, distance, max_err);
       EXPECT_TRUE(seq->absolute_heading) << c.scenario;
-      if (c.assert_count) EXPECT_LT(count_error, 0.02) << c.scenario;
-      if (c.assert_drift) {
-        EXPECT_GT(drift, 0.01) << c.scenario;
-        EXPECT_LT(drift, 0.10) << c.scenario;
+      EXPECT_LT(count_error, 0.02) << c.scenario;
+    }
+  }
+}
+
+// PDR-only dead reckoning from the true start as a trajectory (a point at the start and one at
+// each step's end), for the metrics.
+Trajectory DeadReckonFromTruth(const Walk& walk, const StepSequence& seq) {
+  Trajectory out;
+  Eigen::Vector3d p = walk.truth.front().position_m;
+  p.z() = 0.0;
+  out.points.push_back({walk.truth.front().t_s, p, 0.0, std::nullopt});
+  for (const Step& st : seq.steps) {
+    p.head<2>() +=
+        st.length_m * Eigen::Vector2d(std::cos(st.heading_rad), std::sin(st.heading_rad));
+    if (!(st.t_s > out.points.back().t_s)) continue;
+    out.points.push_back({st.t_s, p, 0.0, std::nullopt});
+  }
+  return out;
+}
+
+// Issue 4's drift band with 003's relative error (Sec. 5, Fig. 6: the error at each truth
+// point over the distance walked to it, averaged over the walk, then over runs; 003 reports
+// 3.5-10 % for its hip PDR), mean of seeds 1-10, each paper's own front end on its scenario:
+//   gadeke-outage: 003's (energy detector with the departures the simulated hip forces,
+//     threshold 2 and body-x, see gadeke_test.cc; Weinberg; magnetometer-aided heading);
+//   correa presets: 001's (FIR |a| maxima, constant step length, complementary heading eq. 7)
+//     with the per-user length calibrated to the simulated walker (sim.step_length_m);
+//   tarrio-circle: 000's (vertical peaks, Weinberg K = 0.45, gyro heading eq. 4). 000's
+//     simulation (Sec. IV) draws the step amplitude from eq. 3 with the same K and has a 10 °/h
+//     gyro, so its walker drifts less than the band by construction: held below 1 %.
+// 000's front end on the other presets is printed (gyro-only heading drifts out of the band
+// on the 691-m gadeke walk).
+TEST(PdrTest, RelativeErrorOfEachPapersFrontEndOnItsHipWalk) {
+  struct Case {
+    const char* scenario;
+    const char* overrides;
+    const char* pdr;  // "correa": 001's front end with the walker's step length
+    double lo_pct, hi_pct;
+  };
+  constexpr double kNone = -1.0;  // printed only
+  const char* gadeke =
+      "{detector: energy, energy_threshold_m2ps4: 2, forward_axis: body-x, "
+      "heading: complementary}";
+  for (const Case& c : {Case{"tarrio-circle", "{duration_s: 300}", "{}", 0.0, 1.0},
+                        Case{"gadeke-outage", "{}", gadeke, 1.0, 10.0},
+                        Case{"correa-classroom", "{laps: 6}", "correa", 1.0, 10.0},
+                        Case{"correa-corridor", "{}", "correa", 1.0, 10.0},
+                        Case{"gadeke-outage", "{}", "{}", kNone, kNone},
+                        Case{"correa-classroom", "{laps: 6}", "{}", kNone, kNone},
+                        Case{"correa-corridor", "{}", "{}", kNone, kNone}}) {
+    std::vector<double> rel;
+    double final_pct = 0.0;
+    constexpr int kSeeds = 10;
+    for (uint64_t seed = 1; seed <= kSeeds; ++seed) {
+      auto sim = SimulateScenarioDetailed(c.scenario, seed, YAML::Load(c.overrides));
+      ASSERT_TRUE(sim.ok()) << sim.status().message();
+      std::string pdr = c.pdr;
+      if (pdr == "correa") {
+        pdr =
+            "{detector: fir-magnitude, length_model: constant, heading: complementary, "
+            "constant_length_m: " +
+            std::to_string(sim->walk.meta.extra.at("sim.step_length_m")) + "}";
       }
+      auto options = PdrOptions::FromYaml(YAML::Load(pdr));
+      ASSERT_TRUE(options.ok()) << options.status().message();
+      auto seq = ComputeSteps(sim->walk, *options);
+      ASSERT_TRUE(seq.ok()) << seq.status().message();
+      auto errors = ComputeErrors(sim->walk, DeadReckonFromTruth(sim->walk, *seq));
+      ASSERT_TRUE(errors.ok()) << errors.status().message();
+      const ErrorStats s = SummarizeErrors(*errors, sim->walk.TruthDistance());
+      ASSERT_TRUE(std::isfinite(s.mean_pct_distance)) << c.scenario;
+      rel.push_back(s.mean_pct_distance);
+      final_pct += s.pct_distance / kSeeds;
+    }
+    double mean = 0.0, lo = rel.front(), hi = rel.front();
+    for (double v : rel) {
+      mean += v / kSeeds;
+      lo = std::min(lo, v);
+      hi = std::max(hi, v);
+    }
+    std::printf(
+        "%s %s: relative error %.2f %% of the distance walked (seeds 1-10: %.2f-%.2f %%); "
+        "final error %.2f %% of the walk\n",
+        c.scenario, c.pdr, mean, lo, hi, final_pct);
+    if (c.lo_pct != kNone) {
+      EXPECT_GT(mean, c.lo_pct) << c.scenario << " " << c.pdr;
+      EXPECT_LT(mean, c.hi_pct) << c.scenario << " " << c.pdr;
     }
   }
 }

@@ -7,7 +7,8 @@
 // Monte Carlo (CompareMonteCarlo): N walks drawn from a seeded generator, run i with
 // seed_i = MonteCarloSeed(S, i), compared on a pool of threads. Per estimator the figures of
 // the N runs are aggregated as
-//   rmse, mean, max, final, pct_distance, runtime: mean over the runs, *_std = sample std
+//   rmse, mean, max, final, pct_distance, mean_pct_distance, anees, runtime: mean over the
+//     runs, *_std = sample std
 //   median, p75, p90: percentiles of the pooled errors of all runs, *_std = sample std of the
 //                     per-run percentiles.
 // Runs are aggregated in run order, so the result does not depend on the thread count.
@@ -44,7 +45,8 @@ struct CompareOptions {
   // Score only truth at t >= t_first_truth + score_from_s (0 = the whole walk): a filter's
   // start-up transient left out, as papers that report "the stationary state of the filter"
   // (000 Sec. IV) do. The dropped points are counted in ErrorSeries::n_skipped; final_m and
-  // pct_distance are unchanged. Must be finite, >= 0 and leave at least one truth point.
+  // pct_distance are unchanged, mean_pct_distance still divides by the distance from the start.
+  // Must be finite, >= 0 and leave at least one truth point.
   double score_from_s = 0.0;
 };
 

@@ -7,6 +7,8 @@
 // eᵀP⁻¹e (e the 2D error, P the (x, y) block interpolated linearly at the truth time, rotated
 // with the estimate under kSE2) is taken at the same points; its mean (ANEES) is 2 for a
 // consistent estimator (χ²(2)), larger when it is overconfident, smaller when conservative.
+// Relative error (003 Sec. 5, Fig. 6): the error at each point over the truth path length
+// walked up to it, averaged over the walk; 003 reports 3.5-10 % for its hip PDR.
 #ifndef WALKGRAPH_METRICS_H_
 #define WALKGRAPH_METRICS_H_
 
@@ -25,8 +27,15 @@ struct ErrorSeries {
   // Position NEES at each point; empty when a trajectory point has no covariance or one is
   // not positive definite (then no NEES is reported).
   std::vector<double> nees;
+  // Truth path length (2D) from the walk's first truth sample to each point.
+  std::vector<double> distance_m;
   int n_skipped = 0;
 };
+
+// Points closer than this to the start (along the truth) are left out of the relative error:
+// 003 averages over the whole run, but e/d is 0/0 at the start and huge over the first step.
+// (003 does not say how it treats the start; 1 m drops the standstill and the first step.)
+inline constexpr double kRelativeErrorMinDistanceM = 1.0;
 
 struct ErrorStats {
   double rmse_m = 0.0;
@@ -37,6 +46,10 @@ struct ErrorStats {
   double max_m = 0.0;
   double final_m = 0.0;       // error at the last scored truth point
   double pct_distance = 0.0;  // final error as % of the truth path length
+  // 003's relative error: mean over the points of 100·error / distance walked to the point
+  // (points within kRelativeErrorMinDistanceM of the start left out); NaN when no point is
+  // farther or the series carries no distances.
+  double mean_pct_distance = std::numeric_limits<double>::quiet_NaN();
   // Mean position NEES over the points (2 = consistent); NaN when the series has no NEES.
   double anees = std::numeric_limits<double>::quiet_NaN();
   int n_points = 0;
@@ -51,7 +64,7 @@ StatusOr<ErrorSeries> ComputeErrors(const Walk& walk, const Trajectory& trajecto
 
 // Statistics of an error series; `distance_m` is the path length for pct_distance.
 ErrorStats SummarizeErrors(const std::vector<double>& errors_m, double distance_m);
-// The same, with anees from the series' NEES.
+// The same, with anees from the series' NEES and mean_pct_distance from its distances.
 ErrorStats SummarizeErrors(const ErrorSeries& series, double distance_m);
 
 // Linear-interpolation percentile (q in [0, 100]) of unsorted values; 0 for an empty vector.

@@ -10,6 +10,7 @@
 //   configs: {id: {option: value}}  # optional base options per estimator
 //   metric: rmse_m                  # plotted metric (default rmse_m): rmse_m mean_m median_m
 //                                   #   p75_m p90_m max_m final_m pct_distance anees
+//                                   #   mean_pct_distance
 //                                   #   rmse_over_pcrb
 //   score_from_s: 0                 # score truth from this many s on (compare --score-from)
 //   runs: 10                        # Monte Carlo runs per cell (default 1; scenarios only)
@@ -39,8 +40,8 @@
 //
 // study.csv: one row per cell × estimator:
 //   sweep,parameter,value,estimator,runs,seed,failed_runs, then for each metric m of
-//   rmse_m mean_m median_m p75_m p90_m max_m final_m pct_distance anees: m,m_std (std empty
-//   for a single run; anees empty without covariances), then
+//   rmse_m mean_m median_m p75_m p90_m max_m final_m pct_distance anees mean_pct_distance:
+//   m,m_std (std empty for a single run; anees empty without covariances), then
 //   n_points,pcrb_rmse_m,pcrb_filter_rmse_m,rmse_over_pcrb,error
 //   (empty cells where a figure does not exist; error = why the estimator failed on every run).
 //   Run times, which differ between machines, are in timing.csv instead.

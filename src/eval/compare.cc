@@ -25,18 +25,21 @@ namespace {
 // Removes the errors before t_s (they count as skipped).
 void DropBefore(double t_s, ErrorSeries* e) {
   const bool with_nees = !e->nees.empty();
+  const bool with_distance = !e->distance_m.empty();
   size_t kept = 0;
   for (size_t i = 0; i < e->t_s.size(); ++i) {
     if (e->t_s[i] < t_s) continue;
     e->t_s[kept] = e->t_s[i];
     e->error_m[kept] = e->error_m[i];
     if (with_nees) e->nees[kept] = e->nees[i];
+    if (with_distance) e->distance_m[kept] = e->distance_m[i];
     ++kept;
   }
   e->n_skipped += static_cast<int>(e->t_s.size() - kept);
   e->t_s.resize(kept);
   e->error_m.resize(kept);
   if (with_nees) e->nees.resize(kept);
+  if (with_distance) e->distance_m.resize(kept);
 }
 
 }  // namespace
@@ -138,11 +141,24 @@ struct Column {
 };
 
 const Column kColumns[] = {
-    {"rmse_m", &ErrorStats::rmse_m, 3},     {"mean_m", &ErrorStats::mean_m, 3},
-    {"median_m", &ErrorStats::median_m, 3}, {"p75_m", &ErrorStats::p75_m, 3},
-    {"p90_m", &ErrorStats::p90_m, 3},       {"max_m", &ErrorStats::max_m, 3},
-    {"final_m", &ErrorStats::final_m, 3},   {"pct_dist", &ErrorStats::pct_distance, 2},
+    {"rmse_m", &ErrorStats::rmse_m, 3},
+    {"mean_m", &ErrorStats::mean_m, 3},
+    {"median_m", &ErrorStats::median_m, 3},
+    {"p75_m", &ErrorStats::p75_m, 3},
+    {"p90_m", &ErrorStats::p90_m, 3},
+    {"max_m", &ErrorStats::max_m, 3},
+    {"final_m", &ErrorStats::final_m, 3},
+    {"pct_dist", &ErrorStats::pct_distance, 2},
+    {"mean_pct", &ErrorStats::mean_pct_distance, 2},
 };
+
+// The results.json key of a column.
+std::string JsonKey(const Column& col) {
+  const std::string name = col.name;
+  if (name == "pct_dist") return "pct_distance";
+  if (name == "mean_pct") return "mean_pct_distance";
+  return name;
+}
 
 std::string Fixed(double v, int precision) {
   std::ostringstream s;
@@ -178,6 +194,10 @@ std::string FormatComparisonTable(const Comparison& c) {
     }
     for (size_t j = 0; j < ncol; ++j) {
       const double v = o.stats.*(kColumns[j].field);
+      if (std::isnan(v)) {  // mean_pct on a walk whose truth never leaves the start
+        row.push_back("- ");
+        continue;
+      }
       std::string cell = Fixed(v, kColumns[j].precision);
       if (o.stats_std)
         cell += "+-" + Fixed((*o.stats_std).*(kColumns[j].field), kColumns[j].precision);
@@ -272,7 +292,8 @@ Status WriteComparisonFiles(const Comparison& c, const fs::path& tmp) {
       if (monte_carlo) e["failed_runs"] = o.failed_runs;
     } else {
       for (const Column& col : kColumns) {
-        const std::string key = std::string(col.name) == "pct_dist" ? "pct_distance" : col.name;
+        if (std::isnan(o.stats.*(col.field))) continue;
+        const std::string key = JsonKey(col);
         e[key] = o.stats.*(col.field);
         if (o.stats_std) e[key + "_std"] = (*o.stats_std).*(col.field);
       }

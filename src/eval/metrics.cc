@@ -37,15 +37,19 @@ StatusOr<ErrorSeries> ComputeErrors(const Walk& walk, const Trajectory& trajecto
   if (trajectory.empty()) return FailedPrecondition("empty trajectory");
   const double t0 = trajectory.points.front().t_s;
   const double t1 = trajectory.points.back().t_s;
-  std::vector<double> t;
+  std::vector<double> t, walked;
   std::vector<Eigen::Vector2d> est, ref;
   int skipped = 0;
-  for (const TruthSample& s : walk.truth) {
+  double d = 0.0;
+  for (size_t i = 0; i < walk.truth.size(); ++i) {
+    const TruthSample& s = walk.truth[i];
+    if (i > 0) d += (s.position_m - walk.truth[i - 1].position_m).head<2>().norm();
     if (s.t_s < t0 || s.t_s > t1) {
       ++skipped;
       continue;
     }
     t.push_back(s.t_s);
+    walked.push_back(d);
     est.push_back(trajectory.PositionAt(s.t_s).head<2>());
     ref.push_back(s.position_m.head<2>());
   }
@@ -63,6 +67,7 @@ StatusOr<ErrorSeries> ComputeErrors(const Walk& walk, const Trajectory& trajecto
   }
   ErrorSeries out;
   out.t_s = std::move(t);
+  out.distance_m = std::move(walked);
   out.n_skipped = skipped;
   out.error_m.reserve(est.size());
   for (size_t i = 0; i < est.size(); ++i) out.error_m.push_back((est[i] - ref[i]).norm());
@@ -109,6 +114,16 @@ ErrorStats SummarizeErrors(const ErrorSeries& series, double distance_m) {
     double sum = 0.0;
     for (double v : series.nees) sum += v;
     s.anees = sum / static_cast<double>(series.nees.size());
+  }
+  if (series.distance_m.size() == series.error_m.size()) {
+    double sum = 0.0;
+    int n = 0;
+    for (size_t i = 0; i < series.error_m.size(); ++i) {
+      if (!(series.distance_m[i] >= kRelativeErrorMinDistanceM)) continue;
+      sum += 100.0 * series.error_m[i] / series.distance_m[i];  // 003 Sec. 5
+      ++n;
+    }
+    if (n > 0) s.mean_pct_distance = sum / n;
   }
   return s;
 }

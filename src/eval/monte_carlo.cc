@@ -57,9 +57,11 @@ StatusOr<Comparison> AggregateRuns(const std::vector<Comparison>& runs) {
     }
   }
   using Field = double ErrorStats::*;
-  // anees: NaN (none) as soon as one run has none.
-  const Field kMeanFields[] = {&ErrorStats::rmse_m,  &ErrorStats::mean_m,       &ErrorStats::max_m,
-                               &ErrorStats::final_m, &ErrorStats::pct_distance, &ErrorStats::anees};
+  // anees, mean_pct_distance: NaN (none) as soon as one run has none.
+  const Field kMeanFields[] = {&ErrorStats::rmse_m,       &ErrorStats::mean_m,
+                               &ErrorStats::max_m,        &ErrorStats::final_m,
+                               &ErrorStats::pct_distance, &ErrorStats::mean_pct_distance,
+                               &ErrorStats::anees};
   const Field kPooledFields[] = {&ErrorStats::median_m, &ErrorStats::p75_m, &ErrorStats::p90_m};
   const double kPooledQ[] = {50.0, 75.0, 90.0};
   for (const std::string& id : ids) {

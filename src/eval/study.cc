@@ -25,11 +25,13 @@ namespace fs = std::filesystem;
 namespace {
 
 const char* const kMetrics[] = {"rmse_m", "mean_m",  "median_m",     "p75_m", "p90_m",
-                                "max_m",  "final_m", "pct_distance", "anees"};
+                                "max_m",  "final_m", "pct_distance", "anees", "mean_pct_distance"};
 const double ErrorStats::*const kMetricFields[] = {
-    &ErrorStats::rmse_m,  &ErrorStats::mean_m,       &ErrorStats::median_m,
-    &ErrorStats::p75_m,   &ErrorStats::p90_m,        &ErrorStats::max_m,
-    &ErrorStats::final_m, &ErrorStats::pct_distance, &ErrorStats::anees};
+    &ErrorStats::rmse_m,   &ErrorStats::mean_m,
+    &ErrorStats::median_m, &ErrorStats::p75_m,
+    &ErrorStats::p90_m,    &ErrorStats::max_m,
+    &ErrorStats::final_m,  &ErrorStats::pct_distance,
+    &ErrorStats::anees,    &ErrorStats::mean_pct_distance};
 
 bool KnownMetric(const std::string& m) {
   if (m == "rmse_over_pcrb") return true;

@@ -174,11 +174,12 @@ std::string CdfPlot(const Comparison& c) {
 
 std::string Table(const Comparison& c) {
   const bool with_pcrb = c.pcrb_rmse_m.has_value();
-  const int ncols = with_pcrb ? 12 : 11;
+  const int ncols = with_pcrb ? 13 : 12;
   std::ostringstream s;
   s << std::fixed << std::setprecision(3);
   s << "<table id=\"results\"><tr><th>estimator</th><th>RMSE [m]</th><th>mean</th><th>median</th>"
-       "<th>p75</th><th>p90</th><th>max</th><th>final</th><th>% dist</th><th>ANEES</th>"
+       "<th>p75</th><th>p90</th><th>max</th><th>final</th><th>% dist</th><th>mean % dist</th>"
+       "<th>ANEES</th>"
        "<th>runtime [s]</th><th>n</th>";
   if (with_pcrb) s << "<th>RMSE / PCRB</th>";
   s << "</tr>\n";
@@ -192,9 +193,14 @@ std::string Table(const Comparison& c) {
     }
     const ErrorStats& e = o.stats;
     const double ErrorStats::*fields[] = {
-        &ErrorStats::rmse_m, &ErrorStats::mean_m, &ErrorStats::median_m, &ErrorStats::p75_m,
-        &ErrorStats::p90_m,  &ErrorStats::max_m,  &ErrorStats::final_m,  &ErrorStats::pct_distance};
+        &ErrorStats::rmse_m,  &ErrorStats::mean_m,       &ErrorStats::median_m,
+        &ErrorStats::p75_m,   &ErrorStats::p90_m,        &ErrorStats::max_m,
+        &ErrorStats::final_m, &ErrorStats::pct_distance, &ErrorStats::mean_pct_distance};
     for (const auto f : fields) {
+      if (std::isnan(e.*f)) {  // mean % dist on a walk whose truth never leaves the start
+        s << "<td></td>";
+        continue;
+      }
       s << "<td>" << e.*f;
       if (o.stats_std) s << " &plusmn; " << (*o.stats_std).*f;  // Monte Carlo spread
       s << "</td>";
