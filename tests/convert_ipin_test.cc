@@ -144,6 +144,46 @@ TEST(ConvertIpin, ConvertsSlicesOfEveryLog) {
   fs::remove_all(dir);
 }
 
+// --known-start: the walk begins at the first POSI landmark with its position as a
+// position-only initial_pose; what came before is dropped and counted.
+TEST(ConvertIpin, KnownStartBeginsAtTheFirstLandmark) {
+  if (!fs::exists(kIpin)) GTEST_SKIP() << kIpin << " not present";
+  const fs::path dir = Scratch("known");
+  fs::copy_file(kIpin / "BLE_Locations.csv", dir / "BLE_Locations.csv");
+  const fs::path log = kIpin / "IPIN2023_T3_TrainingTrial01_repetition01.txt";
+  const fs::path slice = dir / log.filename();
+  Count(log, 40.0, 90.0, slice);  // the first landmark at 61.4 s, phone handling before it
+  auto whole = Convert("ipin", {slice.string()});
+  ConvertOptions o;
+  o.known_start = true;
+  o.known_start_sigma_m = 0.7;
+  auto known = Convert("ipin", {slice.string()}, o);
+  ASSERT_TRUE(whole.ok()) << whole.status().message();
+  ASSERT_TRUE(known.ok()) << known.status().message();
+  EXPECT_TRUE(ValidateWalk(*known).ok());
+  EXPECT_FALSE(whole->meta.initial_pose.has_value());
+  ASSERT_TRUE(known->meta.initial_pose.has_value());
+  const InitialPose& p = *known->meta.initial_pose;
+  EXPECT_FALSE(p.heading_known);
+  EXPECT_EQ(p.x_m, known->truth.front().position_m.x());
+  EXPECT_EQ(p.y_m, known->truth.front().position_m.y());
+  EXPECT_EQ(p.sigma_xy_m, 0.7);
+  const double t0 = known->truth.front().t_s;
+  EXPECT_GE(known->imu.front().t_s, t0);
+  EXPECT_GE(known->rss.front().t_s, t0);
+  const double dropped_imu = known->meta.extra.at("convert.imu_samples_before_start_dropped");
+  const double dropped_ble = known->meta.extra.at("convert.ble_before_start_dropped");
+  EXPECT_GT(dropped_imu, 500);  // ≈ 21 s at 50 Hz
+  EXPECT_EQ(known->imu.size() + dropped_imu, whole->imu.size());
+  EXPECT_EQ(known->rss.size() + dropped_ble, whole->rss.size());
+  EXPECT_EQ(known->truth.size(), whole->truth.size());
+  // The option belongs to ipin only.
+  auto plaza = Convert("plaza", {dir.string()}, o);
+  ASSERT_FALSE(plaza.ok());
+  EXPECT_THAT(plaza.status().message(), HasSubstr("ipin logs only"));
+  fs::remove_all(dir);
+}
+
 // The Minor → BLE mapping, checked on the data: in TrainingTrial21 (level −2) the first
 // landmark is 2 m from BLE3, and the beacon heard loudest around it is Minor 2.
 TEST(ConvertIpin, MinorTwoIsTheBeaconAtBle3) {

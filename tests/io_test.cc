@@ -1,4 +1,5 @@
 // Walk format readers and writers: the malformed-input corpus, atomic writes, round trips.
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -6,6 +7,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include "walkgraph/angle.h"
 #include "walkgraph/io.h"
 
 namespace walkgraph {
@@ -17,8 +19,8 @@ using ::testing::HasSubstr;
 const std::string kData = WALKGRAPH_TEST_DATA_DIR;
 
 fs::path TempDir(const std::string& name) {
-  fs::path p = fs::temp_directory_path() / ("walkgraph_io_test_" + name + "_" +
-                                            std::to_string(::getpid()));
+  fs::path p =
+      fs::temp_directory_path() / ("walkgraph_io_test_" + name + "_" + std::to_string(::getpid()));
   fs::remove_all(p);
   return p;
 }
@@ -143,6 +145,40 @@ TEST(WriteWalk, RoundTripsExactly) {
   std::ifstream b(out / "imu.csv");
   const std::string second((std::istreambuf_iterator<char>(b)), {});
   EXPECT_EQ(first, second);
+  fs::remove_all(out);
+}
+
+// A start of known position and unknown heading (IPIN's scoring trials): heading_rad left out.
+TEST(WriteWalk, PositionOnlyStartRoundTrips) {
+  auto walk = ReadWalk(kData + "/walks/valid_small");
+  ASSERT_TRUE(walk.ok());
+  walk->meta.initial_pose->heading_known = false;
+  walk->meta.initial_pose->heading_rad = 0.0;
+  walk->meta.initial_pose->sigma_heading_rad = kUnknownHeadingSigmaRad;
+  walk->meta.initial_pose->x_m = 1.5;
+  const fs::path out = TempDir("position_only");
+  ASSERT_TRUE(WriteWalk(*walk, out.string()).ok());
+  std::ifstream y(out / "walk.yaml");
+  const std::string yaml((std::istreambuf_iterator<char>(y)), {});
+  EXPECT_EQ(yaml.find("heading_rad"), std::string::npos) << yaml;
+  auto back = ReadWalk(out.string());
+  ASSERT_TRUE(back.ok()) << back.status().message();
+  ASSERT_TRUE(back->meta.initial_pose.has_value());
+  EXPECT_FALSE(back->meta.initial_pose->heading_known);
+  EXPECT_EQ(back->meta.initial_pose->x_m, 1.5);
+  EXPECT_NEAR(back->meta.initial_pose->sigma_heading_rad, kPi / std::sqrt(3.0), 1e-15);
+  // A heading σ without a heading is refused, naming the file.
+  {
+    std::string bad = yaml;
+    bad.replace(bad.find("sigma_xy_m"), 0, "sigma_heading_rad: 0.1\n  ");
+    std::ofstream(out / "walk.yaml") << bad;
+  }
+  auto refused = ReadWalk(out.string());
+  ASSERT_FALSE(refused.ok());
+  EXPECT_NE(refused.status().message().find("walk.yaml"), std::string::npos);
+  EXPECT_NE(refused.status().message().find("sigma_heading_rad without heading_rad"),
+            std::string::npos)
+      << refused.status().message();
   fs::remove_all(out);
 }
 

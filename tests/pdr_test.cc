@@ -369,6 +369,44 @@ TEST(PdrTest, RelativeErrorOfEachPapersFrontEndOnItsHipWalk) {
   }
 }
 
+// A position-only start (heading_known = false) leaves the start heading to the magnetometer,
+// as if there were no initial_pose; a known heading is taken as given.
+TEST(PdrTest, PositionOnlyStartTakesTheMagnetometerHeading) {
+  auto sim = SimulateScenarioDetailed("correa-classroom", 1, YAML::Load("{laps: 1}"));
+  ASSERT_TRUE(sim.ok()) << sim.status().message();
+  auto options = PdrOptions::FromYaml(YAML::Load("{heading: complementary}"));
+  ASSERT_TRUE(options.ok());
+  Walk none = sim->walk;
+  none.meta.initial_pose.reset();
+  Walk position_only = sim->walk;
+  position_only.meta.initial_pose = InitialPose{3.0,
+                                                4.0,
+                                                0.0,
+                                                0.5,
+                                                kUnknownHeadingSigmaRad,
+                                                /*heading_known=*/false};
+  Walk with_heading = position_only;
+  with_heading.meta.initial_pose->heading_known = true;
+  with_heading.meta.initial_pose->heading_rad = 2.0;
+  with_heading.meta.initial_pose->sigma_heading_rad = 0.01;
+  auto a = ComputeSteps(none, *options);
+  auto b = ComputeSteps(position_only, *options);
+  auto c = ComputeSteps(with_heading, *options);
+  ASSERT_TRUE(a.ok() && b.ok() && c.ok());
+  ASSERT_EQ(a->steps.size(), b->steps.size());
+  EXPECT_TRUE(b->absolute_heading);
+  for (size_t i = 0; i < a->steps.size(); ++i) {
+    EXPECT_EQ(a->steps[i].heading_rad, b->steps[i].heading_rad) << i;
+  }
+  // The known heading (2 rad, far from the walk's true start) is where the third one starts
+  // (its first step already blended a little towards the magnetometer, eq. 7).
+  auto off = [](const Step& s) {
+    return std::abs(NormalizeAngle(s.heading_rad - s.dheading_rad - 2.0));
+  };
+  EXPECT_LT(off(c->steps.front()), 0.15);
+  EXPECT_GT(off(a->steps.front()), 0.5);
+}
+
 TEST(PdrTest, NoImuIsAnError) {
   Walk w;
   EXPECT_FALSE(ComputeSteps(w, PdrOptions()).ok());

@@ -8,11 +8,16 @@
 #   Plaza1     the bundled datasets/plaza1; errors vs GPS-RTK truth.
 #   PyShoe     every VICON trial in pyshoe_vicon/; --align-se2 (no known start: the converter
 #              comment, src/convert/pyshoe.cc); library defaults and datasets/configs/pyshoe.yaml.
-#   IPIN       TrainingTrial01/05/21; the recording before the first POSI landmark is dropped
-#              (the scored span starts there; trial 01 has 61 s of phone handling before it);
-#              A/eta/sigma of the log-distance path loss fitted (`walkgraph fit-path-loss`) on a
-#              DIFFERENT trial: 21 -> used on 01 and 05, 01 -> used on 21;
-#              datasets/configs/ipin.yaml; landmark errors (mean, p75).
+#   IPIN       TrainingTrial01/05/21, two set-ups; landmark errors (mean, p75);
+#              datasets/configs/ipin.yaml. A/eta/sigma of the log-distance path loss always fitted
+#              (`walkgraph fit-path-loss`) on a DIFFERENT trial.
+#              Known start (the main table): `convert ipin --known-start` (the walk begins at the
+#              first POSI landmark, whose position is given, heading unknown, as IPIN's scoring
+#              trials provide it); path loss from a trial on the same level: 05 -> 01, 01 -> 05,
+#              and 01 -> 21 (21 is the only level -2 trial); pdr-only from the known start.
+#              No known start: the recording before the first landmark dropped (trial 01 has
+#              61 s of phone handling before it), no initial_pose; 21 -> 01 and 05, 01 -> 21;
+#              pdr-only from the first RSS fix.
 #   BLE tracks A/eta/sigma fitted on straight_01, used on the other five tracks.
 set -euo pipefail
 if [[ $# -ne 2 ]]; then
@@ -124,36 +129,54 @@ echo
 
 # ---------------------------------------------------------------- IPIN 2023 Track 3
 ip() { echo "$SHARED/ipin2023_t3/IPIN2023_T3_TrainingTrial$1_repetition01.txt"; }
+ble="$SHARED/ipin2023_t3/BLE_Locations.csv"
 for n in 01 05 21; do
-  "$W" convert ipin "$(ip "$n")" "$SHARED/ipin2023_t3/BLE_Locations.csv" --out "$TMP/ip$n" >/dev/null
+  "$W" convert ipin "$(ip "$n")" "$ble" --known-start --out "$TMP/ks$n" >/dev/null
+  "$W" convert ipin "$(ip "$n")" "$ble" --out "$TMP/ip$n" >/dev/null
   trim_to_first_truth "$TMP/ip$n"
-  cp -r "$TMP/ip$n" "$TMP/ipfit$n" # the fit's source, before any radio edit
 done
-"$W" fit-path-loss "$TMP/ipfit21" >"$TMP/fit21.txt"
-"$W" fit-path-loss "$TMP/ipfit01" >"$TMP/fit01.txt"
+for n in 01 05 21; do # the fits' sources, before any radio edit
+  "$W" fit-path-loss "$TMP/ip$n" >"$TMP/fit$n.txt"
+done
+set_radio "$TMP/ks01" "$TMP/fit05.txt"
+set_radio "$TMP/ks05" "$TMP/fit01.txt"
+set_radio "$TMP/ks21" "$TMP/fit01.txt"
 set_radio "$TMP/ip01" "$TMP/fit21.txt"
 set_radio "$TMP/ip05" "$TMP/fit21.txt"
 set_radio "$TMP/ip21" "$TMP/fit01.txt"
+# Without a known start pdr-only cannot start from it: its first RSS fix instead.
+sed 's/{start: initial-pose, /{/' "$ROOT/datasets/configs/ipin.yaml" >"$TMP/ipin-no-start.yaml"
 for n in 01 05 21; do
-  compare "$TMP/ip$n" "$TMP/ri$n" --config "$ROOT/datasets/configs/ipin.yaml"
+  compare "$TMP/ks$n" "$TMP/rk$n" --config "$ROOT/datasets/configs/ipin.yaml"
+  compare "$TMP/ip$n" "$TMP/ri$n" --config "$TMP/ipin-no-start.yaml"
 done
+ipin_table() { # PREFIX: results in $TMP/PREFIX{01,05,21}
+  echo "| estimator | 01 mean | 01 p75 | 05 mean | 05 p75 | 21 mean | 21 p75 |"
+  echo "|---|---|---|---|---|---|---|"
+  for id in $(ids "$TMP/${1}01/results.json"); do
+    row="| $id |"
+    for n in 01 05 21; do
+      r="$TMP/$1$n/results.json"
+      row+=" $(cell "$r" "$id" mean_m) | $(cell "$r" "$id" p75_m) |"
+    done
+    echo "$row"
+  done
+}
 echo "## IPIN 2023 Track 3 (landmark errors, m: mean / p75; datasets/configs/ipin.yaml)"
 echo
-echo "path loss fitted on trial 21 (used on 01, 05): $(fit_line "$TMP/fit21.txt");"
-echo "on trial 01 (used on 21): $(fit_line "$TMP/fit01.txt")."
+echo "path loss fitted on trial 01: $(fit_line "$TMP/fit01.txt");"
+echo "on trial 05: $(fit_line "$TMP/fit05.txt");"
+echo "on trial 21: $(fit_line "$TMP/fit21.txt")."
 echo "fail = the estimator could not run (e.g. no radio epoch gave a position fix: 05 and 21 hear"
 echo "too few beacons at once for a trilateration fix)."
 echo
-echo "| estimator | 01 mean | 01 p75 | 05 mean | 05 p75 | 21 mean | 21 p75 |"
-echo "|---|---|---|---|---|---|---|"
-for id in $(ids "$TMP/ri01/results.json"); do
-  row="| $id |"
-  for n in 01 05 21; do
-    r="$TMP/ri$n/results.json"
-    row+=" $(cell "$r" "$id" mean_m) | $(cell "$r" "$id" p75_m) |"
-  done
-  echo "$row"
-done
+echo "### Known start (convert --known-start; path loss 05 -> 01, 01 -> 05, 01 -> 21)"
+echo
+ipin_table rk
+echo
+echo "### No known start (path loss 21 -> 01, 21 -> 05, 01 -> 21; pdr-only from the first fix)"
+echo
+ipin_table ri
 echo
 
 # ---------------------------------------------------------------- BLE RSS tracks

@@ -50,8 +50,8 @@ int RunValidate(const std::string& walk_dir) {
 }
 
 int RunConvert(const std::string& format, const std::vector<std::string>& sources,
-               const std::string& out) {
-  auto walk = walkgraph::Convert(format, sources);
+               const walkgraph::ConvertOptions& options, const std::string& out) {
+  auto walk = walkgraph::Convert(format, sources, options);
   if (!walk.ok()) return Fail(walk.status());
   const Status s = walkgraph::WriteWalk(*walk, out);
   if (!s.ok()) return Fail(s);
@@ -336,7 +336,14 @@ int main(int argc, char** argv) {
   convert->add_option("FORMAT", format, "source format (see walkgraph list)")->required();
   convert->add_option("SRC", sources, "source files or directories")->required();
   convert->add_option("--out", out, "walk directory to write")->required();
-  convert->callback([&] { rc = RunConvert(format, sources, out); });
+  walkgraph::ConvertOptions convert_options;
+  convert->add_flag("--known-start", convert_options.known_start,
+                    "ipin: start at the first POSI landmark, its position given as initial_pose "
+                    "(heading unknown), as IPIN's scoring trials provide it; the log before it "
+                    "is dropped");
+  convert->add_option("--known-start-sigma", convert_options.known_start_sigma_m,
+                      "ipin: sigma of that start position, m (default 0.5)");
+  convert->callback([&] { rc = RunConvert(format, sources, convert_options, out); });
 
   CLI::App* fit = app.add_subcommand(
       "fit-path-loss", "fit A, eta, sigma of the log-distance path loss to a walk's RSS vs truth");

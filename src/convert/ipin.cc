@@ -150,7 +150,8 @@ bool IsRecordType(const std::string& s) {
 
 }  // namespace
 
-StatusOr<Walk> ConvertIpin(const std::string& log_path, const std::string& ble_locations_csv) {
+StatusOr<Walk> ConvertIpin(const std::string& log_path, const std::string& ble_locations_csv,
+                           const ConvertOptions& options) {
   std::string locations = ble_locations_csv;
   if (locations.empty()) {
     locations = (fs::path(log_path).parent_path() / "BLE_Locations.csv").string();
@@ -316,6 +317,34 @@ StatusOr<Walk> ConvertIpin(const std::string& log_path, const std::string& ble_l
   walk.meta.extra["convert.ble_duplicates_dropped"] = rss_duplicates;
   walk.meta.extra["convert.ble_non_ibeacon_skipped"] = non_ibeacon;
   walk.rss = std::move(rss);
+  if (options.known_start) {
+    if (!(options.known_start_sigma_m > 0.0) || !std::isfinite(options.known_start_sigma_m)) {
+      return InvalidArgument("ipin: the known start's sigma must be finite and > 0");
+    }
+    // The first landmark is the frame's origin; the recording before it is dropped.
+    const double t0 = walk.truth.front().t_s;
+    const auto imu_end = std::find_if(walk.imu.begin(), walk.imu.end(),
+                                      [t0](const ImuSample& s) { return s.t_s >= t0; });
+    const auto rss_end = std::find_if(walk.rss.begin(), walk.rss.end(),
+                                      [t0](const RssSample& s) { return s.t_s >= t0; });
+    walk.meta.extra["convert.imu_samples_before_start_dropped"] =
+        static_cast<double>(imu_end - walk.imu.begin());
+    walk.meta.extra["convert.ble_before_start_dropped"] =
+        static_cast<double>(rss_end - walk.rss.begin());
+    walk.imu.erase(walk.imu.begin(), imu_end);
+    walk.rss.erase(walk.rss.begin(), rss_end);
+    if (walk.imu.size() < 2) {
+      return InvalidArgument(log_path + ": fewer than two IMU samples after the first POSI");
+    }
+    InitialPose start;
+    start.x_m = walk.truth.front().position_m.x();
+    start.y_m = walk.truth.front().position_m.y();
+    start.sigma_xy_m = options.known_start_sigma_m;
+    start.heading_known = false;
+    start.heading_rad = 0.0;
+    start.sigma_heading_rad = kUnknownHeadingSigmaRad;
+    walk.meta.initial_pose = start;
+  }
   return walk;
 }
 

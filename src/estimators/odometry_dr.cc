@@ -25,8 +25,9 @@ StatusOr<OdometryDeadReckoningOptions> OdometryDeadReckoningOptions::FromYaml(
 
 Status OdometryDeadReckoning::CheckApplicable(const Walk& walk) const {
   if (!walk.has_odometry()) return FailedPrecondition("odometry-dr needs odometry.csv");
-  if (!walk.meta.initial_pose) {
-    return FailedPrecondition("odometry-dr needs initial_pose in walk.yaml (a known start)");
+  if (!walk.meta.initial_pose || !walk.meta.initial_pose->heading_known) {
+    return FailedPrecondition(
+        "odometry-dr needs initial_pose in walk.yaml with a heading (a known start pose)");
   }
   return Status::Ok();
 }

@@ -92,7 +92,7 @@ Status CheckStepInput(const Walk& walk, const PdrOptions& pdr, bool need_absolut
                                 "columns (mx, my, mz) in imu.csv");
     }
   }
-  if (need_absolute_heading && !walk.meta.initial_pose) {
+  if (need_absolute_heading && !(walk.meta.initial_pose && walk.meta.initial_pose->heading_known)) {
     const bool mag_heading = !walk.has_odometry() && pdr.heading == HeadingMethod::kComplementary;
     if (!mag_heading) {
       return FailedPrecondition(id +

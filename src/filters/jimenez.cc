@@ -365,7 +365,8 @@ StatusOr<EstimateResult> RunJimenezIez(const Walk& walk, const JimenezIezOptions
   } else {
     pos_sigma = 1e-3;  // IMU only, no known start: the origin defines the frame
   }
-  if (walk.meta.initial_pose && o.initial_heading_from_pose) {
+  if (walk.meta.initial_pose && walk.meta.initial_pose->heading_known &&
+      o.initial_heading_from_pose) {
     yaw0 = walk.meta.initial_pose->heading_rad;
     yaw_sigma = walk.meta.initial_pose->sigma_heading_rad;
   } else if (have_mag && o.compass) {

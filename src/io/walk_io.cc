@@ -174,6 +174,18 @@ Status ReadMeta(const std::string& path, WalkMeta* meta) {
     ri.Read("sigma_xy_m", &p.sigma_xy_m);
     ri.Read("sigma_heading_rad", &p.sigma_heading_rad);
     WG_RETURN_IF_ERROR(ri.Finish());
+    // A position-only start: heading_rad left out (and then sigma_heading_rad too).
+    const bool has_heading = static_cast<bool>(initial["heading_rad"]);
+    if (!has_heading && initial["sigma_heading_rad"]) {
+      return InvalidArgument(path +
+                             ": initial_pose: sigma_heading_rad without heading_rad (leave both "
+                             "out for a start of known position, unknown heading)");
+    }
+    if (!has_heading) {
+      p.heading_known = false;
+      p.heading_rad = 0.0;
+      p.sigma_heading_rad = kUnknownHeadingSigmaRad;
+    }
     if (!(p.sigma_xy_m > 0.0) || !(p.sigma_heading_rad > 0.0)) {
       return InvalidArgument(path + ": initial_pose: sigmas must be > 0");
     }
@@ -554,9 +566,11 @@ Status WriteWalkFiles(const Walk& walk, const fs::path& root) {
       e << YAML::Key << "initial_pose" << YAML::Value << YAML::BeginMap;
       e << YAML::Key << "x_m" << YAML::Value << Num(p.x_m);
       e << YAML::Key << "y_m" << YAML::Value << Num(p.y_m);
-      e << YAML::Key << "heading_rad" << YAML::Value << Num(p.heading_rad);
+      if (p.heading_known) e << YAML::Key << "heading_rad" << YAML::Value << Num(p.heading_rad);
       e << YAML::Key << "sigma_xy_m" << YAML::Value << Num(p.sigma_xy_m);
-      e << YAML::Key << "sigma_heading_rad" << YAML::Value << Num(p.sigma_heading_rad);
+      if (p.heading_known) {
+        e << YAML::Key << "sigma_heading_rad" << YAML::Value << Num(p.sigma_heading_rad);
+      }
       e << YAML::EndMap;
     }
     if (!m.extra.empty()) {

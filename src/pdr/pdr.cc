@@ -395,7 +395,7 @@ StatusOr<StepSequence> ComputeSteps(const Walk& walk, const PdrOptions& o) {
 
   StepSequence out;
   double theta = 0.0, var = o.sigma_heading0_rad * o.sigma_heading0_rad;
-  if (walk.meta.initial_pose) {
+  if (walk.meta.initial_pose && walk.meta.initial_pose->heading_known) {
     theta = walk.meta.initial_pose->heading_rad;
     var = walk.meta.initial_pose->sigma_heading_rad * walk.meta.initial_pose->sigma_heading_rad;
     out.absolute_heading = true;
@@ -455,7 +455,7 @@ StepSequence StepsFromOdometry(const Walk& walk) {
   StepSequence out;
   double theta = 0.0;
   double var = 0.0;
-  if (walk.meta.initial_pose) {
+  if (walk.meta.initial_pose && walk.meta.initial_pose->heading_known) {
     theta = walk.meta.initial_pose->heading_rad;
     var = walk.meta.initial_pose->sigma_heading_rad * walk.meta.initial_pose->sigma_heading_rad;
     out.absolute_heading = true;

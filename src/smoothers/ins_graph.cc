@@ -282,8 +282,12 @@ std::vector<InsFactor> InsGaugeFactors(const InsGraphContext& c, InsState* first
     const InitialPose& ip = *c.walk->meta.initial_pose;
     p0 = Eigen::Vector3d(ip.x_m, ip.y_m, 0.0);
     sigma_p = Eigen::Vector3d(ip.sigma_xy_m, ip.sigma_xy_m, o.initial_sigma_z_m);
-    yaw0 = ip.heading_rad;
-    sigma_yaw = ip.sigma_heading_rad;
+    if (ip.heading_known) {
+      yaw0 = ip.heading_rad;
+      sigma_yaw = ip.sigma_heading_rad;
+    } else {
+      sigma_yaw = kUnknownHeadingSigmaRad;  // position-only start
+    }
   }
   // Without a known start but with radio, the anchors fix the gauge.
   if (c.walk->meta.initial_pose || !HasRadio(c)) {

@@ -320,7 +320,14 @@ StatusOr<std::unique_ptr<StepGraph>> StepGraph::Build(const Walk& walk, const St
 
   // Dead reckoning from the start (or the origin), θ the node heading.
   Eigen::Vector3d x = Eigen::Vector3d::Zero();
-  if (m.start) x = Eigen::Vector3d(m.start->x_m, m.start->y_m, m.start->heading_rad);
+  if (m.start) {
+    // A position-only start: the front end's heading at the start (before the first step).
+    const double heading =
+        m.start->heading_known || m.steps.empty()
+            ? m.start->heading_rad
+            : NormalizeAngle(m.steps.front().heading_rad - m.steps.front().dheading_rad);
+    x = Eigen::Vector3d(m.start->x_m, m.start->y_m, heading);
+  }
   g->init_.push_back(x);
   for (int k = 1; k < n; ++k) {
     x = m.Predict(k, x);  // radio-only walks: positions come from the radio fixes below
@@ -552,7 +559,10 @@ std::vector<SmootherFactor> StepGraph::FactorsAt(int k) const {
       add_owned(DiagonalPrior(Eigen::Vector2d(m.start->x_m, m.start->y_m),
                               Eigen::Vector2d::Constant(m.start->sigma_xy_m)),
                 {PositionKey(0)});
-      add(HeadingFactor::Create(m.start->heading_rad, m.start->sigma_heading_rad), {HeadingKey(0)});
+      if (m.start->heading_known) {
+        add(HeadingFactor::Create(m.start->heading_rad, m.start->sigma_heading_rad),
+            {HeadingKey(0)});
+      }
     }
     for (const SmootherState& s : StaticStates()) {
       if (s.constant) continue;
