@@ -13,6 +13,7 @@
 #include <gtest/gtest.h>
 
 #include "test_util.h"
+#include "walkgraph/angle.h"
 #include "walkgraph/compare.h"
 #include "walkgraph/filters/kalman.h"
 #include "walkgraph/io.h"
@@ -229,6 +230,40 @@ TEST(StepGraphTest, WindowStaysBoundedOnALongWalk) {
   EXPECT_LE(states_long, states_short + 2.0 * 2.0 * 1.7);  // at most ~one batch more
   EXPECT_LE(factors_long, 1.25 * factors_short);
   EXPECT_LT(states_long, 0.1 * 2.0 * nodes_long);
+}
+
+// A position-only start (heading_known = false) puts a prior on the position only: the start
+// heading is left to the steps' magnetometer headings and the radio. With the same position
+// and a wrong heading held tight (1 rad off, σ 0.01), node 0 keeps the wrong heading.
+TEST(StepGraphTest, PositionOnlyStartLeavesTheHeadingFree) {
+  auto sim = SimulateScenario("correa-classroom", 3, YAML::Load("{laps: 1}"));
+  ASSERT_TRUE(sim.ok()) << sim.status().message();
+  ASSERT_TRUE(sim->meta.initial_pose.has_value());
+  const double true_heading = sim->meta.initial_pose->heading_rad;
+  const YAML::Node cfg = YAML::Load("{pdr: {heading: complementary}, covariance: false}");
+  auto start_heading = [&](const Walk& w) {
+    auto r = RunId("fg-batch", w, cfg);
+    EXPECT_TRUE(r.ok()) << r.status().message();
+    return r.ok() ? r->trajectory.points.front().heading_rad : 1e9;
+  };
+  Walk free = *sim;
+  free.meta.initial_pose->heading_known = false;
+  free.meta.initial_pose->heading_rad = 0.0;
+  free.meta.initial_pose->sigma_heading_rad = kUnknownHeadingSigmaRad;
+  Walk wrong = *sim;
+  wrong.meta.initial_pose->heading_rad = NormalizeAngle(true_heading + 1.0);
+  wrong.meta.initial_pose->sigma_heading_rad = 0.01;
+  const double h_free = start_heading(free), h_wrong = start_heading(wrong);
+  std::printf("start heading: truth %.3f, position-only %.3f, wrong prior %.3f rad\n", true_heading,
+              h_free, h_wrong);
+  EXPECT_LT(std::abs(NormalizeAngle(h_free - true_heading)), 0.2);
+  EXPECT_LT(std::abs(NormalizeAngle(h_wrong - true_heading - 1.0)), 0.1);
+  // The position prior still holds.
+  auto r = RunId("fg-batch", free, cfg);
+  ASSERT_TRUE(r.ok());
+  const Eigen::Vector2d p0 = r->trajectory.points.front().position_m.head<2>();
+  EXPECT_LT((p0 - Eigen::Vector2d(free.meta.initial_pose->x_m, free.meta.initial_pose->y_m)).norm(),
+            3.0 * free.meta.initial_pose->sigma_xy_m);
 }
 
 TEST(StepGraphTest, OptionsAreStrict) {
