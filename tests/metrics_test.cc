@@ -1,4 +1,5 @@
 #include <cmath>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -20,6 +21,18 @@ Walk LineWalk() {
   return w;
 }
 
+// Poses on the line of LineWalk at times `t` (x = t), offset by `y` metres north.
+Trajectory LineTrajectory(const std::vector<double>& t, double y) {
+  Trajectory out;
+  for (double ti : t) {
+    TrajectoryPoint p;
+    p.t_s = ti;
+    p.position_m = Eigen::Vector3d(ti, y, 0.0);
+    out.points.push_back(p);
+  }
+  return out;
+}
+
 TEST(Percentile, InterpolatesLikeNumpyLinear) {
   EXPECT_DOUBLE_EQ(Percentile({1, 2, 3, 4}, 50), 2.5);
   EXPECT_DOUBLE_EQ(Percentile({1, 2, 3, 4}, 75), 3.25);
@@ -29,13 +42,7 @@ TEST(Percentile, InterpolatesLikeNumpyLinear) {
 
 TEST(ComputeErrors, ConstantOffsetAndInterpolation) {
   const Walk w = LineWalk();
-  Trajectory t;
-  for (int i = 0; i <= 5; ++i) {  // poses every 2 s, offset 1 m in y
-    TrajectoryPoint p;
-    p.t_s = 2.0 * i;
-    p.position_m = Eigen::Vector3d(2.0 * i, 1.0, 0.0);
-    t.points.push_back(p);
-  }
+  const Trajectory t = LineTrajectory({0, 2, 4, 6, 8, 10}, 1.0);  // every 2 s, 1 m north
   auto e = ComputeErrors(w, t);
   ASSERT_TRUE(e.ok());
   ASSERT_EQ(e->error_m.size(), 11u);
@@ -50,13 +57,7 @@ TEST(ComputeErrors, ConstantOffsetAndInterpolation) {
 // (the start, d = 0, left out): the mean is 10·H_10 % (H_10 = 7381/2520).
 TEST(ComputeErrors, RelativeErrorIsTheMeanOfErrorOverDistanceWalked) {
   const Walk w = LineWalk();
-  Trajectory t;
-  for (int i = 0; i <= 10; ++i) {
-    TrajectoryPoint p;
-    p.t_s = i;
-    p.position_m = Eigen::Vector3d(i, 1.0, 0.0);
-    t.points.push_back(p);
-  }
+  const Trajectory t = LineTrajectory({0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10}, 1.0);
   auto e = ComputeErrors(w, t);
   ASSERT_TRUE(e.ok());
   ASSERT_EQ(e->distance_m.size(), 11u);
@@ -76,13 +77,7 @@ TEST(ComputeErrors, RelativeErrorIsTheMeanOfErrorOverDistanceWalked) {
 
 TEST(ComputeErrors, SkipsTruthOutsideEstimateSpan) {
   const Walk w = LineWalk();
-  Trajectory t;
-  for (int i = 3; i <= 6; ++i) {
-    TrajectoryPoint p;
-    p.t_s = i;
-    p.position_m = Eigen::Vector3d(i, 0, 0);
-    t.points.push_back(p);
-  }
+  const Trajectory t = LineTrajectory({3, 4, 5, 6}, 0.0);
   auto e = ComputeErrors(w, t);
   ASSERT_TRUE(e.ok());
   EXPECT_EQ(e->error_m.size(), 4u);
