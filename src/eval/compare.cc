@@ -10,6 +10,7 @@
 #include <limits>
 #include <mutex>
 #include <sstream>
+#include <string_view>
 
 #include <nlohmann/json.hpp>
 
@@ -154,10 +155,10 @@ const Column kColumns[] = {
 
 // The results.json key of a column.
 std::string JsonKey(const Column& col) {
-  const std::string name = col.name;
+  const std::string_view name = col.name;
   if (name == "pct_dist") return "pct_distance";
   if (name == "mean_pct") return "mean_pct_distance";
-  return name;
+  return std::string(name);
 }
 
 std::string Fixed(double v, int precision) {
