@@ -110,6 +110,12 @@ TEST(RealData, IpinKnownStartFactorGraphBelowEveryFilter) {
     ASSERT_TRUE(w->meta.initial_pose.has_value());
     EXPECT_FALSE(w->meta.initial_pose->heading_known);
     CalibrateFrom(*cal, &*w);
+    // prieto's INS filters need a foot IMU; this is a handheld phone.
+    for (const char* id : {"prieto-ekf", "prieto-ukf"}) {
+      auto est = EstimatorRegistry::Builtin().Create(id, YAML::Node());
+      ASSERT_TRUE(est.ok());
+      EXPECT_FALSE((*est)->CheckApplicable(*w).ok()) << id;
+    }
     const ErrorStats g = Score(*w, "fg-batch", *config);
     std::printf("trial %s fg-batch: landmark mean %.2f m, p75 %.2f m (n = %d)\n", c.trial, g.mean_m,
                 g.p75_m, g.n_points);
