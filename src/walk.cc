@@ -73,12 +73,19 @@ double Walk::EndTime() const {
   return std::isfinite(t) ? t : 0.0;
 }
 
-double Walk::TruthDistance() const {
-  double d = 0.0;
-  for (size_t i = 1; i < truth.size(); ++i) {
-    d += (truth[i].position_m - truth[i - 1].position_m).head<2>().norm();
+std::vector<double> Walk::TruthDistances() const {
+  std::vector<double> d;
+  d.reserve(truth.size());
+  for (size_t i = 0; i < truth.size(); ++i) {
+    d.push_back(
+        i == 0 ? 0.0 : d.back() + (truth[i].position_m - truth[i - 1].position_m).head<2>().norm());
   }
   return d;
+}
+
+double Walk::TruthDistance() const {
+  const std::vector<double> d = TruthDistances();
+  return d.empty() ? 0.0 : d.back();
 }
 
 Trajectory::Bracket Trajectory::BracketAt(double t_s) const {

@@ -137,6 +137,9 @@ struct Walk {
   double EndTime() const;
   // Horizontal length of the truth path, metres (0 without truth).
   double TruthDistance() const;
+  // Horizontal length of the truth path from its first sample to each sample (0 at the first;
+  // empty without truth); TruthDistance() is its last element.
+  std::vector<double> TruthDistances() const;
 };
 
 }  // namespace walkgraph

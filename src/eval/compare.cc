@@ -10,7 +10,6 @@
 #include <limits>
 #include <mutex>
 #include <sstream>
-#include <string_view>
 
 #include <nlohmann/json.hpp>
 
@@ -136,30 +135,23 @@ std::optional<double> RmseOverPcrb(const Comparison& c, const EstimatorOutcome& 
 namespace {
 
 struct Column {
-  const char* name;
+  const char* name;  // in the table
+  const char* key;   // in results.json
   double ErrorStats::*field;
   int precision;
 };
 
 const Column kColumns[] = {
-    {"rmse_m", &ErrorStats::rmse_m, 3},
-    {"mean_m", &ErrorStats::mean_m, 3},
-    {"median_m", &ErrorStats::median_m, 3},
-    {"p75_m", &ErrorStats::p75_m, 3},
-    {"p90_m", &ErrorStats::p90_m, 3},
-    {"max_m", &ErrorStats::max_m, 3},
-    {"final_m", &ErrorStats::final_m, 3},
-    {"pct_dist", &ErrorStats::pct_distance, 2},
-    {"mean_pct", &ErrorStats::mean_pct_distance, 2},
+    {"rmse_m", "rmse_m", &ErrorStats::rmse_m, 3},
+    {"mean_m", "mean_m", &ErrorStats::mean_m, 3},
+    {"median_m", "median_m", &ErrorStats::median_m, 3},
+    {"p75_m", "p75_m", &ErrorStats::p75_m, 3},
+    {"p90_m", "p90_m", &ErrorStats::p90_m, 3},
+    {"max_m", "max_m", &ErrorStats::max_m, 3},
+    {"final_m", "final_m", &ErrorStats::final_m, 3},
+    {"pct_dist", "pct_distance", &ErrorStats::pct_distance, 2},
+    {"mean_pct", "mean_pct_distance", &ErrorStats::mean_pct_distance, 2},
 };
-
-// The results.json key of a column.
-std::string JsonKey(const Column& col) {
-  const std::string_view name = col.name;
-  if (name == "pct_dist") return "pct_distance";
-  if (name == "mean_pct") return "mean_pct_distance";
-  return std::string(name);
-}
 
 std::string Fixed(double v, int precision) {
   std::ostringstream s;
@@ -294,7 +286,7 @@ Status WriteComparisonFiles(const Comparison& c, const fs::path& tmp) {
     } else {
       for (const Column& col : kColumns) {
         if (std::isnan(o.stats.*(col.field))) continue;
-        const std::string key = JsonKey(col);
+        const std::string key = col.key;
         e[key] = o.stats.*(col.field);
         if (o.stats_std) e[key + "_std"] = (*o.stats_std).*(col.field);
       }

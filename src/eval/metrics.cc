@@ -40,16 +40,15 @@ StatusOr<ErrorSeries> ComputeErrors(const Walk& walk, const Trajectory& trajecto
   std::vector<double> t, walked;
   std::vector<Eigen::Vector2d> est, ref;
   int skipped = 0;
-  double d = 0.0;
+  const std::vector<double> distances = walk.TruthDistances();
   for (size_t i = 0; i < walk.truth.size(); ++i) {
     const TruthSample& s = walk.truth[i];
-    if (i > 0) d += (s.position_m - walk.truth[i - 1].position_m).head<2>().norm();
     if (s.t_s < t0 || s.t_s > t1) {
       ++skipped;
       continue;
     }
     t.push_back(s.t_s);
-    walked.push_back(d);
+    walked.push_back(distances[i]);
     est.push_back(trajectory.PositionAt(s.t_s).head<2>());
     ref.push_back(s.position_m.head<2>());
   }
