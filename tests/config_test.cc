@@ -44,7 +44,7 @@ TEST(ConfigReader, RejectsWrongType) {
   ConfigReader r(node, "x");
   r.Read("sigma", &sigma);
   ASSERT_FALSE(r.Finish().ok());
-  EXPECT_THAT(r.Finish().message(), HasSubstr("'sigma' must be a number"));
+  EXPECT_THAT(r.Finish().message(), HasSubstr("'sigma' must be a finite decimal number"));
 }
 
 TEST(ConfigReader, EmptyNodeIsFine) {

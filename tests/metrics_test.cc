@@ -40,6 +40,32 @@ TEST(Percentile, InterpolatesLikeNumpyLinear) {
   EXPECT_DOUBLE_EQ(Percentile({}, 90), 0);
 }
 
+TEST(QuantileSketch, WithinItsRelativeAccuracyOfTheExactPercentileInAnyOrder) {
+  // Errors spread over six decades, with exact zeros, added in two different orders.
+  std::vector<double> v;
+  uint64_t x = 12345;
+  for (int i = 0; i < 20000; ++i) {
+    x = x * 6364136223846793005ULL + 1442695040888963407ULL;
+    const double u = static_cast<double>(x >> 11) / 9007199254740992.0;
+    v.push_back(i % 97 == 0 ? 0.0 : std::pow(10.0, -3.0 + 6.0 * u));
+  }
+  QuantileSketch forward, backward;
+  for (double e : v) forward.Add(e);
+  for (auto it = v.rbegin(); it != v.rend(); ++it) backward.Add(*it);
+  EXPECT_EQ(forward.count(), 20000);
+  const double alpha = QuantileSketch::kDefaultRelativeAccuracy;
+  for (double q : {0.0, 1.0, 25.0, 50.0, 75.0, 90.0, 99.0, 100.0}) {
+    const double exact = Percentile(v, q);
+    EXPECT_NEAR(forward.Percentile(q), exact, alpha * exact + 1e-12) << q;
+    EXPECT_EQ(forward.Percentile(q), backward.Percentile(q)) << q;
+  }
+  EXPECT_EQ(QuantileSketch().Percentile(50.0), 0.0);
+  // A coarse sketch is still within its own accuracy.
+  QuantileSketch coarse(0.01);
+  for (double e : v) coarse.Add(e);
+  EXPECT_NEAR(coarse.Percentile(90.0), Percentile(v, 90.0), 0.01 * Percentile(v, 90.0));
+}
+
 TEST(ComputeErrors, ConstantOffsetAndInterpolation) {
   const Walk w = LineWalk();
   const Trajectory t = LineTrajectory({0, 2, 4, 6, 8, 10}, 1.0);  // every 2 s, 1 m north

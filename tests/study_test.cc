@@ -161,7 +161,9 @@ TEST(Study, CsvMatchesIndependentlyComputedFigures) {
     EXPECT_EQ(off.at("seed"), "5");
     EXPECT_NEAR(std::stod(off.at("value")), values[v], 0.0);
     for (const char* k : {"rmse_m", "mean_m", "median_m", "p90_m", "max_m", "final_m"}) {
-      EXPECT_NEAR(Num(off, k), values[v], 1e-9) << k;
+      // median and p90 pool the runs through the Monte Carlo sketch (relative accuracy 1e-4).
+      const bool pooled = std::string(k) == "median_m" || std::string(k) == "p90_m";
+      EXPECT_NEAR(Num(off, k), values[v], pooled ? 1e-4 * values[v] : 1e-9) << k;
       EXPECT_NEAR(Num(off, std::string(k) + "_std"), 0.0, 1e-9) << k;
     }
     EXPECT_NEAR(Num(off, "pct_distance"), 100.0 * values[v] / dist, 1e-6);

@@ -1,11 +1,19 @@
 // walkgraph: the command-line shell over the library. Parses arguments, calls the library,
-// prints. Every failure prints "walkgraph: <message>" on stderr and exits non-zero.
+// prints. Every failure prints "walkgraph: <message>" on stderr and exits 1; an interrupted
+// run (SIGINT, SIGTERM, SIGHUP) exits 128 + the signal, its outputs left as they were
+// (walkgraph/output.h).
+#include <glog/logging.h>
+#include <signal.h>
 #include <unistd.h>
 
 #include <algorithm>
+#include <charconv>
 #include <cstdint>
 #include <cstdio>
+#include <exception>
 #include <iostream>
+#include <map>
+#include <new>
 #include <string>
 #include <vector>
 
@@ -17,6 +25,8 @@
 #include "walkgraph/estimator.h"
 #include "walkgraph/io.h"
 #include "walkgraph/logging.h"
+#include "walkgraph/output.h"
+#include "walkgraph/parallel.h"
 #include "walkgraph/pcrb.h"
 #include "walkgraph/radio.h"
 #include "walkgraph/simulate.h"
@@ -27,9 +37,98 @@ namespace {
 
 using walkgraph::Status;
 
+// What every output of this run is written with: --force, the command line for the marker, and
+// the run's inputs (set by each command).
+walkgraph::OutputOptions g_output;
+
 int Fail(const Status& s) {
   std::cerr << "walkgraph: " << s.message() << "\n";
+  if (s.code() == walkgraph::StatusCode::kCancelled) return 128 + walkgraph::CancelSignal();
   return 1;
+}
+
+// An error about a --config file's contents, prefixed with the file's path (the library names the
+// estimator and the line, but it does not know the file).
+Status InConfig(const std::string& path, const Status& s) {
+  if (s.ok() || path.empty() || s.message().rfind(path, 0) == 0) return s;
+  return Status(s.code(), path + ": " + s.message());
+}
+
+// After a command's outputs are written: a signal that came during the write (too late to keep
+// the old output) still ends the run as interrupted.
+int Finish(int rc) {
+  if (rc == 0 && walkgraph::CancelRequested()) {
+    std::cerr << "walkgraph: interrupted (signal " << walkgraph::CancelSignal()
+              << ") after the output was complete\n";
+    return 128 + walkgraph::CancelSignal();
+  }
+  return rc;
+}
+
+// SIGINT/SIGTERM/SIGHUP: ask the library to stop; when no output is being written there is
+// nothing of ours on disk to clean up, so end at once.
+extern "C" void OnSignal(int signal_number) {
+  walkgraph::RequestCancel(signal_number);
+  if (!walkgraph::OutputInProgress()) ::_exit(128 + signal_number);
+}
+
+void InstallSignalHandlers() {
+  struct sigaction action {};
+  action.sa_handler = OnSignal;
+  sigemptyset(&action.sa_mask);
+  for (int sig : {SIGINT, SIGTERM, SIGHUP}) ::sigaction(sig, &action, nullptr);
+}
+
+// Last resorts: an exception escaping a thread, or a failed CHECK inside a dependency, end the
+// run with one message and exit 1 (never an abort's 134).
+[[noreturn]] void OnTerminate() {
+  std::fputs("walkgraph: internal error: unexpected exception; no output was written\n", stderr);
+  ::_exit(1);
+}
+void OnCheckFailure() {
+  std::fputs("walkgraph: internal error: a check inside a dependency failed (see above)\n", stderr);
+  ::_exit(1);
+}
+
+std::string CommandLine(int argc, char** argv) {
+  std::string s;
+  for (int i = 0; i < argc; ++i) {
+    std::string a = argv[i];
+    if (a.size() > 200) a = a.substr(0, 200) + "...";
+    if (a.find_first_of(" \t'\"") != std::string::npos) a = "'" + a + "'";
+    s += (i ? " " : "") + a;
+  }
+  return s;
+}
+
+// A seed: a decimal integer in [0, 2^64 - 1] (CLI11 would wrap "-1" to 2^64 - 1).
+std::string ParseSeed(const std::string& text, uint64_t* seed) {
+  const char* end = text.data() + text.size();
+  const auto [ptr, ec] = std::from_chars(text.data(), end, *seed);
+  if (text.empty() || text[0] == '-' || text[0] == '+' || ec != std::errc() || ptr != end) {
+    return "--seed: expected a decimal integer in [0, 18446744073709551615], found '" +
+           (text.size() > 40 ? text.substr(0, 40) + "..." : text) + "'";
+  }
+  return "";
+}
+
+// --estimators a,b,c: ids without empty entries.
+walkgraph::StatusOr<std::vector<std::string>> SplitIds(const std::string& text) {
+  std::vector<std::string> ids;
+  if (text.empty()) return ids;
+  size_t start = 0;
+  while (true) {
+    const size_t comma = text.find(',', start);
+    const std::string id = text.substr(start, comma == std::string::npos ? comma : comma - start);
+    if (id.empty()) {
+      return walkgraph::InvalidArgument(
+          "--estimators: empty estimator id in the list; expected comma-separated ids such as "
+          "fg-batch,tarrio-kf (see walkgraph list)");
+    }
+    ids.push_back(id);
+    if (comma == std::string::npos) return ids;
+    start = comma + 1;
+  }
 }
 
 // Reads --config FILE.yaml: either the options of one estimator, or (for compare) a map from
@@ -49,11 +148,19 @@ int RunValidate(const std::string& walk_dir) {
   return 0;
 }
 
+// Fails at once when --out would be refused at the end (see walkgraph/output.h).
+Status Preflight(const std::string& out, walkgraph::OutputKind kind,
+                 std::vector<std::string> inputs) {
+  g_output.inputs = std::move(inputs);
+  return walkgraph::CheckOutputTarget(out, kind, g_output);
+}
+
 int RunConvert(const std::string& format, const std::vector<std::string>& sources,
                const walkgraph::ConvertOptions& options, const std::string& out) {
+  if (Status s = Preflight(out, walkgraph::OutputKind::kFolder, sources); !s.ok()) return Fail(s);
   auto walk = walkgraph::Convert(format, sources, options);
   if (!walk.ok()) return Fail(walk.status());
-  const Status s = walkgraph::WriteWalk(*walk, out);
+  const Status s = walkgraph::WriteWalk(*walk, out, g_output);
   if (!s.ok()) return Fail(s);
   std::cout << "wrote " << out << "\n";
   return 0;
@@ -107,17 +214,20 @@ int RunFitPathLoss(const std::string& walk_dir) {
 
 int RunSmooth(const std::string& walk_dir, const std::string& id, const std::string& config_path,
               const std::string& out) {
+  if (Status s = Preflight(out, walkgraph::OutputKind::kFile, {walk_dir, config_path}); !s.ok()) {
+    return Fail(s);
+  }
   auto walk = walkgraph::ReadWalk(walk_dir);
   if (!walk.ok()) return Fail(walk.status());
   auto config = LoadConfig(config_path);
   if (!config.ok()) return Fail(config.status());
   auto est = walkgraph::EstimatorRegistry::Builtin().Create(id, *config);
-  if (!est.ok()) return Fail(est.status());
+  if (!est.ok()) return Fail(InConfig(config_path, est.status()));
   const Status applicable = (*est)->CheckApplicable(*walk);
   if (!applicable.ok()) return Fail(applicable);
   auto result = (*est)->Run(*walk);
   if (!result.ok()) return Fail(result.status());
-  const Status s = walkgraph::WriteTumTrajectory(result->trajectory, out);
+  const Status s = walkgraph::WriteTumTrajectory(result->trajectory, out, g_output);
   if (!s.ok()) return Fail(s);
   std::cout << "wrote " << out << " (" << result->trajectory.size() << " poses)\n";
   return 0;
@@ -129,7 +239,7 @@ struct CompareArgs {
   int runs = 1;
   uint64_t seed = 1;
   int threads = 1;
-  std::vector<std::string> ids;
+  std::string ids;
   std::string config_path;
   std::string scenario_config_path;
   bool align_se2 = false;
@@ -143,6 +253,32 @@ struct PcrbArgs {
   uint64_t seed = 1;
   int threads = 1;
 };
+
+// compare --config: a map from estimator id to that estimator's options.
+Status ConfigsById(const YAML::Node& config, const std::string& path,
+                   std::map<std::string, YAML::Node>* out) {
+  if (!config.IsDefined() || config.IsNull()) return Status::Ok();
+  const auto line = [&](const YAML::Node& n) { return std::to_string(n.Mark().line + 1); };
+  if (!config.IsMap()) {
+    return walkgraph::InvalidArgument(
+        path + ":" + line(config) +
+        ": expected a map from estimator id to its options, e.g. {tarrio-kf: {sigma_p_m: 0.5}}");
+  }
+  const auto& registry = walkgraph::EstimatorRegistry::Builtin();
+  for (const auto& kv : config) {
+    if (!kv.first.IsScalar() || registry.Find(kv.first.Scalar()) == nullptr) {
+      std::string key = kv.first.IsScalar() ? kv.first.Scalar() : "(not a word)";
+      if (key.size() > 80) key = key.substr(0, 80) + "...";
+      return walkgraph::InvalidArgument(path + ":" + line(kv.first) + ": '" + key +
+                                        "' is not an estimator id (see walkgraph list)");
+    }
+    // Created once here so that a bad option fails now, naming the file.
+    auto estimator = registry.Create(kv.first.Scalar(), kv.second);
+    if (!estimator.ok()) return InConfig(path, estimator.status());
+    (*out)[kv.first.Scalar()] = kv.second;
+  }
+  return Status::Ok();
+}
 
 // "[#####-----] done/total" on stderr, redrawn in place; only when stderr is a terminal.
 void DrawProgress(int done, int total) {
@@ -166,20 +302,21 @@ int RunCompare(const CompareArgs& args) {
   if (!args.scenario_config_path.empty() && args.scenario.empty()) {
     return Fail(walkgraph::InvalidArgument("compare: --scenario-config needs --scenario"));
   }
+  if (Status s = Preflight(args.out, walkgraph::OutputKind::kFolder,
+                           {args.walk_dir, args.config_path, args.scenario_config_path});
+      !s.ok()) {
+    return Fail(s);
+  }
   walkgraph::CompareOptions options;
-  options.estimator_ids = args.ids;
+  auto ids = SplitIds(args.ids);
+  if (!ids.ok()) return Fail(ids.status());
+  options.estimator_ids = *ids;
   options.alignment = args.align_se2 ? walkgraph::Alignment::kSE2 : walkgraph::Alignment::kNone;
   options.score_from_s = args.score_from_s;
   auto config = LoadConfig(args.config_path);
   if (!config.ok()) return Fail(config.status());
-  if (config->IsMap()) {
-    for (const auto& kv : *config) {
-      if (!kv.first.IsScalar()) {
-        return Fail(walkgraph::InvalidArgument(args.config_path + ": keys must be estimator ids"));
-      }
-      options.configs[kv.first.Scalar()] = kv.second;
-    }
-  }
+  const Status configs = ConfigsById(*config, args.config_path, &options.configs);
+  if (!configs.ok()) return Fail(configs);
   walkgraph::StatusOr<walkgraph::Comparison> comparison =
       walkgraph::FailedPrecondition("compare: nothing to compare");
   if (!args.walk_dir.empty()) {
@@ -203,7 +340,7 @@ int RunCompare(const CompareArgs& args) {
   }
   if (!comparison.ok()) return Fail(comparison.status());
   std::cout << walkgraph::FormatComparisonTable(*comparison);
-  const Status s = walkgraph::WriteComparison(*comparison, args.out);
+  const Status s = walkgraph::WriteComparison(*comparison, args.out, g_output);
   if (!s.ok()) return Fail(s);
   std::cout << "wrote " << args.out << "/{results.json,errors.csv,trajectories/,report.html}\n";
   return 0;
@@ -238,6 +375,9 @@ int RunPcrb(const std::string& scenario, const std::string& scenario_config,
 int RunStudy(const std::string& manifest_path, int threads, const std::string& out) {
   auto manifest = walkgraph::ReadStudyManifest(manifest_path);
   if (!manifest.ok()) return Fail(manifest.status());
+  std::vector<std::string> inputs = {manifest_path};
+  for (const auto& sweep : manifest->sweeps) inputs.push_back(sweep.walk_dir);
+  if (Status s = Preflight(out, walkgraph::OutputKind::kFolder, inputs); !s.ok()) return Fail(s);
   walkgraph::StudyOptions options;
   options.threads = threads;
   if (::isatty(STDERR_FILENO)) {
@@ -250,7 +390,7 @@ int RunStudy(const std::string& manifest_path, int threads, const std::string& o
   auto result = walkgraph::RunStudy(*manifest, options);
   if (!result.ok()) return Fail(result.status());
   std::cout << walkgraph::FormatStudyTable(*result);
-  const Status s = walkgraph::WriteStudy(*result, out);
+  const Status s = walkgraph::WriteStudy(*result, out, g_output);
   if (!s.ok()) return Fail(s);
   std::cout << "wrote " << out << "/{study.csv,study.html,timing.csv}\n";
   return 0;
@@ -258,11 +398,17 @@ int RunStudy(const std::string& manifest_path, int threads, const std::string& o
 
 int RunSimulate(const std::string& scenario, uint64_t seed, const std::string& config_path,
                 const std::string& out) {
+  if (Status s = Preflight(out, walkgraph::OutputKind::kFolder, {config_path}); !s.ok()) {
+    return Fail(s);
+  }
   auto config = LoadConfig(config_path);
   if (!config.ok()) return Fail(config.status());
   auto walk = walkgraph::SimulateScenario(scenario, seed, *config);
-  if (!walk.ok()) return Fail(walk.status());
-  const Status s = walkgraph::WriteWalk(*walk, out);
+  if (!walk.ok()) {
+    const bool about_config = walk.status().code() == walkgraph::StatusCode::kInvalidArgument;
+    return Fail(about_config ? InConfig(config_path, walk.status()) : walk.status());
+  }
+  const Status s = walkgraph::WriteWalk(*walk, out, g_output);
   if (!s.ok()) return Fail(s);
   std::cout << "wrote " << out << " (" << walk->imu.size() << " IMU, " << walk->rss.size()
             << " RSS, " << walk->ranges.size() << " range, " << walk->odometry.size()
@@ -277,7 +423,7 @@ int RunStanceSearch(const std::string& walk_dir, const std::string& detector,
   auto config = LoadConfig(config_path);
   if (!config.ok()) return Fail(config.status());
   auto options = walkgraph::StanceOptions::FromYaml(*config);
-  if (!options.ok()) return Fail(options.status());
+  if (!options.ok()) return Fail(InConfig(config_path, options.status()));
   auto type = walkgraph::StanceDetectorFromString(detector);
   if (!type.ok()) return Fail(type.status());
   options->detector = *type;
@@ -294,6 +440,17 @@ int RunStanceSearch(const std::string& walk_dir, const std::string& detector,
                 s.false_positive, s.false_negative);
   }
   return 0;
+}
+
+void AddForce(CLI::App* command) {
+  command->add_flag("--force", g_output.force,
+                    "replace an existing --out folder that walkgraph did not write (one without "
+                    "its .walkgraph-output marker); the input, '.', its ancestors and the home "
+                    "folder are never replaced");
+}
+
+void AddThreads(CLI::App* command, int* threads, const std::string& help) {
+  command->add_option("--threads", *threads, help)->check(CLI::Range(0, walkgraph::kMaxThreads));
 }
 
 int RunList() {
@@ -313,10 +470,9 @@ int RunList() {
   return 0;
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
+int Main(int argc, char** argv) {
   walkgraph::InitLogging(argv[0]);
+  g_output.command = CommandLine(argc, argv);
   CLI::App app{
       "walkgraph: factor-graph smoothing and Kalman-filter comparison for pedestrian "
       "navigation walks"};
@@ -336,6 +492,7 @@ int main(int argc, char** argv) {
   convert->add_option("FORMAT", format, "source format (see walkgraph list)")->required();
   convert->add_option("SRC", sources, "source files or directories")->required();
   convert->add_option("--out", out, "walk directory to write")->required();
+  AddForce(convert);
   walkgraph::ConvertOptions convert_options;
   convert->add_flag("--known-start", convert_options.known_start,
                     "ipin: start at the first POSI landmark, its position given as initial_pose "
@@ -366,11 +523,11 @@ int main(int argc, char** argv) {
                       "YAML file with scenario overrides, e.g. {laps: 2, eta: 3.0}");
   compare->add_option("--runs", cargs.runs, "Monte Carlo runs of the scenario")
       ->check(CLI::PositiveNumber);
-  compare->add_option("--seed", cargs.seed, "base seed S (run i uses a seed derived from S, i)");
-  compare->add_option("--threads", cargs.threads, "worker threads (0 = all cores)")
-      ->check(CLI::NonNegativeNumber);
-  compare->add_option("--estimators", cargs.ids, "comma-separated ids (default: all applicable)")
-      ->delimiter(',');
+  std::string compare_seed = "1", pcrb_seed = "1", simulate_seed;
+  compare->add_option("--seed", compare_seed,
+                      "base seed S (run i uses a seed derived from S, i; default 1)");
+  AddThreads(compare, &cargs.threads, "worker threads (0 = all cores)");
+  compare->add_option("--estimators", cargs.ids, "comma-separated ids (default: all applicable)");
   compare->add_option("--config", cargs.config_path, "YAML file: {estimator id: {option: value}}");
   compare->add_flag("--align-se2", cargs.align_se2,
                     "align each estimate to the truth by a best-fit rotation + translation "
@@ -381,16 +538,25 @@ int main(int argc, char** argv) {
                    "start-up left out; default 0: the whole walk)")
       ->check(CLI::NonNegativeNumber);
   compare->add_option("--out", cargs.out, "report folder")->required();
-  compare->callback([&] { rc = RunCompare(cargs); });
+  AddForce(compare);
+  compare->callback([&] {
+    const std::string e = ParseSeed(compare_seed, &cargs.seed);
+    rc = e.empty() ? RunCompare(cargs) : Fail(walkgraph::InvalidArgument(e));
+  });
 
   std::string scenario;
-  uint64_t seed = 0;
   CLI::App* simulate = app.add_subcommand("simulate", "simulate a paper's scenario as a walk");
   simulate->add_option("--scenario", scenario, "scenario name (see walkgraph list)")->required();
-  simulate->add_option("--seed", seed, "random seed (same seed, same walk)")->required();
+  simulate->add_option("--seed", simulate_seed, "random seed (same seed, same walk)")->required();
   simulate->add_option("--config", config_path, "YAML file with scenario overrides");
   simulate->add_option("--out", out, "walk directory to write")->required();
-  simulate->callback([&] { rc = RunSimulate(scenario, seed, config_path, out); });
+  AddForce(simulate);
+  simulate->callback([&] {
+    uint64_t seed = 0;
+    const std::string e = ParseSeed(simulate_seed, &seed);
+    rc = e.empty() ? RunSimulate(scenario, seed, config_path, out)
+                   : Fail(walkgraph::InvalidArgument(e));
+  });
 
   PcrbArgs pargs;
   CLI::App* pcrb = app.add_subcommand(
@@ -399,12 +565,13 @@ int main(int argc, char** argv) {
   pcrb->add_option("--scenario-config", pargs.scenario_config, "YAML file with scenario overrides");
   pcrb->add_option("--config", pargs.config, "YAML file with PCRB options (see pcrb.h)");
   pcrb->add_option("--runs", pargs.runs, "Monte Carlo runs")->check(CLI::PositiveNumber);
-  pcrb->add_option("--seed", pargs.seed, "base seed S (as compare)");
-  pcrb->add_option("--threads", pargs.threads, "worker threads (0 = all cores)")
-      ->check(CLI::NonNegativeNumber);
+  pcrb->add_option("--seed", pcrb_seed, "base seed S (as compare; default 1)");
+  AddThreads(pcrb, &pargs.threads, "worker threads (0 = all cores)");
   pcrb->callback([&] {
-    rc = RunPcrb(pargs.scenario, pargs.scenario_config, pargs.config, pargs.runs, pargs.seed,
-                 pargs.threads);
+    const std::string e = ParseSeed(pcrb_seed, &pargs.seed);
+    rc = e.empty() ? RunPcrb(pargs.scenario, pargs.scenario_config, pargs.config, pargs.runs,
+                             pargs.seed, pargs.threads)
+                   : Fail(walkgraph::InvalidArgument(e));
   });
 
   std::string manifest_path;
@@ -412,9 +579,9 @@ int main(int argc, char** argv) {
   CLI::App* study = app.add_subcommand(
       "study", "parameter sweeps over walks/scenarios and estimators from a manifest");
   study->add_option("MANIFEST", manifest_path, "study manifest (YAML, see study.h)")->required();
-  study->add_option("--threads", study_threads, "worker threads per cell (0 = all cores)")
-      ->check(CLI::NonNegativeNumber);
+  AddThreads(study, &study_threads, "worker threads per cell (0 = all cores)");
   study->add_option("--out", out, "output folder (study.csv, study.html)")->required();
+  AddForce(study);
   study->callback([&] { rc = RunStudy(manifest_path, study_threads, out); });
 
   std::string detector = "glrt";
@@ -434,6 +601,35 @@ int main(int argc, char** argv) {
   list->callback([&] { rc = RunList(); });
 
   app.parse_complete_callback([&] { walkgraph::InitLogging(argv[0], verbosity); });
-  CLI11_PARSE(app, argc, argv);
-  return rc;
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::CallForHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::CallForAllHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::ParseError& e) {
+    std::string what = e.what();
+    if (what.size() > 300) what = what.substr(0, 300) + "...";
+    std::cerr << "walkgraph: " << what << "\n(walkgraph --help, or walkgraph COMMAND --help)\n";
+    return 1;
+  }
+  return Finish(rc);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  InstallSignalHandlers();
+  std::set_terminate(OnTerminate);
+  google::InstallFailureFunction(&OnCheckFailure);
+  try {
+    return Main(argc, argv);
+  } catch (const std::bad_alloc&) {
+    std::cerr << "walkgraph: out of memory; no output was written\n";
+  } catch (const std::exception& e) {
+    std::cerr << "walkgraph: internal error: " << e.what() << "; no output was written\n";
+  } catch (...) {
+    std::cerr << "walkgraph: internal error: unexpected exception; no output was written\n";
+  }
+  return 1;
 }

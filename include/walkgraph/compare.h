@@ -6,12 +6,15 @@
 //
 // Monte Carlo (CompareMonteCarlo): N walks drawn from a seeded generator, run i with
 // seed_i = MonteCarloSeed(S, i), compared on a pool of threads. Per estimator the figures of
-// the N runs are aggregated as
+// the N runs are aggregated as runs finish, in run order (so the result does not depend on the
+// thread count), in memory that does not grow with N:
 //   rmse, mean, max, final, pct_distance, mean_pct_distance, anees, runtime: mean over the
-//     runs, *_std = sample std
-//   median, p75, p90: percentiles of the pooled errors of all runs, *_std = sample std of the
-//                     per-run percentiles.
-// Runs are aggregated in run order, so the result does not depend on the thread count.
+//     runs, *_std = sample std (Welford's running update);
+//   median, p75, p90: percentiles of the pooled errors of all runs, from a QuantileSketch
+//     (metrics.h: within 0.01 % of the exact pooled percentile), *_std = sample std of the
+//     per-run (exact) percentiles.
+// Only the first successful run's trajectory and error series are kept; every run's errors go
+// to errors.csv through a temporary file on disk.
 //
 // Simulated scenarios (CompareScenario) also get the posterior Cramér–Rao bound of the same
 // runs (pcrb.h): pcrb_rmse_m (smoothing bound), pcrb_filter_rmse_m (filtering bound), and each
@@ -22,6 +25,7 @@
 #include <cstdint>
 #include <functional>
 #include <map>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -30,6 +34,7 @@
 
 #include "walkgraph/estimator.h"
 #include "walkgraph/metrics.h"
+#include "walkgraph/output.h"
 #include "walkgraph/pcrb.h"
 #include "walkgraph/status.h"
 #include "walkgraph/walk.h"
@@ -58,13 +63,17 @@ struct EstimatorOutcome {
   EstimateResult result;
   ErrorSeries errors;
   // Monte Carlo only (runs > 1): spread of the per-run figures (see the top of this file), the
-  // runs the estimator failed on (excluded from the figures), and for each entry of `errors`
-  // the run it comes from (`errors` pools every run; `result` is the first successful run).
+  // runs the estimator failed on (excluded from the figures), and the pooled errors of every
+  // successful run (`result` and `errors` are the first successful run's).
   std::optional<ErrorStats> stats_std;
   double runtime_std_s = 0.0;
   int failed_runs = 0;
-  std::vector<int> error_run;
+  std::optional<QuantileSketch> pooled_errors;
 };
+
+namespace internal {
+class TextSpill;
+}  // namespace internal
 
 struct Comparison {
   std::string walk_name;
@@ -83,6 +92,9 @@ struct Comparison {
   // What the report draws under the trajectories.
   std::vector<Anchor> anchors;
   std::vector<TruthSample> truth;
+  // Monte Carlo: every run's errors as errors.csv rows "t_s,estimator,error_m,run", in run
+  // order, kept in an anonymous temporary file (not in memory); WriteComparison copies them.
+  std::shared_ptr<internal::TextSpill> errors_csv_rows;
 };
 
 // Runs the estimators on `walk`. Fails only when the request itself is invalid (unknown id, no
@@ -98,7 +110,7 @@ using WalkGenerator = std::function<StatusOr<Walk>(uint64_t seed)>;
 struct MonteCarloOptions {
   int runs = 1;
   uint64_t seed = 0;  // S
-  int threads = 1;    // <= 0: std::thread::hardware_concurrency()
+  int threads = 1;    // <= 0: std::thread::hardware_concurrency(); at most kMaxThreads
   // Called after each finished run with (runs done, runs); calls are serialized.
   std::function<void(int done, int total)> progress;
 };
@@ -139,6 +151,22 @@ std::optional<double> RmseOverPcrb(const Comparison& comparison, const Estimator
 // The aggregation step alone: `runs` are single-walk comparisons in run order.
 StatusOr<Comparison> AggregateRuns(const std::vector<Comparison>& runs);
 
+// The same, one run at a time (what CompareMonteCarlo uses): Add() the runs in run order, then
+// Finish(). Memory does not grow with the number of runs.
+class RunAggregator {
+ public:
+  RunAggregator();
+  ~RunAggregator();
+  RunAggregator(RunAggregator&&) noexcept;
+  RunAggregator& operator=(RunAggregator&&) noexcept;
+  void Add(Comparison run);
+  StatusOr<Comparison> Finish();
+
+ private:
+  struct State;
+  std::unique_ptr<State> state_;
+};
+
 // An aligned text table, one row per estimator; '*' marks the best value of each column.
 std::string FormatComparisonTable(const Comparison& comparison);
 
@@ -147,8 +175,10 @@ std::string FormatComparisonTable(const Comparison& comparison);
 // "runtime_s" is null (timings differ from run to run and would make results.json depend on
 // the machine and the thread count) and the timings go to timing.json instead; errors.csv gains
 // a "run" column.
-// The folder appears complete or not at all (written under a temporary name, then renamed).
-Status WriteComparison(const Comparison& comparison, const std::string& out_dir);
+// Written through the output writer (output.h): the folder carries walkgraph's marker, appears
+// whole or not at all, and replaces only a folder walkgraph wrote (or any with options.force).
+Status WriteComparison(const Comparison& comparison, const std::string& out_dir,
+                       const OutputOptions& options = {});
 
 // The report page alone (self-contained HTML with inline SVG).
 std::string RenderHtmlReport(const Comparison& comparison);

@@ -40,8 +40,11 @@ class ConfigReader {
   Status first_error_;
 };
 
-// Loads a YAML file; errors name the file and line.
+// Loads a YAML file; errors name the file and line. The file must be a regular file of at most
+// 16 MiB holding one YAML document without repeated keys.
 StatusOr<YAML::Node> LoadYamlFile(const std::string& path);
+// The same on text; `path` names it in messages.
+StatusOr<YAML::Node> LoadYamlText(const std::string& text, const std::string& path);
 
 }  // namespace walkgraph
 

@@ -3,7 +3,7 @@
 // A walk is a directory: walk.yaml, anchors.csv and the optional streams imu.csv, rss.csv,
 // range.csv, odometry.csv, truth.csv, stance_truth.csv. Readers are strict: every problem is
 // reported as "file:line: what was expected". Writers are atomic: each file is written under a
-// temporary name and renamed, and a new walk directory appears only when complete.
+// temporary name and the folder appears whole or not at all (output.h).
 #ifndef WALKGRAPH_IO_H_
 #define WALKGRAPH_IO_H_
 
@@ -11,6 +11,7 @@
 #include <ostream>
 #include <string>
 
+#include "walkgraph/output.h"
 #include "walkgraph/status.h"
 #include "walkgraph/trajectory.h"
 #include "walkgraph/walk.h"
@@ -34,16 +35,16 @@ StatusOr<Walk> ReadWalk(const std::string& dir, const ValidationLimits& limits =
 // ordered, values plausible). ReadWalk applies it; writers apply it before writing.
 Status ValidateWalk(const Walk& walk, const ValidationLimits& limits = {});
 
-// Writes `walk` into `dir` (created if missing). Validates first; never leaves partial files.
-Status WriteWalk(const Walk& walk, const std::string& dir);
-
-// Writes a file atomically: `write` fills a stream opened on "<path>.tmp-<pid>"; if it returns
-// true and the stream is good the temporary file is renamed to `path`, else it is removed.
-Status WriteFileAtomically(const std::string& path,
-                           const std::function<bool(std::ostream&)>& write);
+// Writes `walk` as the walk folder `dir`, through the output writer (output.h): the folder
+// carries walkgraph's marker, appears whole or not at all, and replaces only a folder walkgraph
+// wrote (or any folder with options.force). Validates the walk first.
+Status WriteWalk(const Walk& walk, const std::string& dir, const OutputOptions& options = {});
 
 // TUM trajectory format ("t x y z qx qy qz qw", heading as yaw about z), as read by evo.
-Status WriteTumTrajectory(const Trajectory& trajectory, const std::string& path);
+void FormatTumTrajectory(const Trajectory& trajectory, std::ostream& out);
+// Writes the file `path` (a new path or a regular file; see WriteOutputFile).
+Status WriteTumTrajectory(const Trajectory& trajectory, const std::string& path,
+                          const OutputOptions& options = {});
 StatusOr<Trajectory> ReadTumTrajectory(const std::string& path);
 
 }  // namespace walkgraph

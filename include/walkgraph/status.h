@@ -15,12 +15,13 @@ namespace walkgraph {
 
 enum class StatusCode {
   kOk = 0,
-  kInvalidArgument,    // malformed input, bad configuration
-  kNotFound,           // missing file, unknown id
-  kIoError,            // the operating system refused a read or write
-  kFailedPrecondition, // input is valid but unusable for this operation (e.g. no anchors)
-  kNumerical,          // a solver or decomposition failed
+  kInvalidArgument,     // malformed input, bad configuration
+  kNotFound,            // missing file, unknown id
+  kIoError,             // the operating system refused a read or write
+  kFailedPrecondition,  // input is valid but unusable for this operation (e.g. no anchors)
+  kNumerical,           // a solver or decomposition failed
   kInternal,
+  kCancelled,  // stopped on request (RequestCancel, e.g. SIGINT); outputs left as they were
 };
 
 class Status {
@@ -39,7 +40,9 @@ class Status {
   std::string message_;
 };
 
-inline Status InvalidArgument(std::string m) { return {StatusCode::kInvalidArgument, std::move(m)}; }
+inline Status InvalidArgument(std::string m) {
+  return {StatusCode::kInvalidArgument, std::move(m)};
+}
 inline Status NotFound(std::string m) { return {StatusCode::kNotFound, std::move(m)}; }
 inline Status IoError(std::string m) { return {StatusCode::kIoError, std::move(m)}; }
 inline Status FailedPrecondition(std::string m) {
@@ -47,13 +50,14 @@ inline Status FailedPrecondition(std::string m) {
 }
 inline Status NumericalError(std::string m) { return {StatusCode::kNumerical, std::move(m)}; }
 inline Status InternalError(std::string m) { return {StatusCode::kInternal, std::move(m)}; }
+inline Status Cancelled(std::string m) { return {StatusCode::kCancelled, std::move(m)}; }
 
 // Either a value or a non-OK Status.
 template <typename T>
 class StatusOr {
  public:
-  StatusOr(T value) : v_(std::move(value)) {}                 // NOLINT(runtime/explicit)
-  StatusOr(Status status) : v_(std::move(status)) {           // NOLINT(runtime/explicit)
+  StatusOr(T value) : v_(std::move(value)) {}        // NOLINT(runtime/explicit)
+  StatusOr(Status status) : v_(std::move(status)) {  // NOLINT(runtime/explicit)
     if (std::get<Status>(v_).ok()) v_ = Status(StatusCode::kInternal, "StatusOr built from OK");
   }
   bool ok() const { return std::holds_alternative<T>(v_); }
@@ -85,10 +89,10 @@ class StatusOr {
 #define WG_STATUS_CONCAT_(a, b) WG_STATUS_CONCAT_INNER_(a, b)
 
 // Returns from the calling function if `expr` (a Status) is not OK.
-#define WG_RETURN_IF_ERROR(expr)                  \
-  do {                                            \
-    ::walkgraph::Status wg_status_ = (expr);      \
-    if (!wg_status_.ok()) return wg_status_;      \
+#define WG_RETURN_IF_ERROR(expr)             \
+  do {                                       \
+    ::walkgraph::Status wg_status_ = (expr); \
+    if (!wg_status_.ok()) return wg_status_; \
   } while (false)
 
 // `lhs = value of expr` (a StatusOr), or returns its Status from the calling function.

@@ -62,6 +62,7 @@
 
 #include "walkgraph/compare.h"
 #include "walkgraph/estimator.h"
+#include "walkgraph/output.h"
 #include "walkgraph/pcrb.h"
 #include "walkgraph/status.h"
 
@@ -145,9 +146,10 @@ std::string RenderStudyHtml(const StudyResult& result);
 // A short aligned text summary (the plotted metric per sweep × value × estimator).
 std::string FormatStudyTable(const StudyResult& result);
 
-// Writes study.csv, study.html and timing.csv into `out_dir`; the folder appears complete or
-// not at all (written under a temporary name, then renamed).
-Status WriteStudy(const StudyResult& result, const std::string& out_dir);
+// Writes study.csv, study.html and timing.csv into `out_dir` through the output writer
+// (output.h: marker, whole or not at all, never over a folder walkgraph did not write).
+Status WriteStudy(const StudyResult& result, const std::string& out_dir,
+                  const OutputOptions& options = {});
 
 }  // namespace walkgraph
 

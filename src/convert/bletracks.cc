@@ -19,6 +19,8 @@
 #include <nlohmann/json.hpp>
 
 #include "convert/line_fields.h"
+#include "io/input_file.h"
+#include "util/text.h"
 #include "walkgraph/convert.h"
 
 namespace walkgraph {
@@ -40,14 +42,16 @@ std::string NormalizeMac(std::string mac) {
 }
 
 StatusOr<Devices> ReadDevices(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) return NotFound(path + ": cannot open");
+  internal::LineReader in(path);
+  WG_RETURN_IF_ERROR(in.Open());
   Devices d;
   std::string line;
   int n = 0;
   bool saw_dongles = false;
   std::set<int> ids;
-  while (std::getline(in, line)) {
+  while (true) {
+    WG_ASSIGN_OR_RETURN(const bool more, in.Next(&line));
+    if (!more) break;
     ++n;
     if (!line.empty() && line.back() == '\r') line.pop_back();
     if (line.empty()) continue;
@@ -101,8 +105,8 @@ StatusOr<Walk> ConvertBleTracks(const std::string& track_mbd, const std::string&
   }
   WG_ASSIGN_OR_RETURN(const Devices devices, ReadDevices(dev_path));
 
-  std::ifstream in(track_mbd);
-  if (!in) return NotFound(track_mbd + ": cannot open");
+  internal::LineReader in(track_mbd);
+  WG_RETURN_IF_ERROR(in.Open());
   struct Line {
     double t_unix;
     int anchor_id;
@@ -112,7 +116,9 @@ StatusOr<Walk> ConvertBleTracks(const std::string& track_mbd, const std::string&
   std::vector<Line> lines;
   std::string text;
   int n = 0, out_of_order = 0;
-  while (std::getline(in, text)) {
+  while (true) {
+    WG_ASSIGN_OR_RETURN(const bool more, in.Next(&text));
+    if (!more) break;
     ++n;
     internal::LineFields f(track_mbd, n, text, ',');
     if (f.size() == 1 && f.field(0).empty()) return f.Error("empty line");
@@ -140,7 +146,7 @@ StatusOr<Walk> ConvertBleTracks(const std::string& track_mbd, const std::string&
                    [](const Line& a, const Line& b) { return a.t_unix < b.t_unix; });
 
   Walk walk;
-  walk.meta.name = fs::path(track_mbd).stem().string();
+  walk.meta.name = internal::ToValidUtf8(fs::path(track_mbd).stem().string());
   walk.meta.source =
       "Danis, Naskali, Cemgil, Ersoy: An indoor localization dataset and data collection "
       "framework with high precision position annotation, Pervasive and Mobile Computing 81, "

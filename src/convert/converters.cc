@@ -1,3 +1,4 @@
+#include "util/text.h"
 #include "walkgraph/convert.h"
 
 namespace walkgraph {
@@ -53,7 +54,7 @@ StatusOr<Walk> Convert(const std::string& format, const std::vector<std::string>
     if (c.format == format) return c.convert(sources, options);
     known += (known.empty() ? "" : ", ") + c.format;
   }
-  return NotFound("unknown format '" + format + "'; known: " + known);
+  return NotFound("unknown format " + internal::Quoted(format) + "; known: " + known);
 }
 
 }  // namespace walkgraph

@@ -22,6 +22,8 @@
 #include <set>
 
 #include "convert/line_fields.h"
+#include "io/input_file.h"
+#include "util/text.h"
 #include "walkgraph/convert.h"
 
 namespace walkgraph {
@@ -84,13 +86,15 @@ struct Beacon {
 };
 
 StatusOr<std::vector<Beacon>> ReadBleLocations(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) return NotFound(path + ": cannot open");
+  internal::LineReader in(path);
+  WG_RETURN_IF_ERROR(in.Open());
   std::string line;
   int n = 0;
   std::vector<Beacon> beacons;
   std::set<int> ids;
-  while (std::getline(in, line)) {
+  while (true) {
+    WG_ASSIGN_OR_RETURN(const bool more, in.Next(&line));
+    if (!more) break;
     ++n;
     internal::LineFields f(path, n, line, ',');
     if (n == 1) {
@@ -160,8 +164,8 @@ StatusOr<Walk> ConvertIpin(const std::string& log_path, const std::string& ble_l
   std::map<int, const Beacon*> beacon_by_id;
   for (const Beacon& b : beacons) beacon_by_id[b.id] = &b;
 
-  std::ifstream in(log_path);
-  if (!in) return NotFound(log_path + ": cannot open");
+  internal::LineReader in(log_path);
+  WG_RETURN_IF_ERROR(in.Open());
   struct Posi {
     double t_s, lat_deg, lon_deg;
     int floor;
@@ -174,7 +178,9 @@ StatusOr<Walk> ConvertIpin(const std::string& log_path, const std::string& ble_l
   int rss_duplicates = 0, non_ibeacon = 0;
   std::string line;
   int n = 0;
-  while (std::getline(in, line)) {
+  while (true) {
+    WG_ASSIGN_OR_RETURN(const bool more, in.Next(&line));
+    if (!more) break;
     ++n;
     if (!line.empty() && line.back() == '\r') line.pop_back();
     if (line.empty() || line[0] == '%') continue;
@@ -253,7 +259,7 @@ StatusOr<Walk> ConvertIpin(const std::string& log_path, const std::string& ble_l
   }
 
   Walk walk;
-  walk.meta.name = fs::path(log_path).stem().string();
+  walk.meta.name = internal::ToValidUtf8(fs::path(log_path).stem().string());
   walk.meta.source =
       "IPIN 2023 competition Track 3 (Torres-Sospedra et al., Zenodo 10.5281/zenodo.8362205), "
       "GetSensorData log " +
@@ -345,6 +351,8 @@ StatusOr<Walk> ConvertIpin(const std::string& log_path, const std::string& ble_l
     start.sigma_heading_rad = kUnknownHeadingSigmaRad;
     walk.meta.initial_pose = start;
   }
+  // A slice of a log may hold no BLE reading: then the walk declares no radio.
+  if (walk.rss.empty()) walk.meta.radio.kind = RadioKind::kNone;
   return walk;
 }
 

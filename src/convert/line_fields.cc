@@ -4,6 +4,9 @@
 #include <cmath>
 #include <cstdlib>
 
+#include "io/csv_reader.h"
+#include "util/text.h"
+
 namespace walkgraph::internal {
 
 namespace {
@@ -45,13 +48,10 @@ Status LineFields::ExpectCount(size_t n, size_t n_alt) const {
 
 StatusOr<double> LineFields::Number(size_t i) const {
   if (i >= fields_.size()) return Error("field " + std::to_string(i + 1) + " missing");
-  const std::string t = Trim(fields_[i]);
-  const char* begin = t.c_str();
-  char* end = nullptr;
-  errno = 0;
-  const double v = std::strtod(begin, &end);
-  if (t.empty() || end != begin + t.size() || errno == ERANGE || !std::isfinite(v)) {
-    return Error("field " + std::to_string(i + 1) + " '" + fields_[i] + "' is not a finite number");
+  double v = 0.0;
+  if (!ParseFiniteDouble(Trim(fields_[i]), &v)) {
+    return Error("field " + std::to_string(i + 1) + " " + QuotedNumber(fields_[i]) +
+                 " is not a finite decimal number");
   }
   return v;
 }
@@ -59,7 +59,8 @@ StatusOr<double> LineFields::Number(size_t i) const {
 StatusOr<long long> LineFields::Integer(size_t i) const {
   WG_ASSIGN_OR_RETURN(const double v, Number(i));
   if (std::floor(v) != v || std::fabs(v) > 9.0e15) {
-    return Error("field " + std::to_string(i + 1) + " '" + fields_[i] + "' is not an integer");
+    return Error("field " + std::to_string(i + 1) + " " + QuotedNumber(fields_[i]) +
+                 " is not an integer");
   }
   return static_cast<long long>(v);
 }

@@ -4,6 +4,7 @@
 #include <set>
 
 #include "convert/text_table.h"
+#include "util/text.h"
 #include "walkgraph/angle.h"
 #include "walkgraph/convert.h"
 
@@ -14,14 +15,13 @@ namespace fs = std::filesystem;
 namespace {
 
 // Finds "<prefix>_<suffix>" in dir for the single Plaza prefix present (Plaza1, Plaza2, ...).
-StatusOr<std::string> FindPlazaFile(const fs::path& dir, const std::string& suffix,
-                                    bool required) {
+StatusOr<std::string> FindPlazaFile(const fs::path& dir, const std::string& suffix, bool required) {
   std::error_code ec;
   std::vector<std::string> found;
   for (const auto& entry : fs::directory_iterator(dir, ec)) {
     const std::string name = entry.path().filename().string();
-    if (name.size() > suffix.size() && name.compare(name.size() - suffix.size(), suffix.size(),
-                                                    suffix) == 0 &&
+    if (name.size() > suffix.size() &&
+        name.compare(name.size() - suffix.size(), suffix.size(), suffix) == 0 &&
         name.rfind("Plaza", 0) == 0) {
       found.push_back(entry.path().string());
     }
@@ -54,7 +54,8 @@ StatusOr<Walk> ConvertPlaza(const std::string& dir_name) {
 
   Walk walk;
   const std::string stem = fs::path(dr_path).filename().string();
-  walk.meta.name = stem.substr(0, stem.size() - std::string("_DR.txt").size());
+  walk.meta.name =
+      internal::ToValidUtf8(stem.substr(0, stem.size() - std::string("_DR.txt").size()));
   walk.meta.source =
       "Djugash, Singh, Kantor, Zhang: Navigating with ranging radios, CMU 2009; files as shipped "
       "in GTSAM examples/Data (borglab/gtsam @0ffe6c93)";

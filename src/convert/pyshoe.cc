@@ -34,6 +34,7 @@
 #include <filesystem>
 
 #include "convert/text_table.h"
+#include "util/text.h"
 #include "walkgraph/convert.h"
 
 namespace walkgraph {
@@ -56,7 +57,8 @@ StatusOr<Walk> ConvertPyshoe(const std::string& csv_path) {
   }
   if (table.rows.empty()) return InvalidArgument(csv_path + ": no data rows");
   Walk walk;
-  walk.meta.name = "pyshoe-" + std::filesystem::path(csv_path).stem().string();
+  walk.meta.name =
+      internal::ToValidUtf8("pyshoe-" + std::filesystem::path(csv_path).stem().string());
   walk.meta.source =
       "Wagstaff, Peretroukhin, Kelly: Robust data-driven zero-velocity detection for foot-mounted "
       "inertial navigation (PyShoe, UofT VICON set), as processed in "

@@ -4,19 +4,21 @@
 #include <sstream>
 
 #include "io/csv_reader.h"
+#include "io/input_file.h"
+#include "util/text.h"
 
 namespace walkgraph::internal {
 
 StatusOr<TextTable> ReadTextTable(const std::string& path, size_t columns, bool has_header) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) return NotFound(path + ": cannot open file");
+  internal::LineReader in(path);
+  WG_RETURN_IF_ERROR(in.Open());
   TextTable table;
   std::string line;
   int n = 0;
-  while (std::getline(in, line)) {
+  while (true) {
+    WG_ASSIGN_OR_RETURN(const bool more, in.Next(&line));
+    if (!more) break;
     ++n;
-    if (n == 1 && line.size() >= 3 && line.compare(0, 3, "\xEF\xBB\xBF") == 0) line.erase(0, 3);
-    StripCarriageReturn(&line);
     for (char& ch : line) {
       if (ch == ',' || ch == '\t') ch = ' ';
     }
@@ -42,9 +44,9 @@ StatusOr<TextTable> ReadTextTable(const std::string& path, size_t columns, bool 
     std::vector<double> row(columns);
     for (size_t i = 0; i < columns; ++i) {
       if (!ParseFiniteDouble(tokens[i], &row[i])) {
-        return InvalidArgument(path + ":" + std::to_string(n) + ": column " +
-                               std::to_string(i + 1) + ": expected a finite number, found '" +
-                               tokens[i] + "'");
+        return InvalidArgument(
+            path + ":" + std::to_string(n) + ": column " + std::to_string(i + 1) +
+            ": expected a finite decimal number, found " + QuotedNumber(tokens[i]));
       }
     }
     table.rows.push_back(std::move(row));

@@ -1,4 +1,5 @@
 #include "estimators/builtin.h"
+#include "util/text.h"
 #include "walkgraph/estimator.h"
 
 namespace walkgraph {
@@ -24,8 +25,10 @@ const EstimatorRegistry& EstimatorRegistry::Builtin() {
 }
 
 Status EstimatorRegistry::Register(EstimatorInfo info) {
-  if (info.id.empty() || !info.factory) return InvalidArgument("estimator needs an id and a factory");
-  if (Find(info.id) != nullptr) return InvalidArgument("estimator id '" + info.id + "' registered twice");
+  if (info.id.empty() || !info.factory)
+    return InvalidArgument("estimator needs an id and a factory");
+  if (Find(info.id) != nullptr)
+    return InvalidArgument("estimator id '" + info.id + "' registered twice");
   entries_.push_back(std::move(info));
   return Status::Ok();
 }
@@ -43,7 +46,7 @@ StatusOr<std::unique_ptr<Estimator>> EstimatorRegistry::Create(const std::string
   if (info == nullptr) {
     std::string ids;
     for (const EstimatorInfo& e : entries_) ids += (ids.empty() ? "" : ", ") + e.id;
-    return NotFound("unknown estimator '" + id + "'; known: " + ids);
+    return NotFound("unknown estimator " + internal::Quoted(id) + "; known: " + ids);
   }
   return info->factory(config);
 }

@@ -13,7 +13,8 @@
 
 #include <nlohmann/json.hpp>
 
-#include "report/folder.h"
+#include "util/text.h"
+#include "util/text_spill.h"
 #include "walkgraph/io.h"
 
 namespace walkgraph {
@@ -58,6 +59,12 @@ StatusOr<Comparison> CompareOnWalk(const Walk& walk, const CompareOptions& optio
                            " s leaves no truth of walk '" + walk.meta.name + "' to score (" +
                            std::to_string(walk.truth.back().t_s - walk.truth.front().t_s) +
                            " s of truth)");
+  }
+  for (const auto& [id, node] : options.configs) {
+    if (registry.Find(id) == nullptr) {
+      return InvalidArgument("compare: options for " + internal::Quoted(id) +
+                             ", which is not an estimator id (see walkgraph list)");
+    }
   }
   std::vector<std::string> ids = options.estimator_ids;
   const bool explicit_list = !ids.empty();
@@ -315,26 +322,25 @@ Status WriteComparisonFiles(const Comparison& c, const fs::path& tmp) {
   j["pcrb_filter_rmse_m"] =
       c.pcrb_filter_rmse_m ? nlohmann::ordered_json(*c.pcrb_filter_rmse_m) : nullptr;
   if (!c.pcrb_note.empty()) j["pcrb_note"] = c.pcrb_note;
-  Status s = WriteFileAtomically((tmp / "results.json").string(), [&](std::ostream& out) {
-    out << j.dump(2) << "\n";
+  Status s = WriteFileInOutput((tmp / "results.json").string(), [&](std::ostream& out) {
+    out << j.dump(2, ' ', false, nlohmann::ordered_json::error_handler_t::replace) << "\n";
     return true;
   });
   if (!s.ok()) return s;
   if (monte_carlo) {
-    s = WriteFileAtomically((tmp / "timing.json").string(), [&](std::ostream& out) {
-      out << timing.dump(2) << "\n";
+    s = WriteFileInOutput((tmp / "timing.json").string(), [&](std::ostream& out) {
+      out << timing.dump(2, ' ', false, nlohmann::ordered_json::error_handler_t::replace) << "\n";
       return true;
     });
     if (!s.ok()) return s;
   }
-  s = WriteFileAtomically((tmp / "errors.csv").string(), [&](std::ostream& out) {
+  s = WriteFileInOutput((tmp / "errors.csv").string(), [&](std::ostream& out) {
     out << "t_s,estimator,error_m" << (monte_carlo ? ",run\n" : "\n") << std::setprecision(10);
+    if (monte_carlo && c.errors_csv_rows) return c.errors_csv_rows->CopyTo(out).ok();
     for (const EstimatorOutcome& o : c.outcomes) {
-      const bool with_run = monte_carlo && o.error_run.size() == o.errors.t_s.size();
       for (size_t i = 0; i < o.errors.t_s.size(); ++i) {
-        out << o.errors.t_s[i] << ',' << o.id << ',' << o.errors.error_m[i];
-        if (monte_carlo) out << ',' << (with_run ? o.error_run[i] : 0);
-        out << '\n';
+        out << o.errors.t_s[i] << ',' << o.id << ',' << o.errors.error_m[i]
+            << (monte_carlo ? ",0\n" : "\n");
       }
     }
     return true;
@@ -342,11 +348,15 @@ Status WriteComparisonFiles(const Comparison& c, const fs::path& tmp) {
   if (!s.ok()) return s;
   for (const EstimatorOutcome& o : c.outcomes) {
     if (!o.status.ok()) continue;
-    s = WriteTumTrajectory(o.result.trajectory, (tmp / "trajectories" / (o.id + ".tum")).string());
+    s = WriteFileInOutput((tmp / "trajectories" / (o.id + ".tum")).string(),
+                          [&](std::ostream& out) {
+                            FormatTumTrajectory(o.result.trajectory, out);
+                            return true;
+                          });
     if (!s.ok()) return s;
   }
   const std::string html = RenderHtmlReport(c);
-  s = WriteFileAtomically((tmp / "report.html").string(), [&](std::ostream& out) {
+  s = WriteFileInOutput((tmp / "report.html").string(), [&](std::ostream& out) {
     out << html;
     return true;
   });
@@ -355,9 +365,10 @@ Status WriteComparisonFiles(const Comparison& c, const fs::path& tmp) {
 
 }  // namespace
 
-Status WriteComparison(const Comparison& c, const std::string& out_dir) {
-  return report::WriteFolderAtomically(
-      out_dir, [&](const fs::path& tmp) { return WriteComparisonFiles(c, tmp); });
+Status WriteComparison(const Comparison& c, const std::string& out_dir,
+                       const OutputOptions& options) {
+  return WriteOutputFolder(out_dir, options,
+                           [&](const std::string& tmp) { return WriteComparisonFiles(c, tmp); });
 }
 
 }  // namespace walkgraph

@@ -19,6 +19,51 @@ double Percentile(std::vector<double> values, double q) {
   return (1.0 - w) * values[lo] + w * values[hi];
 }
 
+QuantileSketch::QuantileSketch(double relative_accuracy)
+    : alpha_(std::clamp(relative_accuracy, 1e-8, 0.5)),
+      log_gamma_(std::log((1.0 + alpha_) / (1.0 - alpha_))) {}
+
+void QuantileSketch::Add(double value) {
+  ++count_;
+  if (!(value > kZero)) {  // also NaN: errors are never NaN here, but the count stays right
+    ++zeros_;
+    return;
+  }
+  const int i = static_cast<int>(std::ceil(std::log(value) / log_gamma_));
+  if (counts_.empty()) {
+    offset_ = i;
+    counts_.assign(1, 0);
+  } else if (i < offset_) {
+    counts_.insert(counts_.begin(), static_cast<size_t>(offset_ - i), 0);
+    offset_ = i;
+  } else if (i >= offset_ + static_cast<int>(counts_.size())) {
+    counts_.resize(static_cast<size_t>(i - offset_ + 1), 0);
+  }
+  ++counts_[static_cast<size_t>(i - offset_)];
+}
+
+double QuantileSketch::Value(long long rank) const {
+  if (rank < zeros_) return 0.0;
+  long long seen = zeros_;
+  for (size_t k = 0; k < counts_.size(); ++k) {
+    seen += counts_[k];
+    if (rank < seen) {
+      const double gamma = std::exp(log_gamma_);
+      return 2.0 * std::exp(log_gamma_ * (offset_ + static_cast<double>(k))) / (gamma + 1.0);
+    }
+  }
+  return 0.0;
+}
+
+double QuantileSketch::Percentile(double q) const {
+  if (count_ == 0) return 0.0;
+  const double pos = std::clamp(q, 0.0, 100.0) / 100.0 * static_cast<double>(count_ - 1);
+  const long long lo = static_cast<long long>(std::floor(pos));
+  const long long hi = std::min(lo + 1, count_ - 1);
+  const double w = pos - static_cast<double>(lo);
+  return (1.0 - w) * Value(lo) + w * Value(hi);
+}
+
 namespace {
 
 // eᵀP⁻¹e, or nullopt when P (symmetrized) is not positive definite.

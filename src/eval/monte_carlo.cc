@@ -1,13 +1,19 @@
 // Monte Carlo comparison: seeded walks on a thread pool, aggregated in run order.
 #include <algorithm>
-#include <atomic>
+#include <climits>
 #include <cmath>
+#include <condition_variable>
+#include <iomanip>
 #include <map>
 #include <mutex>
 #include <optional>
-#include <thread>
+#include <sstream>
 
+#include "util/parallel_for.h"
+#include "util/text.h"
+#include "util/text_spill.h"
 #include "walkgraph/compare.h"
+#include "walkgraph/parallel.h"
 #include "walkgraph/simulate.h"
 
 namespace walkgraph {
@@ -22,109 +28,162 @@ uint64_t MonteCarloSeed(uint64_t seed, int run) {
 
 namespace {
 
-struct MeanStd {
-  double mean = 0.0, std = 0.0;
+// Mean (as the plain sum over n, in run order) and sample std (Welford) of a stream.
+struct RunningStat {
+  long long n = 0;
+  double sum = 0.0, mean = 0.0, m2 = 0.0;
+  void Add(double x) {
+    ++n;
+    sum += x;
+    const double d = x - mean;
+    mean += d / static_cast<double>(n);
+    m2 += d * (x - mean);
+  }
+  double Mean() const { return n > 0 ? sum / static_cast<double>(n) : 0.0; }
+  double Std() const { return n > 1 ? std::sqrt(m2 / static_cast<double>(n - 1)) : 0.0; }
 };
 
-MeanStd Spread(const std::vector<double>& v) {
-  MeanStd r;
-  if (v.empty()) return r;
-  for (double x : v) r.mean += x;
-  r.mean /= static_cast<double>(v.size());
-  if (v.size() < 2) return r;
-  double ss = 0.0;
-  for (double x : v) ss += (x - r.mean) * (x - r.mean);
-  r.std = std::sqrt(ss / static_cast<double>(v.size() - 1));
-  return r;
+using Field = double ErrorStats::*;
+// anees, mean_pct_distance: NaN (none) as soon as one run has none.
+const Field kMeanFields[] = {&ErrorStats::rmse_m,       &ErrorStats::mean_m,
+                             &ErrorStats::max_m,        &ErrorStats::final_m,
+                             &ErrorStats::pct_distance, &ErrorStats::mean_pct_distance,
+                             &ErrorStats::anees};
+const Field kPooledFields[] = {&ErrorStats::median_m, &ErrorStats::p75_m, &ErrorStats::p90_m};
+const double kPooledQ[] = {50.0, 75.0, 90.0};
+
+struct EstimatorAggregate {
+  EstimatorOutcome outcome;  // id, first successful result and errors, failed_runs
+  Status first_failure;
+  RunningStat means[std::size(kMeanFields)];
+  RunningStat per_run_percentiles[std::size(kPooledFields)];
+  RunningStat runtime;
+  QuantileSketch pooled;
+  long long successes = 0;
+};
+
+std::string ErrorRows(const EstimatorOutcome& o, int run) {
+  std::ostringstream out;
+  out << std::setprecision(10);
+  for (size_t i = 0; i < o.errors.t_s.size(); ++i) {
+    out << o.errors.t_s[i] << ',' << o.id << ',' << o.errors.error_m[i] << ',' << run << '\n';
+  }
+  return out.str();
 }
 
 }  // namespace
 
-StatusOr<Comparison> AggregateRuns(const std::vector<Comparison>& runs) {
-  if (runs.empty()) return InvalidArgument("Monte Carlo: no runs to aggregate");
+struct RunAggregator::State {
   Comparison out;
-  out.walk_name = runs.front().walk_name;
-  out.runs = static_cast<int>(runs.size());
-  out.truth_kind = runs.front().truth_kind;
-  out.score_from_s = runs.front().score_from_s;
-  out.anchors = runs.front().anchors;
-  out.truth = runs.front().truth;
-  // Estimators in order of first appearance.
-  std::vector<std::string> ids;
-  for (const Comparison& c : runs) {
-    for (const EstimatorOutcome& o : c.outcomes) {
-      if (std::find(ids.begin(), ids.end(), o.id) == ids.end()) ids.push_back(o.id);
+  int runs = 0;
+  std::vector<EstimatorAggregate> estimators;  // in order of first appearance
+  std::shared_ptr<internal::TextSpill> rows = std::make_shared<internal::TextSpill>();
+
+  EstimatorAggregate& Find(const std::string& id) {
+    for (EstimatorAggregate& e : estimators) {
+      if (e.outcome.id == id) return e;
+    }
+    EstimatorAggregate e;
+    e.outcome.id = id;
+    // Runs before this one did not have the estimator: not applicable there.
+    e.outcome.failed_runs = runs;
+    if (runs > 0) e.first_failure = FailedPrecondition("run 0: not applicable");
+    estimators.push_back(std::move(e));
+    return estimators.back();
+  }
+};
+
+RunAggregator::RunAggregator() : state_(std::make_unique<State>()) {}
+RunAggregator::~RunAggregator() = default;
+RunAggregator::RunAggregator(RunAggregator&&) noexcept = default;
+RunAggregator& RunAggregator::operator=(RunAggregator&&) noexcept = default;
+
+void RunAggregator::Add(Comparison run) {
+  State& st = *state_;
+  const int r = st.runs;
+  if (r == 0) {
+    st.out.walk_name = run.walk_name;
+    st.out.truth_kind = run.truth_kind;
+    st.out.score_from_s = run.score_from_s;
+    st.out.anchors = std::move(run.anchors);
+    st.out.truth = std::move(run.truth);
+  }
+  std::vector<bool> seen(st.estimators.size(), false);
+  for (EstimatorOutcome& o : run.outcomes) {
+    EstimatorAggregate& e = st.Find(o.id);
+    seen.resize(st.estimators.size(), false);
+    seen[&e - st.estimators.data()] = true;
+    if (!o.status.ok()) {
+      ++e.outcome.failed_runs;
+      if (e.first_failure.ok()) {
+        e.first_failure =
+            Status(o.status.code(), "run " + std::to_string(r) + ": " + o.status.message());
+      }
+      continue;
+    }
+    for (size_t j = 0; j < std::size(kMeanFields); ++j) e.means[j].Add(o.stats.*kMeanFields[j]);
+    for (size_t j = 0; j < std::size(kPooledFields); ++j) {
+      e.per_run_percentiles[j].Add(o.stats.*kPooledFields[j]);
+    }
+    e.runtime.Add(o.runtime_s);
+    for (double v : o.errors.error_m) e.pooled.Add(v);
+    st.rows->Append(ErrorRows(o, r));
+    e.outcome.errors.n_skipped += o.errors.n_skipped;
+    if (e.successes++ == 0) {
+      const int skipped = e.outcome.errors.n_skipped;
+      e.outcome.result = std::move(o.result);
+      e.outcome.errors = std::move(o.errors);
+      e.outcome.errors.n_skipped = skipped;
     }
   }
-  using Field = double ErrorStats::*;
-  // anees, mean_pct_distance: NaN (none) as soon as one run has none.
-  const Field kMeanFields[] = {&ErrorStats::rmse_m,       &ErrorStats::mean_m,
-                               &ErrorStats::max_m,        &ErrorStats::final_m,
-                               &ErrorStats::pct_distance, &ErrorStats::mean_pct_distance,
-                               &ErrorStats::anees};
-  const Field kPooledFields[] = {&ErrorStats::median_m, &ErrorStats::p75_m, &ErrorStats::p90_m};
-  const double kPooledQ[] = {50.0, 75.0, 90.0};
-  for (const std::string& id : ids) {
-    EstimatorOutcome agg;
-    agg.id = id;
-    std::vector<const EstimatorOutcome*> ok;
-    Status first_failure;
-    for (size_t r = 0; r < runs.size(); ++r) {
-      const EstimatorOutcome* found = nullptr;
-      for (const EstimatorOutcome& o : runs[r].outcomes) {
-        if (o.id == id) found = &o;
-      }
-      if (found == nullptr) {
-        ++agg.failed_runs;
-        if (first_failure.ok()) {
-          first_failure = FailedPrecondition("run " + std::to_string(r) + ": not applicable");
-        }
-        continue;
-      }
-      if (!found->status.ok()) {
-        ++agg.failed_runs;
-        if (first_failure.ok()) {
-          first_failure = Status(found->status.code(),
-                                 "run " + std::to_string(r) + ": " + found->status.message());
-        }
-        continue;
-      }
-      if (ok.empty()) agg.result = found->result;
-      ok.push_back(found);
-      for (size_t i = 0; i < found->errors.t_s.size(); ++i) {
-        agg.errors.t_s.push_back(found->errors.t_s[i]);
-        agg.errors.error_m.push_back(found->errors.error_m[i]);
-        agg.error_run.push_back(static_cast<int>(r));
-      }
-      agg.errors.n_skipped += found->errors.n_skipped;
+  for (size_t k = 0; k < st.estimators.size(); ++k) {
+    if (seen[k]) continue;
+    EstimatorAggregate& e = st.estimators[k];
+    ++e.outcome.failed_runs;
+    if (e.first_failure.ok()) {
+      e.first_failure = FailedPrecondition("run " + std::to_string(r) + ": not applicable");
     }
-    if (ok.empty()) {
-      agg.status = first_failure;
+  }
+  ++st.runs;
+}
+
+StatusOr<Comparison> RunAggregator::Finish() {
+  State& st = *state_;
+  if (st.runs == 0) return InvalidArgument("Monte Carlo: no runs to aggregate");
+  WG_RETURN_IF_ERROR(st.rows->status());
+  Comparison out = std::move(st.out);
+  out.runs = st.runs;
+  out.errors_csv_rows = st.rows;
+  for (EstimatorAggregate& e : st.estimators) {
+    EstimatorOutcome agg = std::move(e.outcome);
+    if (e.successes == 0) {
+      agg.status = e.first_failure;
       out.outcomes.push_back(std::move(agg));
       continue;
     }
     ErrorStats stds;
-    std::vector<double> v(ok.size());
-    for (Field f : kMeanFields) {
-      for (size_t k = 0; k < ok.size(); ++k) v[k] = ok[k]->stats.*f;
-      const MeanStd m = Spread(v);
-      agg.stats.*f = m.mean;
-      stds.*f = m.std;
+    for (size_t j = 0; j < std::size(kMeanFields); ++j) {
+      agg.stats.*kMeanFields[j] = e.means[j].Mean();
+      stds.*kMeanFields[j] = e.means[j].Std();
     }
     for (size_t j = 0; j < std::size(kPooledFields); ++j) {
-      for (size_t k = 0; k < ok.size(); ++k) v[k] = ok[k]->stats.*kPooledFields[j];
-      stds.*kPooledFields[j] = Spread(v).std;
-      agg.stats.*kPooledFields[j] = Percentile(agg.errors.error_m, kPooledQ[j]);
+      stds.*kPooledFields[j] = e.per_run_percentiles[j].Std();
+      agg.stats.*kPooledFields[j] = e.pooled.Percentile(kPooledQ[j]);
     }
-    for (size_t k = 0; k < ok.size(); ++k) v[k] = ok[k]->runtime_s;
-    const MeanStd t = Spread(v);
-    agg.runtime_s = t.mean;
-    agg.runtime_std_s = t.std;
-    agg.stats.n_points = static_cast<int>(agg.errors.error_m.size());
+    agg.runtime_s = e.runtime.Mean();
+    agg.runtime_std_s = e.runtime.Std();
+    agg.stats.n_points = static_cast<int>(std::min<long long>(e.pooled.count(), INT32_MAX));
     agg.stats_std = stds;
+    agg.pooled_errors = std::move(e.pooled);
     out.outcomes.push_back(std::move(agg));
   }
   return out;
+}
+
+StatusOr<Comparison> AggregateRuns(const std::vector<Comparison>& runs) {
+  RunAggregator agg;
+  for (const Comparison& c : runs) agg.Add(c);
+  return agg.Finish();
 }
 
 StatusOr<Comparison> CompareMonteCarlo(const WalkGenerator& generate, const CompareOptions& options,
@@ -132,58 +191,54 @@ StatusOr<Comparison> CompareMonteCarlo(const WalkGenerator& generate, const Comp
                                        const EstimatorRegistry& registry) {
   if (mc.runs < 1) return InvalidArgument("Monte Carlo: runs must be >= 1");
   if (!generate) return InvalidArgument("Monte Carlo: no walk generator");
-  int threads = mc.threads > 0
-                    ? mc.threads
-                    : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
-  threads = std::min(threads, mc.runs);
-
-  std::vector<std::optional<Comparison>> results(mc.runs);
-  std::vector<Status> errors(mc.runs);
-  std::atomic<int> next{0};
-  std::atomic<bool> failed{false};
-  std::mutex progress_mutex;
-  int done = 0;
-  auto worker = [&] {
-    while (!failed.load()) {
-      const int i = next.fetch_add(1);
-      if (i >= mc.runs) return;
-      const uint64_t seed = MonteCarloSeed(mc.seed, i);
-      StatusOr<Walk> walk = generate(seed);
-      if (!walk.ok()) {
-        errors[i] = Status(walk.status().code(), "run " + std::to_string(i) + " (seed " +
-                                                     std::to_string(seed) +
-                                                     "): " + walk.status().message());
-        failed.store(true);
-        return;
-      }
-      StatusOr<Comparison> c = CompareOnWalk(*walk, options, registry);
-      if (!c.ok()) {
-        errors[i] =
-            Status(c.status().code(), "run " + std::to_string(i) + " (seed " +
-                                          std::to_string(seed) + "): " + c.status().message());
-        failed.store(true);
-        return;
-      }
-      // Only the first run's truth is drawn; the others need not keep theirs.
-      if (i != 0) c->truth.clear();
-      results[i] = std::move(c).value();
-      if (mc.progress) {
-        std::lock_guard<std::mutex> lock(progress_mutex);
-        mc.progress(++done, mc.runs);
-      }
+  WG_ASSIGN_OR_RETURN(const int threads, ResolveThreads(mc.threads, mc.runs));
+  // Finished runs wait in `pending` until every earlier run is aggregated. A run starts only
+  // within `window` runs of the next one to aggregate, so at most that many wait (the run being
+  // waited for never waits itself: it has already started).
+  const int window = 2 * threads + 2;
+  std::mutex mutex;
+  std::condition_variable drained;
+  std::map<int, Comparison> pending;
+  int next_to_add = 0, done = 0;
+  RunAggregator aggregator;
+  auto run_one = [&](int i) -> Status {
+    {
+      std::unique_lock<std::mutex> lock(mutex);
+      drained.wait(lock, [&] { return i - next_to_add < window; });
     }
+    const uint64_t seed = MonteCarloSeed(mc.seed, i);
+    auto located = [&](const Status& s) {
+      return Status(s.code(), "run " + std::to_string(i) + " (seed " + std::to_string(seed) +
+                                  "): " + s.message());
+    };
+    StatusOr<Walk> walk = generate(seed);
+    if (!walk.ok()) return located(walk.status());
+    StatusOr<Comparison> c = CompareOnWalk(*walk, options, registry);
+    if (!c.ok()) return located(c.status());
+    if (i != 0) c->truth.clear();  // only the first run's truth is drawn
+    std::lock_guard<std::mutex> lock(mutex);
+    pending.emplace(i, std::move(c).value());
+    for (auto it = pending.find(next_to_add); it != pending.end(); it = pending.find(next_to_add)) {
+      aggregator.Add(std::move(it->second));
+      pending.erase(it);
+      ++next_to_add;
+    }
+    drained.notify_all();
+    if (mc.progress) mc.progress(++done, mc.runs);
+    return Status::Ok();
   };
-  std::vector<std::thread> pool;
-  pool.reserve(threads);
-  for (int t = 0; t < threads; ++t) pool.emplace_back(worker);
-  for (std::thread& t : pool) t.join();
-  for (const Status& s : errors) {
-    if (!s.ok()) return s;
-  }
-  std::vector<Comparison> runs;
-  runs.reserve(mc.runs);
-  for (auto& r : results) runs.push_back(std::move(*r));
-  WG_ASSIGN_OR_RETURN(Comparison out, AggregateRuns(runs));
+  const Status s = internal::ParallelFor(0, mc.runs, threads, [&](int i) {
+    Status r = run_one(i);
+    if (!r.ok()) {
+      // Let the runs waiting for this one go on (they stop at the failure).
+      std::lock_guard<std::mutex> lock(mutex);
+      next_to_add = mc.runs;
+      drained.notify_all();
+    }
+    return r;
+  });
+  if (!s.ok()) return s;
+  WG_ASSIGN_OR_RETURN(Comparison out, aggregator.Finish());
   out.seed = mc.seed;
   return out;
 }
@@ -196,7 +251,7 @@ StatusOr<Comparison> CompareScenario(const std::string& scenario, const Scenario
   if (!known) {
     std::string names;
     for (const ScenarioInfo& s : Scenarios()) names += (names.empty() ? "" : ", ") + s.name;
-    return NotFound("unknown scenario '" + scenario + "'; known: " + names);
+    return NotFound("unknown scenario " + internal::Quoted(scenario) + "; known: " + names);
   }
   if (mc.runs < 1) return InvalidArgument("Monte Carlo: runs must be >= 1");
   const std::string prefix = sc.overrides_origin.empty() ? "" : sc.overrides_origin + ": ";

@@ -11,8 +11,10 @@
 #include <Eigen/Cholesky>
 #include <Eigen/SparseCholesky>
 
+#include "util/parallel_for.h"
 #include "walkgraph/compare.h"
 #include "walkgraph/config.h"
+#include "walkgraph/parallel.h"
 
 namespace walkgraph {
 
@@ -410,9 +412,7 @@ StatusOr<PcrbInformation> PcrbAccumulator::Mean() const {
 StatusOr<PcrbBound> ScenarioPcrb(const std::string& scenario, const YAML::Node& overrides, int runs,
                                  uint64_t seed, int threads, const PcrbOptions& options) {
   if (runs < 1) return InvalidArgument("PCRB: runs must be >= 1");
-  threads =
-      threads > 0 ? threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
-  threads = std::min(threads, runs);
+  WG_ASSIGN_OR_RETURN(threads, ResolveThreads(threads, runs));
   PcrbAccumulator sum(runs);
   auto run_one = [&](int i, const YAML::Node& node) -> Status {
     WG_ASSIGN_OR_RETURN(Simulation s,
@@ -424,28 +424,14 @@ StatusOr<PcrbBound> ScenarioPcrb(const std::string& scenario, const YAML::Node& 
   // private copies: reading a yaml-cpp node by key may modify it, so threads must not share one.
   WG_RETURN_IF_ERROR(run_one(0, overrides));
   std::mutex clone_mutex;
-  std::vector<Status> errors(runs);
-  std::atomic<int> next{1};
-  std::atomic<bool> failed{false};
-  auto worker = [&] {
-    while (!failed.load()) {
-      const int i = next.fetch_add(1);
-      if (i >= runs) return;
-      YAML::Node node;
-      {
-        std::lock_guard<std::mutex> lock(clone_mutex);
-        if (overrides.IsDefined() && !overrides.IsNull()) node = YAML::Clone(overrides);
-      }
-      errors[i] = run_one(i, node);
-      if (!errors[i].ok()) failed.store(true);
+  WG_RETURN_IF_ERROR(internal::ParallelFor(1, runs, threads, [&](int i) {
+    YAML::Node node;
+    {
+      std::lock_guard<std::mutex> lock(clone_mutex);
+      if (overrides.IsDefined() && !overrides.IsNull()) node = YAML::Clone(overrides);
     }
-  };
-  std::vector<std::thread> pool;
-  for (int t = 0; t < threads; ++t) pool.emplace_back(worker);
-  for (std::thread& t : pool) t.join();
-  for (const Status& s : errors) {
-    if (!s.ok()) return s;
-  }
+    return run_one(i, node);
+  }));
   WG_ASSIGN_OR_RETURN(PcrbInformation mean, sum.Mean());
   return ComputePcrb(mean);
 }

@@ -12,8 +12,8 @@
 #include <set>
 #include <sstream>
 
-#include "report/folder.h"
 #include "report/svg.h"
+#include "util/text.h"
 #include "walkgraph/config.h"
 #include "walkgraph/io.h"
 #include "walkgraph/simulate.h"
@@ -63,7 +63,8 @@ class Parser {
       if (!kv.first.IsScalar()) return Error(kv.first, what + ": keys must be plain words");
       const std::string key = kv.first.Scalar();
       if (std::find(known.begin(), known.end(), key) == known.end()) {
-        return Error(kv.first, "unknown key '" + key + "' in " + what + "; known: " + Join(known));
+        return Error(kv.first, "unknown key " + internal::Quoted(key) + " in " + what +
+                                   "; known: " + Join(known));
       }
     }
     return Status::Ok();
@@ -107,7 +108,7 @@ class Parser {
     if (!KnownMetric(m)) {
       std::vector<std::string> all(std::begin(kMetrics), std::end(kMetrics));
       all.push_back("rmse_over_pcrb");
-      return Error(n, "unknown metric '" + m + "'; known: " + Join(all));
+      return Error(n, "unknown metric " + internal::Quoted(m) + "; known: " + Join(all));
     }
     return m;
   }
@@ -121,7 +122,8 @@ class Parser {
     for (const YAML::Node& item : n) {
       WG_ASSIGN_OR_RETURN(std::string id, String(item, "estimator id"));
       if (registry.Find(id) == nullptr) {
-        return Error(item, "unknown estimator '" + id + "'; known: " + Join(registry.Ids()));
+        return Error(
+            item, "unknown estimator " + internal::Quoted(id) + "; known: " + Join(registry.Ids()));
       }
       if (std::find(ids.begin(), ids.end(), id) != ids.end()) {
         return Error(item, "estimator '" + id + "' listed twice");
@@ -215,8 +217,8 @@ StatusOr<StudySweep> ParseSweep(const Parser& p, const YAML::Node& node, const S
     std::vector<std::string> names;
     for (const ScenarioInfo& info : Scenarios()) names.push_back(info.name);
     if (std::find(names.begin(), names.end(), s.scenario) == names.end()) {
-      return p.Error(node["scenario"],
-                     "unknown scenario '" + s.scenario + "'; known: " + Join(names));
+      return p.Error(node["scenario"], "unknown scenario " + internal::Quoted(s.scenario) +
+                                           "; known: " + Join(names));
     }
     if (node["overrides"]) {
       if (!node["overrides"].IsMap()) {
@@ -335,15 +337,11 @@ StatusOr<StudySweep> ParseSweep(const Parser& p, const YAML::Node& node, const S
 
 }  // namespace
 
-StatusOr<StudyManifest> ParseStudyManifest(const std::string& text, const std::string& path,
-                                           const EstimatorRegistry& registry) {
+namespace {
+
+StatusOr<StudyManifest> ParseManifestRoot(const YAML::Node& root, const std::string& path,
+                                          const EstimatorRegistry& registry) {
   const Parser p(path);
-  YAML::Node root;
-  try {
-    root = YAML::Load(text);
-  } catch (const YAML::Exception& e) {
-    return InvalidArgument(path + ":" + std::to_string(e.mark.line + 1) + ": " + e.msg);
-  }
   if (!root.IsMap()) return p.Error(root, "a study manifest must be a map (see study.h)");
   WG_RETURN_IF_ERROR(p.CheckKeys(root,
                                  {"name", "description", "estimators", "configs", "metric", "runs",
@@ -366,8 +364,8 @@ StatusOr<StudyManifest> ParseStudyManifest(const std::string& text, const std::s
     for (const auto& kv : configs) {
       WG_ASSIGN_OR_RETURN(std::string id, p.String(kv.first, "estimator id"));
       if (registry.Find(id) == nullptr) {
-        return p.Error(kv.first,
-                       "configs: unknown estimator '" + id + "'; known: " + Join(registry.Ids()));
+        return p.Error(kv.first, "configs: unknown estimator " + internal::Quoted(id) +
+                                     "; known: " + Join(registry.Ids()));
       }
       if (!kv.second.IsMap() && !kv.second.IsNull()) {
         return p.Error(kv.second, "configs: the options of " + id + " must be a map");
@@ -415,13 +413,18 @@ StatusOr<StudyManifest> ParseStudyManifest(const std::string& text, const std::s
   return m;
 }
 
+}  // namespace
+
+StatusOr<StudyManifest> ParseStudyManifest(const std::string& text, const std::string& path,
+                                           const EstimatorRegistry& registry) {
+  WG_ASSIGN_OR_RETURN(const YAML::Node root, LoadYamlText(text, path));
+  return ParseManifestRoot(root, path, registry);
+}
+
 StatusOr<StudyManifest> ReadStudyManifest(const std::string& path,
                                           const EstimatorRegistry& registry) {
-  std::ifstream in(path);
-  if (!in) return NotFound(path + ": cannot open file");
-  std::stringstream text;
-  text << in.rdbuf();
-  return ParseStudyManifest(text.str(), path, registry);
+  WG_ASSIGN_OR_RETURN(const YAML::Node root, LoadYamlFile(path));
+  return ParseManifestRoot(root, path, registry);
 }
 
 // ------------------------------------------------------------------ running
@@ -804,13 +807,14 @@ std::string RenderStudyHtml(const StudyResult& r) {
   return s.str();
 }
 
-Status WriteStudy(const StudyResult& r, const std::string& out_dir) {
+Status WriteStudy(const StudyResult& r, const std::string& out_dir, const OutputOptions& options) {
   const std::string csv = StudyCsv(r), timing = StudyTimingCsv(r), html = RenderStudyHtml(r);
-  return report::WriteFolderAtomically(out_dir, [&](const fs::path& tmp) {
+  return WriteOutputFolder(out_dir, options, [&](const std::string& tmp_dir) {
+    const fs::path tmp(tmp_dir);
     for (const auto& [name, text] : {std::pair<const char*, const std::string*>{"study.csv", &csv},
                                      {"timing.csv", &timing},
                                      {"study.html", &html}}) {
-      WG_RETURN_IF_ERROR(WriteFileAtomically((tmp / name).string(), [&](std::ostream& out) {
+      WG_RETURN_IF_ERROR(WriteFileInOutput((tmp / name).string(), [&](std::ostream& out) {
         out << *text;
         return true;
       }));

@@ -180,7 +180,11 @@ StatusOr<StrideOptions> StrideOptions::FromYaml(const YAML::Node& node) {
 
 StatusOr<ZuptInsSolution> RunZuptIns(const Walk& walk, const StrideOptions& o) {
   WG_RETURN_IF_ERROR(CheckOptions(o));
-  if (walk.imu.size() < 10) return FailedPrecondition("strides: the walk needs an IMU (imu.csv)");
+  if (walk.imu.empty()) return FailedPrecondition("strides: the walk needs an IMU (imu.csv)");
+  if (walk.imu.size() < 10) {
+    return FailedPrecondition("strides: the walk has " + std::to_string(walk.imu.size()) +
+                              " IMU samples; expected at least 10");
+  }
   for (size_t i = 1; i < walk.imu.size(); ++i) {
     if (!(walk.imu[i].t_s > walk.imu[i - 1].t_s)) {
       return InvalidArgument("strides: IMU time does not increase at sample " + std::to_string(i));

@@ -1,6 +1,13 @@
 #include "walkgraph/config.h"
 
-#include <fstream>
+#include <cerrno>
+#include <charconv>
+#include <set>
+#include <vector>
+
+#include "io/csv_reader.h"
+#include "io/input_file.h"
+#include "util/text.h"
 
 namespace walkgraph {
 
@@ -20,23 +27,45 @@ ConfigReader::ConfigReader(YAML::Node node, std::string context)
   }
 }
 
+// Numbers are read as the walk format's CSV fields are: decimal only (no 0x5, .nan, .inf).
+bool ParseScalar(const std::string& text, double* value) {
+  return internal::ParseFiniteDouble(text, value);
+}
+bool ParseScalar(const std::string& text, int* value) {
+  const char* begin = text.data() + (!text.empty() && text[0] == '+' ? 1 : 0);
+  const char* end = text.data() + text.size();
+  const auto [ptr, ec] = std::from_chars(begin, end, *value);
+  return begin != end && ec == std::errc() && ptr == end;
+}
+bool ParseScalar(const std::string& text, bool* value) {
+  if (text == "true" || text == "True" || text == "TRUE") return *value = true, true;
+  if (text == "false" || text == "False" || text == "FALSE") return *value = false, true;
+  return false;
+}
+bool ParseScalar(const std::string& text, std::string* value) {
+  *value = text;
+  return true;
+}
+
 template <typename T>
 void ConfigReader::ReadScalar(const std::string& key, T* value, const char* type_name) {
   known_.insert(key);
   if (!first_error_.ok() || !node_.IsMap()) return;
   const YAML::Node child = node_[key];
   if (!child.IsDefined() || child.IsNull()) return;
-  try {
-    if (!child.IsScalar()) throw YAML::Exception(child.Mark(), "not a scalar");
-    *value = child.as<T>();
-  } catch (const YAML::Exception&) {
-    first_error_ = InvalidArgument(context_ + LineOf(child) + ": option '" + key +
-                                   "' must be a " + type_name);
+  if (!child.IsScalar() || !ParseScalar(child.Scalar(), value)) {
+    first_error_ = InvalidArgument(
+        context_ + LineOf(child) + ": option '" + key + "' must be a " + type_name + ", found " +
+        (child.IsScalar() ? internal::QuotedNumber(child.Scalar()) : std::string("a list or map")));
   }
 }
 
-void ConfigReader::Read(const std::string& key, double* value) { ReadScalar(key, value, "number"); }
-void ConfigReader::Read(const std::string& key, int* value) { ReadScalar(key, value, "integer"); }
+void ConfigReader::Read(const std::string& key, double* value) {
+  ReadScalar(key, value, "finite decimal number");
+}
+void ConfigReader::Read(const std::string& key, int* value) {
+  ReadScalar(key, value, "decimal integer in [-2147483648, 2147483647]");
+}
 void ConfigReader::Read(const std::string& key, bool* value) {
   ReadScalar(key, value, "boolean (true/false)");
 }
@@ -61,21 +90,71 @@ Status ConfigReader::Finish() const {
     if (known_.count(key) == 0) {
       std::string list;
       for (const auto& k : known_) list += (list.empty() ? "" : ", ") + k;
-      return InvalidArgument(context_ + LineOf(kv.first) + ": unknown option '" + key +
-                             "'; known options: " + list);
+      return InvalidArgument(context_ + LineOf(kv.first) + ": unknown option " +
+                             internal::Quoted(key) + "; known options: " + list);
     }
   }
   return Status::Ok();
 }
 
+namespace {
+
+// yaml-cpp keeps both entries of a repeated key and answers lookups with the first: a repeated
+// key is an error, with the line of its second appearance.
+// Aliases make a small file expand to an exponential number of nodes (the "billion laughs"):
+// at most kMaxYamlNodes are visited.
+constexpr long kMaxYamlNodes = 1000000;
+
+Status CheckDuplicateKeys(const YAML::Node& node, const std::string& path, long* visited,
+                          int depth = 0) {
+  if (depth > 64) return InvalidArgument(path + LineOf(node) + ": nested deeper than 64 levels");
+  if (++*visited > kMaxYamlNodes) {
+    return InvalidArgument(path + ": expands to more than " + std::to_string(kMaxYamlNodes) +
+                           " YAML nodes (aliases?); expected a small configuration");
+  }
+  if (node.IsMap()) {
+    std::set<std::string> keys;
+    for (const auto& kv : node) {
+      if (kv.first.IsScalar() && !keys.insert(kv.first.Scalar()).second) {
+        return InvalidArgument(path + ":" + std::to_string(kv.first.Mark().line + 1) +
+                               ": duplicate key " + internal::Quoted(kv.first.Scalar()) +
+                               "; each key may appear once");
+      }
+      WG_RETURN_IF_ERROR(CheckDuplicateKeys(kv.second, path, visited, depth + 1));
+    }
+  } else if (node.IsSequence()) {
+    for (const auto& item : node) {
+      WG_RETURN_IF_ERROR(CheckDuplicateKeys(item, path, visited, depth + 1));
+    }
+  }
+  return Status::Ok();
+}
+
+}  // namespace
+
 StatusOr<YAML::Node> LoadYamlFile(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) return NotFound(path + ": cannot open file");
+  WG_ASSIGN_OR_RETURN(const std::string text,
+                      internal::ReadInputFile(path, internal::kMaxYamlBytes));
+  return LoadYamlText(text, path);
+}
+
+StatusOr<YAML::Node> LoadYamlText(const std::string& text, const std::string& path) {
+  std::vector<YAML::Node> docs;
   try {
-    return YAML::Load(in);
+    docs = YAML::LoadAll(text);
   } catch (const YAML::Exception& e) {
     return InvalidArgument(path + ":" + std::to_string(e.mark.line + 1) + ": " + e.msg);
+  } catch (const std::exception& e) {
+    return InvalidArgument(path + ": cannot read as YAML: " + e.what());
   }
+  if (docs.size() > 1) {
+    return InvalidArgument(path + ": holds " + std::to_string(docs.size()) +
+                           " YAML documents (separated by '---'); expected one");
+  }
+  if (docs.empty()) return YAML::Node();
+  long visited = 0;
+  WG_RETURN_IF_ERROR(CheckDuplicateKeys(docs[0], path, &visited));
+  return docs[0];
 }
 
 }  // namespace walkgraph

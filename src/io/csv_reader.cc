@@ -5,6 +5,8 @@
 #include <cstdlib>
 #include <sstream>
 
+#include "util/text.h"
+
 namespace walkgraph::internal {
 
 namespace {
@@ -39,13 +41,33 @@ std::vector<std::string> SplitCsvLine(const std::string& line) {
   return out;
 }
 
-bool ParseFiniteDouble(const std::string& field, double* value) {
-  if (field.empty()) return false;
-  const char* begin = field.c_str();
-  char* end = nullptr;
+bool ParseFiniteDouble(std::string_view field, double* value) {
+  // The grammar first: strtod alone would also take hexadecimal, "inf", "nan" and spaces.
+  size_t i = 0;
+  const size_t n = field.size();
+  auto digits = [&] {
+    const size_t start = i;
+    while (i < n && field[i] >= '0' && field[i] <= '9') ++i;
+    return i - start;
+  };
+  if (i < n && (field[i] == '+' || field[i] == '-')) ++i;
+  size_t mantissa = digits();
+  if (i < n && field[i] == '.') {
+    ++i;
+    mantissa += digits();
+  }
+  if (mantissa == 0) return false;
+  if (i < n && (field[i] == 'e' || field[i] == 'E')) {
+    ++i;
+    if (i < n && (field[i] == '+' || field[i] == '-')) ++i;
+    if (digits() == 0) return false;
+  }
+  if (i != n) return false;
+  const std::string text(field);
   errno = 0;
-  const double v = std::strtod(begin, &end);
-  if (end != begin + field.size() || errno == ERANGE || !std::isfinite(v)) return false;
+  const double v = std::strtod(text.c_str(), nullptr);
+  // ERANGE is also set for subnormal results, which are finite: only overflow is refused.
+  if (!std::isfinite(v)) return false;
   *value = v;
   return true;
 }
@@ -56,24 +78,15 @@ void StripCarriageReturn(std::string* line) {
 
 CsvReader::CsvReader(std::string path, std::vector<std::string> required,
                      std::vector<std::string> optional)
-    : path_(std::move(path)), required_(std::move(required)), optional_(std::move(optional)) {}
-
-std::string CsvReader::Where() const { return path_ + ":" + std::to_string(line_) + ": "; }
+    : lines_(std::move(path)), required_(std::move(required)), optional_(std::move(optional)) {}
 
 Status CsvReader::Open() {
-  in_.open(path_, std::ios::binary);
-  if (!in_) return NotFound(path_ + ": cannot open file");
-  if (!std::getline(in_, buffer_)) {
-    return InvalidArgument(path_ + ":1: empty file; expected the header line '" +
-                           Join(required_) + "'");
+  WG_RETURN_IF_ERROR(lines_.Open());
+  WG_ASSIGN_OR_RETURN(const bool any, lines_.Next(&buffer_));
+  if (!any) {
+    return InvalidArgument(path() + ":1: empty file; expected the header line '" + Join(required_) +
+                           "'");
   }
-  line_ = 1;
-  if (buffer_.size() >= 3 && static_cast<unsigned char>(buffer_[0]) == 0xEF &&
-      static_cast<unsigned char>(buffer_[1]) == 0xBB &&
-      static_cast<unsigned char>(buffer_[2]) == 0xBF) {
-    buffer_.erase(0, 3);  // UTF-8 byte-order mark
-  }
-  StripCarriageReturn(&buffer_);
   const std::vector<std::string> header = SplitCsvLine(buffer_);
   std::vector<std::string> with_optional = required_;
   with_optional.insert(with_optional.end(), optional_.begin(), optional_.end());
@@ -84,26 +97,23 @@ Status CsvReader::Open() {
   } else {
     std::string expected = "'" + Join(required_) + "'";
     if (!optional_.empty()) expected += " or '" + Join(with_optional) + "'";
-    return InvalidArgument(Where() + "header is '" + buffer_ + "'; expected " + expected);
+    return InvalidArgument(Where() + "header is " + Quoted(buffer_) + "; expected " + expected);
   }
   return Status::Ok();
 }
 
 StatusOr<bool> CsvReader::Next(std::vector<double>* fields) {
-  if (!std::getline(in_, buffer_)) {
-    if (in_.bad()) return IoError(path_ + ": read error after line " + std::to_string(line_));
-    return false;
-  }
-  ++line_;
-  StripCarriageReturn(&buffer_);
+  WG_ASSIGN_OR_RETURN(const bool any, lines_.Next(&buffer_));
+  if (!any) return false;
   if (buffer_.empty()) {
     // A single trailing empty line is how most tools end a file; anything after it is not.
+    const std::string blank = Where();
     std::string rest;
-    while (std::getline(in_, rest)) {
-      StripCarriageReturn(&rest);
-      if (!rest.empty()) return InvalidArgument(Where() + "empty line inside the data");
+    while (true) {
+      WG_ASSIGN_OR_RETURN(const bool more, lines_.Next(&rest));
+      if (!more) return false;
+      if (!rest.empty()) return InvalidArgument(blank + "empty line inside the data");
     }
-    return false;
   }
   const std::vector<std::string> parts = SplitCsvLine(buffer_);
   if (parts.size() != num_columns_) {
@@ -113,9 +123,11 @@ StatusOr<bool> CsvReader::Next(std::vector<double>* fields) {
   fields->resize(num_columns_);
   for (size_t i = 0; i < parts.size(); ++i) {
     if (!ParseFiniteDouble(parts[i], &(*fields)[i])) {
-      const std::string name = i < required_.size() ? required_[i] : optional_[i - required_.size()];
-      return InvalidArgument(Where() + "column '" + name + "': expected a finite number, found '" +
-                             parts[i] + "'");
+      const std::string name =
+          i < required_.size() ? required_[i] : optional_[i - required_.size()];
+      return InvalidArgument(Where() + "column '" + name +
+                             "': expected a finite decimal number, found " +
+                             QuotedNumber(parts[i]));
     }
   }
   return true;

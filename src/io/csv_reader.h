@@ -6,10 +6,11 @@
 #ifndef WALKGRAPH_SRC_IO_CSV_READER_H_
 #define WALKGRAPH_SRC_IO_CSV_READER_H_
 
-#include <fstream>
 #include <string>
+#include <string_view>
 #include <vector>
 
+#include "io/input_file.h"
 #include "walkgraph/status.h"
 
 namespace walkgraph::internal {
@@ -26,26 +27,26 @@ class CsvReader {
   // the end of the file. Blank lines are errors (they are where truncated files show up).
   StatusOr<bool> Next(std::vector<double>* fields);
 
-  int line() const { return line_; }
+  int line() const { return lines_.line(); }
   size_t num_columns() const { return num_columns_; }
-  const std::string& path() const { return path_; }
+  const std::string& path() const { return lines_.path(); }
   // "path:line: " for messages about the current row.
-  std::string Where() const;
+  std::string Where() const { return lines_.Where(); }
 
  private:
-  std::string path_;
+  LineReader lines_;
   std::vector<std::string> required_;
   std::vector<std::string> optional_;
-  std::ifstream in_;
   std::string buffer_;
-  int line_ = 0;
   size_t num_columns_ = 0;
 };
 
 // Splits on commas (no quoting in the walk format).
 std::vector<std::string> SplitCsvLine(const std::string& line);
-// Parses a whole field as a finite double; false on junk, empty, NaN or Inf.
-bool ParseFiniteDouble(const std::string& field, double* value);
+// Parses a whole field as a finite decimal number: [+-]digits[.digits][(e|E)[+-]digits] (or
+// .digits); false on anything else: empty, junk, hexadecimal (0x5, 0x1p3), NaN, Inf, or a
+// magnitude beyond the double range. Subnormal values (1e-320) are finite and accepted.
+bool ParseFiniteDouble(std::string_view field, double* value);
 // Removes a trailing '\r' (CRLF files).
 void StripCarriageReturn(std::string* line);
 

@@ -6,11 +6,14 @@
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
+#include <map>
 #include <set>
 #include <sstream>
 #include <unordered_map>
 
 #include "io/csv_reader.h"
+#include "io/input_file.h"
+#include "util/text.h"
 #include "walkgraph/angle.h"
 #include "walkgraph/config.h"
 #include "walkgraph/io.h"
@@ -33,8 +36,25 @@ std::string G(double v) {
 // Each returns "" when the row is acceptable, else what was expected. Shared by the readers
 // (which prefix "file:line: ") and ValidateWalk (which prefixes the stream and index).
 
-std::string CheckTimeStrictlyIncreasing(double t, const double* prev_t) {
+// Timestamps are seconds; beyond kMaxTimeS (year 2286 as Unix time) they are in another unit.
+constexpr double kMaxTimeS = 1e10;
+
+std::string CheckTimeRange(double t) {
   if (t < 0.0) return "t_s must be >= 0, found " + G(t);
+  if (t <= kMaxTimeS) return "";
+  for (const auto& [factor, unit] : {std::pair<double, const char*>{1e3, "milliseconds"},
+                                     {1e6, "microseconds"},
+                                     {1e9, "nanoseconds"}}) {
+    if (t / factor <= kMaxTimeS) {
+      return "t_s " + G(t) + " is beyond " + G(kMaxTimeS) + " s; it looks like " + unit + " (" +
+             G(t / factor) + " s); expected seconds";
+    }
+  }
+  return "t_s " + G(t) + " is beyond " + G(kMaxTimeS) + " s; expected seconds";
+}
+
+std::string CheckTimeStrictlyIncreasing(double t, const double* prev_t) {
+  if (std::string e = CheckTimeRange(t); !e.empty()) return e;
   if (prev_t == nullptr || t > *prev_t) return "";
   std::ostringstream s;
   s << std::setprecision(15) << "timestamp " << t
@@ -74,7 +94,7 @@ std::string CheckRange(const RangeSample& s, const ValidationLimits& lim) {
 // Multi-anchor streams: timestamps never go backwards; per anchor they strictly increase.
 std::string CheckRadioTime(double t, int anchor_id, double* last_t,
                            std::unordered_map<int, double>* last_by_anchor, bool first) {
-  if (t < 0.0) return "t_s must be >= 0";
+  if (std::string e = CheckTimeRange(t); !e.empty()) return e;
   if (!first && t < *last_t) {
     return "timestamp " + G(t) + " goes backwards (previous " + G(*last_t) +
            "); expected non-decreasing t_s";
@@ -104,7 +124,7 @@ Status ParseEnum(const std::string& text, const std::vector<std::pair<const char
     }
     options += (options.empty() ? "" : "|") + std::string(name);
   }
-  return InvalidArgument(where + ": '" + text + "' is not one of " + options);
+  return InvalidArgument(where + ": " + internal::Quoted(text) + " is not one of " + options);
 }
 
 Status ReadMeta(const std::string& path, WalkMeta* meta) {
@@ -199,13 +219,12 @@ Status ReadMeta(const std::string& path, WalkMeta* meta) {
       if (!kv.first.IsScalar()) {
         return InvalidArgument(path + ":" + line + ": extra: keys must be plain words");
       }
-      try {
-        if (!kv.second.IsScalar()) throw YAML::Exception(kv.second.Mark(), "not a scalar");
-        meta->extra[kv.first.Scalar()] = kv.second.as<double>();
-      } catch (const YAML::Exception&) {
+      double v = 0.0;
+      if (!kv.second.IsScalar() || !internal::ParseFiniteDouble(kv.second.Scalar(), &v)) {
         return InvalidArgument(path + ":" + line + ": extra." + kv.first.Scalar() +
-                               " must be a number");
+                               " must be a finite decimal number");
       }
+      meta->extra[kv.first.Scalar()] = v;
     }
   }
   return Status::Ok();
@@ -349,12 +368,56 @@ Status ReadStanceTruth(const std::string& path, std::vector<StanceSample>* out) 
     if (!e.empty()) return InvalidArgument(r.Where() + e);
     out->push_back({f[0], f[1] == 1.0});
   }
+  if (out->empty()) return InvalidArgument(path + ":2: no samples; expected at least one row");
   return Status::Ok();
 }
 
-bool Exists(const fs::path& p) {
-  std::error_code ec;
-  return fs::exists(p, ec);
+// The text fields of walk.yaml end up in JSON and HTML: they must be UTF-8.
+Status CheckMetaText(const WalkMeta& m, const std::string& where) {
+  for (const auto& [key, value] : {std::pair<const char*, const std::string*>{"name", &m.name},
+                                   {"source", &m.source},
+                                   {"licence", &m.licence}}) {
+    if (!internal::IsValidUtf8(*value)) {
+      return InvalidArgument(where + ": " + key + " " + internal::Quoted(*value) +
+                             " is not valid UTF-8; expected UTF-8 text");
+    }
+  }
+  for (const auto& [key, value] : m.extra) {
+    if (!internal::IsValidUtf8(key)) {
+      return InvalidArgument(where + ": extra key " + internal::Quoted(key) +
+                             " is not valid UTF-8");
+    }
+  }
+  return Status::Ok();
+}
+
+// The streams a walk.yaml declares must be the ones present (a file the header says is not
+// there would be silently ignored by some estimators and used by others).
+Status CheckDeclaredStreams(const Walk& walk, const std::string& yaml) {
+  // radio.kind names the primary radio stream; a walk may also carry the other (002: RSS + TOA).
+  const RadioKind kind = walk.meta.radio.kind;
+  if (kind == RadioKind::kNone && (!walk.rss.empty() || !walk.ranges.empty())) {
+    return InvalidArgument(yaml + ": radio.kind is 'none' but " +
+                           (walk.rss.empty() ? "range.csv" : "rss.csv") +
+                           " is present; expected radio.kind: rss|range");
+  }
+  if (kind == RadioKind::kRss && walk.rss.empty()) {
+    return InvalidArgument(yaml + ": radio.kind is 'rss' but rss.csv is missing");
+  }
+  if (kind == RadioKind::kRange && walk.ranges.empty()) {
+    return InvalidArgument(yaml + ": radio.kind is 'range' but range.csv is missing");
+  }
+  const ImuPlacement placement = walk.meta.imu_placement;
+  if (placement == ImuPlacement::kNone && !walk.imu.empty()) {
+    return InvalidArgument(yaml +
+                           ": imu_placement is 'none' but imu.csv is present; expected "
+                           "foot|waist|hip|handheld");
+  }
+  if (placement != ImuPlacement::kNone && walk.imu.empty()) {
+    return InvalidArgument(yaml + ": imu_placement is '" + ToString(placement) +
+                           "' but imu.csv is missing; expected imu_placement: none");
+  }
+  return Status::Ok();
 }
 
 // Full precision, no trailing noise: shortest representation that round-trips.
@@ -375,49 +438,56 @@ StatusOr<Walk> ReadWalk(const std::string& dir, const ValidationLimits& limits) 
   if (!fs::is_directory(root, ec)) return NotFound(dir + ": not a walk directory");
   Walk walk;
   const fs::path yaml = root / "walk.yaml";
-  if (!Exists(yaml)) return NotFound(yaml.string() + ": missing (every walk needs walk.yaml)");
+  const Status yaml_file = internal::CheckInputFile(yaml.string());
+  if (yaml_file.code() == StatusCode::kNotFound) {
+    return NotFound(yaml.string() + ": missing (every walk needs walk.yaml)");
+  }
+  WG_RETURN_IF_ERROR(yaml_file);
   WG_RETURN_IF_ERROR(ReadMeta(yaml.string(), &walk.meta));
+  WG_RETURN_IF_ERROR(CheckMetaText(walk.meta, yaml.string()));
 
-  const fs::path anchors = root / "anchors.csv";
-  if (Exists(anchors)) {
-    WG_RETURN_IF_ERROR(ReadAnchors(anchors.string(), limits, &walk.anchors));
+  // Which streams are there: each must be a regular file or absent.
+  std::map<std::string, bool> present;
+  for (const char* name : {"anchors.csv", "imu.csv", "rss.csv", "range.csv", "odometry.csv",
+                           "truth.csv", "stance_truth.csv"}) {
+    WG_ASSIGN_OR_RETURN(present[name], internal::OptionalInputFile((root / name).string()));
+  }
+  const auto path = [&](const char* name) { return (root / name).string(); };
+  if (present["anchors.csv"]) {
+    WG_RETURN_IF_ERROR(ReadAnchors(path("anchors.csv"), limits, &walk.anchors));
   }
   std::set<int> ids;
   for (const Anchor& a : walk.anchors) ids.insert(a.id);
 
-  if (Exists(root / "imu.csv")) {
-    WG_RETURN_IF_ERROR(ReadImu((root / "imu.csv").string(), limits, &walk.imu));
-  }
+  if (present["imu.csv"]) WG_RETURN_IF_ERROR(ReadImu(path("imu.csv"), limits, &walk.imu));
   const RssUnits units = walk.meta.radio.units;
   for (const char* name : {"rss.csv", "range.csv"}) {
-    if (Exists(root / name) && walk.anchors.empty()) {
-      return InvalidArgument((root / name).string() + ": radio measurements need anchors.csv");
+    if (present[name] && walk.anchors.empty()) {
+      return InvalidArgument(path(name) + ": radio measurements need anchors.csv");
     }
   }
-  if (Exists(root / "rss.csv")) {
+  if (present["rss.csv"]) {
     WG_RETURN_IF_ERROR(ReadRadioStream<RssSample>(
-        (root / "rss.csv").string(), {"t_s", "anchor_id", "rss"}, ids,
+        path("rss.csv"), {"t_s", "anchor_id", "rss"}, ids,
         [](const std::vector<double>& f, RssSample* s) {
           *s = {f[0], static_cast<int>(f[1]), f[2]};
         },
         [&](const RssSample& s) { return CheckRss(s, units, limits); }, &walk.rss));
   }
-  if (Exists(root / "range.csv")) {
+  if (present["range.csv"]) {
     WG_RETURN_IF_ERROR(ReadRadioStream<RangeSample>(
-        (root / "range.csv").string(), {"t_s", "anchor_id", "range_m"}, ids,
+        path("range.csv"), {"t_s", "anchor_id", "range_m"}, ids,
         [](const std::vector<double>& f, RangeSample* s) {
           *s = {f[0], static_cast<int>(f[1]), f[2]};
         },
         [&](const RangeSample& s) { return CheckRange(s, limits); }, &walk.ranges));
   }
-  if (Exists(root / "odometry.csv")) {
-    WG_RETURN_IF_ERROR(ReadOdometry((root / "odometry.csv").string(), &walk.odometry));
+  if (present["odometry.csv"]) {
+    WG_RETURN_IF_ERROR(ReadOdometry(path("odometry.csv"), &walk.odometry));
   }
-  if (Exists(root / "truth.csv")) {
-    WG_RETURN_IF_ERROR(ReadTruth((root / "truth.csv").string(), limits, &walk.truth));
-  }
-  if (Exists(root / "stance_truth.csv")) {
-    WG_RETURN_IF_ERROR(ReadStanceTruth((root / "stance_truth.csv").string(), &walk.stance_truth));
+  if (present["truth.csv"]) WG_RETURN_IF_ERROR(ReadTruth(path("truth.csv"), limits, &walk.truth));
+  if (present["stance_truth.csv"]) {
+    WG_RETURN_IF_ERROR(ReadStanceTruth(path("stance_truth.csv"), &walk.stance_truth));
   }
   if (walk.meta.truth_kind != TruthKind::kNone && walk.truth.empty()) {
     return InvalidArgument(yaml.string() + ": truth is '" + ToString(walk.meta.truth_kind) +
@@ -433,10 +503,13 @@ StatusOr<Walk> ReadWalk(const std::string& dir, const ValidationLimits& limits) 
                            ": no measurements; expected at least one of imu.csv, rss.csv, "
                            "range.csv, odometry.csv");
   }
+  WG_RETURN_IF_ERROR(CheckDeclaredStreams(walk, yaml.string()));
   return walk;
 }
 
 Status ValidateWalk(const Walk& walk, const ValidationLimits& limits) {
+  WG_RETURN_IF_ERROR(CheckMetaText(walk.meta, "walk meta"));
+  WG_RETURN_IF_ERROR(CheckDeclaredStreams(walk, "walk meta"));
   std::set<int> ids;
   for (size_t i = 0; i < walk.anchors.size(); ++i) {
     if (walk.anchors[i].id < 0)
@@ -499,6 +572,15 @@ Status ValidateWalk(const Walk& walk, const ValidationLimits& limits) {
     const std::string e =
         CheckTimeStrictlyIncreasing(s.t_s, i ? &walk.odometry[i - 1].t_s : nullptr);
     if (!e.empty()) return InvalidArgument(where("odometry", i) + e);
+    if (!(s.dist_m >= 0.0 && s.dist_m <= 100.0) || std::fabs(s.dheading_rad) > 2.0 * kPi) {
+      return InvalidArgument(where("odometry", i) +
+                             "dist_m outside [0, 100] m or dheading_rad beyond 2*pi");
+    }
+  }
+  for (size_t i = 0; i < walk.stance_truth.size(); ++i) {
+    const std::string e = CheckTimeStrictlyIncreasing(walk.stance_truth[i].t_s,
+                                                      i ? &walk.stance_truth[i - 1].t_s : nullptr);
+    if (!e.empty()) return InvalidArgument(where("stance_truth", i) + e);
   }
   for (size_t i = 0; i < walk.truth.size(); ++i) {
     const TruthSample& s = walk.truth[i];
@@ -514,35 +596,11 @@ Status ValidateWalk(const Walk& walk, const ValidationLimits& limits) {
   return Status::Ok();
 }
 
-Status WriteFileAtomically(const std::string& path,
-                           const std::function<bool(std::ostream&)>& write) {
-  const std::string tmp = path + ".tmp-" + std::to_string(::getpid());
-  bool ok = false;
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    if (!out) return IoError(path + ": cannot create temporary file " + tmp);
-    ok = write(out);
-    out.flush();
-    ok = ok && out.good();
-  }
-  std::error_code ec;
-  if (!ok) {
-    fs::remove(tmp, ec);
-    return IoError(path + ": write failed");
-  }
-  fs::rename(tmp, path, ec);
-  if (ec) {
-    fs::remove(tmp, ec);
-    return IoError(path + ": cannot rename temporary file: " + ec.message());
-  }
-  return Status::Ok();
-}
-
 namespace {
 
 Status WriteWalkFiles(const Walk& walk, const fs::path& root) {
   const WalkMeta& m = walk.meta;
-  WG_RETURN_IF_ERROR(WriteFileAtomically((root / "walk.yaml").string(), [&](std::ostream& o) {
+  WG_RETURN_IF_ERROR(WriteFileInOutput((root / "walk.yaml").string(), [&](std::ostream& o) {
     YAML::Emitter e;
     e << YAML::BeginMap;
     e << YAML::Key << "format_version" << YAML::Value << 1;
@@ -583,7 +641,7 @@ Status WriteWalkFiles(const Walk& walk, const fs::path& root) {
     return e.good();
   }));
   if (!walk.anchors.empty()) {
-    WG_RETURN_IF_ERROR(WriteFileAtomically((root / "anchors.csv").string(), [&](std::ostream& o) {
+    WG_RETURN_IF_ERROR(WriteFileInOutput((root / "anchors.csv").string(), [&](std::ostream& o) {
       o << "id,x_m,y_m,z_m\n";
       for (const Anchor& a : walk.anchors) {
         o << a.id << ',' << Num(a.position_m.x()) << ',' << Num(a.position_m.y()) << ','
@@ -594,7 +652,7 @@ Status WriteWalkFiles(const Walk& walk, const fs::path& root) {
   }
   if (!walk.imu.empty()) {
     const bool mag = walk.imu[0].has_mag;
-    WG_RETURN_IF_ERROR(WriteFileAtomically((root / "imu.csv").string(), [&](std::ostream& o) {
+    WG_RETURN_IF_ERROR(WriteFileInOutput((root / "imu.csv").string(), [&](std::ostream& o) {
       o << "t_s,ax,ay,az,gx,gy,gz" << (mag ? ",mx,my,mz" : "") << '\n';
       for (const ImuSample& s : walk.imu) {
         o << Num(s.t_s);
@@ -609,7 +667,7 @@ Status WriteWalkFiles(const Walk& walk, const fs::path& root) {
     }));
   }
   if (!walk.rss.empty()) {
-    WG_RETURN_IF_ERROR(WriteFileAtomically((root / "rss.csv").string(), [&](std::ostream& o) {
+    WG_RETURN_IF_ERROR(WriteFileInOutput((root / "rss.csv").string(), [&](std::ostream& o) {
       o << "t_s,anchor_id,rss\n";
       for (const RssSample& s : walk.rss)
         o << Num(s.t_s) << ',' << s.anchor_id << ',' << Num(s.rss) << '\n';
@@ -617,7 +675,7 @@ Status WriteWalkFiles(const Walk& walk, const fs::path& root) {
     }));
   }
   if (!walk.ranges.empty()) {
-    WG_RETURN_IF_ERROR(WriteFileAtomically((root / "range.csv").string(), [&](std::ostream& o) {
+    WG_RETURN_IF_ERROR(WriteFileInOutput((root / "range.csv").string(), [&](std::ostream& o) {
       o << "t_s,anchor_id,range_m\n";
       for (const RangeSample& s : walk.ranges) {
         o << Num(s.t_s) << ',' << s.anchor_id << ',' << Num(s.range_m) << '\n';
@@ -626,7 +684,7 @@ Status WriteWalkFiles(const Walk& walk, const fs::path& root) {
     }));
   }
   if (!walk.odometry.empty()) {
-    WG_RETURN_IF_ERROR(WriteFileAtomically((root / "odometry.csv").string(), [&](std::ostream& o) {
+    WG_RETURN_IF_ERROR(WriteFileInOutput((root / "odometry.csv").string(), [&](std::ostream& o) {
       o << "t_s,dist_m,dheading_rad\n";
       for (const OdometrySample& s : walk.odometry) {
         o << Num(s.t_s) << ',' << Num(s.dist_m) << ',' << Num(s.dheading_rad) << '\n';
@@ -636,7 +694,7 @@ Status WriteWalkFiles(const Walk& walk, const fs::path& root) {
   }
   if (!walk.truth.empty()) {
     const bool z = walk.truth[0].has_z;
-    WG_RETURN_IF_ERROR(WriteFileAtomically((root / "truth.csv").string(), [&](std::ostream& o) {
+    WG_RETURN_IF_ERROR(WriteFileInOutput((root / "truth.csv").string(), [&](std::ostream& o) {
       o << "t_s,x_m,y_m" << (z ? ",z_m" : "") << '\n';
       for (const TruthSample& s : walk.truth) {
         o << Num(s.t_s) << ',' << Num(s.position_m.x()) << ',' << Num(s.position_m.y());
@@ -648,7 +706,7 @@ Status WriteWalkFiles(const Walk& walk, const fs::path& root) {
   }
   if (!walk.stance_truth.empty()) {
     WG_RETURN_IF_ERROR(
-        WriteFileAtomically((root / "stance_truth.csv").string(), [&](std::ostream& o) {
+        WriteFileInOutput((root / "stance_truth.csv").string(), [&](std::ostream& o) {
           o << "t_s,stance\n";
           for (const StanceSample& s : walk.stance_truth) {
             o << Num(s.t_s) << ',' << (s.stance ? 1 : 0) << '\n';
@@ -661,71 +719,51 @@ Status WriteWalkFiles(const Walk& walk, const fs::path& root) {
 
 }  // namespace
 
-Status WriteWalk(const Walk& walk, const std::string& dir) {
+Status WriteWalk(const Walk& walk, const std::string& dir, const OutputOptions& options) {
   WG_RETURN_IF_ERROR(ValidateWalk(walk));
-  const fs::path root(dir);
-  std::error_code ec;
-  if (fs::exists(root, ec)) {
-    if (!fs::is_directory(root, ec)) return IoError(dir + ": exists and is not a directory");
-    // Each file is replaced atomically; stale optional streams from an older walk go away.
-    for (const char* f : {"imu.csv", "rss.csv", "range.csv", "odometry.csv", "truth.csv",
-                          "stance_truth.csv", "anchors.csv"}) {
-      fs::remove(root / f, ec);
-    }
-    return WriteWalkFiles(walk, root);
-  }
-  // A new directory appears only when complete: write into a sibling, then rename.
-  const fs::path tmp = root.string() + ".tmp-" + std::to_string(::getpid());
-  fs::remove_all(tmp, ec);
-  if (!fs::create_directories(tmp, ec)) {
-    return IoError(dir + ": cannot create directory " + tmp.string() + ": " + ec.message());
-  }
-  Status s = WriteWalkFiles(walk, tmp);
-  if (s.ok()) {
-    fs::rename(tmp, root, ec);
-    if (ec) s = IoError(dir + ": cannot rename " + tmp.string() + ": " + ec.message());
-  }
-  if (!s.ok()) fs::remove_all(tmp, ec);
-  return s;
+  return WriteOutputFolder(dir, options,
+                           [&](const std::string& tmp) { return WriteWalkFiles(walk, tmp); });
 }
 
-Status WriteTumTrajectory(const Trajectory& trajectory, const std::string& path) {
-  return WriteFileAtomically(path, [&](std::ostream& o) {
-    o << "# t x y z qx qy qz qw\n";
-    for (const TrajectoryPoint& p : trajectory.points) {
-      const double half = 0.5 * p.heading_rad;
-      o << Num(p.t_s) << ' ' << Num(p.position_m.x()) << ' ' << Num(p.position_m.y()) << ' '
-        << Num(p.position_m.z()) << " 0 0 " << Num(std::sin(half)) << ' ' << Num(std::cos(half))
-        << '\n';
-    }
+void FormatTumTrajectory(const Trajectory& trajectory, std::ostream& o) {
+  o << "# t x y z qx qy qz qw\n";
+  for (const TrajectoryPoint& p : trajectory.points) {
+    const double half = 0.5 * p.heading_rad;
+    o << Num(p.t_s) << ' ' << Num(p.position_m.x()) << ' ' << Num(p.position_m.y()) << ' '
+      << Num(p.position_m.z()) << " 0 0 " << Num(std::sin(half)) << ' ' << Num(std::cos(half))
+      << '\n';
+  }
+}
+
+Status WriteTumTrajectory(const Trajectory& trajectory, const std::string& path,
+                          const OutputOptions& options) {
+  return WriteOutputFile(path, options, [&](std::ostream& o) {
+    FormatTumTrajectory(trajectory, o);
     return true;
   });
 }
 
 StatusOr<Trajectory> ReadTumTrajectory(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) return NotFound(path + ": cannot open file");
+  internal::LineReader in(path);
+  WG_RETURN_IF_ERROR(in.Open());
   Trajectory traj;
   std::string line;
-  int n = 0;
-  while (std::getline(in, line)) {
-    ++n;
-    internal::StripCarriageReturn(&line);
+  while (true) {
+    WG_ASSIGN_OR_RETURN(const bool more, in.Next(&line));
+    if (!more) break;
     if (line.empty() || line[0] == '#') continue;
     std::istringstream ss(line);
     std::vector<double> v;
     std::string tok;
-    while (ss >> tok) {
+    while (ss >> tok && v.size() <= 8) {
       double x;
       if (!internal::ParseFiniteDouble(tok, &x)) {
-        return InvalidArgument(path + ":" + std::to_string(n) + ": '" + tok + "' is not a number");
+        return InvalidArgument(in.Where() + internal::Quoted(tok) + " is not a number");
       }
       v.push_back(x);
     }
-    if (v.size() != 8) {
-      return InvalidArgument(path + ":" + std::to_string(n) +
-                             ": expected 8 fields 't x y z qx qy qz qw'");
-    }
+    if (v.size() != 8)
+      return InvalidArgument(in.Where() + "expected 8 fields 't x y z qx qy qz qw'");
     TrajectoryPoint p;
     p.t_s = v[0];
     p.position_m = Eigen::Vector3d(v[1], v[2], v[3]);
@@ -733,7 +771,7 @@ StatusOr<Trajectory> ReadTumTrajectory(const std::string& path) {
     p.heading_rad =
         std::atan2(2.0 * (v[7] * v[6] + v[4] * v[5]), 1.0 - 2.0 * (v[5] * v[5] + v[6] * v[6]));
     if (!traj.points.empty() && !(p.t_s > traj.points.back().t_s)) {
-      return InvalidArgument(path + ":" + std::to_string(n) + ": timestamps must increase");
+      return InvalidArgument(in.Where() + "timestamps must increase");
     }
     traj.points.push_back(p);
   }

@@ -169,7 +169,11 @@ StatusOr<std::vector<StepEvent>> DetectWithSignals(const Walk& walk, const ImuSi
 }
 
 Status CheckImu(const Walk& walk) {
-  if (walk.imu.size() < 10) return FailedPrecondition("pdr: the walk needs an IMU (imu.csv)");
+  if (walk.imu.empty()) return FailedPrecondition("pdr: the walk needs an IMU (imu.csv)");
+  if (walk.imu.size() < 10) {
+    return FailedPrecondition("pdr: the walk has " + std::to_string(walk.imu.size()) +
+                              " IMU samples; expected at least 10");
+  }
   for (size_t i = 1; i < walk.imu.size(); ++i) {
     if (!(walk.imu[i].t_s > walk.imu[i - 1].t_s)) {
       return InvalidArgument("pdr: IMU time does not increase at sample " + std::to_string(i));

@@ -119,12 +119,8 @@ std::string ErrorTimePlot(const Comparison& c) {
   for (size_t k = 0; k < c.outcomes.size(); ++k) {
     const EstimatorOutcome& o = c.outcomes[k];
     if (!o.status.ok()) continue;
-    // Monte Carlo: the pooled errors hold every run; the curve shows the first run's.
-    size_t n = o.errors.t_s.size();
-    if (o.error_run.size() == n) {
-      n = static_cast<size_t>(std::count(o.error_run.begin(), o.error_run.end(),
-                                         o.error_run.empty() ? 0 : o.error_run.front()));
-    }
+    // Monte Carlo: the first successful run's errors.
+    const size_t n = o.errors.t_s.size();
     s << Polyline(
         n, [&](size_t i) { return std::pair(o.errors.t_s[i], o.errors.error_m[i]); }, a, Color(k),
         "error-curve");
@@ -162,6 +158,17 @@ std::string CdfPlot(const Comparison& c) {
   for (size_t k = 0; k < c.outcomes.size(); ++k) {
     const EstimatorOutcome& o = c.outcomes[k];
     if (!o.status.ok() || o.errors.error_m.empty()) continue;
+    if (o.pooled_errors) {  // Monte Carlo: every run's errors, from the sketch
+      constexpr int kPoints = 400;
+      s << Polyline(
+          kPoints + 1,
+          [&](size_t i) {
+            const double f = static_cast<double>(i) / kPoints;
+            return std::pair(o.pooled_errors->Percentile(100.0 * f), f);
+          },
+          a, Color(k), "cdf-curve");
+      continue;
+    }
     std::vector<double> e = o.errors.error_m;
     std::sort(e.begin(), e.end());
     const double n = static_cast<double>(e.size());

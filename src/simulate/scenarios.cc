@@ -2,6 +2,7 @@
 #include <cmath>
 #include <functional>
 
+#include "util/text.h"
 #include "walkgraph/angle.h"
 #include "walkgraph/config.h"
 #include "walkgraph/simulate.h"
@@ -11,6 +12,14 @@ namespace walkgraph {
 namespace {
 
 using sim::Rng;
+
+// Limits on the size of a simulated walk, checked before allocating: far above any scenario
+// (the longest preset walks 30 min), far below what exhausts a machine.
+constexpr int kMaxLaps = 10000;
+constexpr int kMaxAnchors = 10000;
+constexpr double kMaxDurationS = 360000.0;  // 100 h
+constexpr double kMaxImuSamples = 4e7;      // 111 h at 100 Hz: ~5 GB with its truth
+constexpr double kMaxRadioReadings = 4e7;
 
 // Everything a preset can set; the YAML overrides are read into it.
 struct Params {
@@ -441,13 +450,52 @@ Status ReadOverrides(const YAML::Node& node, Params* p) {
   if (!(p->imu_rate_hz >= 5.0 && p->imu_rate_hz <= 2000.0)) {
     return InvalidArgument(ctx + "imu_rate_hz must be in [5, 2000]");
   }
-  if (p->laps < 1) return InvalidArgument(ctx + "laps must be >= 1");
-  if (p->duration_s < 0.0 || p->start_still_s < 0.0 || p->end_still_s < 0.0) {
-    return InvalidArgument(ctx + "durations must be >= 0");
+  // Sizes are checked before anything is allocated (the walk's size is checked again once its
+  // duration is known, in SimulateScenarioDetailed).
+  if (p->laps < 1 || p->laps > kMaxLaps) {
+    return InvalidArgument(ctx + "laps must be in [1, " + std::to_string(kMaxLaps) + "]");
+  }
+  if (!(p->duration_s >= 0.0 && p->duration_s <= kMaxDurationS) ||
+      !(p->start_still_s >= 0.0 && p->start_still_s <= 3600.0) ||
+      !(p->end_still_s >= 0.0 && p->end_still_s <= 3600.0)) {
+    return InvalidArgument(ctx + "duration_s must be in [0, " + internal::Num(kMaxDurationS) +
+                           "] s, start_still_s and end_still_s in [0, 3600] s");
+  }
+  if (p->num_anchors > kMaxAnchors) {
+    return InvalidArgument(ctx + "num_anchors must be in [0, " + std::to_string(kMaxAnchors) + "]");
+  }
+  if (!(p->radio.period_s >= 0.01 && p->radio.period_s <= 3600.0)) {
+    return InvalidArgument(ctx + "beacon_period_s must be in [0.01, 3600] s");
   }
   const PathLossParams& pl = p->radio.path_loss;
   if (!(pl.eta > 0.0) || !(pl.sigma_db > 0.0) || !(p->radio.period_s > 0.0)) {
     return InvalidArgument(ctx + "eta, sigma_db and beacon_period_s must be > 0");
+  }
+  // Physical plausibility: beyond these the simulated readings fail the walk's own validation.
+  const bool rfcode = p->radio.units == RssUnits::kRfcode;  // 004's units: larger is weaker
+  const struct {
+    const char* key;
+    double value, lo, hi;
+  } kRanges[] = {
+      {"A_dbm", pl.A_dbm, rfcode ? 0.0 : -150.0, rfcode ? 300.0 : 30.0},
+      {"eta", pl.eta, 0.0, 10.0},
+      {"sigma_db", pl.sigma_db, 0.0, 50.0},
+      {"A_spread_db", p->radio.A_spread_db, 0.0, 50.0},
+      {"eta_spread", p->radio.eta_spread, 0.0, 5.0},
+      {"acc_noise_mps2", p->noise.acc_noise_mps2, 0.0, 10.0},
+      {"gyro_noise_radps", p->noise.gyro_noise_radps, 0.0, 5.0},
+      {"acc_bias_sigma_mps2", p->noise.acc_bias_sigma_mps2, 0.0, 10.0},
+      {"gyro_bias_sigma_radps", p->noise.gyro_bias_sigma_radps, 0.0, 5.0},
+      {"gyro_bias_dph", p->gyro_bias_dph, -36000.0, 36000.0},
+      {"mag_noise_ut", p->noise.mag_noise_ut, 0.0, 1000.0},
+      {"mag_disturbance_ut", p->field.disturbance_ut, 0.0, 1000.0},
+      {"weinberg_k", p->gait.weinberg_k, 0.0, 2.0},
+  };
+  for (const auto& r : kRanges) {
+    if (!(r.value >= r.lo && r.value <= r.hi)) {
+      return InvalidArgument(ctx + r.key + " " + internal::Num(r.value) + " outside [" +
+                             internal::Num(r.lo) + ", " + internal::Num(r.hi) + "]");
+    }
   }
   if (p->radio.nlos.fraction < 0.0 || p->radio.nlos.fraction > 1.0) {
     return InvalidArgument(ctx + "nlos_fraction must be in [0, 1]");
@@ -565,7 +613,7 @@ StatusOr<Simulation> SimulateScenarioDetailed(const std::string& name, uint64_t 
   if (preset == nullptr) {
     std::string names;
     for (const auto& s : Scenarios()) names += (names.empty() ? "" : ", ") + s.name;
-    return NotFound("unknown scenario '" + name + "'; known: " + names);
+    return NotFound("unknown scenario " + internal::Quoted(name) + "; known: " + names);
   }
   Params p;
   p.name = name;
@@ -577,6 +625,18 @@ StatusOr<Simulation> SimulateScenarioDetailed(const std::string& name, uint64_t 
   WG_RETURN_IF_ERROR(preset->build(&p, &anchors, &plan));
   const double t_end =
       p.duration_s > 0.0 ? std::min(p.duration_s, plan.duration()) : plan.duration();
+  if (t_end * p.imu_rate_hz > kMaxImuSamples) {
+    return InvalidArgument("simulate " + name + ": the walk would last " + internal::Num(t_end) +
+                           " s, " + internal::Num(t_end * p.imu_rate_hz) + " IMU samples at " +
+                           internal::Num(p.imu_rate_hz) + " Hz; at most " +
+                           internal::Num(kMaxImuSamples) + " (shorten duration_s or laps)");
+  }
+  if (t_end / p.radio.period_s * static_cast<double>(anchors.size()) > kMaxRadioReadings) {
+    return InvalidArgument("simulate " + name + ": " + std::to_string(anchors.size()) +
+                           " anchors every " + internal::Num(p.radio.period_s) + " s for " +
+                           internal::Num(t_end) + " s exceed " + internal::Num(kMaxRadioReadings) +
+                           " readings");
+  }
 
   Rng rng(seed);
   Simulation s;

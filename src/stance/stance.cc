@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 
+#include "util/text.h"
 #include "walkgraph/config.h"
 
 namespace walkgraph {
@@ -106,8 +107,8 @@ StatusOr<StanceDetector> StanceDetectorFromString(const std::string& name) {
   for (const auto& [n, value] : kNames) {
     if (n == name) return value;
   }
-  return InvalidArgument("stance: unknown detector '" + name +
-                         "' (glrt|mv|mag|are|multi-condition)");
+  return InvalidArgument("stance: unknown detector " + internal::Quoted(name) +
+                         " (glrt|mv|mag|are|multi-condition)");
 }
 
 double StanceOptions::threshold() const {
