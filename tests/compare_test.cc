@@ -8,6 +8,7 @@
 
 #include "walkgraph/compare.h"
 #include "walkgraph/io.h"
+#include "walkgraph/simulate.h"
 
 namespace walkgraph {
 namespace {
@@ -102,6 +103,44 @@ TEST(WriteComparison, WritesEveryFileWithTheDocumentedSchema) {
   EXPECT_THAT(page, HasSubstr("id=\"error-cdf\""));
   EXPECT_THAT(page, HasSubstr("class=\"anchor\""));
   EXPECT_THAT(page, ::testing::Not(HasSubstr("http://www.w3.org/2000/svg\" src")));
+  fs::remove_all(out);
+}
+
+// compact streams trajectories and errors to disk: the same files, thinner outcomes in memory.
+TEST(WriteComparison, CompactWritesTheSameFilesAsFull) {
+  auto walk = SimulateScenario("linear-gaussian", 3, YAML::Load("{duration_s: 3600}"));
+  ASSERT_TRUE(walk.ok());
+  CompareOptions full, compact;
+  full.estimator_ids = compact.estimator_ids = {"odometry-dr", "fg-batch"};
+  compact.compact = true;
+  auto a = CompareOnWalk(*walk, full);
+  auto b = CompareOnWalk(*walk, compact);
+  ASSERT_TRUE(a.ok() && b.ok());
+  ASSERT_EQ(a->outcomes.size(), b->outcomes.size());
+  for (size_t k = 0; k < a->outcomes.size(); ++k) {
+    const EstimatorOutcome &x = a->outcomes[k], &y = b->outcomes[k];
+    EXPECT_GT(x.result.trajectory.size(), kCompactPoints);
+    EXPECT_LE(y.result.trajectory.size(), kCompactPoints);
+    EXPECT_LE(y.errors.t_s.size(), kCompactPoints);
+    EXPECT_EQ(x.stats.p90_m, y.stats.p90_m);  // figures from every point, before thinning
+    EXPECT_EQ(x.stats.n_points, y.stats.n_points);
+    EXPECT_EQ(y.pooled_errors->count(), x.stats.n_points);
+  }
+  EXPECT_LE(b->truth.size(), kCompactPoints);
+  const fs::path out = fs::temp_directory_path() / ("wg_compact_" + std::to_string(::getpid()));
+  fs::remove_all(out);
+  a->outcomes[0].runtime_s = b->outcomes[0].runtime_s = 0.0;
+  a->outcomes[1].runtime_s = b->outcomes[1].runtime_s = 0.0;
+  ASSERT_TRUE(WriteComparison(*a, (out / "full").string()).ok());
+  ASSERT_TRUE(WriteComparison(*b, (out / "compact").string()).ok());
+  auto read = [](const fs::path& p) {
+    std::ifstream in(p);
+    return std::string((std::istreambuf_iterator<char>(in)), {});
+  };
+  for (const char* f : {"results.json", "errors.csv", "trajectories/odometry-dr.tum",
+                        "trajectories/fg-batch.tum"}) {
+    EXPECT_EQ(read(out / "full" / f), read(out / "compact" / f)) << f;
+  }
   fs::remove_all(out);
 }
 

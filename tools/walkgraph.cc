@@ -313,6 +313,7 @@ int RunCompare(const CompareArgs& args) {
   options.estimator_ids = *ids;
   options.alignment = args.align_se2 ? walkgraph::Alignment::kSE2 : walkgraph::Alignment::kNone;
   options.score_from_s = args.score_from_s;
+  options.compact = true;  // trajectories and errors stream to disk as each estimator finishes
   auto config = LoadConfig(args.config_path);
   if (!config.ok()) return Fail(config.status());
   const Status configs = ConfigsById(*config, args.config_path, &options.configs);

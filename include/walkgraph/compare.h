@@ -53,7 +53,23 @@ struct CompareOptions {
   // pct_distance are unchanged, mean_pct_distance still divides by the distance from the start.
   // Must be finite, >= 0 and leave at least one truth point.
   double score_from_s = 0.0;
+  // Memory of a single-walk comparison (Monte Carlo runs always keep what they need, see the
+  // top of this file). false: every outcome keeps its full trajectory and error series.
+  // true (what the CLI uses): as each estimator finishes, its trajectory (TUM text) and error
+  // rows go to anonymous temporary files that WriteComparison copies into the report folder, and
+  // the outcome keeps copies thinned to at most kCompactPoints points for the report (the
+  // figures are computed before, from every point), plus a QuantileSketch of all its errors;
+  // the comparison's truth is thinned the same way. A 10-h walk then needs the walk and one
+  // estimator's run in memory, not every estimator's output.
+  bool compact = false;
 };
+
+// Points kept per curve by CompareOptions::compact.
+inline constexpr size_t kCompactPoints = 5000;
+
+namespace internal {
+class TextSpill;
+}  // namespace internal
 
 struct EstimatorOutcome {
   std::string id;
@@ -62,18 +78,18 @@ struct EstimatorOutcome {
   double runtime_s = 0.0;
   EstimateResult result;
   ErrorSeries errors;
-  // Monte Carlo only (runs > 1): spread of the per-run figures (see the top of this file), the
-  // runs the estimator failed on (excluded from the figures), and the pooled errors of every
-  // successful run (`result` and `errors` are the first successful run's).
+  // Monte Carlo only (runs > 1): spread of the per-run figures (see the top of this file) and
+  // the runs the estimator failed on (excluded from the figures); `result` and `errors` are the
+  // first successful run's.
   std::optional<ErrorStats> stats_std;
   double runtime_std_s = 0.0;
   int failed_runs = 0;
+  // Every error point behind `stats` (Monte Carlo: of every successful run; compact: of the
+  // whole walk, while `errors` is thinned); empty otherwise (`errors` holds them all).
   std::optional<QuantileSketch> pooled_errors;
+  // CompareOptions::compact: the full trajectory as TUM text (`result.trajectory` is thinned).
+  std::shared_ptr<internal::TextSpill> trajectory_tum;
 };
-
-namespace internal {
-class TextSpill;
-}  // namespace internal
 
 struct Comparison {
   std::string walk_name;
@@ -92,8 +108,8 @@ struct Comparison {
   // What the report draws under the trajectories.
   std::vector<Anchor> anchors;
   std::vector<TruthSample> truth;
-  // Monte Carlo: every run's errors as errors.csv rows "t_s,estimator,error_m,run", in run
-  // order, kept in an anonymous temporary file (not in memory); WriteComparison copies them.
+  // Monte Carlo, or CompareOptions::compact: errors.csv's rows ("t_s,estimator,error_m[,run]"),
+  // kept in an anonymous temporary file (not in memory); WriteComparison copies them.
   std::shared_ptr<internal::TextSpill> errors_csv_rows;
 };
 

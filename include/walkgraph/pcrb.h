@@ -56,6 +56,7 @@
 #define WALKGRAPH_PCRB_H_
 
 #include <cstdint>
+#include <map>
 #include <mutex>
 #include <optional>
 #include <string>
@@ -115,7 +116,8 @@ class PcrbAccumulator {
 
  private:
   mutable std::mutex mutex_;
-  std::vector<std::optional<PcrbInformation>> pending_;
+  int runs_ = 0;
+  std::map<int, PcrbInformation> pending_;  // added out of order, waiting for earlier runs
   std::optional<PcrbInformation> sum_;
   int next_ = 0;
   Status error_;

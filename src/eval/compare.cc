@@ -43,6 +43,49 @@ void DropBefore(double t_s, ErrorSeries* e) {
   if (with_distance) e->distance_m.resize(kept);
 }
 
+// Every k-th element (and the last) of a series of n, k chosen to keep at most `max`.
+std::vector<size_t> ThinnedIndices(size_t n, size_t max) {
+  std::vector<size_t> out;
+  const size_t k = n <= max ? 1 : (n + max - 2) / (max - 1);
+  for (size_t i = 0; i < n; i += k) out.push_back(i);
+  if (!out.empty() && out.back() != n - 1) out.push_back(n - 1);
+  return out;
+}
+
+template <typename T>
+void Thin(const std::vector<size_t>& keep, std::vector<T>* v) {
+  if (v->empty()) return;
+  std::vector<T> out;
+  out.reserve(keep.size());
+  for (size_t i : keep) out.push_back((*v)[i]);
+  *v = std::move(out);
+}
+
+// CompareOptions::compact: the outcome's full trajectory and error rows go to disk; thinned
+// copies and a sketch of its errors stay.
+void Compact(EstimatorOutcome* o, internal::TextSpill* rows) {
+  rows->Append([&](std::ostream& out) {
+    out << std::setprecision(10);
+    for (size_t i = 0; i < o->errors.t_s.size(); ++i) {
+      out << o->errors.t_s[i] << ',' << o->id << ',' << o->errors.error_m[i] << '\n';
+    }
+  });
+  o->trajectory_tum = std::make_shared<internal::TextSpill>();
+  o->trajectory_tum->Append(
+      [&](std::ostream& out) { FormatTumTrajectory(o->result.trajectory, out); });
+  QuantileSketch sketch;
+  for (double e : o->errors.error_m) sketch.Add(e);
+  o->pooled_errors = std::move(sketch);
+  const std::vector<size_t> keep = ThinnedIndices(o->errors.t_s.size(), kCompactPoints);
+  Thin(keep, &o->errors.t_s);
+  Thin(keep, &o->errors.error_m);
+  Thin(keep, &o->errors.nees);
+  Thin(keep, &o->errors.distance_m);
+  Thin(ThinnedIndices(o->result.trajectory.size(), kCompactPoints), &o->result.trajectory.points);
+  o->result.nis.clear();
+  o->result.nis.shrink_to_fit();
+}
+
 }  // namespace
 
 StatusOr<Comparison> CompareOnWalk(const Walk& walk, const CompareOptions& options,
@@ -75,6 +118,10 @@ StatusOr<Comparison> CompareOnWalk(const Walk& walk, const CompareOptions& optio
   c.score_from_s = options.score_from_s;
   c.anchors = walk.anchors;
   c.truth = walk.truth;
+  if (options.compact) {
+    Thin(ThinnedIndices(c.truth.size(), kCompactPoints), &c.truth);
+    c.errors_csv_rows = std::make_shared<internal::TextSpill>();
+  }
   const double distance = walk.TruthDistance();
   for (const std::string& id : ids) {
     auto it = options.configs.find(id);
@@ -110,6 +157,7 @@ StatusOr<Comparison> CompareOnWalk(const Walk& walk, const CompareOptions& optio
                                         std::to_string(score_from_t) + " s)");
         } else {
           o.stats = SummarizeErrors(o.errors, distance);
+          if (options.compact) Compact(&o, c.errors_csv_rows.get());
         }
       }
     }
@@ -118,6 +166,7 @@ StatusOr<Comparison> CompareOnWalk(const Walk& walk, const CompareOptions& optio
   if (c.outcomes.empty()) {
     return FailedPrecondition("no estimator is applicable to walk '" + walk.meta.name + "'");
   }
+  if (c.errors_csv_rows) WG_RETURN_IF_ERROR(c.errors_csv_rows->status());
   return c;
 }
 
@@ -336,7 +385,7 @@ Status WriteComparisonFiles(const Comparison& c, const fs::path& tmp) {
   }
   s = WriteFileInOutput((tmp / "errors.csv").string(), [&](std::ostream& out) {
     out << "t_s,estimator,error_m" << (monte_carlo ? ",run\n" : "\n") << std::setprecision(10);
-    if (monte_carlo && c.errors_csv_rows) return c.errors_csv_rows->CopyTo(out).ok();
+    if (c.errors_csv_rows) return c.errors_csv_rows->CopyTo(out).ok();
     for (const EstimatorOutcome& o : c.outcomes) {
       for (size_t i = 0; i < o.errors.t_s.size(); ++i) {
         out << o.errors.t_s[i] << ',' << o.id << ',' << o.errors.error_m[i]
@@ -350,6 +399,7 @@ Status WriteComparisonFiles(const Comparison& c, const fs::path& tmp) {
     if (!o.status.ok()) continue;
     s = WriteFileInOutput((tmp / "trajectories" / (o.id + ".tum")).string(),
                           [&](std::ostream& out) {
+                            if (o.trajectory_tum) return o.trajectory_tum->CopyTo(out).ok();
                             FormatTumTrajectory(o.result.trajectory, out);
                             return true;
                           });

@@ -186,16 +186,21 @@ StatusOr<Comparison> AggregateRuns(const std::vector<Comparison>& runs) {
   return agg.Finish();
 }
 
-StatusOr<Comparison> CompareMonteCarlo(const WalkGenerator& generate, const CompareOptions& options,
-                                       const MonteCarloOptions& mc,
-                                       const EstimatorRegistry& registry) {
+namespace {
+
+// The walk of run `run` (whose seed is `seed`).
+using RunGenerator = std::function<StatusOr<Walk>(int run, uint64_t seed)>;
+
+StatusOr<Comparison> RunMonteCarlo(const RunGenerator& generate, const CompareOptions& options,
+                                   const MonteCarloOptions& mc, const EstimatorRegistry& registry) {
   if (mc.runs < 1) return InvalidArgument("Monte Carlo: runs must be >= 1");
-  if (!generate) return InvalidArgument("Monte Carlo: no walk generator");
   WG_ASSIGN_OR_RETURN(const int threads, ResolveThreads(mc.threads, mc.runs));
   // Finished runs wait in `pending` until every earlier run is aggregated. A run starts only
   // within `window` runs of the next one to aggregate, so at most that many wait (the run being
   // waited for never waits itself: it has already started).
   const int window = 2 * threads + 2;
+  CompareOptions run_options = options;
+  run_options.compact = false;  // the aggregator keeps one run's outcomes and drops the rest
   std::mutex mutex;
   std::condition_variable drained;
   std::map<int, Comparison> pending;
@@ -211,9 +216,9 @@ StatusOr<Comparison> CompareMonteCarlo(const WalkGenerator& generate, const Comp
       return Status(s.code(), "run " + std::to_string(i) + " (seed " + std::to_string(seed) +
                                   "): " + s.message());
     };
-    StatusOr<Walk> walk = generate(seed);
+    StatusOr<Walk> walk = generate(i, seed);
     if (!walk.ok()) return located(walk.status());
-    StatusOr<Comparison> c = CompareOnWalk(*walk, options, registry);
+    StatusOr<Comparison> c = CompareOnWalk(*walk, run_options, registry);
     if (!c.ok()) return located(c.status());
     if (i != 0) c->truth.clear();  // only the first run's truth is drawn
     std::lock_guard<std::mutex> lock(mutex);
@@ -243,6 +248,15 @@ StatusOr<Comparison> CompareMonteCarlo(const WalkGenerator& generate, const Comp
   return out;
 }
 
+}  // namespace
+
+StatusOr<Comparison> CompareMonteCarlo(const WalkGenerator& generate, const CompareOptions& options,
+                                       const MonteCarloOptions& mc,
+                                       const EstimatorRegistry& registry) {
+  if (!generate) return InvalidArgument("Monte Carlo: no walk generator");
+  return RunMonteCarlo([&](int, uint64_t seed) { return generate(seed); }, options, mc, registry);
+}
+
 StatusOr<Comparison> CompareScenario(const std::string& scenario, const ScenarioCompareOptions& sc,
                                      const CompareOptions& options, const MonteCarloOptions& mc,
                                      const EstimatorRegistry& registry) {
@@ -259,8 +273,6 @@ StatusOr<Comparison> CompareScenario(const std::string& scenario, const Scenario
   // Run 0 is simulated first, alone, on the caller's node: override errors keep their YAML line
   // numbers. Later runs simulate on private copies (a yaml-cpp lookup may modify the node, so
   // threads must not share one).
-  std::map<uint64_t, int> run_of_seed;
-  for (int i = 0; i < mc.runs; ++i) run_of_seed[MonteCarloSeed(mc.seed, i)] = i;
   StatusOr<Simulation> first =
       SimulateScenarioDetailed(scenario, MonteCarloSeed(mc.seed, 0), sc.overrides);
   if (!first.ok()) return located(first.status());
@@ -285,8 +297,7 @@ StatusOr<Comparison> CompareScenario(const std::string& scenario, const Scenario
   add_pcrb(0, *first);
   first_walk = std::move(first->walk);
   const YAML::Node overrides = sc.overrides;
-  const WalkGenerator generate = [&](uint64_t seed) -> StatusOr<Walk> {
-    const int run = run_of_seed.at(seed);
+  const RunGenerator generate = [&](int run, uint64_t seed) -> StatusOr<Walk> {
     YAML::Node node;
     {
       std::lock_guard<std::mutex> lock(mutex);
@@ -302,7 +313,7 @@ StatusOr<Comparison> CompareScenario(const std::string& scenario, const Scenario
     add_pcrb(run, *s);
     return std::move(s->walk);
   };
-  WG_ASSIGN_OR_RETURN(Comparison c, CompareMonteCarlo(generate, options, mc, registry));
+  WG_ASSIGN_OR_RETURN(Comparison c, RunMonteCarlo(generate, options, mc, registry));
   if (!sc.pcrb) return c;
   if (!pcrb_status.ok()) {
     if (pcrb_status.code() != StatusCode::kFailedPrecondition) return located(pcrb_status);

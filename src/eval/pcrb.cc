@@ -375,23 +375,23 @@ StatusOr<PcrbBound> ComputePcrb(const PcrbInformation& in) {
   return out;
 }
 
-PcrbAccumulator::PcrbAccumulator(int runs) : pending_(std::max(runs, 0)) {}
+PcrbAccumulator::PcrbAccumulator(int runs) : runs_(std::max(runs, 0)) {}
 
 Status PcrbAccumulator::Add(int run, PcrbInformation information) {
   std::lock_guard<std::mutex> lock(mutex_);
   if (!error_.ok()) return error_;
-  if (run < 0 || run >= static_cast<int>(pending_.size()) || run < next_ || pending_[run]) {
+  if (run < next_ || run >= runs_ || pending_.count(run) != 0) {
     return InvalidArgument("PCRB: run " + std::to_string(run) + " added twice or out of range");
   }
-  pending_[run] = std::move(information);
-  while (next_ < static_cast<int>(pending_.size()) && pending_[next_]) {
+  pending_.emplace(run, std::move(information));
+  for (auto it = pending_.find(next_); it != pending_.end(); it = pending_.find(next_)) {
     if (!sum_) {
-      sum_ = std::move(*pending_[next_]);
+      sum_ = std::move(it->second);
     } else {
-      error_ = AddInto(*pending_[next_], next_, &*sum_);
+      error_ = AddInto(it->second, next_, &*sum_);
       if (!error_.ok()) return error_;
     }
-    pending_[next_].reset();
+    pending_.erase(it);
     ++next_;
   }
   return Status::Ok();
@@ -400,9 +400,9 @@ Status PcrbAccumulator::Add(int run, PcrbInformation information) {
 StatusOr<PcrbInformation> PcrbAccumulator::Mean() const {
   std::lock_guard<std::mutex> lock(mutex_);
   if (!error_.ok()) return error_;
-  if (!sum_ || next_ != static_cast<int>(pending_.size())) {
-    return FailedPrecondition("PCRB: " + std::to_string(next_) + " of " +
-                              std::to_string(pending_.size()) + " runs added");
+  if (!sum_ || next_ != runs_) {
+    return FailedPrecondition("PCRB: " + std::to_string(next_) + " of " + std::to_string(runs_) +
+                              " runs added");
   }
   PcrbInformation mean = *sum_;
   DivideByRuns(&mean);

@@ -1,13 +1,35 @@
 #include "util/text_spill.h"
 
 #include <cerrno>
+#include <ostream>
+#include <streambuf>
 #include <system_error>
 #include <vector>
 
 namespace walkgraph::internal {
 
 namespace {
+
 std::string ErrnoText(int e) { return std::error_code(e, std::generic_category()).message(); }
+
+// An output stream buffer over a FILE*.
+class FileBuf : public std::streambuf {
+ public:
+  explicit FileBuf(std::FILE* f) : file_(f) {}
+
+ protected:
+  int_type overflow(int_type c) override {
+    if (c == traits_type::eof()) return traits_type::not_eof(c);
+    return std::fputc(c, file_) == EOF ? traits_type::eof() : c;
+  }
+  std::streamsize xsputn(const char* s, std::streamsize n) override {
+    return static_cast<std::streamsize>(std::fwrite(s, 1, static_cast<size_t>(n), file_));
+  }
+
+ private:
+  std::FILE* file_;
+};
+
 }  // namespace
 
 TextSpill::TextSpill() : file_(std::tmpfile()) {
@@ -21,6 +43,16 @@ TextSpill::~TextSpill() {
 void TextSpill::Append(const std::string& text) {
   if (!status_.ok() || text.empty()) return;
   if (std::fwrite(text.data(), 1, text.size(), file_) != text.size()) {
+    status_ = IoError("cannot write a temporary file: " + ErrnoText(errno));
+  }
+}
+
+void TextSpill::Append(const std::function<void(std::ostream&)>& write) {
+  if (!status_.ok()) return;
+  FileBuf buf(file_);
+  std::ostream out(&buf);
+  write(out);
+  if (!out.good() || std::ferror(file_) != 0) {
     status_ = IoError("cannot write a temporary file: " + ErrnoText(errno));
   }
 }

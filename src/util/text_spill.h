@@ -4,6 +4,7 @@
 #define WALKGRAPH_SRC_UTIL_TEXT_SPILL_H_
 
 #include <cstdio>
+#include <functional>
 #include <ostream>
 #include <string>
 
@@ -20,6 +21,8 @@ class TextSpill {
 
   // The first failure (no temporary file, disk full) is kept and returned by status().
   void Append(const std::string& text);
+  // Appends what `write` puts on the stream (streamed to the file, not built in memory).
+  void Append(const std::function<void(std::ostream&)>& write);
   Status status() const { return status_; }
   // Writes everything appended so far to `out`.
   Status CopyTo(std::ostream& out) const;
