@@ -55,5 +55,56 @@ TEST(ConfigReader, EmptyNodeIsFine) {
   EXPECT_EQ(v, 3);
 }
 
+// Numbers are decimal and finite, as in the walk format's CSV files.
+TEST(ConfigReader, ReadsOnlyFiniteDecimalNumbers) {
+  for (const char* bad : {"0x5", "0x1p3", ".nan", ".inf", "-.inf", "1e999", "1_000", "five"}) {
+    ConfigReader r(YAML::Load(std::string("v: ") + bad), "x");
+    double v = 0;
+    r.Read("v", &v);
+    EXPECT_FALSE(r.Finish().ok()) << bad;
+  }
+  ConfigReader r(YAML::Load("a: 1e-320\nb: -2.5e3\nc: .5\nn: +7"), "x");
+  double a = 0, b = 0, c = 0;
+  int n = 0;
+  r.Read("a", &a);
+  r.Read("b", &b);
+  r.Read("c", &c);
+  r.Read("n", &n);
+  ASSERT_TRUE(r.Finish().ok()) << r.Finish().message();
+  EXPECT_GT(a, 0.0);  // a subnormal number is finite
+  EXPECT_EQ(b, -2500.0);
+  EXPECT_EQ(c, 0.5);
+  EXPECT_EQ(n, 7);
+  ConfigReader big(YAML::Load("n: 99999999999999999999999999999999999999"), "x");
+  big.Read("n", &n);
+  EXPECT_THAT(big.Finish().message(), HasSubstr("... (38 bytes)"));  // not echoed whole
+}
+
+TEST(LoadYamlText, RefusesRepeatedKeysSecondDocumentsAndAliasBombs) {
+  EXPECT_THAT(LoadYamlText("a: 1\nb:\n  c: 1\n  c: 2\n", "f.yaml").status().message(),
+              HasSubstr("f.yaml:4: duplicate key 'c'"));
+  EXPECT_THAT(LoadYamlText("a: 1\n---\nb: 2\n", "f.yaml").status().message(),
+              HasSubstr("f.yaml:2: a second YAML document"));
+  // yaml-cpp's own LoadAll never returns on this one.
+  EXPECT_THAT(LoadYamlText(",", "f.yaml").status().message(), HasSubstr("f.yaml:1: "));
+  std::string bomb = "a0: &a0 [x, x, x, x, x, x, x, x, x, x]\n";
+  for (int i = 1; i < 9; ++i) {
+    bomb += "a" + std::to_string(i) + ": &a" + std::to_string(i) + " [";
+    for (int k = 0; k < 10; ++k) bomb += (k ? ", *a" : "*a") + std::to_string(i - 1);
+    bomb += "]\n";
+  }
+  EXPECT_THAT(LoadYamlText(bomb, "f.yaml").status().message(), HasSubstr("aliases"));
+  auto ok = LoadYamlText("a: 1\nb: [1, 2]\n", "f.yaml");
+  ASSERT_TRUE(ok.ok());
+  EXPECT_EQ((*ok)["a"].Scalar(), "1");
+  EXPECT_TRUE(LoadYamlText("", "f.yaml").ok());  // an empty file is an empty configuration
+}
+
+TEST(LoadYamlFile, ExpectsARegularFile) {
+  EXPECT_THAT(LoadYamlFile("/").status().message(), HasSubstr("expected a regular file"));
+  EXPECT_THAT(LoadYamlFile("/dev/null").status().message(), HasSubstr("device"));
+  EXPECT_EQ(LoadYamlFile("/nonexistent/x.yaml").status().code(), StatusCode::kNotFound);
+}
+
 }  // namespace
 }  // namespace walkgraph

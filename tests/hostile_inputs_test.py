@@ -908,6 +908,12 @@ case("yaml-compare-config-duplicate-estimator", "yaml", CMP_CFG,
 case("yaml-simulate-config-duplicate-key", "yaml", SIM_LG_CFG,
      setup=lambda ctx: ctx.write("c.yaml", "duration_s: 10\nduration_s: 20\n"),
      err=allof(r"c\.yaml:[12]:", DUP, r"duration_s"))
+# A lone ',' sends yaml-cpp 0.7's LoadAll into an endless loop (found by the fuzzer).
+case("yaml-walk-lone-comma", "yaml", VALIDATE, timeout=15,
+     setup=with_walk(lambda ctx: ctx.write("w/walk.yaml", ",")),
+     err=allof(r"walk\.yaml:1: "))
+case("yaml-config-lone-comma", "yaml", SIM_LG_CFG, timeout=15,
+     setup=lambda ctx: ctx.write("c.yaml", ",,\n"), err=allof(r"c\.yaml:1: "))
 case("yaml-walk-second-document", "yaml", VALIDATE,
      setup=with_walk(lambda ctx: ctx.append("w/walk.yaml", "---\nname: second\n")),
      err=allof(r"walk\.yaml", r"(?i)document"))

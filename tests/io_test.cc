@@ -4,6 +4,8 @@
 #include <fstream>
 #include <string>
 
+#include <sys/stat.h>
+
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
@@ -43,6 +45,45 @@ TEST(ReadWalk, AcceptsTheValidFixture) {
   EXPECT_EQ(walk->truth.size(), 5u);
   ASSERT_TRUE(walk->meta.initial_pose.has_value());
   EXPECT_NEAR(walk->TruthDistance(), 2.8, 1e-12);
+}
+
+// What is not a regular file where a walk file should be is an error at once: a FIFO would
+// block the reader, a link loop or a dangling link would look like a missing stream.
+TEST(ReadWalk, RefusesSpecialFilesWhereAWalkFileShouldBe) {
+  const fs::path dir = TempDir("special");
+  fs::copy(kData + "/walks/valid_small", dir);
+  fs::remove(dir / "rss.csv");
+  ASSERT_EQ(::mkfifo((dir / "rss.csv").c_str(), 0600), 0);
+  EXPECT_THAT(ReadWalk(dir.string()).status().message(), HasSubstr("rss.csv: is a FIFO"));
+  fs::remove(dir / "rss.csv");
+  fs::create_symlink("loop_b", dir / "rss.csv");
+  fs::create_symlink("rss.csv", dir / "loop_b");
+  EXPECT_THAT(ReadWalk(dir.string()).status().message(), HasSubstr("symbolic link loop"));
+  fs::remove(dir / "rss.csv");
+  fs::create_symlink("gone.csv", dir / "rss.csv");
+  EXPECT_THAT(ReadWalk(dir.string()).status().message(), HasSubstr("symbolic link to nothing"));
+  fs::remove(dir / "rss.csv");
+  fs::create_directory(dir / "rss.csv");
+  EXPECT_THAT(ReadWalk(dir.string()).status().message(), HasSubstr("rss.csv: is a folder"));
+  fs::remove_all(dir);
+}
+
+// A file without line ends is refused after 1 MiB, and a message quotes at most 120 bytes.
+TEST(ReadWalk, LongLinesAndFieldsGiveShortMessages) {
+  const fs::path dir = TempDir("long");
+  fs::copy(kData + "/walks/valid_small", dir);
+  std::ofstream(dir / "imu.csv") << "t_s,ax,ay,az,gx,gy,gz\n" << std::string(3 << 20, '\0');
+  auto walk = ReadWalk(dir.string());
+  EXPECT_THAT(walk.status().message(), HasSubstr("imu.csv:2: line longer than 1 MiB"));
+  std::ofstream(dir / "imu.csv") << "t_s,ax,ay,az,gx,gy,gz\n"
+                                 << std::string(100000, '7') << "x,0,0,9.8,0,0,0\n";
+  walk = ReadWalk(dir.string());
+  EXPECT_THAT(walk.status().message(), HasSubstr("... (100001 bytes)"));
+  EXPECT_LT(walk.status().message().size(), 200u);
+  // A subnormal value is a finite number.
+  std::ofstream(dir / "imu.csv") << "t_s,ax,ay,az,gx,gy,gz\n0,1e-320,0,9.8,0,0,0\n";
+  EXPECT_TRUE(ReadWalk(dir.string()).ok());
+  fs::remove_all(dir);
 }
 
 TEST(ReadWalk, AcceptsCrlfAndBom) {
@@ -91,6 +132,16 @@ const MalformedCase kCases[] = {
     {"bad_eta", "walk.yaml: radio", "must be > 0"},
     // Found by fuzz_readers: a mapping used as a key made yaml-cpp throw through the reader.
     {"complex_yaml_key", "walk.yaml: radio (line 15)", "option names must be plain words"},
+    // Issue 16: silently accepted before.
+    {"hex_anchor_id", "rss.csv:3:", "column 'anchor_id': expected a finite decimal number"},
+    {"hex_float_time", "imu.csv:3:", "found '0x1p-6'"},
+    {"nanosecond_time", "truth.csv:2:", "it looks like nanoseconds (1.7e+09 s)"},
+    {"radio_none_with_rss", "walk.yaml", "radio.kind is 'none' but rss.csv is present"},
+    {"imu_none_with_imu", "walk.yaml", "imu_placement is 'none' but imu.csv is present"},
+    {"header_only_stance", "stance_truth.csv:2:", "no samples"},
+    {"duplicate_yaml_key", "walk.yaml:3:", "duplicate key 'name'"},
+    {"second_yaml_document", "walk.yaml:19:", "a second YAML document"},
+    {"invalid_utf8_name", "walk.yaml", "is not valid UTF-8"},
 };
 
 TEST(ReadWalk, RejectsEveryMalformedCaseWithFileLineAndExpectation) {

@@ -811,10 +811,11 @@ Status WriteStudy(const StudyResult& r, const std::string& out_dir, const Output
   const std::string csv = StudyCsv(r), timing = StudyTimingCsv(r), html = RenderStudyHtml(r);
   return WriteOutputFolder(out_dir, options, [&](const std::string& tmp_dir) {
     const fs::path tmp(tmp_dir);
-    for (const auto& [name, text] : {std::pair<const char*, const std::string*>{"study.csv", &csv},
-                                     {"timing.csv", &timing},
-                                     {"study.html", &html}}) {
-      WG_RETURN_IF_ERROR(WriteFileInOutput((tmp / name).string(), [&](std::ostream& out) {
+    for (const auto& file : {std::pair<const char*, const std::string*>{"study.csv", &csv},
+                             {"timing.csv", &timing},
+                             {"study.html", &html}}) {
+      const std::string* text = file.second;  // (clang: lambdas cannot capture bindings)
+      WG_RETURN_IF_ERROR(WriteFileInOutput((tmp / file.first).string(), [&](std::ostream& out) {
         out << *text;
         return true;
       }));

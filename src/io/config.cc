@@ -3,7 +3,10 @@
 #include <cerrno>
 #include <charconv>
 #include <set>
+#include <sstream>
 #include <vector>
+
+#include <yaml-cpp/eventhandler.h>
 
 #include "io/csv_reader.h"
 #include "io/input_file.h"
@@ -130,6 +133,43 @@ Status CheckDuplicateKeys(const YAML::Node& node, const std::string& path, long*
   return Status::Ok();
 }
 
+// Records where each document starts.
+class DocumentStarts : public YAML::EventHandler {
+ public:
+  std::vector<YAML::Mark> starts;
+  void OnDocumentStart(const YAML::Mark& mark) override { starts.push_back(mark); }
+  void OnDocumentEnd() override {}
+  void OnNull(const YAML::Mark&, YAML::anchor_t) override {}
+  void OnAlias(const YAML::Mark&, YAML::anchor_t) override {}
+  void OnScalar(const YAML::Mark&, const std::string&, YAML::anchor_t,
+                const std::string&) override {}
+  void OnSequenceStart(const YAML::Mark&, const std::string&, YAML::anchor_t,
+                       YAML::EmitterStyle::value) override {}
+  void OnSequenceEnd() override {}
+  void OnMapStart(const YAML::Mark&, const std::string&, YAML::anchor_t,
+                  YAML::EmitterStyle::value) override {}
+  void OnMapEnd() override {}
+};
+
+// One YAML document, no more. (yaml-cpp 0.7's LoadAll never returns on some invalid input, a
+// lone ',' among them: its parser then reports document after document at the same place. The
+// documents are counted here with at most two parser steps instead.)
+Status CheckOneDocument(const std::string& text, const std::string& path) {
+  std::istringstream in(text);
+  YAML::Parser parser(in);
+  DocumentStarts docs;
+  for (int i = 0; i < 2 && parser.HandleNextDocument(docs); ++i) {
+  }
+  if (docs.starts.size() < 2) return Status::Ok();
+  const YAML::Mark& second = docs.starts[1];
+  if (second.pos <= docs.starts[0].pos) {
+    return InvalidArgument(path + ":" + std::to_string(second.line + 1) +
+                           ": not valid YAML here (the parser cannot go on)");
+  }
+  return InvalidArgument(path + ":" + std::to_string(second.line + 1) +
+                         ": a second YAML document starts here; expected one document");
+}
+
 }  // namespace
 
 StatusOr<YAML::Node> LoadYamlFile(const std::string& path) {
@@ -139,22 +179,18 @@ StatusOr<YAML::Node> LoadYamlFile(const std::string& path) {
 }
 
 StatusOr<YAML::Node> LoadYamlText(const std::string& text, const std::string& path) {
-  std::vector<YAML::Node> docs;
+  YAML::Node root;
   try {
-    docs = YAML::LoadAll(text);
+    WG_RETURN_IF_ERROR(CheckOneDocument(text, path));
+    root = YAML::Load(text);
   } catch (const YAML::Exception& e) {
     return InvalidArgument(path + ":" + std::to_string(e.mark.line + 1) + ": " + e.msg);
   } catch (const std::exception& e) {
     return InvalidArgument(path + ": cannot read as YAML: " + e.what());
   }
-  if (docs.size() > 1) {
-    return InvalidArgument(path + ": holds " + std::to_string(docs.size()) +
-                           " YAML documents (separated by '---'); expected one");
-  }
-  if (docs.empty()) return YAML::Node();
   long visited = 0;
-  WG_RETURN_IF_ERROR(CheckDuplicateKeys(docs[0], path, &visited));
-  return docs[0];
+  WG_RETURN_IF_ERROR(CheckDuplicateKeys(root, path, &visited));
+  return root;
 }
 
 }  // namespace walkgraph
