@@ -6,6 +6,7 @@
 #ifndef WALKGRAPH_CONFIG_H_
 #define WALKGRAPH_CONFIG_H_
 
+#include <cstdint>
 #include <set>
 #include <string>
 
@@ -39,6 +40,15 @@ class ConfigReader {
   std::set<std::string> known_;
   Status first_error_;
 };
+
+// How every option and manifest value is read from its YAML text: numbers decimal and finite
+// ("0x5", ".nan", ".inf", "1e999" are refused; integers within their type's range), booleans
+// true/false. False when the text is not one.
+bool ParseScalar(const std::string& text, double* value);
+bool ParseScalar(const std::string& text, int* value);
+bool ParseScalar(const std::string& text, uint64_t* value);
+bool ParseScalar(const std::string& text, bool* value);
+bool ParseScalar(const std::string& text, std::string* value);
 
 // Loads a YAML file; errors name the file and line. The file must be a regular file of at most
 // 16 MiB holding one YAML document without repeated keys.

@@ -98,9 +98,9 @@ StatusOr<Comparison> CompareOnWalk(const Walk& walk, const CompareOptions& optio
   }
   const double score_from_t = walk.truth.front().t_s + options.score_from_s;
   if (options.score_from_s > 0.0 && !(walk.truth.back().t_s >= score_from_t)) {
-    return InvalidArgument("compare: score_from_s " + std::to_string(options.score_from_s) +
+    return InvalidArgument("compare: score_from_s " + internal::Num(options.score_from_s) +
                            " s leaves no truth of walk '" + walk.meta.name + "' to score (" +
-                           std::to_string(walk.truth.back().t_s - walk.truth.front().t_s) +
+                           internal::Num(walk.truth.back().t_s - walk.truth.front().t_s) +
                            " s of truth)");
   }
   for (const auto& [id, node] : options.configs) {
@@ -154,7 +154,7 @@ StatusOr<Comparison> CompareOnWalk(const Walk& walk, const CompareOptions& optio
         if (options.score_from_s > 0.0) DropBefore(score_from_t, &o.errors);
         if (o.errors.error_m.empty()) {
           o.status = FailedPrecondition(id + ": the estimate ends before the scored truth (from " +
-                                        std::to_string(score_from_t) + " s)");
+                                        internal::Num(score_from_t) + " s)");
         } else {
           o.stats = SummarizeErrors(o.errors, distance);
           if (options.compact) Compact(&o, c.errors_csv_rows.get());

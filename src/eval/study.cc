@@ -73,11 +73,11 @@ class Parser {
   template <typename T>
   StatusOr<T> Scalar(const YAML::Node& n, const std::string& what, const char* type) const {
     if (!n.IsScalar()) return Error(n, what + " must be a " + type);
-    try {
-      return n.as<T>();
-    } catch (const YAML::Exception&) {
-      return Error(n, what + " must be a " + type + ", got '" + n.Scalar() + "'");
+    T value{};
+    if (!ParseScalar(n.Scalar(), &value)) {
+      return Error(n, what + " must be a " + type + ", got " + internal::QuotedNumber(n.Scalar()));
     }
+    return value;
   }
 
   StatusOr<std::string> String(const YAML::Node& n, const std::string& what) const {

@@ -7,6 +7,7 @@
 #include <Eigen/Cholesky>
 
 #include "estimators/builtin.h"
+#include "util/text.h"
 #include "walkgraph/angle.h"
 #include "walkgraph/config.h"
 #include "walkgraph/filters/kalman.h"
@@ -427,7 +428,7 @@ StatusOr<EstimateResult> RunJimenezIez(const Walk& walk, const JimenezIezOptions
       const Eigen::LDLT<JimenezMatrix> ldlt(P_now);
       if (ldlt.info() != Eigen::Success || !ldlt.isPositive()) {
         return NumericalError("jimenez-iez-rts: filter covariance not positive at t = " +
-                              std::to_string(f.nominal.nav.t_s));
+                              internal::Num(f.nominal.nav.t_s));
       }
       prev.C = ldlt.solve(P_now_clone).transpose();  // C_k = Cov(δx_k, δx_{k+1}) P⁻¹
       prev.D = f.P.bottomRightCorner(N, N) - prev.C * P_now * prev.C.transpose();

@@ -21,24 +21,23 @@ std::string LineOf(const YAML::Node& node) {
   return mark.line >= 0 ? " (line " + std::to_string(mark.line + 1) + ")" : "";
 }
 
-}  // namespace
-
-ConfigReader::ConfigReader(YAML::Node node, std::string context)
-    : node_(std::move(node)), context_(std::move(context)) {
-  if (node_.IsDefined() && !node_.IsNull() && !node_.IsMap()) {
-    first_error_ = InvalidArgument(context_ + LineOf(node_) + ": expected a map of options");
-  }
-}
-
-// Numbers are read as the walk format's CSV fields are: decimal only (no 0x5, .nan, .inf).
-bool ParseScalar(const std::string& text, double* value) {
-  return internal::ParseFiniteDouble(text, value);
-}
-bool ParseScalar(const std::string& text, int* value) {
+template <typename Int>
+bool ParseInteger(const std::string& text, Int* value) {
   const char* begin = text.data() + (!text.empty() && text[0] == '+' ? 1 : 0);
   const char* end = text.data() + text.size();
   const auto [ptr, ec] = std::from_chars(begin, end, *value);
   return begin != end && ec == std::errc() && ptr == end;
+}
+
+}  // namespace
+
+// Numbers are read as the walk format's CSV fields are: decimal only.
+bool ParseScalar(const std::string& text, double* value) {
+  return internal::ParseFiniteDouble(text, value);
+}
+bool ParseScalar(const std::string& text, int* value) { return ParseInteger(text, value); }
+bool ParseScalar(const std::string& text, uint64_t* value) {
+  return !text.empty() && text[0] != '-' && ParseInteger(text, value);
 }
 bool ParseScalar(const std::string& text, bool* value) {
   if (text == "true" || text == "True" || text == "TRUE") return *value = true, true;
@@ -48,6 +47,13 @@ bool ParseScalar(const std::string& text, bool* value) {
 bool ParseScalar(const std::string& text, std::string* value) {
   *value = text;
   return true;
+}
+
+ConfigReader::ConfigReader(YAML::Node node, std::string context)
+    : node_(std::move(node)), context_(std::move(context)) {
+  if (node_.IsDefined() && !node_.IsNull() && !node_.IsMap()) {
+    first_error_ = InvalidArgument(context_ + LineOf(node_) + ": expected a map of options");
+  }
 }
 
 template <typename T>

@@ -357,34 +357,33 @@ Status WriteFileInOutput(const std::string& path, const std::function<bool(std::
   return Status::Ok();
 }
 
-Status WriteOutputFolder(const std::string& out_dir, const OutputOptions& options,
-                         const std::function<Status(const std::string& tmp_dir)>& fill) {
-  WG_ASSIGN_OR_RETURN(Target t, Resolve(out_dir));
+namespace {
+
+// The one write path of folders and files (see output.h).
+Status WriteOutput(const std::string& out, OutputKind kind, const OutputOptions& options,
+                   const std::function<Status(const fs::path& tmp)>& fill) {
+  WG_ASSIGN_OR_RETURN(Target t, Resolve(out));
   WG_RETURN_IF_ERROR(CheckProtected(t, options));
   CleanStale(t);  // first: it may put back an old output that the checks must then see
-  WG_ASSIGN_OR_RETURN(t, Resolve(out_dir));
-  WG_RETURN_IF_ERROR(CheckReplaceableFolder(t, options));
+  WG_ASSIGN_OR_RETURN(t, Resolve(out));
+  WG_RETURN_IF_ERROR(kind == OutputKind::kFolder ? CheckReplaceableFolder(t, options)
+                                                 : CheckReplaceableFile(t));
   InProgress guard;
-  if (CancelRequested()) return CancelledStatus(out_dir);
+  if (CancelRequested()) return CancelledStatus(out);
   Parents parents;
-  WG_RETURN_IF_ERROR(parents.Create(t.parent, out_dir));
+  WG_RETURN_IF_ERROR(parents.Create(t.parent, out));
   const fs::path tmp = t.parent / internal::OutputSiblingName(t.name, "tmp");
   std::error_code ec;
   fs::remove_all(tmp, ec);  // only a process with our pid could have left it
-  if (::mkdir(tmp.c_str(), 0777) != 0) {
+  if (kind == OutputKind::kFolder && ::mkdir(tmp.c_str(), 0777) != 0) {
     const int e = errno;
     parents.Undo();
-    return IoError(out_dir + ": cannot create the temporary folder " + tmp.string() + ": " +
+    return IoError(out + ": cannot create the temporary folder " + tmp.string() + ": " +
                    ErrnoText(e));
   }
   Phase("tmp-created");
-  Status s = WriteFileInOutput((tmp / kOutputMarker).string(), [&](std::ostream& o) {
-    o << "walkgraph " << WALKGRAPH_VERSION << " wrote this folder; a later walkgraph run may "
-      << "replace it whole.\ncommand: " << OneLine(options.command) << "\n";
-    return true;
-  });
-  if (s.ok()) s = fill(tmp.string());
-  if (s.ok() && CancelRequested()) s = CancelledStatus(out_dir);
+  Status s = fill(tmp);
+  if (s.ok() && CancelRequested()) s = CancelledStatus(out);
   if (s.ok()) Phase("filled");
   if (s.ok()) s = Install(tmp, t);
   if (!s.ok()) {
@@ -396,41 +395,24 @@ Status WriteOutputFolder(const std::string& out_dir, const OutputOptions& option
   return Status::Ok();
 }
 
+}  // namespace
+
+Status WriteOutputFolder(const std::string& out_dir, const OutputOptions& options,
+                         const std::function<Status(const std::string& tmp_dir)>& fill) {
+  return WriteOutput(out_dir, OutputKind::kFolder, options, [&](const fs::path& tmp) {
+    WG_RETURN_IF_ERROR(WriteFileInOutput((tmp / kOutputMarker).string(), [&](std::ostream& o) {
+      o << "walkgraph " << WALKGRAPH_VERSION << " wrote this folder; a later walkgraph run may "
+        << "replace it whole.\ncommand: " << OneLine(options.command) << "\n";
+      return true;
+    }));
+    return fill(tmp.string());
+  });
+}
+
 Status WriteOutputFile(const std::string& path, const OutputOptions& options,
                        const std::function<bool(std::ostream&)>& write) {
-  WG_ASSIGN_OR_RETURN(Target t, Resolve(path));
-  WG_RETURN_IF_ERROR(CheckProtected(t, options));
-  CleanStale(t);
-  WG_ASSIGN_OR_RETURN(t, Resolve(path));
-  WG_RETURN_IF_ERROR(CheckReplaceableFile(t));
-  InProgress guard;
-  if (CancelRequested()) return CancelledStatus(path);
-  Parents parents;
-  WG_RETURN_IF_ERROR(parents.Create(t.parent, path));
-  const fs::path tmp = t.parent / internal::OutputSiblingName(t.name, "tmp");
-  std::error_code ec;
-  fs::remove_all(tmp, ec);
-  Phase("tmp-created");
-  Status s = WriteFileInOutput(tmp.string(), write);
-  if (s.ok() && CancelRequested()) s = CancelledStatus(path);
-  if (s.ok()) Phase("filled");
-  if (s.ok()) {
-    Phase("before-exchange");
-    if (CancelRequested()) {
-      s = CancelledStatus(path);
-    } else if (::rename(tmp.c_str(), t.path.c_str()) != 0) {
-      s = IoError(path + ": cannot move the new file into place: " + ErrnoText(errno));
-    } else {
-      Phase("exchanged");
-    }
-  }
-  if (!s.ok()) {
-    fs::remove_all(tmp, ec);
-    parents.Undo();
-    return s;
-  }
-  Phase("done");
-  return Status::Ok();
+  return WriteOutput(path, OutputKind::kFile, options,
+                     [&](const fs::path& tmp) { return WriteFileInOutput(tmp.string(), write); });
 }
 
 }  // namespace walkgraph

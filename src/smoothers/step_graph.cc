@@ -21,6 +21,7 @@
 #include "factors/rss_factor.h"
 #include "factors/rss_range_factor.h"
 #include "factors/step_factor.h"
+#include "util/text.h"
 #include "walkgraph/angle.h"
 #include "walkgraph/config.h"
 #include "walkgraph/path_loss.h"
@@ -306,7 +307,7 @@ StatusOr<std::unique_ptr<StepGraph>> StepGraph::Build(const Walk& walk, const St
   for (size_t i = 1; i < t.size(); ++i) {
     if (!(t[i] > t[i - 1])) {
       return InvalidArgument("step graph: step times must increase (step " + std::to_string(i) +
-                             " at " + std::to_string(t[i]) + " s)");
+                             " at " + internal::Num(t[i]) + " s)");
     }
   }
   const double first_duration = m.odometry || m.radio_only ? 0.0 : m.steps.front().duration_s;

@@ -242,8 +242,8 @@ StatusOr<std::vector<bool>> StanceLabelsAtImu(const Walk& walk, double max_gap_s
     if (it != st.begin() && (!best || t - std::prev(it)->t_s < best->t_s - t))
       best = &*std::prev(it);
     if (std::fabs(best->t_s - t) > max_gap_s) {
-      return FailedPrecondition("stance: no label within " + std::to_string(max_gap_s) +
-                                " s of IMU time " + std::to_string(t));
+      return FailedPrecondition("stance: no label within " + internal::Num(max_gap_s) +
+                                " s of IMU time " + internal::Num(t));
     }
     out[i] = best->stance;
   }
