@@ -159,6 +159,31 @@ TEST_F(ConvertBleTracksMalformed, ReorderedAndRepeatedLinesAreCounted) {
   EXPECT_TRUE(ValidateWalk(*walk).ok());
 }
 
+// A corrupted reading in a public track (+42 dBm) is dropped and counted, its position kept;
+// --strict refuses the track, naming the line.
+TEST_F(ConvertBleTracksMalformed, ImpossibleReadingsAreDroppedCountedAndNamed) {
+  const std::string body =
+      "100.5,000000000101,e78f135624ce,42,2,2,1.8,1,0,0,0,1,0,0,0,1\n"
+      "100.6,b827eb4521b4,e78f135624ce,-70,2.1,2,1.8,1,0,0,0,1,0,0,0,1\n";
+  std::ofstream(dir_ / "trk" / "t.mbd")
+      << "100.0,b827eb4521b4,e78f135624ce,-80,1,2,1.8,1,0,0,0,1,0,0,0,1\n"
+      << body;
+  std::vector<std::string> warnings;
+  auto walk = Convert("bletracks", {(dir_ / "trk" / "t.mbd").string()}, {}, &warnings);
+  ASSERT_TRUE(walk.ok()) << walk.status().message();
+  EXPECT_EQ(walk->rss.size(), 2u);
+  EXPECT_EQ(walk->truth.size(), 3u);  // the line's position is still the truth
+  EXPECT_EQ(walk->meta.extra.at("convert.rss_invalid_dropped"), 1.0);
+  ASSERT_EQ(warnings.size(), 1u);
+  EXPECT_THAT(warnings[0], HasSubstr("t.mbd:2: rss 42 outside [-150, 30] dBm; dropped"));
+  EXPECT_TRUE(ValidateWalk(*walk).ok());
+  ConvertOptions strict;
+  strict.strict = true;
+  auto refused = Convert("bletracks", {(dir_ / "trk" / "t.mbd").string()}, strict);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_THAT(refused.status().message(), HasSubstr("t.mbd:2: rss 42 outside"));
+}
+
 TEST_F(ConvertBleTracksMalformed, BadFieldNamesFileAndLine) {
   auto walk = ConvertText("100.5,000000000101,e78f135624ce,loud,2,2,1.8,1,0,0,0,1,0,0,0,1\n");
   ASSERT_FALSE(walk.ok());

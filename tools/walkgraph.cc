@@ -158,8 +158,10 @@ Status Preflight(const std::string& out, walkgraph::OutputKind kind,
 int RunConvert(const std::string& format, const std::vector<std::string>& sources,
                const walkgraph::ConvertOptions& options, const std::string& out) {
   if (Status s = Preflight(out, walkgraph::OutputKind::kFolder, sources); !s.ok()) return Fail(s);
-  auto walk = walkgraph::Convert(format, sources, options);
+  std::vector<std::string> warnings;
+  auto walk = walkgraph::Convert(format, sources, options, &warnings);
   if (!walk.ok()) return Fail(walk.status());
+  for (const std::string& w : warnings) std::cerr << "walkgraph: warning: " << w << "\n";
   const Status s = walkgraph::WriteWalk(*walk, out, g_output);
   if (!s.ok()) return Fail(s);
   std::cout << "wrote " << out << "\n";
@@ -243,6 +245,7 @@ struct CompareArgs {
   std::string config_path;
   std::string scenario_config_path;
   bool align_se2 = false;
+  bool keep_diverged = false;
   double score_from_s = 0.0;
   std::string out;
 };
@@ -313,6 +316,7 @@ int RunCompare(const CompareArgs& args) {
   options.estimator_ids = *ids;
   options.alignment = args.align_se2 ? walkgraph::Alignment::kSE2 : walkgraph::Alignment::kNone;
   options.score_from_s = args.score_from_s;
+  options.divergence.keep_in_figures = args.keep_diverged;
   options.compact = true;  // trajectories and errors stream to disk as each estimator finishes
   auto config = LoadConfig(args.config_path);
   if (!config.ok()) return Fail(config.status());
@@ -501,6 +505,10 @@ int Main(int argc, char** argv) {
                     "is dropped");
   convert->add_option("--known-start-sigma", convert_options.known_start_sigma_m,
                       "ipin: sigma of that start position, m (default 0.5)");
+  convert->add_flag("--strict", convert_options.strict,
+                    "refuse a source holding a physically impossible reading (default: drop it, "
+                    "count it in walk.yaml extra convert.<stream>_invalid_dropped, warn with its "
+                    "file:line)");
   convert->callback([&] { rc = RunConvert(format, sources, convert_options, out); });
 
   CLI::App* fit = app.add_subcommand(
@@ -538,6 +546,9 @@ int Main(int argc, char** argv) {
                    "score only truth from S seconds after its first sample on (a filter's "
                    "start-up left out; default 0: the whole walk)")
       ->check(CLI::NonNegativeNumber);
+  compare->add_flag("--keep-diverged", cargs.keep_diverged,
+                    "score diverged estimates (and Monte Carlo runs) like the others; they are "
+                    "still flagged (default: shown as diverged, left out of the figures)");
   compare->add_option("--out", cargs.out, "report folder")->required();
   AddForce(compare);
   compare->callback([&] {

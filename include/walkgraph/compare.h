@@ -32,6 +32,7 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include "walkgraph/divergence.h"
 #include "walkgraph/estimator.h"
 #include "walkgraph/metrics.h"
 #include "walkgraph/output.h"
@@ -53,6 +54,8 @@ struct CompareOptions {
   // pct_distance are unchanged, mean_pct_distance still divides by the distance from the start.
   // Must be finite, >= 0 and leave at least one truth point.
   double score_from_s = 0.0;
+  // Which estimates are reported as diverged (divergence.h).
+  DivergenceOptions divergence;
   // Memory of a single-walk comparison (Monte Carlo runs always keep what they need, see the
   // top of this file). false: every outcome keeps its full trajectory and error series.
   // true (what the CLI uses): as each estimator finishes, its trajectory (TUM text) and error
@@ -89,6 +92,17 @@ struct EstimatorOutcome {
   std::optional<QuantileSketch> pooled_errors;
   // CompareOptions::compact: the full trajectory as TUM text (`result.trajectory` is thinned).
   std::shared_ptr<internal::TextSpill> trajectory_tum;
+  // Set when the estimate diverged (divergence.h); Monte Carlo: the first diverged run's, when
+  // every run that ran diverged. Unless DivergenceOptions::keep_in_figures, the outcome is then
+  // shown as diverged instead of its figures (which stay in results.json for the record), and is
+  // never marked best.
+  std::optional<Divergence> divergence;
+  bool divergence_kept_in_figures = false;
+  // Monte Carlo: the runs whose estimate diverged (left out of the figures unless kept).
+  int diverged_runs = 0;
+
+  // Whether the figures count: it ran, and it did not diverge (or divergence is kept in them).
+  bool Ranked() const { return status.ok() && (!divergence || divergence_kept_in_figures); }
 };
 
 struct Comparison {

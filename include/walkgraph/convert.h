@@ -23,33 +23,43 @@ struct ConvertOptions {
   // recording before it is dropped (counted in "convert.*_before_start_dropped").
   bool known_start = false;
   double known_start_sigma_m = 0.5;  // not stated by IPIN: a walker standing at the marker
+  // A physically impossible reading in the source (beyond the readers' ValidationLimits, io.h:
+  // an RSSI of +42 dBm, an accelerometer spike past 300 m/s²) is dropped and counted in
+  // meta.extra "convert.<stream>_invalid_dropped" (stream: imu, rss, range), with a warning
+  // naming the source file:line of the first few; `strict` refuses the source instead.
+  bool strict = false;
 };
 
 struct ConverterInfo {
   std::string format;       // "plaza", ...
   std::string description;  // what SRC... must be
   std::function<StatusOr<Walk>(const std::vector<std::string>& sources,
-                               const ConvertOptions& options)>
+                               const ConvertOptions& options, std::vector<std::string>* warnings)>
       convert;
 };
 
 // Every converter shipped with the library.
 const std::vector<ConverterInfo>& Converters();
 
-// Runs the converter named `format` on `sources`.
+// Runs the converter named `format` on `sources`. What it repaired or dropped is counted in
+// meta.extra "convert.*"; `warnings` (when given) receives a line for each of the first dropped
+// readings, "file:line: what was wrong; dropped".
 StatusOr<Walk> Convert(const std::string& format, const std::vector<std::string>& sources,
-                       const ConvertOptions& options = ConvertOptions());
+                       const ConvertOptions& options = ConvertOptions(),
+                       std::vector<std::string>* warnings = nullptr);
 
 // Plaza1/Plaza2 (Djugash et al., CMU 2009; as shipped in GTSAM's examples/Data): `dir` holds
 // <P>_DR.txt (t, Δdistance, Δheading), <P>_TD.txt (t, sender, anchor, range), <P>_anchors.csv
 // and optionally <P>_GT.csv (t_s, x_m, y_m, heading_rad). The start pose is taken from the first
 // ground-truth sample (as GTSAM's Plaza example does).
-StatusOr<Walk> ConvertPlaza(const std::string& dir);
+StatusOr<Walk> ConvertPlaza(const std::string& dir, const ConvertOptions& options = {},
+                            std::vector<std::string>* warnings = nullptr);
 
 // PyShoe VICON set (Wagstaff et al.; CSV with header t_s, ax/ay/az_mps2, gx/gy/gz_radps,
 // gt_x/y/z_m, zv_vicon): a foot-mounted 200 Hz IMU → imu.csv, the Vicon foot position → truth
 // (continuous, with z), zv_vicon → stance_truth. Time must increase; zv_vicon must be 0 or 1.
-StatusOr<Walk> ConvertPyshoe(const std::string& csv_path);
+StatusOr<Walk> ConvertPyshoe(const std::string& csv_path, const ConvertOptions& options = {},
+                             std::vector<std::string>* warnings = nullptr);
 // IPIN 2023 Track 3 "GetSensorData" logfile (technical annex v2) + BLE_Locations.csv (bleID,
 // Lat, Lon, floor; looked for beside the log when `ble_locations_csv` is empty) → a walk with
 // a handheld IMU, BLE RSS to the beacons and POSI landmarks as checkpoint truth.
@@ -67,7 +77,8 @@ StatusOr<Walk> ConvertPyshoe(const std::string& csv_path);
 //   "ipin.anchor_floor.<N>".
 // - Start: see ConvertOptions::known_start (off: the whole log, no initial_pose).
 StatusOr<Walk> ConvertIpin(const std::string& log_path, const std::string& ble_locations_csv,
-                           const ConvertOptions& options = ConvertOptions());
+                           const ConvertOptions& options = ConvertOptions(),
+                           std::vector<std::string>* warnings = nullptr);
 
 // The BLE id (row "BLEn" of BLE_Locations.csv) of the beacon broadcasting iBeacon Minor `minor`
 // (MAC BE:AC:20:23:00:0<minor>), or -1 for a minor not deployed. Verified from the 2023
@@ -81,7 +92,9 @@ int IpinMinorToBleId(int minor);
 // ("sensor10" → 10, ..., "sensor42" → 42); RSS is the receiver's reading of the carried beacon;
 // the beacon's camera position on every line is continuous truth. No IMU. t = ts − ts of the
 // first line (kept in meta.extra "bletracks.t0_unix_s").
-StatusOr<Walk> ConvertBleTracks(const std::string& track_mbd, const std::string& devices_dev);
+StatusOr<Walk> ConvertBleTracks(const std::string& track_mbd, const std::string& devices_dev,
+                                const ConvertOptions& options = {},
+                                std::vector<std::string>* warnings = nullptr);
 
 }  // namespace walkgraph
 

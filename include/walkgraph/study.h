@@ -39,7 +39,7 @@
 // scenario is simulated once (run 0), so a bad value fails at once with its manifest line.
 //
 // study.csv: one row per cell × estimator:
-//   sweep,parameter,value,estimator,runs,seed,failed_runs, then for each metric m of
+//   sweep,parameter,value,estimator,runs,seed,failed_runs,diverged_runs, then for each metric m of
 //   rmse_m mean_m median_m p75_m p90_m max_m final_m pct_distance anees mean_pct_distance:
 //   m,m_std (std empty for a single run; anees empty without covariances), then
 //   n_points,pcrb_rmse_m,pcrb_filter_rmse_m,rmse_over_pcrb,error
@@ -113,6 +113,7 @@ struct StudyRow {
   ErrorStats stats;
   std::optional<ErrorStats> stats_std;
   int failed_runs = 0;
+  int diverged_runs = 0;  // left out of the figures (DivergenceOptions::keep_in_figures)
   double runtime_s = 0.0, runtime_std_s = 0.0;
 };
 

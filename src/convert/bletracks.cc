@@ -20,6 +20,7 @@
 
 #include "convert/line_fields.h"
 #include "io/input_file.h"
+#include "io/plausibility.h"
 #include "util/text.h"
 #include "walkgraph/convert.h"
 
@@ -98,7 +99,9 @@ StatusOr<Devices> ReadDevices(const std::string& path) {
 
 }  // namespace
 
-StatusOr<Walk> ConvertBleTracks(const std::string& track_mbd, const std::string& devices_dev) {
+StatusOr<Walk> ConvertBleTracks(const std::string& track_mbd, const std::string& devices_dev,
+                                const ConvertOptions& options, std::vector<std::string>* warnings) {
+  internal::DroppedReadings dropped(options.strict);
   std::string dev_path = devices_dev;
   if (dev_path.empty()) {
     dev_path = (fs::path(track_mbd).parent_path().parent_path() / "cnf" / "tetam.dev").string();
@@ -111,6 +114,7 @@ StatusOr<Walk> ConvertBleTracks(const std::string& track_mbd, const std::string&
     double t_unix;
     int anchor_id;
     double rss;
+    bool rss_ok;  // false: a physically impossible reading, dropped (the position stays)
     Eigen::Vector3d position;
   };
   std::vector<Line> lines;
@@ -134,6 +138,11 @@ StatusOr<Walk> ConvertBleTracks(const std::string& track_mbd, const std::string&
       return f.Error("beacon MAC '" + f.field(2) + "' is not a Beacon in " + dev_path);
     }
     WG_ASSIGN_OR_RETURN(l.rss, f.Number(3));
+    bool drop = false;
+    WG_RETURN_IF_ERROR(
+        dropped.Check("rss", f.Where(),
+                      internal::CheckRss({0.0, l.anchor_id, l.rss}, RssUnits::kDbm, {}), &drop));
+    l.rss_ok = !drop;
     for (int k = 0; k < 3; ++k) {
       WG_ASSIGN_OR_RETURN(l.position[k], f.Number(4 + k));
     }
@@ -167,7 +176,9 @@ StatusOr<Walk> ConvertBleTracks(const std::string& track_mbd, const std::string&
   int duplicates = 0;
   for (const Line& l : lines) {
     const double t = l.t_unix - t0;
-    if (!seen.insert({t, l.anchor_id}).second) {
+    if (!l.rss_ok) {
+      // dropped above, counted in DroppedReadings
+    } else if (!seen.insert({t, l.anchor_id}).second) {
       ++duplicates;
     } else {
       walk.rss.push_back({t, l.anchor_id, l.rss});
@@ -182,6 +193,7 @@ StatusOr<Walk> ConvertBleTracks(const std::string& track_mbd, const std::string&
   }
   walk.meta.extra["convert.lines_out_of_order"] = out_of_order;
   walk.meta.extra["convert.rss_duplicates_dropped"] = duplicates;
+  dropped.Report(&walk.meta, warnings);
   return walk;
 }
 

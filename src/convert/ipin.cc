@@ -23,6 +23,7 @@
 
 #include "convert/line_fields.h"
 #include "io/input_file.h"
+#include "io/plausibility.h"
 #include "util/text.h"
 #include "walkgraph/convert.h"
 
@@ -155,7 +156,8 @@ bool IsRecordType(const std::string& s) {
 }  // namespace
 
 StatusOr<Walk> ConvertIpin(const std::string& log_path, const std::string& ble_locations_csv,
-                           const ConvertOptions& options) {
+                           const ConvertOptions& options, std::vector<std::string>* warnings) {
+  internal::DroppedReadings dropped(options.strict);
   std::string locations = ble_locations_csv;
   if (locations.empty()) {
     locations = (fs::path(log_path).parent_path() / "BLE_Locations.csv").string();
@@ -200,6 +202,13 @@ StatusOr<Walk> ConvertIpin(const std::string& log_path, const std::string& ble_l
         WG_ASSIGN_OR_RETURN(s.v[k], f.Number(3 + k));
       }
       WG_RETURN_IF_ERROR(f.Integer(6).status());
+      if (type != "MAGN") {  // an accelerometer or gyro reading past any phone's range
+        ImuSample check;
+        (type == "ACCE" ? check.acc_mps2 : check.gyro_radps) = s.v;
+        bool drop = false;
+        WG_RETURN_IF_ERROR(dropped.Check("imu", f.Where(), internal::CheckImu(check, {}), &drop));
+        if (drop) continue;
+      }
       std::vector<Vec3Stamped>& series = type == "ACCE" ? acc : type == "GYRO" ? gyro : mag;
       if (!series.empty() && !(s.sensor_t > series.back().sensor_t)) {
         return f.Error(type + " SensorTimestamp does not increase");
@@ -244,6 +253,10 @@ StatusOr<Walk> ConvertIpin(const std::string& log_path, const std::string& ble_l
         return f.Error("MAC '" + mac + "' with Minor " + std::to_string(minor) + "; expected " +
                        expected_mac);
       }
+      bool drop = false;
+      WG_RETURN_IF_ERROR(dropped.Check(
+          "rss", f.Where(), internal::CheckRss({t, id, value}, RssUnits::kDbm, {}), &drop));
+      if (drop) continue;
       if (!rss.empty() && t < rss.back().t_s) return f.Error("BLE4 AppTimestamp goes backwards");
       if (!rss_seen.insert({t, id}).second) {
         ++rss_duplicates;
@@ -351,6 +364,7 @@ StatusOr<Walk> ConvertIpin(const std::string& log_path, const std::string& ble_l
     start.sigma_heading_rad = kUnknownHeadingSigmaRad;
     walk.meta.initial_pose = start;
   }
+  dropped.Report(&walk.meta, warnings);
   // A slice of a log may hold no BLE reading: then the walk declares no radio.
   if (walk.rss.empty()) walk.meta.radio.kind = RadioKind::kNone;
   return walk;

@@ -4,6 +4,7 @@
 #include <set>
 
 #include "convert/text_table.h"
+#include "io/plausibility.h"
 #include "util/text.h"
 #include "walkgraph/angle.h"
 #include "walkgraph/convert.h"
@@ -43,7 +44,9 @@ bool IsIntegral(double v) { return std::floor(v) == v && std::fabs(v) < 2e9; }
 
 }  // namespace
 
-StatusOr<Walk> ConvertPlaza(const std::string& dir_name) {
+StatusOr<Walk> ConvertPlaza(const std::string& dir_name, const ConvertOptions& options,
+                            std::vector<std::string>* warnings) {
+  internal::DroppedReadings dropped(options.strict);
   const fs::path dir(dir_name);
   std::error_code ec;
   if (!fs::is_directory(dir, ec)) return NotFound(dir_name + ": not a directory");
@@ -96,8 +99,14 @@ StatusOr<Walk> ConvertPlaza(const std::string& dir_name) {
       return InvalidArgument(td_path + ":" + std::to_string(td.line_numbers[i]) +
                              ": anchor id (column 3) not in " + anchors_path);
     }
+    const RangeSample sample{r[0], static_cast<int>(r[2]), r[3]};
+    bool drop = false;
+    WG_RETURN_IF_ERROR(dropped.Check("range",
+                                     td_path + ":" + std::to_string(td.line_numbers[i]) + ": ",
+                                     internal::CheckRange(sample, {}), &drop));
+    if (drop) continue;
     if (!ranges.empty() && r[0] < ranges.back().t_s) ++reordered;
-    ranges.push_back({r[0], static_cast<int>(r[2]), r[3]});
+    ranges.push_back(sample);
   }
   std::stable_sort(ranges.begin(), ranges.end(),
                    [](const RangeSample& a, const RangeSample& b) { return a.t_s < b.t_s; });
@@ -112,6 +121,7 @@ StatusOr<Walk> ConvertPlaza(const std::string& dir_name) {
   }
   walk.meta.extra["convert.range_lines_out_of_order"] = reordered;
   walk.meta.extra["convert.range_duplicates_dropped"] = duplicates;
+  dropped.Report(&walk.meta, warnings);
 
   if (!gt_path.empty()) {
     WG_ASSIGN_OR_RETURN(internal::TextTable gt, internal::ReadTextTable(gt_path, 4, true));

@@ -34,6 +34,7 @@
 #include <filesystem>
 
 #include "convert/text_table.h"
+#include "io/plausibility.h"
 #include "util/text.h"
 #include "walkgraph/convert.h"
 
@@ -47,7 +48,9 @@ const std::vector<std::string> kPyshoeHeader = {"t_s",      "ax_mps2",  "ay_mps2
 
 }  // namespace
 
-StatusOr<Walk> ConvertPyshoe(const std::string& csv_path) {
+StatusOr<Walk> ConvertPyshoe(const std::string& csv_path, const ConvertOptions& options,
+                             std::vector<std::string>* warnings) {
+  internal::DroppedReadings dropped(options.strict);
   WG_ASSIGN_OR_RETURN(internal::TextTable table,
                       internal::ReadTextTable(csv_path, kPyshoeHeader.size(), true));
   if (table.header != kPyshoeHeader) {
@@ -78,7 +81,9 @@ StatusOr<Walk> ConvertPyshoe(const std::string& csv_path) {
     s.t_s = r[0];
     s.acc_mps2 = Eigen::Vector3d(r[1], r[2], r[3]);
     s.gyro_radps = Eigen::Vector3d(r[4], r[5], r[6]);
-    walk.imu.push_back(s);
+    bool drop = false;
+    WG_RETURN_IF_ERROR(dropped.Check("imu", where + ": ", internal::CheckImu(s, {}), &drop));
+    if (!drop) walk.imu.push_back(s);
     // Left-handed Vicon x-y (z up) → right-handed: negate y (see the top of this file).
     const Eigen::Vector3d p(r[7], -r[8], r[9]);
     held[i] = !walk.truth.empty() && p == walk.truth.back().position_m;
@@ -111,6 +116,7 @@ StatusOr<Walk> ConvertPyshoe(const std::string& csv_path) {
   }
   walk.meta.extra["convert.truth_held_dropped"] = static_cast<double>(held_count);
   walk.meta.extra["convert.stance_labels_held"] = static_cast<double>(labels_held);
+  dropped.Report(&walk.meta, warnings);
   return walk;
 }
 

@@ -93,6 +93,7 @@ StatusOr<Comparison> CompareOnWalk(const Walk& walk, const CompareOptions& optio
   if (walk.truth.empty()) {
     return FailedPrecondition("walk '" + walk.meta.name + "' has no truth to compare against");
   }
+  WG_RETURN_IF_ERROR(options.divergence.Validate());
   if (!(std::isfinite(options.score_from_s) && options.score_from_s >= 0.0)) {
     return InvalidArgument("compare: score_from_s must be finite and >= 0");
   }
@@ -157,6 +158,9 @@ StatusOr<Comparison> CompareOnWalk(const Walk& walk, const CompareOptions& optio
                                         internal::Num(score_from_t) + " s)");
         } else {
           o.stats = SummarizeErrors(o.errors, distance);
+          o.divergence = CheckDivergence(walk, o.result.trajectory, o.errors, score_from_t,
+                                         options.divergence);
+          o.divergence_kept_in_figures = options.divergence.keep_in_figures;
           if (options.compact) Compact(&o, c.errors_csv_rows.get());
         }
       }
@@ -184,7 +188,7 @@ void AttachPcrb(const PcrbBound& bound, Comparison* c) {
 }
 
 std::optional<double> RmseOverPcrb(const Comparison& c, const EstimatorOutcome& o) {
-  if (!c.pcrb_rmse_m || !(*c.pcrb_rmse_m > 0.0) || !o.status.ok()) return std::nullopt;
+  if (!c.pcrb_rmse_m || !(*c.pcrb_rmse_m > 0.0) || !o.Ranked()) return std::nullopt;
   return o.stats.rmse_m / *c.pcrb_rmse_m;
 }
 
@@ -230,14 +234,14 @@ std::string FormatComparisonTable(const Comparison& c) {
   // Best (smallest) per column among successful outcomes.
   std::vector<double> best(ncol + 1, std::numeric_limits<double>::infinity());
   for (const EstimatorOutcome& o : c.outcomes) {
-    if (!o.status.ok()) continue;
+    if (!o.Ranked()) continue;
     for (size_t j = 0; j < ncol; ++j) best[j] = std::min(best[j], o.stats.*(kColumns[j].field));
     best[ncol] = std::min(best[ncol], o.runtime_s);
   }
   for (const EstimatorOutcome& o : c.outcomes) {
     std::vector<std::string> row = {o.id};
-    if (!o.status.ok()) {
-      row.push_back("failed: " + o.status.message());
+    if (!o.status.ok() || !o.Ranked()) {
+      row.push_back(o.status.ok() ? ToString(*o.divergence) : "failed: " + o.status.message());
       rows.push_back(row);
       continue;
     }
@@ -312,11 +316,71 @@ std::string FormatComparisonTable(const Comparison& c) {
   } else if (!c.pcrb_note.empty()) {
     out << "PCRB: " << c.pcrb_note << "\n";
   }
+  for (const EstimatorOutcome& o : c.outcomes) {
+    if (o.diverged_runs > 0 && o.Ranked()) {
+      out << o.id << ": " << o.diverged_runs << " of " << c.runs << " runs diverged ("
+          << (o.divergence_kept_in_figures ? "kept in" : "left out of") << " the figures)\n";
+    } else if (o.divergence && o.Ranked()) {
+      out << o.id << ": " << ToString(*o.divergence) << " (kept in the figures)\n";
+    }
+  }
   out << "* best in column\n";
   return out.str();
 }
 
 namespace {
+
+// The figures of one outcome as results.json holds them.
+nlohmann::ordered_json FiguresJson(const Comparison& c, const EstimatorOutcome& o) {
+  nlohmann::ordered_json e;
+  for (const Column& col : kColumns) {
+    if (std::isnan(o.stats.*(col.field))) continue;
+    const std::string key = col.key;
+    e[key] = o.stats.*(col.field);
+    if (o.stats_std) e[key + "_std"] = (*o.stats_std).*(col.field);
+  }
+  if (std::isfinite(o.stats.anees)) {
+    e["anees"] = o.stats.anees;
+    if (o.stats_std && std::isfinite(o.stats_std->anees)) e["anees_std"] = o.stats_std->anees;
+  }
+  e["n_points"] = o.stats.n_points;
+  const std::optional<double> ratio = RmseOverPcrb(c, o);
+  e["rmse_over_pcrb"] = ratio ? nlohmann::ordered_json(*ratio) : nullptr;
+  return e;
+}
+
+// One estimator's entry of results.json; its timings go to `timing` under Monte Carlo (they
+// would make results.json depend on the machine and the thread count).
+nlohmann::ordered_json OutcomeJson(const Comparison& c, const EstimatorOutcome& o,
+                                   nlohmann::ordered_json* timing) {
+  const bool monte_carlo = c.runs > 1;
+  nlohmann::ordered_json e;
+  if (!o.status.ok()) {
+    e["error"] = o.status.message();
+    if (monte_carlo) e["failed_runs"] = o.failed_runs;
+    return e;
+  }
+  // A diverged estimate's figures stay for the record, inside "diverged", not beside the others.
+  const nlohmann::ordered_json figures = o.stats.n_points > 0 ? FiguresJson(c, o) : nullptr;
+  if (o.divergence) {
+    e["diverged"] = {{"t_s", o.divergence->t_s}, {"reason", o.divergence->reason}};
+    if (!o.Ranked()) e["diverged"]["figures"] = figures;
+  }
+  if (o.Ranked()) e.update(figures);
+  if (monte_carlo) {
+    e["runtime_s"] = nullptr;
+    (*timing)["estimators"][o.id] = {{"runtime_s", o.runtime_s},
+                                     {"runtime_s_std", o.runtime_std_s}};
+    for (const auto& [k, v] : o.result.timings) (*timing)["estimators"][o.id][k] = v;
+    e["failed_runs"] = o.failed_runs;
+    e["diverged_runs"] = o.diverged_runs;
+  } else {
+    e["runtime_s"] = o.runtime_s;
+    for (const auto& [k, v] : o.result.timings) e["timings"][k] = v;
+  }
+  for (const auto& [k, v] : o.result.diagnostics) e["diagnostics"][k] = v;
+  return e;
+}
 
 Status WriteComparisonFiles(const Comparison& c, const fs::path& tmp) {
   std::error_code ec;
@@ -335,37 +399,7 @@ Status WriteComparisonFiles(const Comparison& c, const fs::path& tmp) {
   timing["runs"] = c.runs;
   timing["estimators"] = nlohmann::ordered_json::object();
   for (const EstimatorOutcome& o : c.outcomes) {
-    nlohmann::ordered_json e;
-    if (!o.status.ok()) {
-      e["error"] = o.status.message();
-      if (monte_carlo) e["failed_runs"] = o.failed_runs;
-    } else {
-      for (const Column& col : kColumns) {
-        if (std::isnan(o.stats.*(col.field))) continue;
-        const std::string key = col.key;
-        e[key] = o.stats.*(col.field);
-        if (o.stats_std) e[key + "_std"] = (*o.stats_std).*(col.field);
-      }
-      if (std::isfinite(o.stats.anees)) {
-        e["anees"] = o.stats.anees;
-        if (o.stats_std && std::isfinite(o.stats_std->anees)) e["anees_std"] = o.stats_std->anees;
-      }
-      if (monte_carlo) {
-        e["runtime_s"] = nullptr;
-        timing["estimators"][o.id] = {{"runtime_s", o.runtime_s},
-                                      {"runtime_s_std", o.runtime_std_s}};
-        for (const auto& [k, v] : o.result.timings) timing["estimators"][o.id][k] = v;
-      } else {
-        e["runtime_s"] = o.runtime_s;
-        for (const auto& [k, v] : o.result.timings) e["timings"][k] = v;
-      }
-      e["n_points"] = o.stats.n_points;
-      const std::optional<double> ratio = RmseOverPcrb(c, o);
-      e["rmse_over_pcrb"] = ratio ? nlohmann::ordered_json(*ratio) : nullptr;
-      if (monte_carlo) e["failed_runs"] = o.failed_runs;
-      for (const auto& [k, v] : o.result.diagnostics) e["diagnostics"][k] = v;
-    }
-    j["estimators"][o.id] = e;
+    j["estimators"][o.id] = OutcomeJson(c, o, &timing);
   }
   j["pcrb_rmse_m"] = c.pcrb_rmse_m ? nlohmann::ordered_json(*c.pcrb_rmse_m) : nullptr;
   j["pcrb_filter_rmse_m"] =
@@ -396,7 +430,7 @@ Status WriteComparisonFiles(const Comparison& c, const fs::path& tmp) {
   });
   if (!s.ok()) return s;
   for (const EstimatorOutcome& o : c.outcomes) {
-    if (!o.status.ok()) continue;
+    if (!o.status.ok() || (o.result.trajectory.empty() && !o.trajectory_tum)) continue;
     s = WriteFileInOutput((tmp / "trajectories" / (o.id + ".tum")).string(),
                           [&](std::ostream& out) {
                             if (o.trajectory_tum) return o.trajectory_tum->CopyTo(out).ok();

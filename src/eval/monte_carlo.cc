@@ -55,6 +55,7 @@ const double kPooledQ[] = {50.0, 75.0, 90.0};
 struct EstimatorAggregate {
   EstimatorOutcome outcome;  // id, first successful result and errors, failed_runs
   Status first_failure;
+  std::optional<Divergence> first_divergence;
   RunningStat means[std::size(kMeanFields)];
   RunningStat per_run_percentiles[std::size(kPooledFields)];
   RunningStat runtime;
@@ -121,6 +122,15 @@ void RunAggregator::Add(Comparison run) {
       }
       continue;
     }
+    if (o.divergence) {
+      ++e.outcome.diverged_runs;
+      e.outcome.divergence_kept_in_figures = o.divergence_kept_in_figures;
+      if (!e.first_divergence) {
+        e.first_divergence = o.divergence;
+        e.first_divergence->reason = "run " + std::to_string(r) + ": " + o.divergence->reason;
+      }
+      if (!o.divergence_kept_in_figures) continue;
+    }
     for (size_t j = 0; j < std::size(kMeanFields); ++j) e.means[j].Add(o.stats.*kMeanFields[j]);
     for (size_t j = 0; j < std::size(kPooledFields); ++j) {
       e.per_run_percentiles[j].Add(o.stats.*kPooledFields[j]);
@@ -157,10 +167,17 @@ StatusOr<Comparison> RunAggregator::Finish() {
   for (EstimatorAggregate& e : st.estimators) {
     EstimatorOutcome agg = std::move(e.outcome);
     if (e.successes == 0) {
-      agg.status = e.first_failure;
+      // Every run failed or diverged: a divergence says more than a failure.
+      if (e.first_divergence) {
+        agg.divergence = e.first_divergence;
+      } else {
+        agg.status = e.first_failure;
+      }
       out.outcomes.push_back(std::move(agg));
       continue;
     }
+    // Flagged runs that count in the figures (keep_in_figures): the outcome says so.
+    if (agg.divergence_kept_in_figures) agg.divergence = e.first_divergence;
     ErrorStats stds;
     for (size_t j = 0; j < std::size(kMeanFields); ++j) {
       agg.stats.*kMeanFields[j] = e.means[j].Mean();

@@ -490,10 +490,14 @@ StatusOr<StudyResult> RunStudy(const StudyManifest& m, const StudyOptions& optio
       for (const EstimatorOutcome& o : c->outcomes) {
         StudyRow r;
         r.estimator = o.id;
-        r.status = o.status;
+        // A diverged estimate is left out of the study's figures like a failed one, saying so.
+        r.status = o.status.ok() && !o.Ranked()
+                       ? Status(StatusCode::kNumerical, ToString(*o.divergence))
+                       : o.status;
         r.stats = o.stats;
         r.stats_std = o.stats_std;
         r.failed_runs = o.failed_runs;
+        r.diverged_runs = o.diverged_runs;
         r.runtime_s = o.runtime_s;
         r.runtime_std_s = o.runtime_std_s;
         cell.rows.push_back(std::move(r));
@@ -570,7 +574,7 @@ std::vector<const StudyCell*> CellsOf(const StudyResult& r, int sweep) {
 
 std::string StudyCsv(const StudyResult& r) {
   std::ostringstream out;
-  out << "sweep,parameter,value,estimator,runs,seed,failed_runs";
+  out << "sweep,parameter,value,estimator,runs,seed,failed_runs,diverged_runs";
   for (const char* m : kMetrics) out << ',' << m << ',' << m << "_std";
   out << ",n_points,pcrb_rmse_m,pcrb_filter_rmse_m,rmse_over_pcrb,error\n";
   for (const StudyCell& c : r.cells) {
@@ -578,7 +582,7 @@ std::string StudyCsv(const StudyResult& r) {
     for (const StudyRow& row : c.rows) {
       out << CsvField(s.name) << ',' << CsvField(s.label) << ',' << CsvField(s.values[c.value])
           << ',' << CsvField(row.estimator) << ',' << c.runs << ',' << c.seed << ','
-          << row.failed_runs;
+          << row.failed_runs << ',' << row.diverged_runs;
       for (size_t j = 0; j < std::size(kMetrics); ++j) {
         if (row.status.ok()) {
           out << ',' << Opt(Finite(row.stats.*kMetricFields[j])) << ','

@@ -13,6 +13,7 @@
 
 #include "io/csv_reader.h"
 #include "io/input_file.h"
+#include "io/plausibility.h"
 #include "util/text.h"
 #include "walkgraph/angle.h"
 #include "walkgraph/config.h"
@@ -21,6 +22,9 @@
 namespace walkgraph {
 
 namespace fs = std::filesystem;
+using internal::CheckImu;
+using internal::CheckRange;
+using internal::CheckRss;
 using internal::CsvReader;
 
 namespace {
@@ -62,33 +66,6 @@ std::string CheckTimeStrictlyIncreasing(double t, const double* prev_t) {
   if (t != *prev_t) s << *prev_t << ")";
   s << "; expected strictly increasing t_s";
   return s.str();
-}
-
-std::string CheckImu(const ImuSample& s, const ValidationLimits& lim) {
-  if (s.acc_mps2.cwiseAbs().maxCoeff() > lim.max_abs_acc_mps2) {
-    return "acceleration component over " + G(lim.max_abs_acc_mps2) +
-           " m/s^2 (physically absurd; units must be m/s^2)";
-  }
-  if (s.gyro_radps.cwiseAbs().maxCoeff() > lim.max_abs_gyro_radps) {
-    return "angular rate component over " + G(lim.max_abs_gyro_radps) +
-           " rad/s (physically absurd; units must be rad/s)";
-  }
-  return "";
-}
-
-std::string CheckRss(const RssSample& s, RssUnits units, const ValidationLimits& lim) {
-  if (units == RssUnits::kDbm && (s.rss < lim.min_rss_dbm || s.rss > lim.max_rss_dbm)) {
-    return "rss " + G(s.rss) + " outside [" + G(lim.min_rss_dbm) + ", " + G(lim.max_rss_dbm) +
-           "] dBm";
-  }
-  return "";
-}
-
-std::string CheckRange(const RangeSample& s, const ValidationLimits& lim) {
-  if (s.range_m < 0.0 || s.range_m > lim.max_range_m) {
-    return "range_m " + G(s.range_m) + " outside [0, " + G(lim.max_range_m) + "] m";
-  }
-  return "";
 }
 
 // Multi-anchor streams: timestamps never go backwards; per anchor they strictly increase.

@@ -27,7 +27,7 @@ std::string Legend(const Comparison& c, const Axes& a, bool with_truth) {
     y += 13;
   }
   for (size_t i = 0; i < c.outcomes.size(); ++i) {
-    if (!c.outcomes[i].status.ok()) continue;
+    if (!c.outcomes[i].Ranked()) continue;
     s << "<text class=\"legend\" x=\"" << a.w - a.m - 4 << "\" y=\"" << y
       << "\" text-anchor=\"end\" font-size=\"11\" fill=\"" << Color(i) << "\">"
       << Escape(c.outcomes[i].id) << "</text>\n";
@@ -76,7 +76,7 @@ std::string TrajectoryPlot(const Comparison& c) {
   }
   for (size_t k = 0; k < c.outcomes.size(); ++k) {
     const EstimatorOutcome& o = c.outcomes[k];
-    if (!o.status.ok()) continue;
+    if (!o.Ranked()) continue;
     const auto& pts = o.result.trajectory.points;
     s << Polyline(
         pts.size(),
@@ -98,7 +98,7 @@ std::string ErrorTimePlot(const Comparison& c) {
   Axes a{std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity(), 0.0,
          0.0};
   for (const EstimatorOutcome& o : c.outcomes) {
-    if (!o.status.ok() || o.errors.t_s.empty()) continue;
+    if (!o.Ranked() || o.errors.t_s.empty()) continue;
     a.x0 = std::min(a.x0, o.errors.t_s.front());
     a.x1 = std::max(a.x1, o.errors.t_s.back());
     a.y1 = std::max(a.y1, o.stats.p90_m * 1.5);
@@ -118,7 +118,7 @@ std::string ErrorTimePlot(const Comparison& c) {
     << "\"/></clipPath><g clip-path=\"url(#clip-et)\">\n";
   for (size_t k = 0; k < c.outcomes.size(); ++k) {
     const EstimatorOutcome& o = c.outcomes[k];
-    if (!o.status.ok()) continue;
+    if (!o.Ranked()) continue;
     // Monte Carlo: the first successful run's errors.
     const size_t n = o.errors.t_s.size();
     s << Polyline(
@@ -147,7 +147,7 @@ std::string ErrorTimePlot(const Comparison& c) {
 std::string CdfPlot(const Comparison& c) {
   Axes a{0.0, 0.0, 0.0, 1.0};
   for (const EstimatorOutcome& o : c.outcomes) {
-    if (o.status.ok()) a.x1 = std::max(a.x1, o.stats.p90_m * 1.5);
+    if (o.Ranked()) a.x1 = std::max(a.x1, o.stats.p90_m * 1.5);
   }
   a.Fix();
   std::ostringstream s;
@@ -157,7 +157,7 @@ std::string CdfPlot(const Comparison& c) {
     << "\"/></clipPath><g clip-path=\"url(#clip-cdf)\">\n";
   for (size_t k = 0; k < c.outcomes.size(); ++k) {
     const EstimatorOutcome& o = c.outcomes[k];
-    if (!o.status.ok() || o.errors.error_m.empty()) continue;
+    if (!o.Ranked() || o.errors.error_m.empty()) continue;
     if (o.pooled_errors) {  // Monte Carlo: every run's errors, from the sketch
       constexpr int kPoints = 400;
       s << Polyline(
@@ -193,8 +193,9 @@ std::string Table(const Comparison& c) {
   for (size_t k = 0; k < c.outcomes.size(); ++k) {
     const EstimatorOutcome& o = c.outcomes[k];
     s << "<tr><td style=\"color:" << Color(k) << "\">" << Escape(o.id) << "</td>";
-    if (!o.status.ok()) {
-      s << "<td colspan=\"" << ncols << "\">failed: " << Escape(o.status.message())
+    if (!o.Ranked()) {
+      s << "<td colspan=\"" << ncols << "\">"
+        << Escape(o.status.ok() ? ToString(*o.divergence) : "failed: " + o.status.message())
         << "</td></tr>\n";
       continue;
     }
