@@ -75,6 +75,7 @@ void CalibrateFrom(const Walk& calibration, Walk* target) {
   target->meta.radio.path_loss.A_dbm = fit->params.A_dbm;
   target->meta.radio.path_loss.eta = fit->params.eta;
   target->meta.radio.path_loss.sigma_db = fit->params.sigma_db;
+  target->meta.radio.calibrated = true;  // measured, on another trial of the same site
 }
 
 // IPIN 2023 Track 3 with the start known (`convert ipin --known-start`: the first landmark's

@@ -528,5 +528,82 @@ TEST(StepGraphSelfCalibration, ExponentSweepOnTheSimulatedBuilding) {
   if (!testing::kSanitized) EXPECT_LE(hi, 1.15 * lo);
 }
 
+// Calibration-free by default (issue 17): a walk whose declared path-loss exponent is 50 % off
+// and not declared measured (radio.calibrated: false) is smoothed with (A, η) estimated, so
+// fg-batch and fg-window stay within 2× of their RMSE with the right, measured model (mean over
+// seeds); declared measured, the wrong model is held exactly as `path_loss: fixed` holds it.
+// jimenez-building with 1 lap (the suite's time); README has the figures per scenario.
+TEST(StepGraphSelfCalibration, AnUncalibratedWrongExponentCostsAtMostTwice) {
+  const int runs = testing::MonteCarloRuns(10);
+  const auto& reg = EstimatorRegistry::Builtin();
+  for (const char* scenario : {"tarrio-circle", "jimenez-building"}) {
+    for (const char* id : {"fg-batch", "fg-window"}) {
+      auto est = reg.Create(id, YAML::Node());
+      auto fixed = reg.Create(id, YAML::Load("{path_loss: fixed}"));
+      ASSERT_TRUE(est.ok() && fixed.ok());
+      std::map<double, double> rmse;  // by the factor on η (1: nominal)
+      for (int i = 0; i < runs; ++i) {
+        auto w = SimulateScenario(scenario, MonteCarloSeed(17, i), YAML::Load("{laps: 1}"));
+        ASSERT_TRUE(w.ok());
+        ASSERT_TRUE(w->meta.radio.calibrated);  // the simulator's model is the true one
+        for (double f : {1.0, 0.5, 1.5}) {
+          Walk v = *w;
+          v.meta.radio.path_loss.eta *= f;
+          v.meta.radio.calibrated = f == 1.0;
+          auto r = (*est)->Run(v);
+          ASSERT_TRUE(r.ok()) << r.status().message();
+          EXPECT_EQ(r->diagnostics.at("path_loss_estimated"), f == 1.0 ? 0.0 : 1.0);
+          auto e = ComputeErrors(v, r->trajectory);
+          ASSERT_TRUE(e.ok());
+          rmse[f] += SummarizeErrors(e->error_m, v.TruthDistance()).rmse_m / runs;
+        }
+        if (i == 0) {  // declared measured: held, as before
+          Walk v = *w;
+          v.meta.radio.path_loss.eta *= 0.5;
+          auto a = (*est)->Run(v);
+          auto b = (*fixed)->Run(v);
+          ASSERT_TRUE(a.ok() && b.ok());
+          ASSERT_EQ(a->trajectory.points.size(), b->trajectory.points.size());
+          for (size_t k = 0; k < a->trajectory.points.size(); ++k) {
+            ASSERT_EQ(a->trajectory.points[k].position_m, b->trajectory.points[k].position_m);
+          }
+        }
+      }
+      std::printf("%s %s: RMSE %.3f m nominal, %.3f m with eta x0.5, %.3f m with eta x1.5\n",
+                  scenario, id, rmse[1.0], rmse[0.5], rmse[1.5]);
+      EXPECT_LE(rmse[0.5], 2.0 * rmse[1.0]) << scenario << " " << id;
+      EXPECT_LE(rmse[1.5], 2.0 * rmse[1.0]) << scenario << " " << id;
+    }
+  }
+}
+
+// A radio-only walk cannot separate η from the distances: auto holds the path loss there and
+// says so.
+TEST(StepGraphSelfCalibration, RadioOnlyWalksHoldThePathLossAndSaySo) {
+  Walk w;
+  w.meta.name = "radio only";
+  w.meta.radio.kind = RadioKind::kRss;
+  w.anchors = {{1, Eigen::Vector3d(0, 0, 0)},
+               {2, Eigen::Vector3d(20, 0, 0)},
+               {3, Eigen::Vector3d(0, 20, 0)},
+               {4, Eigen::Vector3d(20, 20, 0)}};
+  const PathLossParams pl = w.meta.radio.path_loss;
+  for (int k = 0; k <= 200; ++k) {
+    const double t = 0.1 * k;
+    const Eigen::Vector3d p(5.0 + 0.05 * k, 10.0, 0.0);
+    w.truth.push_back({t, p, false});
+    const Anchor& a = w.anchors[static_cast<size_t>(k % 4)];
+    const double d = (a.position_m - p).norm();
+    w.rss.push_back({t, a.id, pl.A_dbm - 10.0 * pl.eta * std::log10(d / pl.d0_m)});
+  }
+  auto est = EstimatorRegistry::Builtin().Create("fg-batch");
+  ASSERT_TRUE(est.ok());
+  auto r = (*est)->Run(w);
+  ASSERT_TRUE(r.ok()) << r.status().message();
+  EXPECT_EQ(r->diagnostics.at("path_loss_estimated"), 0.0);
+  EXPECT_EQ(r->diagnostics.at("path_loss_held_radio_only"), 1.0);
+  EXPECT_EQ(r->diagnostics.count("path_loss_eta"), 0u);
+}
+
 }  // namespace
 }  // namespace walkgraph

@@ -55,6 +55,9 @@ set_radio() {
     v=$(grep "^$k:" "$fit" | awk '{print $2}')
     sed -i "s/^\(  $k:\) .*/\1 $v/" "$dir/walk.yaml"
   done
+  # A fit on another trial of the same site counts as a measured calibration: the estimators
+  # hold it (radio.calibrated; without it the factor graphs would estimate A and eta).
+  sed -i "s/^  calibrated: .*/  calibrated: true/" "$dir/walk.yaml"
 }
 
 fit_line() { # "A -71.0 dBm, eta 1.98, sigma 4.8 dB (n = 80)"

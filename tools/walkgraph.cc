@@ -209,7 +209,8 @@ int RunFitPathLoss(const std::string& walk_dir) {
                   f.params.eta, f.params.sigma_db, f.num_observations);
     }
   }
-  std::printf("A_dbm: %.3f\neta: %.4f\nsigma_db: %.3f\n", fit->params.A_dbm, fit->params.eta,
+  std::printf("A_dbm: %.3f\neta: %.4f\nsigma_db: %.3f\ncalibrated: true\n", fit->params.A_dbm,
+              fit->params.eta,
               fit->params.sigma_db);
   return 0;
 }

@@ -39,6 +39,11 @@ struct RadioDefaults {
   RadioKind kind = RadioKind::kNone;
   RssUnits units = RssUnits::kDbm;
   PathLossParams path_loss;
+  // Whether path_loss was measured for this walk's radios (walk.yaml `radio.calibrated`,
+  // default false). false: the numbers are a guess (a converter's default, a datasheet, a fit
+  // on another site) and the factor-graph estimators estimate A and η from the walk itself,
+  // with path_loss as their prior mean; true: the estimators trust path_loss as given.
+  bool calibrated = false;
   double range_sigma_m = 1.0;  // for kind == kRange
 };
 

@@ -149,6 +149,7 @@ Status ReadMeta(const std::string& path, WalkMeta* meta) {
     rr.Read("d0_m", &meta->radio.path_loss.d0_m);
     rr.Read("sigma_db", &meta->radio.path_loss.sigma_db);
     rr.Read("range_sigma_m", &meta->radio.range_sigma_m);
+    rr.Read("calibrated", &meta->radio.calibrated);
     WG_RETURN_IF_ERROR(rr.Finish());
     WG_RETURN_IF_ERROR(ParseEnum<RadioKind>(
         kind, {{"none", RadioKind::kNone}, {"rss", RadioKind::kRss}, {"range", RadioKind::kRange}},
@@ -595,6 +596,7 @@ Status WriteWalkFiles(const Walk& walk, const fs::path& root) {
     e << YAML::Key << "d0_m" << YAML::Value << Num(m.radio.path_loss.d0_m);
     e << YAML::Key << "sigma_db" << YAML::Value << Num(m.radio.path_loss.sigma_db);
     e << YAML::Key << "range_sigma_m" << YAML::Value << Num(m.radio.range_sigma_m);
+    e << YAML::Key << "calibrated" << YAML::Value << m.radio.calibrated;
     e << YAML::EndMap;
     if (m.initial_pose) {
       const InitialPose& p = *m.initial_pose;

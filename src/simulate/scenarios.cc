@@ -580,6 +580,7 @@ StatusOr<Simulation> SimulateLinearGaussian(uint64_t seed, const YAML::Node& ove
   m.licence = "CC0-1.0";
   m.truth_kind = TruthKind::kContinuous;
   m.radio.kind = RadioKind::kRange;
+  m.radio.calibrated = true;
   m.radio.range_sigma_m = range_sigma_m;
   m.initial_pose = InitialPose{start.x(), start.y(), h, 0.5, 1e-6};
   m.extra["sim.seed"] = static_cast<double>(seed);
@@ -727,6 +728,7 @@ StatusOr<Simulation> SimulateScenarioDetailed(const std::string& name, uint64_t 
   m.radio.kind = RadioKind::kRss;
   m.radio.units = p.radio.units;
   m.radio.path_loss = p.radio.path_loss;
+  m.radio.calibrated = true;  // the model the readings were drawn from (per-anchor spread aside)
   m.radio.range_sigma_m = p.radio.toa_sigma_m;
   const sim::BodyState b0 = plan.At(0.0);
   m.initial_pose = InitialPose{

@@ -178,10 +178,10 @@ StatusOr<StepGraphOptions> StepGraphOptions::FromYaml(const YAML::Node& node,
   for (const std::string* l : {&o.rss_loss, &o.range_loss, &o.mag_heading_loss}) {
     if (!IsLoss(*l)) return InvalidArgument(context + ": loss '" + *l + "' is not " + kLosses);
   }
-  if (!OneOf(o.path_loss, {"fixed", "global", "per-anchor"})) {
-    return InvalidArgument(context + ": path_loss must be fixed, global or per-anchor");
+  if (!OneOf(o.path_loss, {"auto", "fixed", "global", "per-anchor"})) {
+    return InvalidArgument(context + ": path_loss must be auto, fixed, global or per-anchor");
   }
-  if (o.path_loss != "fixed" && o.rss_residual != "db") {
+  if ((o.path_loss == "global" || o.path_loss == "per-anchor") && o.rss_residual != "db") {
     return InvalidArgument(context + ": path-loss self-calibration needs rss_residual 'db'");
   }
   if (!OneOf(o.range_bias, {"none", "global", "per-anchor"}) ||
@@ -211,6 +211,27 @@ StatusOr<StepGraphOptions> StepGraphOptions::FromYaml(const YAML::Node& node,
 // ------------------------------------------------------------------ the graph
 
 namespace {
+
+// path_loss "auto": see StepGraphOptions::path_loss.
+std::string ResolvePathLoss(const Walk& walk, const StepGraphOptions& o,
+                            StepGraph::PathLossNote* note) {
+  *note = StepGraph::PathLossNote::kAsConfigured;
+  if (o.path_loss != "auto") return o.path_loss;
+  if (walk.meta.radio.calibrated) {
+    *note = StepGraph::PathLossNote::kCalibrated;
+    return "fixed";
+  }
+  if (o.rss_residual != "db") {
+    *note = StepGraph::PathLossNote::kHeldRangeResidual;
+    return "fixed";
+  }
+  if (!walk.has_odometry() && !walk.has_imu()) {
+    *note = StepGraph::PathLossNote::kHeldRadioOnly;
+    return "fixed";
+  }
+  *note = StepGraph::PathLossNote::kSelfCalibrated;
+  return "global";
+}
 
 constexpr StateKey kGyroBiasKey = -1;
 StateKey PathLossKey(int group) { return -1000 - group; }      // group: anchor index or 0
@@ -276,6 +297,7 @@ StatusOr<std::unique_ptr<StepGraph>> StepGraph::Build(const Walk& walk, const St
   if (o.sigma_db > 0) m.radio.path_loss.sigma_db = o.sigma_db;
   m.start = walk.meta.initial_pose;
   m.odometry = walk.has_odometry();
+  m.o.path_loss = ResolvePathLoss(walk, o, &g->path_loss_note_);
   m.rss_loss = MakeLoss(o.rss_loss, o.rss_loss_scale);
   m.range_loss = MakeLoss(o.range_loss, o.range_loss_scale);
   m.mag_loss = MakeLoss(o.mag_heading_loss, o.mag_heading_loss_scale);
@@ -466,6 +488,10 @@ StatusOr<std::unique_ptr<StepGraph>> StepGraph::Build(const Walk& walk, const St
     }
   }
   return g;
+}
+
+bool StepGraph::path_loss_estimated() const {
+  return impl_->any_rss && impl_->o.rss_residual == "db" && impl_->o.path_loss != "fixed";
 }
 
 std::vector<SmootherState> StepGraph::StaticStates() const {
@@ -697,6 +723,15 @@ void AddStaticDiagnostics(const std::vector<SmootherState>& statics,
   }
 }
 
+void AddPathLossDiagnostics(const StepGraph& graph, const Walk& walk,
+                            std::map<std::string, double>* d) {
+  if (!walk.has_rss()) return;
+  (*d)["path_loss_estimated"] = graph.path_loss_estimated() ? 1.0 : 0.0;
+  if (graph.path_loss_note() == StepGraph::PathLossNote::kHeldRadioOnly) {
+    (*d)["path_loss_held_radio_only"] = 1.0;
+  }
+}
+
 TrajectoryPoint MakePoint(double t, const double* p, double theta) {
   TrajectoryPoint pt;
   pt.t_s = t;
@@ -847,6 +882,7 @@ StatusOr<EstimateResult> StepGraphBatch::Run(const Walk& walk) const {
   d["residual_blocks"] = problem.NumResidualBlocks();
   AddStaticDiagnostics(
       graph->StaticStates(), [&](StateKey k) { return states.at(k).value; }, walk, options_, &d);
+  AddPathLossDiagnostics(*graph, walk, &d);
   for (int k = 0; k < n; ++k) {
     result.trajectory.points.push_back(MakePoint(graph->node_time(k),
                                                  states.at(StepGraph::PositionKey(k)).value.data(),
@@ -1016,6 +1052,7 @@ StatusOr<EstimateResult> RunWindowNodes(const Walk& walk, const StepGraphOptions
         return v.ok() ? *v : std::vector<double>{0.0, 0.0};
       },
       walk, options_, &d);
+  AddPathLossDiagnostics(*graph, walk, &d);
   return result;
 }
 

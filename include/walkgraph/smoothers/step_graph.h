@@ -95,8 +95,15 @@ struct StepGraphOptions {
   double A_dbm = std::numeric_limits<double>::quiet_NaN();
   double eta = 0.0;
   double sigma_db = 0.0;
-  // Self-calibration: fixed | global | per-anchor.
-  std::string path_loss = "fixed";
+  // Self-calibration: auto | fixed | global | per-anchor. auto (the default): fixed when the
+  // walk declares its radio calibrated (walk.yaml radio.calibrated: true), else one (A, η)
+  // block for the walk, estimated with the walk's values as prior mean — except where the
+  // walk cannot identify it: on a radio-only walk (no steps, no odometry) nothing fixes the
+  // scale of the motion, and η trades against the distances (BLE straight_04, 10.5 m:
+  // estimated 10.5 m RMSE against 2.2 m held), so it is held there and diagnostics say so
+  // (path_loss_held_radio_only = 1). diagnostics path_loss_estimated = 1 when (A, η) were
+  // estimated, with path_loss_A / path_loss_eta their estimates.
+  std::string path_loss = "auto";
   double A_prior_sigma_db = 10.0;
   double eta_prior_sigma = 1.0;
   std::string range_bias = "per-anchor";  // none | global | per-anchor
@@ -177,6 +184,17 @@ class StepGraph {
   std::vector<SmootherFactor> FactorsAt(int k) const;
   // Whether node 0 must be held constant (no prior and no anchors: see the top of this file).
   bool fix_first_node() const { return fix_first_node_; }
+  // How path_loss was resolved (StepGraphOptions::path_loss "auto").
+  enum class PathLossNote {
+    kAsConfigured,       // path_loss was not "auto"
+    kCalibrated,         // the walk declares its radio calibrated: held
+    kSelfCalibrated,     // estimated (one block for the walk)
+    kHeldRadioOnly,      // radio-only walk: not identifiable, held
+    kHeldRangeResidual,  // rss_residual "range" has no (A, η) block: held
+  };
+  PathLossNote path_loss_note() const { return path_loss_note_; }
+  // Whether the walk's RSS readings enter the graph with a free (A, η) block.
+  bool path_loss_estimated() const;
 
  private:
   StepGraph() = default;
@@ -185,6 +203,7 @@ class StepGraph {
   std::vector<double> node_t_;
   std::vector<Eigen::Vector3d> init_;
   bool fix_first_node_ = false;
+  PathLossNote path_loss_note_ = PathLossNote::kAsConfigured;
 };
 
 // The estimators (registered as fg-batch, fg-batch-selfcal, fg-window, fg-window-online).
