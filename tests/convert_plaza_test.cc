@@ -51,6 +51,39 @@ TEST(ConvertPlaza, MalformedLineNamesFileAndLine) {
   fs::remove_all(dir);
 }
 
+// A heading column π off the direction of travel (as a public recording of this family ships
+// it) is replaced by the direction of travel, with a warning naming the line.
+TEST(ConvertPlaza, HeadingColumnAgainstTheDirectionOfTravelIsReplaced) {
+  if (!fs::exists(kPlaza)) GTEST_SKIP() << kPlaza << " not present";
+  const fs::path dir = Scratch("flip");
+  for (const char* f : {"Plaza1_DR.txt", "Plaza1_anchors.csv", "Plaza1_TD.txt"}) {
+    fs::copy_file(kPlaza + "/" + f, dir / f);
+  }
+  std::ifstream in(kPlaza + "/Plaza1_GT.csv");
+  std::ofstream out(dir / "Plaza1_GT.csv");
+  std::string line;
+  std::getline(in, line);
+  out << line << "\n";
+  while (std::getline(in, line)) {  // t_s,x_m,y_m,heading_rad with the heading turned by π
+    const size_t c = line.rfind(',');
+    out << line.substr(0, c + 1) << std::stod(line.substr(c + 1)) + 3.141592653589793 << "\n";
+  }
+  out.close();
+  std::vector<std::string> warnings;
+  auto walk = Convert("plaza", {dir.string()}, {}, &warnings);
+  ASSERT_TRUE(walk.ok()) << walk.status().message();
+  ASSERT_EQ(warnings.size(), 1u);
+  EXPECT_THAT(warnings[0], ::testing::HasSubstr("Plaza1_GT.csv:2: heading"));
+  EXPECT_THAT(warnings[0], ::testing::HasSubstr("off the direction of travel"));
+  EXPECT_EQ(walk->meta.extra.at("convert.truth_heading_replaced"), 1.0);
+  // The direction of travel over the first metre, 7.5° from the recording's own column.
+  EXPECT_NEAR(walk->meta.initial_pose->heading_rad, -1.9287, 1e-3);
+  auto shared = Convert("plaza", {kPlaza}, {}, &warnings);
+  ASSERT_TRUE(shared.ok());
+  EXPECT_EQ(shared->meta.extra.at("convert.truth_heading_replaced"), 0.0);
+  fs::remove_all(dir);
+}
+
 TEST(Convert, UnknownFormatListsKnownOnes) {
   auto walk = Convert("nope", {"x"});
   ASSERT_FALSE(walk.ok());

@@ -42,6 +42,34 @@ StatusOr<std::string> FindPlazaFile(const fs::path& dir, const std::string& suff
 
 bool IsIntegral(double v) { return std::floor(v) == v && std::fabs(v) < 2e9; }
 
+// The start heading: the truth's heading column, checked against the direction of travel (from
+// the first truth position to the first one kTravelCheckM away). A public range+odometry
+// recording of this family ships its heading column π off the direction of travel (GTSAM's
+// own example hard-codes the fix), so where the two disagree by more than 90° the direction of
+// travel is used, with a warning naming the line, and convert.truth_heading_replaced = 1.
+constexpr double kTravelCheckM = 1.0;
+double StartHeading(const internal::TextTable& gt, const std::string& path, WalkMeta* meta,
+                    std::vector<std::string>* warnings) {
+  const double column = NormalizeAngle(gt.rows[0][3]);
+  meta->extra["convert.truth_heading_replaced"] = 0;
+  for (const auto& r : gt.rows) {
+    const double dx = r[1] - gt.rows[0][1], dy = r[2] - gt.rows[0][2];
+    if (std::hypot(dx, dy) < kTravelCheckM) continue;
+    const double travel = std::atan2(dy, dx);
+    if (std::abs(NormalizeAngle(travel - column)) <= kPi / 2) return column;
+    meta->extra["convert.truth_heading_replaced"] = 1;
+    if (warnings != nullptr) {
+      warnings->push_back(
+          path + ":" + std::to_string(gt.line_numbers[0]) + ": heading " + internal::Num(column) +
+          " rad is " + internal::Num(RadToDeg(std::abs(NormalizeAngle(travel - column)))) +
+          "° off the direction of travel (" + internal::Num(travel) + " rad over the first " +
+          internal::Num(kTravelCheckM) + " m); the start heading is the direction of travel");
+    }
+    return travel;
+  }
+  return column;  // the truth never moves kTravelCheckM: nothing to check against
+}
+
 }  // namespace
 
 StatusOr<Walk> ConvertPlaza(const std::string& dir_name, const ConvertOptions& options,
@@ -140,7 +168,7 @@ StatusOr<Walk> ConvertPlaza(const std::string& dir_name, const ConvertOptions& o
     InitialPose p;
     p.x_m = gt.rows[0][1];
     p.y_m = gt.rows[0][2];
-    p.heading_rad = NormalizeAngle(gt.rows[0][3]);
+    p.heading_rad = StartHeading(gt, gt_path, &walk.meta, warnings);
     p.sigma_xy_m = 0.1;
     p.sigma_heading_rad = 0.05;
     walk.meta.initial_pose = p;

@@ -105,6 +105,9 @@ StatusOr<StepGraphOptions> StepGraphOptions::FromYaml(const YAML::Node& node,
   r.Read("range_scale", &o.range_scale);
   r.Read("range_scale_prior_sigma", &o.range_scale_prior_sigma);
   r.Read("align_window_s", &o.align_window_s);
+  r.Read("start_check", &o.start_check);
+  r.Read("start_check_rad", &o.start_check_rad);
+  r.Read("start_check_sigmas", &o.start_check_sigmas);
   r.Read("initialization", &o.initialization);
   r.Read("max_iterations", &o.max_iterations);
   r.Read("initial_trust_region_radius", &o.initial_trust_region_radius);
@@ -151,6 +154,8 @@ StatusOr<StepGraphOptions> StepGraphOptions::FromYaml(const YAML::Node& node,
   WG_RETURN_IF_ERROR(positive(o.range_bias_prior_sigma_m, "range_bias_prior_sigma_m"));
   WG_RETURN_IF_ERROR(positive(o.range_scale_prior_sigma, "range_scale_prior_sigma"));
   WG_RETURN_IF_ERROR(positive(o.align_window_s, "align_window_s"));
+  WG_RETURN_IF_ERROR(positive(o.start_check_rad, "start_check_rad"));
+  WG_RETURN_IF_ERROR(positive(o.start_check_sigmas, "start_check_sigmas"));
   WG_RETURN_IF_ERROR(positive(o.lag_s, "lag_s"));
   WG_RETURN_IF_ERROR(
       positive(o.window_initial_trust_region_radius, "window_initial_trust_region_radius"));
@@ -248,6 +253,80 @@ struct Reading {
 
 }  // namespace
 
+namespace {
+
+// The rigid transform taking the dead reckoning `init` of the first align_window_s onto the
+// radio position fixes there (Umeyama, no scale), with how well it is determined: the spread
+// of the dead-reckoned points and the RMS residual after alignment.
+struct Alignment {
+  Eigen::Matrix2d R;
+  Eigen::Vector2d t;
+  double rotation_rad = 0.0;
+  double spread_m = 0.0;    // RMS distance of the aligned points from their mean
+  double residual_m = 0.0;  // RMS fix − aligned point
+};
+
+Alignment Align(const std::vector<Eigen::Vector2d>& src, const std::vector<Eigen::Vector2d>& dst,
+                size_t count) {
+  Eigen::Matrix2Xd S(2, count), D(2, count);
+  for (size_t i = 0; i < count; ++i) {
+    S.col(static_cast<Eigen::Index>(i)) = src[i];
+    D.col(static_cast<Eigen::Index>(i)) = dst[i];
+  }
+  const Eigen::Matrix3d T = Eigen::umeyama(S, D, /*with_scaling=*/false);
+  Alignment a;
+  a.R = T.topLeftCorner<2, 2>();
+  a.t = T.topRightCorner<2, 1>();
+  a.rotation_rad = std::atan2(T(1, 0), T(0, 0));
+  const Eigen::Matrix2Xd aligned = (a.R * S).colwise() + a.t;
+  const double n = static_cast<double>(count);
+  a.residual_m = std::sqrt((D - aligned).colwise().squaredNorm().sum() / n);
+  a.spread_m = std::sqrt((S.colwise() - S.rowwise().mean()).colwise().squaredNorm().sum() / n);
+  return a;
+}
+
+// Fixes of the first align_window_s — or, while the walker has not moved enough there for the
+// rotation to be determined (spread ≤ 2 × residual: e.g. standing at the start), of a window
+// doubled until it has, up to the whole walk.
+std::optional<Alignment> AlignToFirstFixes(const Walk& walk, const StepGraphOptions& o,
+                                           const std::vector<double>& node_t,
+                                           const std::vector<Eigen::Vector3d>& init) {
+  if (walk.rss.empty() && walk.ranges.empty()) return std::nullopt;
+  EpochOptions eo;
+  eo.receiver_height_m = o.receiver_height_m;
+  auto fixes = PositionWalk(walk, eo, PositioningMethod::kNonlinearLs);
+  if (!fixes.ok()) return std::nullopt;
+  std::vector<Eigen::Vector2d> src, dst;
+  std::vector<double> t;
+  for (const FixResult& f : *fixes) {
+    if (!f.ok()) continue;
+    const auto it = std::lower_bound(node_t.begin(), node_t.end(), f.fix.t_s);
+    Eigen::Vector2d q;
+    if (it == node_t.begin()) {
+      q = init.front().head<2>();
+    } else if (it == node_t.end()) {
+      q = init.back().head<2>();
+    } else {
+      const size_t b = static_cast<size_t>(it - node_t.begin());
+      const double w = (f.fix.t_s - node_t[b - 1]) / (node_t[b] - node_t[b - 1]);
+      q = (1 - w) * init[b - 1].head<2>() + w * init[b].head<2>();
+    }
+    src.push_back(q);
+    dst.push_back(f.fix.position_m);
+    t.push_back(f.fix.t_s);
+  }
+  if (src.size() < 3) return std::nullopt;
+  std::optional<Alignment> a;
+  for (double window = o.align_window_s;; window *= 2.0) {
+    size_t count = 0;
+    while (count < t.size() && (t[count] <= node_t.front() + window || count < 3)) ++count;
+    a = Align(src, dst, count);
+    if (a->spread_m > 2.0 * a->residual_m || count == t.size()) return a;
+  }
+}
+
+}  // namespace
+
 struct StepGraph::Impl {
   StepGraphOptions o;
   bool odometry = false;
@@ -264,6 +343,7 @@ struct StepGraph::Impl {
   std::shared_ptr<const ceres::LossFunction> rss_loss, range_loss, mag_loss;
 
   int PathLossGroup(int anchor) const { return o.path_loss == "per-anchor" ? anchor : 0; }
+  void CheckStartHeading(const Walk& walk, StepGraph* g);
 
   // Dead reckoning: node k's (p, θ) from node k − 1's by its increment (odometry: move along
   // the heading, then turn; a step: turn, then move along the new heading; radio-only: stay).
@@ -284,6 +364,36 @@ struct StepGraph::Impl {
 };
 
 StepGraph::~StepGraph() = default;
+
+// A known start whose heading the radio contradicts (issue 17: a recording's truth heading
+// column π off the direction of travel): the dead reckoning of the first align_window_s,
+// aligned to the radio fixes there, says by how much the start heading is off. When that is
+// more than max(start_check_rad, start_check_sigmas × σ_heading) and the alignment is well
+// determined (the walker moved: spread > 2 × residual), the start heading is treated as
+// unknown (no heading prior) and the dead reckoning is rotated about the start position by
+// that angle. A position-only start on a walk whose steps carry no heading (odometry) takes
+// its heading from the same alignment instead of 0.
+void StepGraph::Impl::CheckStartHeading(const Walk& walk, StepGraph* g) {
+  Impl* m = this;
+  const bool no_heading = !m->start->heading_known && (m->odometry || m->steps.empty());
+  if (!(m->start->heading_known && o.start_check) && !no_heading) return;
+  const std::optional<Alignment> a = AlignToFirstFixes(walk, o, g->node_t_, g->init_);
+  if (!a || !(a->spread_m > 2.0 * a->residual_m)) return;
+  const double limit =
+      std::max(o.start_check_rad, o.start_check_sigmas * m->start->sigma_heading_rad);
+  const double off = std::abs(NormalizeAngle(a->rotation_rad));
+  if (!no_heading && off <= limit) return;
+  if (!no_heading) {
+    m->start->heading_known = false;
+    g->start_heading_contradicted_ = off;
+  }
+  const Eigen::Vector2d s(m->start->x_m, m->start->y_m);
+  const Eigen::Rotation2Dd R(a->rotation_rad);
+  for (Eigen::Vector3d& p : g->init_) {
+    p.head<2>() = s + R * (p.head<2>() - s);
+    p[2] = NormalizeAngle(p[2] + a->rotation_rad);
+  }
+}
 
 StatusOr<std::unique_ptr<StepGraph>> StepGraph::Build(const Walk& walk, const StepGraphOptions& o) {
   std::unique_ptr<StepGraph> g(new StepGraph());
@@ -443,49 +553,17 @@ StatusOr<std::unique_ptr<StepGraph>> StepGraph::Build(const Walk& walk, const St
   } else if (!m.start) {
     // Without a known start: align the dead reckoning to the first radio fixes; with no radio
     // either, node 0 is the gauge.
-    std::vector<Eigen::Vector2d> src, dst;
-    if (m.any_rss || m.any_range) {
-      EpochOptions eo;
-      eo.receiver_height_m = o.receiver_height_m;
-      auto fixes = PositionWalk(walk, eo, PositioningMethod::kNonlinearLs);
-      if (fixes.ok()) {
-        std::vector<const FixResult*> good;
-        for (const FixResult& f : *fixes) {
-          if (f.ok()) good.push_back(&f);
-        }
-        for (const FixResult* f : good) {
-          if (f->fix.t_s > t0 + o.align_window_s && src.size() >= 3) break;
-          const auto it = std::lower_bound(g->node_t_.begin(), g->node_t_.end(), f->fix.t_s);
-          Eigen::Vector2d q;
-          if (it == g->node_t_.begin()) {
-            q = g->init_.front().head<2>();
-          } else if (it == g->node_t_.end()) {
-            q = g->init_.back().head<2>();
-          } else {
-            const int b = static_cast<int>(it - g->node_t_.begin());
-            const double w = (f->fix.t_s - g->node_t_[b - 1]) / (g->node_t_[b] - g->node_t_[b - 1]);
-            q = (1 - w) * g->init_[b - 1].head<2>() + w * g->init_[b].head<2>();
-          }
-          src.push_back(q);
-          dst.push_back(f->fix.position_m);
-        }
-      }
-    }
-    if (src.size() >= 3) {
-      Eigen::Matrix2Xd S(2, src.size()), D(2, dst.size());
-      for (size_t i = 0; i < src.size(); ++i) {
-        S.col(static_cast<Eigen::Index>(i)) = src[i];
-        D.col(static_cast<Eigen::Index>(i)) = dst[i];
-      }
-      const Eigen::Matrix3d T = Eigen::umeyama(S, D, /*with_scaling=*/false);
-      const double rot = std::atan2(T(1, 0), T(0, 0));
+    const std::optional<Alignment> a = AlignToFirstFixes(walk, o, g->node_t_, g->init_);
+    if (a) {
       for (Eigen::Vector3d& p : g->init_) {
-        p.head<2>() = T.topLeftCorner<2, 2>() * p.head<2>() + T.topRightCorner<2, 1>();
-        p[2] = NormalizeAngle(p[2] + rot);
+        p.head<2>() = a->R * p.head<2>() + a->t;
+        p[2] = NormalizeAngle(p[2] + a->rotation_rad);
       }
     } else {
       g->fix_first_node_ = !(m.any_rss || m.any_range) || walk.anchors.size() < 3;
     }
+  } else if (m.any_rss || m.any_range) {
+    m.CheckStartHeading(walk, g.get());
   }
   return g;
 }
@@ -732,6 +810,14 @@ void AddPathLossDiagnostics(const StepGraph& graph, const Walk& walk,
   }
 }
 
+void AddGraphDiagnostics(const StepGraph& graph, const Walk& walk,
+                         std::map<std::string, double>* d) {
+  AddPathLossDiagnostics(graph, walk, d);
+  if (graph.start_heading_contradicted_rad() > 0.0) {
+    (*d)["start_heading_contradicted_rad"] = graph.start_heading_contradicted_rad();
+  }
+}
+
 TrajectoryPoint MakePoint(double t, const double* p, double theta) {
   TrajectoryPoint pt;
   pt.t_s = t;
@@ -882,7 +968,7 @@ StatusOr<EstimateResult> StepGraphBatch::Run(const Walk& walk) const {
   d["residual_blocks"] = problem.NumResidualBlocks();
   AddStaticDiagnostics(
       graph->StaticStates(), [&](StateKey k) { return states.at(k).value; }, walk, options_, &d);
-  AddPathLossDiagnostics(*graph, walk, &d);
+  AddGraphDiagnostics(*graph, walk, &d);
   for (int k = 0; k < n; ++k) {
     result.trajectory.points.push_back(MakePoint(graph->node_time(k),
                                                  states.at(StepGraph::PositionKey(k)).value.data(),
@@ -1052,7 +1138,7 @@ StatusOr<EstimateResult> RunWindowNodes(const Walk& walk, const StepGraphOptions
         return v.ok() ? *v : std::vector<double>{0.0, 0.0};
       },
       walk, options_, &d);
-  AddPathLossDiagnostics(*graph, walk, &d);
+  AddGraphDiagnostics(*graph, walk, &d);
   return result;
 }
 
