@@ -53,6 +53,22 @@ int Walk::AnchorIndex(int id) const {
   return -1;
 }
 
+std::vector<ImuGap> Walk::ImuGaps() const {
+  std::vector<ImuGap> gaps;
+  if (imu.size() < 3) return gaps;
+  std::vector<double> dt;
+  dt.reserve(imu.size() - 1);
+  for (size_t i = 1; i < imu.size(); ++i) dt.push_back(imu[i].t_s - imu[i - 1].t_s);
+  std::vector<double> sorted = dt;
+  std::nth_element(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(sorted.size() / 2),
+                   sorted.end());
+  const double limit = kImuGapFactor * sorted[sorted.size() / 2];
+  for (size_t i = 0; i < dt.size(); ++i) {
+    if (dt[i] > limit) gaps.push_back({imu[i].t_s, imu[i + 1].t_s});
+  }
+  return gaps;
+}
+
 double Walk::StartTime() const {
   double t = std::numeric_limits<double>::infinity();
   if (!imu.empty()) t = std::min(t, imu.front().t_s);

@@ -68,11 +68,13 @@ fit_line() { # "A -71.0 dBm, eta 1.98, sigma 4.8 dB (n = 80)"
     "$(head -1 "$fit" | sed 's/.*: \([0-9]*\) readings.*/\1/')"
 }
 
-# cell RESULTS ID FIELD: a number with 3 decimals, or "fail".
+# cell RESULTS ID FIELD: a number with 3 decimals, "diverged" (flagged by compare: see
+# include/walkgraph/divergence.h) or "fail" (could not run).
 cell() {
   jq -r --arg id "$2" --arg f "$3" \
-    '.estimators[$id] as $e | if $e == null then "n/a" elif ($e[$f] | type) == "number"
-     then ($e[$f] * 1000 | round / 1000 | tostring) else "fail" end' "$1"
+    '.estimators[$id] as $e | if $e == null then "n/a" elif $e.diverged != null then "diverged"
+     elif ($e[$f] | type) == "number" then ($e[$f] * 1000 | round / 1000 | tostring)
+     else "fail" end' "$1"
 }
 ids() { jq -r '.estimators | keys_unsorted[]' "$1"; }
 

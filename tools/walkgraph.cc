@@ -47,6 +47,26 @@ int Fail(const Status& s) {
   return 1;
 }
 
+// Reads a walk and reports what the estimators will work around: holes in the IMU stream
+// (Walk::ImuGaps), which they bridge instead of integrating across.
+walkgraph::StatusOr<walkgraph::Walk> ReadWalk(const std::string& dir) {
+  auto walk = walkgraph::ReadWalk(dir);
+  if (!walk.ok()) return walk;
+  const std::vector<walkgraph::ImuGap> gaps = walk->ImuGaps();
+  if (!gaps.empty()) {
+    const auto longest = std::max_element(
+        gaps.begin(), gaps.end(),
+        [](const auto& a, const auto& b) { return a.duration_s() < b.duration_s(); });
+    char line[256];
+    std::snprintf(line, sizeof(line),
+                  "%zu gap(s) longer than %gx the median sample interval; the longest %g s after "
+                  "t = %g s (bridged, not integrated across)",
+                  gaps.size(), walkgraph::kImuGapFactor, longest->duration_s(), longest->t_begin_s);
+    std::cerr << "walkgraph: warning: " << dir << "/imu.csv: " << line << "\n";
+  }
+  return walk;
+}
+
 // An error about a --config file's contents, prefixed with the file's path (the library names the
 // estimator and the line, but it does not know the file).
 Status InConfig(const std::string& path, const Status& s) {
@@ -139,7 +159,7 @@ walkgraph::StatusOr<YAML::Node> LoadConfig(const std::string& path) {
 }
 
 int RunValidate(const std::string& walk_dir) {
-  auto walk = walkgraph::ReadWalk(walk_dir);
+  auto walk = ReadWalk(walk_dir);
   if (!walk.ok()) return Fail(walk.status());
   std::cout << walk_dir << ": OK (" << walk->anchors.size() << " anchors, " << walk->imu.size()
             << " IMU, " << walk->rss.size() << " RSS, " << walk->ranges.size() << " range, "
@@ -174,7 +194,7 @@ int RunConvert(const std::string& format, const std::vector<std::string>& source
 // anchor's height against 0). Prints a `radio:` block for walk.yaml (global fit) and the fit per
 // anchor as comments. Meant to calibrate one walk's path loss for use on a different walk.
 int RunFitPathLoss(const std::string& walk_dir) {
-  auto walk = walkgraph::ReadWalk(walk_dir);
+  auto walk = ReadWalk(walk_dir);
   if (!walk.ok()) return Fail(walk.status());
   const auto& truth = walk->truth;
   if (truth.size() < 2) return Fail(walkgraph::FailedPrecondition("fit-path-loss: no truth"));
@@ -210,8 +230,7 @@ int RunFitPathLoss(const std::string& walk_dir) {
     }
   }
   std::printf("A_dbm: %.3f\neta: %.4f\nsigma_db: %.3f\ncalibrated: true\n", fit->params.A_dbm,
-              fit->params.eta,
-              fit->params.sigma_db);
+              fit->params.eta, fit->params.sigma_db);
   return 0;
 }
 
@@ -220,7 +239,7 @@ int RunSmooth(const std::string& walk_dir, const std::string& id, const std::str
   if (Status s = Preflight(out, walkgraph::OutputKind::kFile, {walk_dir, config_path}); !s.ok()) {
     return Fail(s);
   }
-  auto walk = walkgraph::ReadWalk(walk_dir);
+  auto walk = ReadWalk(walk_dir);
   if (!walk.ok()) return Fail(walk.status());
   auto config = LoadConfig(config_path);
   if (!config.ok()) return Fail(config.status());
@@ -326,7 +345,7 @@ int RunCompare(const CompareArgs& args) {
   walkgraph::StatusOr<walkgraph::Comparison> comparison =
       walkgraph::FailedPrecondition("compare: nothing to compare");
   if (!args.walk_dir.empty()) {
-    auto walk = walkgraph::ReadWalk(args.walk_dir);
+    auto walk = ReadWalk(args.walk_dir);
     if (!walk.ok()) return Fail(walk.status());
     comparison = walkgraph::CompareOnWalk(*walk, options);
   } else {
@@ -424,7 +443,7 @@ int RunSimulate(const std::string& scenario, uint64_t seed, const std::string& c
 
 int RunStanceSearch(const std::string& walk_dir, const std::string& detector,
                     const std::string& config_path, const std::vector<double>& thresholds) {
-  auto walk = walkgraph::ReadWalk(walk_dir);
+  auto walk = ReadWalk(walk_dir);
   if (!walk.ok()) return Fail(walk.status());
   auto config = LoadConfig(config_path);
   if (!config.ok()) return Fail(config.status());

@@ -119,6 +119,17 @@ struct StanceSample {
   bool stance = false;
 };
 
+// A hole in the IMU stream: no sample in (t_begin_s, t_end_s), longer than kImuGapFactor ×
+// the stream's median sample interval (dropped samples, a logger pause). Estimators do not
+// integrate across it: the PDR front end holds its attitude and heading there, the step graph
+// bridges it with a random-walk motion model, the filters propagate over its true duration.
+struct ImuGap {
+  double t_begin_s = 0.0;  // the last sample before the hole
+  double t_end_s = 0.0;    // the first sample after it
+  double duration_s() const { return t_end_s - t_begin_s; }
+};
+inline constexpr double kImuGapFactor = 10.0;
+
 struct Walk {
   WalkMeta meta;
   std::vector<Anchor> anchors;
@@ -139,6 +150,8 @@ struct Walk {
   int AnchorIndex(int id) const;
   // First and last timestamp over every stream (0, 0 for an empty walk).
   double StartTime() const;
+  // The holes in `imu` (see ImuGap), in time order; empty with fewer than 3 samples.
+  std::vector<ImuGap> ImuGaps() const;
   double EndTime() const;
   // Horizontal length of the truth path, metres (0 without truth).
   double TruthDistance() const;

@@ -866,7 +866,21 @@ StatusOr<EstimateResult> RunPrietoFilter(const Walk& walk, const PrietoOptions& 
   // Timeline: the IMU samples (also for radio-only, when the walk has them), else a grid.
   std::vector<double> times;
   if (has_imu) {
-    for (const ImuSample& s : walk.imu) times.push_back(s.t_s);
+    // Radio-only: an IMU gap (Walk::ImuGaps) is filled with the radio_only_step_s grid, so the
+    // [x v a] model is propagated in steps over its true duration and the readings in it are
+    // fused at their own times, not all at its end.
+    std::vector<ImuGap> gaps = use_imu ? std::vector<ImuGap>() : walk.ImuGaps();
+    size_t next_gap = 0;
+    for (const ImuSample& s : walk.imu) {
+      if (next_gap < gaps.size() && s.t_s >= gaps[next_gap].t_end_s) {
+        const ImuGap& g = gaps[next_gap++];
+        for (double t = g.t_begin_s + o.radio_only_step_s; t < g.t_end_s;
+             t += o.radio_only_step_s) {
+          times.push_back(t);
+        }
+      }
+      times.push_back(s.t_s);
+    }
   } else {
     const double t0 = radio.front().t_s, t1 = radio.back().t_s;
     const long n = static_cast<long>(std::ceil((t1 - t0) / o.radio_only_step_s - 1e-9));

@@ -343,8 +343,11 @@ StatusOr<std::vector<Eigen::Quaterniond>> EstimateAttitude(const std::vector<Imu
   if (mean.norm() < 1e-6) return FailedPrecondition("attitude: zero specific force at start");
   std::vector<Eigen::Quaterniond> q(imu.size());
   q[0] = Eigen::Quaterniond::FromTwoVectors(mean.normalized(), Eigen::Vector3d::UnitZ());
+  // Across an IMU gap (Walk::ImuGaps) the attitude is held, not integrated over the hole.
+  const double gap_s = imu.size() >= 3 ? kImuGapFactor / MedianRateHz(imu) : 1e300;
   for (size_t i = 1; i < imu.size(); ++i) {
-    const double dt = imu[i].t_s - imu[i - 1].t_s;
+    double dt = imu[i].t_s - imu[i - 1].t_s;
+    if (dt > gap_s) dt = 0.0;
     Eigen::Vector3d w = 0.5 * (imu[i].gyro_radps + imu[i - 1].gyro_radps);
     const Eigen::Vector3d& a = imu[i].acc_mps2;
     if (std::fabs(a.norm() - o.gravity_mps2) < o.attitude_acc_gate_mps2) {
@@ -372,9 +375,12 @@ StatusOr<StepSequence> ComputeSteps(const Walk& walk, const PdrOptions& o) {
   WG_ASSIGN_OR_RETURN(const std::vector<StepEvent> events, DetectWithSignals(walk, s, o));
 
   // Integrated yaw ψ_i (000 eq. 4) at every sample.
+  // Held across IMU gaps (Walk::ImuGaps): the step graph bridges them.
   std::vector<double> psi(walk.imu.size(), 0.0);
+  const double gap_s = kImuGapFactor / s.rate_hz;
   for (size_t i = 1; i < psi.size(); ++i) {
-    const double dt = walk.imu[i].t_s - walk.imu[i - 1].t_s;
+    double dt = walk.imu[i].t_s - walk.imu[i - 1].t_s;
+    if (dt > gap_s) dt = 0.0;
     psi[i] = psi[i - 1] + dt * 0.5 * (s.yaw_rate[i] + s.yaw_rate[i - 1]);
   }
   const bool have_mag = walk.imu.front().has_mag;

@@ -77,6 +77,7 @@ StatusOr<StepGraphOptions> StepGraphOptions::FromYaml(const YAML::Node& node,
   r.Read("max_step_duration_s", &o.max_step_duration_s);
   r.Read("radio_epoch_s", &o.radio_epoch_s);
   r.Read("motion_sigma_mps", &o.motion_sigma_mps);
+  r.Read("bridge_speed_mps", &o.bridge_speed_mps);
   r.Read("estimate_gyro_bias", &o.estimate_gyro_bias);
   r.Read("gyro_bias_prior_sigma_radps", &o.gyro_bias_prior_sigma_radps);
   r.Read("use_mag_heading", &o.use_mag_heading);
@@ -142,6 +143,7 @@ StatusOr<StepGraphOptions> StepGraphOptions::FromYaml(const YAML::Node& node,
   WG_RETURN_IF_ERROR(positive(o.max_step_duration_s, "max_step_duration_s"));
   WG_RETURN_IF_ERROR(positive(o.radio_epoch_s, "radio_epoch_s"));
   WG_RETURN_IF_ERROR(positive(o.motion_sigma_mps, "motion_sigma_mps"));
+  WG_RETURN_IF_ERROR(positive(o.bridge_speed_mps, "bridge_speed_mps"));
   WG_RETURN_IF_ERROR(positive(o.gyro_bias_prior_sigma_radps, "gyro_bias_prior_sigma_radps"));
   WG_RETURN_IF_ERROR(positive(o.mag_heading_sigma_rad, "mag_heading_sigma_rad"));
   WG_RETURN_IF_ERROR(positive(o.mag_heading_loss_scale, "mag_heading_loss_scale"));
@@ -327,11 +329,29 @@ std::optional<Alignment> AlignToFirstFixes(const Walk& walk, const StepGraphOpti
 
 }  // namespace
 
+// Nodes whose interval (t_{k−1}, t_k] overlaps an IMU gap, on walks whose steps come from the
+// IMU (odometry and radio-only walks have none).
+std::vector<bool> BridgedNodes(const Walk& walk, bool imu_steps, const std::vector<double>& t) {
+  std::vector<bool> out(t.size(), false);
+  if (!imu_steps) return out;
+  for (const ImuGap& gap : walk.ImuGaps()) {
+    const auto first = std::upper_bound(t.begin(), t.end(), gap.t_begin_s);
+    for (auto it = first; it != t.end(); ++it) {
+      const size_t k = static_cast<size_t>(it - t.begin());
+      if (k == 0) continue;
+      if (t[k - 1] >= gap.t_end_s) break;
+      out[k] = true;
+    }
+  }
+  return out;
+}
+
 struct StepGraph::Impl {
   StepGraphOptions o;
   bool odometry = false;
   bool radio_only = false;           // no steps: random-walk motion between radio epochs
   std::vector<Step> steps;           // node k ≥ 1 ends steps[k − 1] (PDR walks)
+  std::vector<bool> bridged;         // node k's step spans an IMU gap (Walk::ImuGaps)
   std::vector<OdometrySample> odom;  // node k ≥ 1 ends odom[k − 1] (odometry walks)
   std::vector<Anchor> anchors;
   RadioDefaults radio;
@@ -452,6 +472,7 @@ StatusOr<std::unique_ptr<StepGraph>> StepGraph::Build(const Walk& walk, const St
   const int n = g->num_nodes();
 
   // Dead reckoning from the start (or the origin), θ the node heading.
+  m.bridged = BridgedNodes(walk, !m.odometry && !m.radio_only, g->node_t_);
   Eigen::Vector3d x = Eigen::Vector3d::Zero();
   if (m.start) {
     // A position-only start: the front end's heading at the start (before the first step).
@@ -486,7 +507,8 @@ StatusOr<std::unique_ptr<StepGraph>> StepGraph::Build(const Walk& walk, const St
     } else {
       const int b = static_cast<int>(it - g->node_t_.begin()), a = b - 1;
       const double tb = g->node_t_[b];
-      const double ta = std::max(g->node_t_[a], tb - o.max_step_duration_s);
+      const double ta =
+          m.bridged[b] ? g->node_t_[a] : std::max(g->node_t_[a], tb - o.max_step_duration_s);
       const double alpha = ts <= ta ? 0.0 : std::min(1.0, (ts - ta) / (tb - ta));
       if (alpha <= 1e-9) {
         r.node_a = a;
@@ -699,6 +721,13 @@ std::vector<SmootherFactor> StepGraph::FactorsAt(int k) const {
     add(OdometryFactor::Create(s.dist_m, s.dheading_rad, sd, o.odometry_sigma_cross_m,
                                o.odometry_sigma_dheading_rad),
         {PositionKey(k - 1), HeadingKey(k - 1), PositionKey(k), HeadingKey(k)});
+  } else if (m.bridged[k]) {
+    // Across an IMU gap: no step and no gyro to integrate. The walker moved at most about
+    // bridge_speed_mps × Δt (1σ) and may have turned any way.
+    const double dt = node_t_[k] - node_t_[k - 1];
+    add(PositionRandomWalkFactor::Create(dt, o.bridge_speed_mps * std::sqrt(dt)),
+        {PositionKey(k - 1), PositionKey(k)});
+    add(HeadingIncrementFactor::Create(0.0, kPi), {HeadingKey(k - 1), HeadingKey(k)});
   } else {
     const Step& s = m.steps[k - 1];
     const double sl = std::max(o.step_sigma_scale * s.sigma_length_m, o.min_sigma_length_m);
@@ -845,13 +874,17 @@ Eigen::Matrix3d PoseCovariance(const Eigen::MatrixXd& c) {
 
 // The graph's own motion model between nodes: a step moves the walker only during its last
 // max_step_duration_s, so across a longer gap (a stop) the walker stays at the previous node
-// until then. An extra output point there keeps interpolated positions on that model.
-void InsertStops(double max_step_duration_s, Trajectory* trajectory) {
+// until then. An extra output point there keeps interpolated positions on that model. A
+// bridged step (across an IMU gap) moves over its whole interval: no stop.
+void InsertStops(const Walk& walk, double max_step_duration_s, Trajectory* trajectory) {
+  std::vector<double> t;
+  for (const TrajectoryPoint& p : trajectory->points) t.push_back(p.t_s);
+  const std::vector<bool> bridged = BridgedNodes(walk, walk.has_imu() && !walk.has_odometry(), t);
   std::vector<TrajectoryPoint> out;
   out.reserve(trajectory->points.size());
   for (size_t k = 0; k < trajectory->points.size(); ++k) {
     const TrajectoryPoint& p = trajectory->points[k];
-    if (k > 0) {
+    if (k > 0 && !bridged[k]) {
       const TrajectoryPoint& prev = trajectory->points[k - 1];
       const double start = p.t_s - max_step_duration_s;
       if (start > prev.t_s + 1e-6) {
@@ -993,7 +1026,7 @@ StatusOr<EstimateResult> StepGraphBatch::Run(const Walk& walk) const {
       }
     }
   }
-  InsertStops(options_.max_step_duration_s, &result.trajectory);
+  InsertStops(walk, options_.max_step_duration_s, &result.trajectory);
   return result;
 }
 
@@ -1002,7 +1035,7 @@ Status StepGraphWindow::CheckApplicable(const Walk& walk) const { return CheckSt
 StatusOr<EstimateResult> StepGraphWindow::Run(const Walk& walk) const {
   WG_RETURN_IF_ERROR(CheckApplicable(walk));
   WG_ASSIGN_OR_RETURN(EstimateResult result, RunWindowNodes(walk, options_));
-  InsertStops(options_.max_step_duration_s, &result.trajectory);
+  InsertStops(walk, options_.max_step_duration_s, &result.trajectory);
   return result;
 }
 
