@@ -44,6 +44,12 @@ Status CheckOptions(const InsGraphOptions& o) {
         "0, and every sigma, rate, interval and threshold > 0 (bias sigmas and random walks "
         "of front_end included, and Ceres tolerances)");
   }
+  if (o.path_loss != "auto" && o.path_loss != "fixed" && o.path_loss != "global") {
+    return InvalidArgument("fg-ins-batch: path_loss must be auto, fixed or global");
+  }
+  if (!(o.A_prior_sigma_db > 0) || !(o.eta_prior_sigma > 0)) {
+    return InvalidArgument("fg-ins-batch: A_prior_sigma_db and eta_prior_sigma must be > 0");
+  }
   return Status::Ok();
 }
 
@@ -130,6 +136,9 @@ StatusOr<InsGraphOptions> InsGraphOptions::FromYaml(const YAML::Node& node) {
   r.Read("range_loss", &o.range_loss);
   r.Read("range_loss_scale", &o.range_loss_scale);
   r.Read("estimate_range_bias", &o.estimate_range_bias);
+  r.Read("path_loss", &o.path_loss);
+  r.Read("A_prior_sigma_db", &o.A_prior_sigma_db);
+  r.Read("eta_prior_sigma", &o.eta_prior_sigma);
   r.Read("range_bias_sigma_m", &o.range_bias_sigma_m);
   WG_RETURN_IF_ERROR(r.Finish());
   if (o.initialization != "front-end" && o.initialization != "window") {
@@ -378,7 +387,21 @@ StatusOr<std::vector<InsFactor>> InsRadioFactors(const InsGraphContext& c,
   const Eigen::Vector3d lower(0.0, 0.0, o.receiver_offset_z_m);
   if (UsesRss(c)) {
     const RadioDefaults& radio = w.meta.radio;
-    blocks->path_loss = {radio.path_loss.A_dbm, radio.path_loss.eta};
+    if (!blocks->path_loss_set) {
+      blocks->path_loss = {radio.path_loss.A_dbm, radio.path_loss.eta};
+      blocks->path_loss_set = true;
+    }
+    blocks->estimate_path_loss =
+        o.path_loss == "global" || (o.path_loss == "auto" && !radio.calibrated);
+    if (blocks->estimate_path_loss && !blocks->path_loss_prior_added) {
+      blocks->path_loss_prior_added = true;
+      out.push_back(MakeFactor(
+          "path_loss_prior",
+          new ceres::NormalPrior(
+              Eigen::Vector2d(1.0 / o.A_prior_sigma_db, 1.0 / o.eta_prior_sigma).asDiagonal(),
+              Eigen::Vector2d(radio.path_loss.A_dbm, radio.path_loss.eta)),
+          {blocks->path_loss.data()}));
+    }
     for (const RssSample& r : w.rss) {
       if (!inside(r.t_s)) continue;
       const int ai = w.AnchorIndex(r.anchor_id);
@@ -436,9 +459,18 @@ StatusOr<std::vector<InsFactor>> InsRadioFactors(const InsGraphContext& c,
   return out;
 }
 
+void AddInsPathLossDiagnostics(const Walk& walk, const InsRadioBlocks& blocks,
+                               std::map<std::string, double>* d) {
+  if (!walk.has_rss() || !blocks.path_loss_set) return;
+  (*d)["path_loss_estimated"] = blocks.estimate_path_loss ? 1.0 : 0.0;
+  if (!blocks.estimate_path_loss) return;
+  (*d)["path_loss_A"] = blocks.path_loss[0];
+  (*d)["path_loss_eta"] = blocks.path_loss[1];
+}
+
 void HoldInsRadioBlocks(ceres::Problem* problem, InsRadioBlocks* blocks,
                         const InsGraphOptions& options) {
-  if (problem->HasParameterBlock(blocks->path_loss.data())) {
+  if (problem->HasParameterBlock(blocks->path_loss.data()) && !blocks->estimate_path_loss) {
     problem->SetParameterBlockConstant(blocks->path_loss.data());
   }
   if (options.estimate_range_bias) return;
@@ -568,6 +600,7 @@ StatusOr<EstimateResult> InsGraphBatch::Run(const Walk& walk) const {
                         InsSegmentFactors(context, &states, 0, states.size() - 1));
     AddInsFactors(problem.get(), &factors);
     radio.bias_prior_added.clear();  // a new problem: priors again, bias values kept
+    radio.path_loss_prior_added = false;
     WG_ASSIGN_OR_RETURN(std::vector<InsFactor> radio_factors,
                         InsRadioFactors(context, &states, 0, states.size() - 1, &radio));
     num_radio = radio_factors.size();
@@ -683,6 +716,7 @@ StatusOr<EstimateResult> InsGraphBatch::Run(const Walk& walk) const {
   result.diagnostics["num_states"] = static_cast<double>(states.size());
   result.diagnostics["num_strides"] = static_cast<double>(front.strides.steps.size());
   result.diagnostics["num_radio_factors"] = static_cast<double>(num_radio);
+  AddInsPathLossDiagnostics(walk, radio, &result.diagnostics);
   result.diagnostics["ceres_iterations"] = iterations;
   result.diagnostics["ceres_initial_cost"] = initial_cost;
   result.diagnostics["ceres_final_cost"] = final_cost;

@@ -244,7 +244,7 @@ StatusOr<EstimateResult> RunInsWindow(const Walk& walk, const InsWindowOptions& 
           SmootherState st;
           st.key = kPathLossKey;
           st.value = std::vector<double>(radio.path_loss.begin(), radio.path_loss.end());
-          st.constant = true;  // the walk's path loss, as in fg-ins-batch
+          st.constant = !radio.estimate_path_loss;  // as in fg-ins-batch
           new_states.push_back(std::move(st));
         }
         sf.keys.push_back(it->second);
@@ -357,6 +357,11 @@ StatusOr<EstimateResult> RunInsWindow(const Walk& walk, const InsWindowOptions& 
   d["window_max_states"] = static_cast<double>(max_keys / kBlocksPerState);
   d["states_without_covariance"] = g.compute_covariance ? static_cast<double>(missing) : 0.0;
   d["covariance_ok"] = g.compute_covariance && missing == 0 ? 1.0 : 0.0;
+  if (radio.estimate_path_loss) {  // the window's last estimate of the static block
+    auto v = smoother.Estimate(kPathLossKey);
+    if (v.ok() && v->size() == 2) radio.path_loss = {(*v)[0], (*v)[1]};
+  }
+  AddInsPathLossDiagnostics(walk, radio, &d);
 
   AddUpdateLatencyTimings(latency, &result.timings);
   const double run_s = std::chrono::duration<double>(Clock::now() - run_start).count();

@@ -134,6 +134,12 @@ struct InsGraphOptions {
   double range_loss_scale = 1.0;
   bool estimate_range_bias = false;  // per-anchor additive range bias, prior N(0, σ²)
   double range_bias_sigma_m = 1.0;
+  // Path loss (A, η) of the RSS factors: auto (the default) estimates one block for the walk
+  // with walk.yaml's values as prior mean (σ A_prior_sigma_db, eta_prior_sigma) unless the
+  // walk declares its radio calibrated (radio.calibrated), which holds them; fixed | global.
+  std::string path_loss = "auto";
+  double A_prior_sigma_db = 10.0;
+  double eta_prior_sigma = 1.0;
 
   // Keys: front_end (a map of StrideOptions keys), placement (stance|every-n) and every other
   // field by its name.
@@ -177,7 +183,10 @@ struct InsGraphContext {
 
 // The radio factors' shared parameter blocks (owned by the caller, stable addresses).
 struct InsRadioBlocks {
-  std::array<double, 2> path_loss{};   // (A, η) of walk.yaml radio, held constant
+  std::array<double, 2> path_loss{};   // (A, η): walk.yaml's radio, then the estimate
+  bool path_loss_set = false;          // path_loss holds walk.yaml's values or an estimate
+  bool estimate_path_loss = false;     // InsGraphOptions::path_loss resolved for the walk
+  bool path_loss_prior_added = false;  // its prior is in the current problem
   std::map<int, double> range_bias_m;  // per anchor id (0 and constant unless estimated)
   std::set<int> bias_prior_added;      // anchors whose bias prior is in the current problem
 };
@@ -211,9 +220,15 @@ StatusOr<std::vector<InsFactor>> InsRadioFactors(const InsGraphContext& context,
                                                  std::vector<InsState>* states, size_t k, size_t n,
                                                  InsRadioBlocks* blocks);
 
-// Holds the path loss constant, and the range biases unless estimate_range_bias.
+// Holds the path loss constant unless estimated, and the range biases unless
+// estimate_range_bias.
 void HoldInsRadioBlocks(ceres::Problem* problem, InsRadioBlocks* blocks,
                         const InsGraphOptions& options);
+
+// diagnostics path_loss_estimated (walks with RSS), and path_loss_A / path_loss_eta when
+// estimated.
+void AddInsPathLossDiagnostics(const Walk& walk, const InsRadioBlocks& blocks,
+                               std::map<std::string, double>* diagnostics);
 
 // Moves the factors into `problem` (which takes ownership of costs and losses).
 void AddInsFactors(ceres::Problem* problem, std::vector<InsFactor>* factors);
