@@ -100,6 +100,12 @@ class ImuPreintegration {
     dt_ += dt;
   }
 
+  // Adds q to the covariance of (δφ, δv, δp): what the readings do not tell, e.g. across a gap.
+  void AddCovariance(const Matrix9d& q) {
+    cov_ += q;
+    cov_ = 0.5 * (cov_ + cov_.transpose());
+  }
+
   double dt_s() const { return dt_; }
   const Eigen::Quaterniond& delta_q() const { return dq_; }
   const Eigen::Vector3d& delta_v() const { return dv_; }

@@ -53,18 +53,20 @@ int Walk::AnchorIndex(int id) const {
   return -1;
 }
 
-std::vector<ImuGap> Walk::ImuGaps() const {
-  std::vector<ImuGap> gaps;
-  if (imu.size() < 3) return gaps;
+double ImuGapThresholdS(const std::vector<ImuSample>& imu) {
+  if (imu.size() < 3) return std::numeric_limits<double>::infinity();
   std::vector<double> dt;
   dt.reserve(imu.size() - 1);
   for (size_t i = 1; i < imu.size(); ++i) dt.push_back(imu[i].t_s - imu[i - 1].t_s);
-  std::vector<double> sorted = dt;
-  std::nth_element(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(sorted.size() / 2),
-                   sorted.end());
-  const double limit = kImuGapFactor * sorted[sorted.size() / 2];
-  for (size_t i = 0; i < dt.size(); ++i) {
-    if (dt[i] > limit) gaps.push_back({imu[i].t_s, imu[i + 1].t_s});
+  std::nth_element(dt.begin(), dt.begin() + static_cast<std::ptrdiff_t>(dt.size() / 2), dt.end());
+  return kImuGapFactor * dt[dt.size() / 2];
+}
+
+std::vector<ImuGap> Walk::ImuGaps() const {
+  std::vector<ImuGap> gaps;
+  const double limit = ImuGapThresholdS(imu);
+  for (size_t i = 1; i < imu.size(); ++i) {
+    if (imu[i].t_s - imu[i - 1].t_s > limit) gaps.push_back({imu[i - 1].t_s, imu[i].t_s});
   }
   return gaps;
 }

@@ -21,6 +21,8 @@
 
 #include <vector>
 
+#include <limits>
+
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
@@ -43,6 +45,10 @@ struct StrapdownOptions {
   bool coning_correction = true;                            // kInstantaneous only
   Eigen::Vector3d acc_bias_mps2 = Eigen::Vector3d::Zero();  // subtracted from every sample
   Eigen::Vector3d gyro_bias_radps = Eigen::Vector3d::Zero();
+  // A longer interval is an IMU gap (ImuGapThresholdS): not integrated; the step holds the
+  // position and attitude and sets the velocity to 0 (a foot is most often at rest), and the
+  // caller accounts for the time (process noise, a bridge).
+  double max_dt_s = std::numeric_limits<double>::infinity();
 };
 
 // Exp map of so(3) as a unit quaternion: rotation by |φ| about φ/|φ| (series near 0).

@@ -36,6 +36,12 @@ Eigen::Matrix3d Skew(const Eigen::Vector3d& v) {
 NavState StrapdownStep(const NavState& s, const ImuSample& prev, const ImuSample& cur,
                        const StrapdownOptions& o) {
   const double dt = cur.t_s - prev.t_s;
+  if (dt > o.max_dt_s) {
+    NavState held = s;
+    held.t_s = cur.t_s;
+    held.v_n.setZero();
+    return held;
+  }
   const Eigen::Vector3d w0 = prev.gyro_radps - o.gyro_bias_radps;
   const Eigen::Vector3d w1 = cur.gyro_radps - o.gyro_bias_radps;
   const Eigen::Vector3d f0 = prev.acc_mps2 - o.acc_bias_mps2;

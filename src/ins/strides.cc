@@ -245,6 +245,7 @@ StatusOr<ZuptInsSolution> RunZuptIns(const Walk& walk, const StrideOptions& o) {
   StrapdownOptions sd;
   sd.gravity_mps2 = o.gravity_mps2;
   sd.sampling = o.sampling;
+  sd.max_dt_s = ImuGapThresholdS(imu);  // IMU gaps are held, not integrated (walk.h)
 
   out.states.resize(n);
   out.acc_bias_mps2.resize(n);
@@ -375,6 +376,14 @@ StatusOr<ZuptInsSolution> RunZuptIns(const Walk& walk, const StrideOptions& o) {
     Q.block<3, 3>(kTh, kTh) = sg2 * dt * dt * I3;
     Q.block<3, 3>(kBa, kBa) = o.acc_bias_rw_mps2_sqrts * o.acc_bias_rw_mps2_sqrts * dt * I3;
     Q.block<3, 3>(kBg, kBg) = o.gyro_bias_rw_radps_sqrts * o.gyro_bias_rw_radps_sqrts * dt * I3;
+    if (dt > sd.max_dt_s) {
+      // An IMU gap, held by StrapdownStep: the walker went anywhere within walking speed
+      // (kImuGapSpeedMps × dt per axis), at any speed and heading.
+      F.setIdentity();
+      Q.block<3, 3>(kP, kP) += std::pow(kImuGapSpeedMps * dt, 2) * I3;
+      Q.block<3, 3>(kV, kV) += kImuGapSpeedMps * kImuGapSpeedMps * I3;
+      Q(kTh + 2, kTh + 2) += kPi * kPi;
+    }
     P = F * P * F.transpose() + Q;
     Symmetrize(&P);
     if (out.zupt[k]) WG_RETURN_IF_ERROR(update(-x.v_n, H_zupt, o.zupt_sigma_mps));

@@ -344,7 +344,7 @@ StatusOr<std::vector<Eigen::Quaterniond>> EstimateAttitude(const std::vector<Imu
   std::vector<Eigen::Quaterniond> q(imu.size());
   q[0] = Eigen::Quaterniond::FromTwoVectors(mean.normalized(), Eigen::Vector3d::UnitZ());
   // Across an IMU gap (Walk::ImuGaps) the attitude is held, not integrated over the hole.
-  const double gap_s = imu.size() >= 3 ? kImuGapFactor / MedianRateHz(imu) : 1e300;
+  const double gap_s = ImuGapThresholdS(imu);
   for (size_t i = 1; i < imu.size(); ++i) {
     double dt = imu[i].t_s - imu[i - 1].t_s;
     if (dt > gap_s) dt = 0.0;
@@ -377,7 +377,7 @@ StatusOr<StepSequence> ComputeSteps(const Walk& walk, const PdrOptions& o) {
   // Integrated yaw ψ_i (000 eq. 4) at every sample.
   // Held across IMU gaps (Walk::ImuGaps): the step graph bridges them.
   std::vector<double> psi(walk.imu.size(), 0.0);
-  const double gap_s = kImuGapFactor / s.rate_hz;
+  const double gap_s = ImuGapThresholdS(walk.imu);
   for (size_t i = 1; i < psi.size(); ++i) {
     double dt = walk.imu[i].t_s - walk.imu[i - 1].t_s;
     if (dt > gap_s) dt = 0.0;

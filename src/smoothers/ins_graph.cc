@@ -242,6 +242,20 @@ StatusOr<std::vector<InsFactor>> InsBetweenFactors(const InsGraphContext& c, Ins
   ImuPreintegration pim(bg, ba, o.front_end.gyro_noise_radps, o.front_end.acc_noise_mps2);
   for (size_t k = a->imu_index + 1; k <= b->imu_index; ++k) {
     const double dt = imu[k].t_s - imu[k - 1].t_s;
+    if (dt > c.imu_gap_s) {
+      // An IMU gap: nothing to integrate. The mean is rest (no rotation, the specific force
+      // that cancels gravity at a's attitude); the uncertainty is a walker's: any rotation,
+      // kImuGapSpeedMps of velocity and kImuGapSpeedMps × dt of position per axis.
+      const Eigen::Vector3d up_body = (a->attitude() * pim.delta_q()).conjugate() *
+                                      Eigen::Vector3d(0.0, 0.0, o.front_end.gravity_mps2);
+      pim.Integrate(dt, bg, ba + up_body);
+      ImuPreintegration::Matrix9d q = ImuPreintegration::Matrix9d::Zero();
+      q.diagonal() << kPi * kPi, kPi * kPi, kPi * kPi,
+          Eigen::Vector3d::Constant(kImuGapSpeedMps * kImuGapSpeedMps),
+          Eigen::Vector3d::Constant(std::pow(kImuGapSpeedMps * dt, 2));
+      pim.AddCovariance(q);
+      continue;
+    }
     if (o.front_end.sampling == ImuSampling::kIntervalAverage) {
       pim.Integrate(dt, imu[k].gyro_radps, imu[k].acc_mps2);
     } else {
@@ -495,6 +509,7 @@ Trajectory InsStatesTrajectory(const Walk& walk, const std::vector<InsState>& st
   StrapdownOptions sd;
   sd.gravity_mps2 = o.front_end.gravity_mps2;
   sd.sampling = o.front_end.sampling;
+  sd.max_dt_s = ImuGapThresholdS(imu);  // held across IMU gaps: the output interpolates there
   const double period = 1.0 / o.output_rate_hz;
   double next_tick = imu[states.front().imu_index].t_s;
   auto emit = [&](double t, const Eigen::Vector3d& p, double yaw,
@@ -570,6 +585,7 @@ StatusOr<EstimateResult> InsGraphBatch::Run(const Walk& walk) const {
   }
   InsGraphContext context;
   context.walk = &walk;
+  context.imu_gap_s = ImuGapThresholdS(walk.imu);
   context.still = &front.stance.still;
   context.path = &front.states;
   context.options = o;

@@ -155,6 +155,7 @@ StatusOr<EstimateResult> RunInsWindow(const Walk& walk, const InsWindowOptions& 
   const size_t n = build.size();
   InsGraphContext context;
   context.walk = &walk;
+  context.imu_gap_s = ImuGapThresholdS(walk.imu);
   context.still = &front.stance.still;
   context.path = &front.states;
   context.options = g;

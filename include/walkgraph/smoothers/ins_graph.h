@@ -62,6 +62,7 @@
 #define WALKGRAPH_SMOOTHERS_INS_GRAPH_H_
 
 #include <array>
+#include <limits>
 #include <map>
 #include <memory>
 #include <optional>
@@ -179,6 +180,8 @@ struct InsGraphContext {
   // Per IMU sample, the front end's path (radio interpolation); null: α = time fraction.
   const std::vector<NavState>* path = nullptr;
   InsGraphOptions options;
+  // Longer IMU intervals are gaps (ImuGapThresholdS): bridged, not integrated.
+  double imu_gap_s = std::numeric_limits<double>::infinity();
 };
 
 // The radio factors' shared parameter blocks (owned by the caller, stable addresses).

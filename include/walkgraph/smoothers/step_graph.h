@@ -67,7 +67,7 @@ struct StepGraphOptions {
   double motion_sigma_mps = 1.0;  // PositionRandomWalkFactor σ_v
   // A step across an IMU gap (Walk::ImuGaps) is bridged: displacement N(0, (bridge_speed_mps ×
   // Δt)²) per axis and a free heading change (σ π), instead of integrating across the hole.
-  double bridge_speed_mps = 1.5;
+  double bridge_speed_mps = kImuGapSpeedMps;
   bool estimate_gyro_bias = true;  // constant vertical gyro bias in heading increments
   double gyro_bias_prior_sigma_radps = 0.02;
   bool use_mag_heading = true;  // HeadingFactor per step when the steps carry it
