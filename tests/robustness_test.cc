@@ -64,7 +64,7 @@ bool DeadReckoningOnly(const std::string& id) {
 }
 
 TEST(Robustness, FactorGraphsHoldAndRunawaysAreFlagged) {
-  const int runs = testing::MonteCarloRuns(6);
+  const int runs = testing::kSanitized ? 1 : 6;  // accuracy is judged without sanitizers
   std::map<Fault, std::map<std::string, double>> mean_rmse;  // ranked runs only
   std::map<Fault, std::map<std::string, int>> ranked_runs;
   for (int i = 0; i < runs; ++i) {
@@ -111,7 +111,7 @@ TEST(Robustness, FactorGraphsHoldAndRunawaysAreFlagged) {
 // the IMU as measurements of a constant-acceleration state; across the gap it reached 12x
 // unflagged on one of three 1-lap seeds).
 TEST(Robustness, FootInsGraphBridgesAnImuGap) {
-  const int runs = testing::MonteCarloRuns(3);
+  const int runs = testing::kSanitized ? 1 : 3;
   CompareOptions co;
   co.estimator_ids = {"fg-ins-batch", "fg-ins-window", "fg-ins-window-online", "jimenez-iez-rss"};
   std::map<std::string, double> nominal, gap;
