@@ -53,13 +53,18 @@ int Walk::AnchorIndex(int id) const {
   return -1;
 }
 
-double ImuGapThresholdS(const std::vector<ImuSample>& imu) {
-  if (imu.size() < 3) return std::numeric_limits<double>::infinity();
+double MedianImuIntervalS(const std::vector<ImuSample>& imu) {
+  if (imu.size() < 2) return 0.0;
   std::vector<double> dt;
   dt.reserve(imu.size() - 1);
   for (size_t i = 1; i < imu.size(); ++i) dt.push_back(imu[i].t_s - imu[i - 1].t_s);
   std::nth_element(dt.begin(), dt.begin() + static_cast<std::ptrdiff_t>(dt.size() / 2), dt.end());
-  return kImuGapFactor * dt[dt.size() / 2];
+  return dt[dt.size() / 2];
+}
+
+double ImuGapThresholdS(const std::vector<ImuSample>& imu) {
+  if (imu.size() < 3) return std::numeric_limits<double>::infinity();
+  return kImuGapFactor * MedianImuIntervalS(imu);
 }
 
 std::vector<ImuGap> Walk::ImuGaps() const {

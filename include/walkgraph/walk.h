@@ -132,6 +132,8 @@ inline constexpr double kImuGapFactor = 10.0;
 // How far a walker may have gone across a gap: this speed × its duration, 1σ per axis (a
 // brisk walk), the bridge of the estimators that do not integrate across it.
 inline constexpr double kImuGapSpeedMps = 1.5;
+// The median sample interval of an IMU stream (0 with fewer than 2 samples).
+double MedianImuIntervalS(const std::vector<ImuSample>& imu);
 // The longest sample interval that is not a gap: kImuGapFactor × the median interval
 // (infinity with fewer than 3 samples).
 double ImuGapThresholdS(const std::vector<ImuSample>& imu);

@@ -47,14 +47,6 @@ const std::vector<std::pair<std::string, ForwardAxisMethod>> kForwardNames = {
     {"body-y", ForwardAxisMethod::kBodyY},
     {"pca", ForwardAxisMethod::kPca}};
 
-double MedianRateHz(const std::vector<ImuSample>& imu) {
-  std::vector<double> dt;
-  dt.reserve(imu.size());
-  for (size_t i = 1; i < imu.size(); ++i) dt.push_back(imu[i].t_s - imu[i - 1].t_s);
-  std::nth_element(dt.begin(), dt.begin() + dt.size() / 2, dt.end());
-  return 1.0 / dt[dt.size() / 2];
-}
-
 // Yaw of a body-to-ENU rotation: the ENU angle of the body x axis projected on the horizontal.
 double Yaw(const Eigen::Matrix3d& r) { return std::atan2(r(1, 0), r(0, 0)); }
 
@@ -82,7 +74,7 @@ struct ImuSignals {
 
 StatusOr<ImuSignals> ComputeSignals(const Walk& walk, const PdrOptions& o) {
   ImuSignals s;
-  s.rate_hz = MedianRateHz(walk.imu);
+  s.rate_hz = 1.0 / MedianImuIntervalS(walk.imu);
   WG_ASSIGN_OR_RETURN(s.attitude, EstimateAttitude(walk.imu, o));
   std::vector<double> vertical(walk.imu.size());
   s.yaw_rate.resize(walk.imu.size());

@@ -219,25 +219,14 @@ StatusOr<StepGraphOptions> StepGraphOptions::FromYaml(const YAML::Node& node,
 
 namespace {
 
-// path_loss "auto": see StepGraphOptions::path_loss.
-std::string ResolvePathLoss(const Walk& walk, const StepGraphOptions& o,
-                            StepGraph::PathLossNote* note) {
-  *note = StepGraph::PathLossNote::kAsConfigured;
+// path_loss "auto": see StepGraphOptions::path_loss. *held_radio_only: auto held it because
+// the walk has neither steps nor odometry.
+std::string ResolvePathLoss(const Walk& walk, const StepGraphOptions& o, bool* held_radio_only) {
+  *held_radio_only = false;
   if (o.path_loss != "auto") return o.path_loss;
-  if (walk.meta.radio.calibrated) {
-    *note = StepGraph::PathLossNote::kCalibrated;
-    return "fixed";
-  }
-  if (o.rss_residual != "db") {
-    *note = StepGraph::PathLossNote::kHeldRangeResidual;
-    return "fixed";
-  }
-  if (!walk.has_odometry() && !walk.has_imu()) {
-    *note = StepGraph::PathLossNote::kHeldRadioOnly;
-    return "fixed";
-  }
-  *note = StepGraph::PathLossNote::kSelfCalibrated;
-  return "global";
+  if (walk.meta.radio.calibrated || o.rss_residual != "db") return "fixed";
+  *held_radio_only = !walk.has_odometry() && !walk.has_imu();
+  return *held_radio_only ? "fixed" : "global";
 }
 
 constexpr StateKey kGyroBiasKey = -1;
@@ -427,7 +416,7 @@ StatusOr<std::unique_ptr<StepGraph>> StepGraph::Build(const Walk& walk, const St
   if (o.sigma_db > 0) m.radio.path_loss.sigma_db = o.sigma_db;
   m.start = walk.meta.initial_pose;
   m.odometry = walk.has_odometry();
-  m.o.path_loss = ResolvePathLoss(walk, o, &g->path_loss_note_);
+  m.o.path_loss = ResolvePathLoss(walk, o, &g->path_loss_held_radio_only_);
   m.rss_loss = MakeLoss(o.rss_loss, o.rss_loss_scale);
   m.range_loss = MakeLoss(o.range_loss, o.range_loss_scale);
   m.mag_loss = MakeLoss(o.mag_heading_loss, o.mag_heading_loss_scale);
@@ -830,18 +819,12 @@ void AddStaticDiagnostics(const std::vector<SmootherState>& statics,
   }
 }
 
-void AddPathLossDiagnostics(const StepGraph& graph, const Walk& walk,
-                            std::map<std::string, double>* d) {
-  if (!walk.has_rss()) return;
-  (*d)["path_loss_estimated"] = graph.path_loss_estimated() ? 1.0 : 0.0;
-  if (graph.path_loss_note() == StepGraph::PathLossNote::kHeldRadioOnly) {
-    (*d)["path_loss_held_radio_only"] = 1.0;
-  }
-}
-
 void AddGraphDiagnostics(const StepGraph& graph, const Walk& walk,
                          std::map<std::string, double>* d) {
-  AddPathLossDiagnostics(graph, walk, d);
+  if (walk.has_rss()) {
+    (*d)["path_loss_estimated"] = graph.path_loss_estimated() ? 1.0 : 0.0;
+    if (graph.path_loss_held_radio_only()) (*d)["path_loss_held_radio_only"] = 1.0;
+  }
   if (graph.start_heading_contradicted_rad() > 0.0) {
     (*d)["start_heading_contradicted_rad"] = graph.start_heading_contradicted_rad();
   }

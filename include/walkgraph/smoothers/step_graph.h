@@ -84,7 +84,7 @@ struct StepGraphOptions {
   std::string rss_residual = "db";  // db (RssFactor) | range (RssRangeFactor, 004 eq. 7)
   // Cauchy at 0.5σ: with 20 % NLOS readings 15 dB low (tarrio-circle) the RMSE rises 1.16×
   // over clean data, against 1.88× for Huber at 2σ, and clean data lose nothing (0.332 vs
-  // 0.343 m); measured, see README.
+  // 0.343 m); measured, see docs/results.md.
   std::string rss_loss = "cauchy";
   double rss_loss_scale = 0.5;  // in σ (residuals are whitened)
   std::string range_loss = "cauchy";
@@ -195,15 +195,8 @@ class StepGraph {
   std::vector<SmootherFactor> FactorsAt(int k) const;
   // Whether node 0 must be held constant (no prior and no anchors: see the top of this file).
   bool fix_first_node() const { return fix_first_node_; }
-  // How path_loss was resolved (StepGraphOptions::path_loss "auto").
-  enum class PathLossNote {
-    kAsConfigured,       // path_loss was not "auto"
-    kCalibrated,         // the walk declares its radio calibrated: held
-    kSelfCalibrated,     // estimated (one block for the walk)
-    kHeldRadioOnly,      // radio-only walk: not identifiable, held
-    kHeldRangeResidual,  // rss_residual "range" has no (A, η) block: held
-  };
-  PathLossNote path_loss_note() const { return path_loss_note_; }
+  // path_loss "auto" held the path loss because the walk is radio-only (not identifiable).
+  bool path_loss_held_radio_only() const { return path_loss_held_radio_only_; }
   // > 0: the known start's heading was contradicted by the radio by this much (radians) and
   // left out (StepGraphOptions::start_check).
   double start_heading_contradicted_rad() const { return start_heading_contradicted_; }
@@ -217,7 +210,7 @@ class StepGraph {
   std::vector<double> node_t_;
   std::vector<Eigen::Vector3d> init_;
   bool fix_first_node_ = false;
-  PathLossNote path_loss_note_ = PathLossNote::kAsConfigured;
+  bool path_loss_held_radio_only_ = false;
   double start_heading_contradicted_ = 0.0;
 };
 
