@@ -327,7 +327,7 @@ TEST(PrietoFilter, UkfAndUrtsMatchEkfAndRtsForATinySpread) {
 }
 
 // Table I of 002 on seeded prieto-laps walks: 1 and 4 laps here (8 laps ≈ 16 min is too long
-// for a test; README gives the 50-run 1 / 4 / 8-lap `walkgraph compare` command and figures).
+// for a test; docs/results.md gives the 50-run 1 / 4 / 8-lap `walkgraph compare` command and figures).
 TEST(PrietoTableI, FusionStaysFlatWhileImuOnlyDriftsAndUkfMatchesEkf) {
   // Runs: as many as the ~25 s budget of a test file allows (3 walks of 1 lap, 3 of 4 laps).
   const int runs[2] = {testing::MonteCarloRuns(3), testing::MonteCarloRuns(3)};

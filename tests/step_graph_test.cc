@@ -525,7 +525,7 @@ TEST(StepGraphConsistency, BatchNeesInsideTheChiSquareBand) {
 // Path-loss self-calibration (004 Table II's sweep): the exponent the smoother is configured
 // with goes from 1.5 to 4.0 while the simulated building keeps p = 2.3; fg-batch-selfcal's
 // RMSE varies by at most 15 % across the sweep and it recovers p within ±0.2 every time.
-// 1-lap walks and 10 runs per value keep the suite's time (README has the 8-lap figures).
+// 1-lap walks and 10 runs per value keep the suite's time (docs/results.md has the 8-lap figures).
 TEST(StepGraphSelfCalibration, ExponentSweepOnTheSimulatedBuilding) {
   const int runs = testing::MonteCarloRuns(10);
   std::vector<double> rmse;
@@ -559,7 +559,7 @@ TEST(StepGraphSelfCalibration, ExponentSweepOnTheSimulatedBuilding) {
 // and not declared measured (radio.calibrated: false) is smoothed with (A, η) estimated, so
 // fg-batch and fg-window stay within 2× of their RMSE with the right, measured model (mean over
 // seeds); declared measured, the wrong model is held exactly as `path_loss: fixed` holds it.
-// jimenez-building with 1 lap (the suite's time); README has the figures per scenario.
+// jimenez-building with 1 lap (the suite's time); docs/walk-format.md has the figures per scenario.
 TEST(StepGraphSelfCalibration, AnUncalibratedWrongExponentCostsAtMostTwice) {
   const int runs = testing::MonteCarloRuns(10);
   const auto& reg = EstimatorRegistry::Builtin();

@@ -15,8 +15,8 @@
 //     filters that are overconfident by design but close (001's SCMT EKF sets R = ε near a mote:
 //     windowed NEES 1.2e4-2.3e4 at errors under 8 m on its own scenarios).
 // Estimators without covariances are checked by the first three rules only. What the defaults
-// flag on the bundled walks and the simulated presets (seeds 1, 2) is listed in the README; they
-// are options, not tuned per walk.
+// flag on the bundled walks and the simulated presets (seeds 1, 2) is listed in
+// docs/command-line.md; they are options, not tuned per walk.
 #ifndef WALKGRAPH_DIVERGENCE_H_
 #define WALKGRAPH_DIVERGENCE_H_
 
