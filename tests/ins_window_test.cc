@@ -324,6 +324,15 @@ TEST(InsGraphWindow, OptionsAndRegistration) {
   EXPECT_EQ(o->window_output, "online");
   EXPECT_DOUBLE_EQ(o->graph.receiver_offset_z_m, 1.0);
   EXPECT_DOUBLE_EQ(o->graph.front_end.zupt_sigma_mps, 0.02);
+  // Reading a node leaves it as it was: compare --config validates each estimator's node,
+  // then creates the estimator from the same node (the window keys were once lost there).
+  const YAML::Node node = YAML::Load("{lag_s: 4, use_zaru: false}");
+  for (int pass = 0; pass < 2; ++pass) {
+    auto again = InsWindowOptions::FromYaml(node, "fg-ins-window");
+    ASSERT_TRUE(again.ok()) << again.status().ToString();
+    EXPECT_DOUBLE_EQ(again->lag_s, 4.0) << "pass " << pass;
+    EXPECT_FALSE(again->graph.use_zaru) << "pass " << pass;
+  }
   // fg-ins-batch still rejects the window's keys.
   EXPECT_FALSE(InsGraphOptions::FromYaml(YAML::Load("{lag_s: 5}")).ok());
   auto waist = SimulateScenario("tarrio-circle", 1, YAML::Load("{duration_s: 20}"));

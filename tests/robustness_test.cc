@@ -107,9 +107,8 @@ TEST(Robustness, FactorGraphsHoldAndRunawaysAreFlagged) {
 // (measured on seed 1 with 8 laps: fg-ins-batch 0.21 → 0.24 m, fg-ins-window 0.36 → 0.52 m;
 // before the bridge 8.3 and 7.8 m). The gap's 10 m are interpolated, so the ratio depends on
 // the walk's length: 1 lap gave 2.3-5.2x. jimenez-iez-rss (IMU + RSS) integrates across the
-// gap and must stay within 10x or be flagged. Not held to it: prieto-ekf (002's model takes
-// the IMU as measurements of a constant-acceleration state; across the gap it reached 12x
-// unflagged on one of three 1-lap seeds).
+// gap and must stay within 10x or be flagged. (Every estimator on jimenez-building, 1 lap,
+// seeds 1-6 with the gap: none over 3x unflagged but zupt-ins, dead reckoning alone.)
 TEST(Robustness, FootInsGraphBridgesAnImuGap) {
   const int runs = testing::kSanitized ? 1 : 3;
   CompareOptions co;
@@ -136,10 +135,12 @@ TEST(Robustness, FootInsGraphBridgesAnImuGap) {
   for (const auto& [id, rmse] : gap) {
     std::printf("%-22s 10 s IMU gap: RMSE %.3f m, nominal %.3f m (%.2fx)\n", id.c_str(), rmse,
                 nominal[id], rmse / nominal[id]);
-    // The target is 2x; fg-ins-batch meets it (1.12x on these seeds). The windows do not yet
-    // (measured 2.82x lagged, 4.54x online): after the gap the window restarts from radio
-    // alone with a ±15 m bridge. Held at what they reach, so that they cannot get worse.
-    const double bound = id == "fg-ins-batch" ? 2.0 : id == "fg-ins-window" ? 3.5 : 5.5;
+    // The target is 2x. fg-ins-batch 1.12x and fg-ins-window 1.70x on these seeds (2.82x
+    // before the window was held open across the gap: InsWindowOptions::gap_hold_max_s). The
+    // online output is not held to it (4.19x): a causal estimate cannot know where the walker
+    // went during the 10 s nor, for the next ~15 s, which way they face; it is held at what it
+    // reaches so that it cannot get worse.
+    const double bound = id == "fg-ins-window-online" ? 5.0 : 2.0;
     if (!testing::kSanitized) EXPECT_LE(rmse, bound * nominal[id]) << id;
   }
 }

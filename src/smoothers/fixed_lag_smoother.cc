@@ -122,7 +122,8 @@ StatusOr<FixedLagSmoother::UpdateResult> FixedLagSmoother::Update(
     result.converged = summary.termination_type == ceres::CONVERGENCE;
   }
   if (newest_t_) {
-    const double cutoff = *newest_t_ - options_.lag_s;
+    double cutoff = *newest_t_ - options_.lag_s;
+    if (hold_from_s_) cutoff = std::min(cutoff, *hold_from_s_);
     std::optional<double> oldest;
     for (const auto& [key, st] : states_) {
       if (st.spec.t_s) oldest = std::min(oldest.value_or(*st.spec.t_s), *st.spec.t_s);

@@ -56,7 +56,9 @@ const char* const kWindowKeys[] = {"lag_s",
                                    "window_output",
                                    "preintegration_bias",
                                    "window_marginalize_batch_s",
-                                   "window_initial_trust_region_radius"};
+                                   "window_initial_trust_region_radius",
+                                   "gap_hold_max_s",
+                                   "gap_release_yaw_sigma_rad"};
 
 // The front end's motion from state a to state b carried into the frame of `estimate_a` (the
 // window's current estimate of a): see the top of ins_window.h.
@@ -79,6 +81,14 @@ InsState CarryForward(const InsState& front_a, const InsState& front_b,
   return s;
 }
 
+// Yaw σ of a state's attitude in the window (δθ_z of its tangent), when computable.
+std::optional<double> YawSigma(FixedLagSmoother* smoother, StateKey q_key) {
+  if (!smoother->Contains(q_key)) return std::nullopt;
+  StatusOr<Eigen::MatrixXd> c = smoother->MarginalCovariance(q_key);
+  if (!c.ok() || !((*c)(2, 2) >= 0.0)) return std::nullopt;
+  return std::sqrt((*c)(2, 2));
+}
+
 }  // namespace
 
 StatusOr<InsWindowOptions> InsWindowOptions::FromYaml(const YAML::Node& node,
@@ -88,9 +98,11 @@ StatusOr<InsWindowOptions> InsWindowOptions::FromYaml(const YAML::Node& node,
   o.window_output = default_output;
   // The window's own keys are read here, the rest by InsGraphOptions::FromYaml.
   YAML::Node window(YAML::NodeType::Map);
-  YAML::Node rest = node;
+  // A clone, never `rest = node; rest = Clone(node)`: yaml-cpp's assignment to a node that
+  // aliases the caller's would rebind the caller's node to the clone, and the window keys
+  // removed below would vanish from it (compare --config creates each estimator twice).
+  YAML::Node rest = node.IsMap() ? YAML::Clone(node) : node;
   if (node.IsMap()) {
-    rest = YAML::Clone(node);
     for (const char* key : kWindowKeys) {
       if (node[key]) {
         window[key] = node[key];
@@ -106,16 +118,20 @@ StatusOr<InsWindowOptions> InsWindowOptions::FromYaml(const YAML::Node& node,
   r.Read("preintegration_bias", &o.preintegration_bias);
   r.Read("window_marginalize_batch_s", &o.window_marginalize_batch_s);
   r.Read("window_initial_trust_region_radius", &o.window_initial_trust_region_radius);
+  r.Read("gap_hold_max_s", &o.gap_hold_max_s);
+  r.Read("gap_release_yaw_sigma_rad", &o.gap_release_yaw_sigma_rad);
   WG_RETURN_IF_ERROR(r.Finish());
   StatusOr<InsGraphOptions> graph = InsGraphOptions::FromYaml(rest);
   if (!graph.ok()) return InvalidArgument(context + ": " + graph.status().message());
   o.graph = *graph;
   if (!(o.lag_s > 0) || !(o.window_update_s >= 0) || o.window_max_iterations < 1 ||
-      !(o.window_marginalize_batch_s >= 0) || !(o.window_initial_trust_region_radius > 0)) {
+      !(o.window_marginalize_batch_s >= 0) || !(o.window_initial_trust_region_radius > 0) ||
+      !(o.gap_hold_max_s >= 0) || !(o.gap_release_yaw_sigma_rad > 0)) {
     return InvalidArgument(context +
                            ": need lag_s > 0, window_update_s >= 0, window_max_iterations >= 1, "
                            "window_marginalize_batch_s >= 0, "
-                           "window_initial_trust_region_radius > 0");
+                           "window_initial_trust_region_radius > 0, gap_hold_max_s >= 0, "
+                           "gap_release_yaw_sigma_rad > 0");
   }
   if (o.window_output != "lagged" && o.window_output != "online") {
     return InvalidArgument(context + ": window_output must be lagged|online");
@@ -266,8 +282,26 @@ StatusOr<EstimateResult> RunInsWindow(const Walk& walk, const InsWindowOptions& 
   double final_cost = 0.0;
   InsState last = build[0];  // the newest state's estimate (its initial value until solved)
   double last_update_t = build[0].t_s;
+  // IMU gaps: the window is held open across them (InsWindowOptions::gap_hold_max_s).
+  const std::vector<ImuGap> gaps = walk.ImuGaps();
+  size_t next_gap = 0;
+  std::optional<double> yaw_sigma_before_gap;
+  double hold_until_s = 0.0, held_s = 0.0;
+  int holds = 0;
   for (size_t i = 0; i < n; ++i) {
     InsState init = build[i];
+    bool bridged = false;
+    for (; next_gap < gaps.size() && gaps[next_gap].t_begin_s < build[i].t_s; ++next_gap) {
+      bridged = bridged || (i > 0 && gaps[next_gap].t_begin_s >= build[i - 1].t_s);
+    }
+    if (bridged && options_.gap_hold_max_s > 0) {
+      if (!smoother.holding()) {
+        yaw_sigma_before_gap = YawSigma(&smoother, Key(i - 1, kQ));
+        smoother.HoldFrom(build[i - 1].t_s);
+        ++holds;
+      }
+      hold_until_s = build[i].t_s + options_.gap_hold_max_s;
+    }
     if (i > 0) {
       init = CarryForward(front_states[i - 1], front_states[i], last);
       if (bias_from_estimate) {
@@ -317,6 +351,14 @@ StatusOr<EstimateResult> RunInsWindow(const Walk& walk, const InsWindowOptions& 
     unconverged += u.converged ? 0 : 1;
     max_keys = std::max(max_keys, smoother.WindowKeys().size());
     WG_ASSIGN_OR_RETURN(last, estimate_of(i));
+    if (smoother.holding()) {
+      const std::optional<double> yaw_sigma = YawSigma(&smoother, Key(i, kQ));
+      const double release = yaw_sigma_before_gap.value_or(options_.gap_release_yaw_sigma_rad);
+      if (build[i].t_s >= hold_until_s || (yaw_sigma && *yaw_sigma <= release)) {
+        held_s = std::max(held_s, build[i].t_s - (hold_until_s - options_.gap_hold_max_s));
+        smoother.Release();
+      }
+    }
     if (online) {
       std::vector<size_t> in_window;
       for (size_t j : pending) {
@@ -356,6 +398,8 @@ StatusOr<EstimateResult> RunInsWindow(const Walk& walk, const InsWindowOptions& 
   d["ceres_final_cost"] = final_cost;  // of the last solve
   d["window_max_keys"] = static_cast<double>(max_keys);
   d["window_max_states"] = static_cast<double>(max_keys / kBlocksPerState);
+  d["window_gap_holds"] = holds;
+  d["window_gap_hold_max_s"] = held_s;  // longest time from a gap to its release
   d["states_without_covariance"] = g.compute_covariance ? static_cast<double>(missing) : 0.0;
   d["covariance_ok"] = g.compute_covariance && missing == 0 ? 1.0 : 0.0;
   if (radio.estimate_path_loss) {  // the window's last estimate of the static block

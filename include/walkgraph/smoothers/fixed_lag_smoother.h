@@ -111,6 +111,14 @@ class FixedLagSmoother {
     before_marginalize_ = std::move(cb);
   }
 
+  // Holds the window open: while set, no state at or after `t_s` is marginalized, whatever the
+  // lag (the window grows until Release). For a stretch the linearization point of which is
+  // still poor, e.g. the states after an IMU gap while their heading is undetermined: a prior
+  // taken there would lock the error in.
+  void HoldFrom(double t_s) { hold_from_s_ = t_s; }
+  void Release() { hold_from_s_.reset(); }
+  bool holding() const { return hold_from_s_.has_value(); }
+
   StatusOr<UpdateResult> Update(std::vector<SmootherState> new_states,
                                 std::vector<SmootherFactor> new_factors);
 
@@ -158,6 +166,7 @@ class FixedLagSmoother {
   std::map<int, Factor> factors_;
   int next_factor_id_ = 0;
   std::optional<double> newest_t_;
+  std::optional<double> hold_from_s_;
   bool solved_ = false;  // a solve has run: the estimate is (near) optimal
   MarginalizeCallback on_marginalize_;
   std::function<void(const std::vector<StateKey>&)> before_marginalize_;

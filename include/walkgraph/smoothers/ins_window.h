@@ -78,10 +78,20 @@ struct InsWindowOptions {
   // 0.614 m.
   double window_marginalize_batch_s = 1.0;
   double window_initial_trust_region_radius = 1e8;
+  // Across an IMU gap (Walk::ImuGaps) the graph bridges with a walker's motion model that
+  // leaves the heading free; until radio and motion pin it down again, a marginalization
+  // prior taken after the gap would freeze a wrong heading into the window. So the window is
+  // held open from the state before the gap (FixedLagSmoother::HoldFrom) until the newest
+  // state's yaw σ is back to that of the last state before the gap (gap_release_yaw_sigma_rad
+  // when that one is not known), for at most gap_hold_max_s after the gap (0: no hold).
+  // Measured (jimenez-building, 3 laps, seed 5, gap at 40 %): released at 2σ_before after 26 s,
+  // RMSE 0.645 m; at σ_before after 48 s, 0.296 m; no hold 1.48 m; no gap 0.235 m.
+  double gap_hold_max_s = 60.0;
+  double gap_release_yaw_sigma_rad = 0.05;
 
   // Keys: lag_s, window_update_s, window_max_iterations, window_output (absent: the given
-  // default), preintegration_bias, and every InsGraphOptions key at the same level
-  // (InsGraphOptions::FromYaml); unknown keys are errors.
+  // default), preintegration_bias, gap_hold_max_s, gap_release_yaw_sigma_rad, and every
+  // InsGraphOptions key at the same level (InsGraphOptions::FromYaml); unknown keys are errors.
   static StatusOr<InsWindowOptions> FromYaml(const YAML::Node& node, const std::string& context,
                                              const std::string& default_output = "lagged");
 };
