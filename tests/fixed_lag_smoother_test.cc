@@ -83,7 +83,7 @@ TEST(FixedLagSmoother, KeepsTheLagAndAHeldStretch) {
 TEST(FixedLagSmoother, HoldDoesNotChangeALinearProblemsEstimate) {
   FixedLagSmoother::Options o;
   o.lag_s = 1.0;
-  o.function_tolerance = o.parameter_tolerance = 1e-14;  // converged to the optimum
+  o.solver.function_tolerance = o.solver.parameter_tolerance = 1e-14;  // converged to the optimum
   FixedLagSmoother plain(o), held(o);
   held.HoldFrom(2.0);
   for (int k = 0; k <= 8; ++k) {

@@ -1,9 +1,9 @@
 #include "walkgraph/smoothers/fixed_lag_smoother.h"
 
-#include "walkgraph/smoothers/chain_covariance.h"
-
 #include <algorithm>
 #include <string>
+
+#include "smoothers/graph_internal.h"
 
 namespace walkgraph {
 
@@ -20,7 +20,7 @@ ceres::Problem::Options ProblemOptions() {
   return o;
 }
 
-std::string KeyName(StateKey k) { return "state " + std::to_string(k); }
+std::string KeyName(StateKey k) { return "state " + KeyToString(k); }
 
 }  // namespace
 
@@ -103,23 +103,13 @@ StatusOr<FixedLagSmoother::UpdateResult> FixedLagSmoother::Update(
   result.solved = informative;
   if (informative && problem_->NumResidualBlocks() > 0) {
     solved_ = true;
-    ceres::Solver::Options so;
-    so.linear_solver_type = options_.linear_solver;
-    so.sparse_linear_algebra_library_type = options_.sparse_library;
-    so.max_num_iterations = options_.max_iterations;
-    so.function_tolerance = options_.function_tolerance;
-    so.parameter_tolerance = options_.parameter_tolerance;
-    so.num_threads = options_.num_threads;
-    so.initial_trust_region_radius = options_.initial_trust_region_radius;
-    so.logging_type = ceres::SILENT;
     ceres::Solver::Summary summary;
-    ceres::Solve(so, problem_.get(), &summary);
-    if (summary.termination_type == ceres::FAILURE) {
-      return NumericalError("fixed-lag smoother: Ceres failed: " + summary.message);
-    }
+    ceres::Solve(internal::ToCeres(options_.solver), problem_.get(), &summary);
+    WG_ASSIGN_OR_RETURN(const Termination termination,
+                        internal::CheckSummary(summary, "fixed-lag smoother"));
     result.ceres_iterations = static_cast<int>(summary.iterations.size());
     result.final_cost = summary.final_cost;
-    result.converged = summary.termination_type == ceres::CONVERGENCE;
+    result.converged = termination == Termination::kConverged;
   }
   if (newest_t_) {
     double cutoff = *newest_t_ - options_.lag_s;
@@ -202,116 +192,24 @@ StatusOr<Eigen::MatrixXd> FixedLagSmoother::MarginalCovariance(StateKey key) {
   return MarginalCovariance(std::vector<StateKey>{key});
 }
 
+namespace {
+template <class States>
+std::map<StateKey, internal::KeyedBlock> BlocksOf(States* states) {
+  std::map<StateKey, internal::KeyedBlock> blocks;
+  for (auto& [key, st] : *states) blocks[key] = {st.value.data(), st.spec.t_s};
+  return blocks;
+}
+}  // namespace
+
 StatusOr<Eigen::MatrixXd> FixedLagSmoother::MarginalCovariance(const std::vector<StateKey>& keys) {
-  std::vector<const double*> blocks;
-  std::vector<int> offsets;
-  int n = 0;
-  for (StateKey key : keys) {
-    auto it = states_.find(key);
-    if (it == states_.end()) {
-      return NotFound("fixed-lag smoother: " + KeyName(key) + " not in window");
-    }
-    const double* block = it->second.value.data();
-    if (problem_->IsParameterBlockConstant(block)) {
-      return FailedPrecondition("fixed-lag smoother: " + KeyName(key) + " is held constant");
-    }
-    blocks.push_back(block);
-    offsets.push_back(n);
-    n += problem_->ParameterBlockTangentSize(block);
-  }
-  std::vector<std::pair<const double*, const double*>> pairs;
-  for (size_t i = 0; i < blocks.size(); ++i) {
-    for (size_t j = i; j < blocks.size(); ++j) pairs.emplace_back(blocks[i], blocks[j]);
-  }
-  ceres::Covariance::Options co;
-  co.algorithm_type = ceres::SPARSE_QR;
-  ceres::Covariance cov(co);
-  if (!cov.Compute(pairs, problem_.get())) {
-    return NumericalError("fixed-lag smoother: covariance not computable (rank-deficient window)");
-  }
-  Eigen::MatrixXd out(n, n);
-  for (size_t i = 0; i < blocks.size(); ++i) {
-    for (size_t j = i; j < blocks.size(); ++j) {
-      const int ni = problem_->ParameterBlockTangentSize(blocks[i]);
-      const int nj = problem_->ParameterBlockTangentSize(blocks[j]);
-      Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> c(ni, nj);
-      if (!cov.GetCovarianceBlockInTangentSpace(blocks[i], blocks[j], c.data())) {
-        return NumericalError("fixed-lag smoother: covariance block missing");
-      }
-      out.block(offsets[i], offsets[j], ni, nj) = c;
-      out.block(offsets[j], offsets[i], nj, ni) = c.transpose();
-    }
-  }
-  return out;
+  return internal::CeresMarginalCovariance(problem_.get(), BlocksOf(&states_), keys,
+                                           "fixed-lag smoother");
 }
 
 StatusOr<std::vector<Eigen::MatrixXd>> FixedLagSmoother::MarginalCovariances(
     const std::vector<std::vector<StateKey>>& groups) {
-  // The window as a chain: timed states grouped by timestamp, in time order; the rest static.
-  std::map<double, std::vector<StateKey>> by_time;
-  std::vector<double*> statics;
-  for (const auto& [key, st] : states_) {
-    if (st.spec.t_s) {
-      by_time[*st.spec.t_s].push_back(key);
-    } else {
-      statics.push_back(const_cast<double*>(st.value.data()));
-    }
-  }
-  std::vector<std::vector<double*>> chain;
-  std::map<StateKey, std::pair<size_t, int>> where;  // key → (chain group, tangent offset)
-  for (const auto& [t, keys] : by_time) {
-    std::vector<double*> g;
-    int off = 0;
-    for (StateKey k : keys) {
-      double* b = states_.at(k).value.data();
-      where[k] = {chain.size(), off};
-      if (!problem_->IsParameterBlockConstant(b)) off += problem_->ParameterBlockTangentSize(b);
-      g.push_back(b);
-    }
-    chain.push_back(std::move(g));
-  }
-  std::vector<Eigen::MatrixXd> out;
-  // Each requested group must be one chain state's blocks; only those chain states' marginals
-  // are formed.
-  bool usable = true;
-  std::vector<bool> wanted(chain.size(), false);
-  for (const auto& g : groups) {
-    for (StateKey k : g) {
-      auto it = states_.find(k);
-      if (it == states_.end() || problem_->IsParameterBlockConstant(it->second.value.data()) ||
-          !where.count(k) || where[k].first != where[g.front()].first) {
-        usable = false;
-      }
-    }
-    if (usable) wanted[where[g.front()].first] = true;
-  }
-  StatusOr<std::vector<Eigen::MatrixXd>> banded = InternalError("not computed");
-  if (usable) {
-    banded = ChainMarginalCovariances(problem_.get(), chain, statics, kChainInlierSigma,
-                                      kChainMaxBandwidth, wanted);
-    usable = banded.ok();
-  }
-  if (!usable) {  // fall back to Ceres, one group at a time
-    for (const auto& g : groups) {
-      WG_ASSIGN_OR_RETURN(Eigen::MatrixXd c, MarginalCovariance(g));
-      out.push_back(std::move(c));
-    }
-    return out;
-  }
-  for (const auto& g : groups) {
-    const Eigen::MatrixXd& full = (*banded)[where[g.front()].first];
-    std::vector<int> idx;
-    for (StateKey k : g) {
-      const int n = problem_->ParameterBlockTangentSize(states_.at(k).value.data());
-      for (int i = 0; i < n; ++i) idx.push_back(where[k].second + i);
-    }
-    Eigen::MatrixXd c(idx.size(), idx.size());
-    for (size_t i = 0; i < idx.size(); ++i) {
-      for (size_t j = 0; j < idx.size(); ++j) c(i, j) = full(idx[i], idx[j]);
-    }
-    out.push_back(std::move(c));
-  }
-  return out;
+  return internal::KeyedMarginalCovariances(problem_.get(), BlocksOf(&states_), groups,
+                                            "fixed-lag smoother");
 }
 
 std::vector<StateKey> FixedLagSmoother::WindowKeys() const {

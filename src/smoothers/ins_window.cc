@@ -178,11 +178,11 @@ StatusOr<EstimateResult> RunInsWindow(const Walk& walk, const InsWindowOptions& 
 
   FixedLagSmoother::Options so;
   so.lag_s = options_.lag_s;
-  so.max_iterations = options_.window_max_iterations;
-  so.function_tolerance = g.function_tolerance;
-  so.parameter_tolerance = g.parameter_tolerance;
+  so.solver.max_iterations = options_.window_max_iterations;
+  so.solver.function_tolerance = g.function_tolerance;
+  so.solver.parameter_tolerance = g.parameter_tolerance;
   so.marginalize_batch_s = options_.window_marginalize_batch_s;
-  so.initial_trust_region_radius = options_.window_initial_trust_region_radius;
+  so.solver.initial_trust_region_radius = options_.window_initial_trust_region_radius;
   FixedLagSmoother smoother(so);
   const auto manifold = std::make_shared<NavQuaternionManifold>();
 

@@ -229,10 +229,11 @@ std::string ResolvePathLoss(const Walk& walk, const StepGraphOptions& o, bool* h
   return *held_radio_only ? "fixed" : "global";
 }
 
-constexpr StateKey kGyroBiasKey = -1;
-StateKey PathLossKey(int group) { return -1000 - group; }      // group: anchor index or 0
-StateKey RangeBiasKey(int group) { return -100000 - group; }   // idem
-StateKey RangeScaleKey(int group) { return -200000 - group; }  // idem
+// The static states' keys (graph.h lists the letters); group: the anchor index or 0.
+constexpr StateKey kGyroBiasKey = Symbol('g', 0);
+StateKey PathLossKey(int group) { return Symbol('l', static_cast<uint64_t>(group)); }
+StateKey RangeBiasKey(int group) { return Symbol('b', static_cast<uint64_t>(group)); }
+StateKey RangeScaleKey(int group) { return Symbol('s', static_cast<uint64_t>(group)); }
 
 struct Reading {
   int anchor = 0;  // index into walk.anchors
@@ -682,15 +683,16 @@ std::vector<SmootherFactor> StepGraph::FactorsAt(int k) const {
     }
     for (const SmootherState& s : StaticStates()) {
       if (s.constant) continue;
+      const char letter = SymbolLetter(s.key);
       if (s.key == kGyroBiasKey) {
         add_owned(DiagonalPrior(Eigen::VectorXd::Zero(1),
                                 Eigen::VectorXd::Constant(1, o.gyro_bias_prior_sigma_radps)),
                   {s.key});
-      } else if (s.key <= RangeScaleKey(0)) {
+      } else if (letter == 's') {
         add_owned(DiagonalPrior(Eigen::VectorXd::Zero(1),
                                 Eigen::VectorXd::Constant(1, o.range_scale_prior_sigma)),
                   {s.key});
-      } else if (s.key <= RangeBiasKey(0)) {
+      } else if (letter == 'b') {
         add_owned(DiagonalPrior(Eigen::VectorXd::Zero(1),
                                 Eigen::VectorXd::Constant(1, o.range_bias_prior_sigma_m)),
                   {s.key});
@@ -803,16 +805,15 @@ void AddStaticDiagnostics(const std::vector<SmootherState>& statics,
   for (const SmootherState& s : statics) {
     if (s.constant) continue;
     const std::vector<double> v = value_of(s.key);
+    const char letter = SymbolLetter(s.key);
+    const int g = static_cast<int>(SymbolIndex(s.key));
     if (s.key == kGyroBiasKey) {
       (*d)["gyro_bias_radps"] = v[0];
-    } else if (s.key <= RangeScaleKey(0)) {
-      const int g = static_cast<int>(RangeScaleKey(0) - s.key);
+    } else if (letter == 's') {
       (*d)[name("range_scale", o.range_scale == "per-anchor", g)] = v[0];
-    } else if (s.key <= RangeBiasKey(0)) {
-      const int g = static_cast<int>(RangeBiasKey(0) - s.key);
+    } else if (letter == 'b') {
       (*d)[name("range_bias_m", o.range_bias == "per-anchor", g)] = v[0];
     } else {
-      const int g = static_cast<int>(PathLossKey(0) - s.key);
       (*d)[name("path_loss_A", o.path_loss == "per-anchor", g)] = v[0];
       (*d)[name("path_loss_eta", o.path_loss == "per-anchor", g)] = v[1];
     }
@@ -894,61 +895,34 @@ StatusOr<EstimateResult> StepGraphBatch::Run(const Walk& walk) const {
   WG_ASSIGN_OR_RETURN(std::unique_ptr<StepGraph> graph, StepGraph::Build(walk, options_));
   const int n = graph->num_nodes();
 
-  ceres::Problem::Options po;
-  po.cost_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
-  po.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
-  po.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
-  std::map<StateKey, SmootherState> states;
-  std::vector<SmootherFactor> factors;
-  for (SmootherState& s : graph->StaticStates()) states[s.key] = std::move(s);
+  FactorGraph fg;
+  for (SmootherState& s : graph->StaticStates()) WG_RETURN_IF_ERROR(fg.AddState(std::move(s)));
   for (int k = 0; k < n; ++k) {
     const Eigen::Vector3d& x = graph->initial_nodes()[k];
     for (SmootherState& s : graph->NodeStates(k, x.head<2>(), x[2])) {
       if (k > 0)
         s.value = s.key == StepGraph::PositionKey(k) ? std::vector<double>{x[0], x[1]}
                                                      : std::vector<double>{x[2]};
-      states[s.key] = std::move(s);
+      WG_RETURN_IF_ERROR(fg.AddState(std::move(s)));
     }
-    for (SmootherFactor& f : graph->FactorsAt(k)) factors.push_back(std::move(f));
   }
-  ceres::Problem problem(po);
-  for (auto& [key, s] : states) {
-    problem.AddParameterBlock(s.value.data(), static_cast<int>(s.value.size()),
-                              const_cast<ceres::Manifold*>(s.manifold.get()));
-    if (s.constant) problem.SetParameterBlockConstant(s.value.data());
+  for (int k = 0; k < n; ++k) {
+    for (SmootherFactor& f : graph->FactorsAt(k)) WG_RETURN_IF_ERROR(fg.AddFactor(std::move(f)));
   }
-  for (const SmootherFactor& f : factors) {
-    std::vector<double*> blocks;
-    for (StateKey k : f.keys) blocks.push_back(states.at(k).value.data());
-    problem.AddResidualBlock(f.cost.get(), const_cast<ceres::LossFunction*>(f.loss.get()), blocks);
-  }
-  ceres::Solver::Options so;
-  so.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
-  so.max_num_iterations = options_.max_iterations;
+  SolverOptions so;
+  so.max_iterations = options_.max_iterations;
   so.initial_trust_region_radius = options_.initial_trust_region_radius;
   so.function_tolerance = options_.function_tolerance;
   so.parameter_tolerance = options_.parameter_tolerance;
   so.num_threads = options_.num_threads;
-  so.logging_type = ceres::SILENT;
-  ceres::Solver::Summary summary;
   // auto: dead reckoning for odometry walks (wheel odometry barely drifts), the window for
   // IMU steps (a gyro's heading drift over a long walk leaves dead reckoning in a wrong basin:
   // measured on correa-classroom 0.85 → 0.23 m RMSE, gadeke-outage 18.8 → 0.71 m).
   const bool window_init = options_.initialization == "window" ||
                            (options_.initialization == "auto" && !walk.has_odometry());
-  if (!window_init) {
-    ceres::Solve(so, &problem, &summary);
-    if (summary.termination_type == ceres::FAILURE) {
-      return NumericalError("fg-batch: Ceres failed: " + summary.message);
-    }
-  }
-  auto normalized_cost = [](const ceres::Solver::Summary& sm) {  // 2F/(m − n), ≈ 1 if consistent
-    const double dof = std::max(1, sm.num_residuals_reduced - sm.num_effective_parameters_reduced);
-    return 2.0 * sm.final_cost / dof;
-  };
   if (window_init) {
-    // Restart from the fixed-lag smoother's lagged estimates (it grows the solution
-    // incrementally, so it does not get lost), and keep whichever optimum is lower.
+    // Start from the fixed-lag smoother's lagged estimates (it grows the solution
+    // incrementally, so it does not get lost).
     StepGraphOptions wo = options_;
     wo.covariance = false;
     wo.window_output = "lagged";
@@ -964,43 +938,37 @@ StatusOr<EstimateResult> StepGraphBatch::Run(const Walk& walk) const {
     }
     for (int k = 0; k < n; ++k) {
       const TrajectoryPoint& pt = w.trajectory.points[k];
-      states.at(StepGraph::PositionKey(k)).value = {pt.position_m.x(), pt.position_m.y()};
-      states.at(StepGraph::HeadingKey(k)).value = {pt.heading_rad};
-    }
-    ceres::Solve(so, &problem, &summary);
-    if (summary.termination_type == ceres::FAILURE) {
-      return NumericalError("fg-batch: Ceres failed: " + summary.message);
+      WG_RETURN_IF_ERROR(
+          fg.SetValue(StepGraph::PositionKey(k), {pt.position_m.x(), pt.position_m.y()}));
+      WG_RETURN_IF_ERROR(fg.SetValue(StepGraph::HeadingKey(k), {pt.heading_rad}));
     }
   }
+  StatusOr<SolveSummary> summary = SolveBatch(&fg, so);
+  if (!summary.ok()) return NumericalError("fg-batch: " + summary.status().message());
 
   EstimateResult result;
   auto& d = result.diagnostics;
-  d["ceres_iterations"] = static_cast<double>(summary.iterations.size());
-  d["ceres_converged"] = summary.termination_type == ceres::CONVERGENCE ? 1.0 : 0.0;
-  d["final_cost"] = summary.final_cost;
-  d["normalized_cost"] = normalized_cost(summary);
+  d["ceres_iterations"] = summary->iterations;
+  d["ceres_converged"] = summary->termination == Termination::kConverged ? 1.0 : 0.0;
+  d["final_cost"] = summary->final_cost;
+  d["normalized_cost"] = summary->normalized_cost();  // 2F/(m − n), ≈ 1 if consistent
   d["initialized_from_window"] = window_init ? 1.0 : 0.0;
   d["nodes"] = n;
-  d["residual_blocks"] = problem.NumResidualBlocks();
-  AddStaticDiagnostics(
-      graph->StaticStates(), [&](StateKey k) { return states.at(k).value; }, walk, options_, &d);
+  d["residual_blocks"] = static_cast<double>(fg.num_factors());
+  auto value = [&](StateKey k) { return *fg.Value(k); };  // every key below is in the graph
+  AddStaticDiagnostics(graph->StaticStates(), value, walk, options_, &d);
   AddGraphDiagnostics(*graph, walk, &d);
   for (int k = 0; k < n; ++k) {
     result.trajectory.points.push_back(MakePoint(graph->node_time(k),
-                                                 states.at(StepGraph::PositionKey(k)).value.data(),
-                                                 states.at(StepGraph::HeadingKey(k)).value[0]));
+                                                 value(StepGraph::PositionKey(k)).data(),
+                                                 value(StepGraph::HeadingKey(k))[0]));
   }
-
   if (options_.covariance) {
-    std::vector<std::vector<double*>> groups;
+    std::vector<std::vector<StateKey>> groups;
     for (int k = 0; k < n; ++k) {
-      groups.push_back({states.at(StepGraph::PositionKey(k)).value.data(),
-                        states.at(StepGraph::HeadingKey(k)).value.data()});
+      groups.push_back({StepGraph::PositionKey(k), StepGraph::HeadingKey(k)});
     }
-    std::vector<double*> statics;
-    for (const SmootherState& s : graph->StaticStates())
-      statics.push_back(states.at(s.key).value.data());
-    auto cov = ChainMarginalCovariances(&problem, groups, statics);
+    auto cov = MarginalCovariances(&fg, groups);
     if (!cov.ok()) {
       d["covariance_failed"] = 1.0;  // e.g. rank-deficient: trajectory without covariances
     } else {
@@ -1033,20 +1001,20 @@ StatusOr<EstimateResult> RunWindowNodes(const Walk& walk, const StepGraphOptions
   FixedLagSmoother::Options so;
   so.lag_s = options_.lag_s;
   so.marginalize_batch_s = options_.window_marginalize_batch_s;
-  so.initial_trust_region_radius = options_.window_initial_trust_region_radius;
-  so.max_iterations = options_.window_max_iterations;
-  so.linear_solver = options_.window_linear_solver == "dense" ? ceres::DENSE_NORMAL_CHOLESKY
-                                                              : ceres::SPARSE_NORMAL_CHOLESKY;
-  so.sparse_library =
-      options_.window_linear_solver == "eigen-sparse" ? ceres::EIGEN_SPARSE : ceres::SUITE_SPARSE;
-  so.function_tolerance = options_.window_function_tolerance;
-  so.parameter_tolerance = options_.parameter_tolerance;
-  so.num_threads = options_.num_threads;
+  so.solver.initial_trust_region_radius = options_.window_initial_trust_region_radius;
+  so.solver.max_iterations = options_.window_max_iterations;
+  so.solver.linear_solver = options_.window_linear_solver == "dense"
+                                ? LinearSolver::kDenseNormalCholesky
+                                : LinearSolver::kSparseNormalCholesky;
+  so.solver.eigen_sparse = options_.window_linear_solver == "eigen-sparse";
+  so.solver.function_tolerance = options_.window_function_tolerance;
+  so.solver.parameter_tolerance = options_.parameter_tolerance;
+  so.solver.num_threads = options_.num_threads;
   FixedLagSmoother smoother(so);
 
   std::vector<TrajectoryPoint> points(n);
   std::vector<bool> have(n, false);
-  auto node_of = [](StateKey key) { return static_cast<int>(key / 2); };
+  auto node_of = [](StateKey key) { return static_cast<int>(SymbolIndex(key)); };
   // (x, y, θ) covariances of the given nodes from the current window, in one banded solve.
   auto store_covariances = [&](const std::vector<int>& nodes) {
     if (!options_.covariance || nodes.empty()) return;
@@ -1062,7 +1030,7 @@ StatusOr<EstimateResult> RunWindowNodes(const Walk& walk, const StepGraphOptions
     if (online) return;
     std::vector<int> nodes;
     for (StateKey key : keys) {
-      if (key % 2 == 0) nodes.push_back(node_of(key));
+      if (SymbolLetter(key) == 'x') nodes.push_back(node_of(key));
     }
     store_covariances(nodes);
   });
@@ -1070,7 +1038,7 @@ StatusOr<EstimateResult> RunWindowNodes(const Walk& walk, const StepGraphOptions
     if (online) return;
     const int k = node_of(key);
     points[k].t_s = t;
-    if (key % 2 == 0) {
+    if (SymbolLetter(key) == 'x') {
       points[k].position_m = Eigen::Vector3d(v[0], v[1], 0.0);
       have[k] = true;
     } else {
@@ -1130,7 +1098,7 @@ StatusOr<EstimateResult> RunWindowNodes(const Walk& walk, const StepGraphOptions
     // The nodes still in the window at the end: their final (smoothed) estimates.
     std::vector<int> nodes;
     for (StateKey key : smoother.WindowKeys()) {
-      if (key % 2 == 0) nodes.push_back(node_of(key));
+      if (SymbolLetter(key) == 'x') nodes.push_back(node_of(key));
     }
     store_covariances(nodes);
     smoother.Flush();

@@ -42,40 +42,30 @@
 #include <ceres/ceres.h>
 #include <Eigen/Core>
 
+#include "walkgraph/graph.h"
 #include "walkgraph/smoothers/marginalization.h"
 #include "walkgraph/status.h"
 
 namespace walkgraph {
 
-struct SmootherState {
-  StateKey key = 0;
-  std::optional<double> t_s;                        // none: static, never marginalized
-  std::vector<double> value;                        // initial estimate (ambient)
-  std::shared_ptr<const ceres::Manifold> manifold;  // nullptr = Euclidean
-  bool constant = false;                            // held fixed by the solver
-};
-
-struct SmootherFactor {
-  std::unique_ptr<ceres::CostFunction> cost;
-  std::shared_ptr<const ceres::LossFunction> loss;  // nullptr = squared loss
-  std::vector<StateKey> keys;                       // in the cost function's block order
-};
+// The graph core's states and factors (graph.h): a smoother is fed what a FactorGraph holds.
+using SmootherState = GraphState;
+using SmootherFactor = GraphFactor;
 
 class FixedLagSmoother {
  public:
+  static SolverOptions WindowSolverDefaults() {
+    SolverOptions o;
+    o.max_iterations = 10;
+    return o;
+  }
   struct Options {
     double lag_s = 10.0;
-    int max_iterations = 10;
-    double function_tolerance = 1e-6;
-    double parameter_tolerance = 1e-8;
-    ceres::LinearSolverType linear_solver = ceres::SPARSE_NORMAL_CHOLESKY;
-    ceres::SparseLinearAlgebraLibraryType sparse_library = ceres::SUITE_SPARSE;
-    // Levenberg–Marquardt starts each update's solve with this trust-region radius (damping
-    // 1/radius on diag(JᵀJ)); Ceres' default, 1e4, suits a cold start. A warm-started window
-    // can take the Gauss–Newton step at once: with 1e4 the soft modes of a long chain
-    // (eigenvalues ≪ 1e-4 · diagonal) are damped and LM needs several growing steps.
-    double initial_trust_region_radius = 1e4;
-    int num_threads = 1;
+    // Each update's solve (graph.h). A warm-started window can take the Gauss–Newton step
+    // at once: set solver.initial_trust_region_radius high (Ceres' default, 1e4, suits a cold
+    // start; with it the soft modes of a long chain, eigenvalues ≪ 1e-4 · diagonal, are damped
+    // and LM needs several growing steps).
+    SolverOptions solver = WindowSolverDefaults();
     double eigenvalue_tolerance = 1e-12;  // marginalization (see marginalization.h)
     // An update whose new factors all have ‖r‖² ≤ this at the current estimate is not solved
     // (it cannot move the optimum; see Update). Negative: always solve.

@@ -24,11 +24,12 @@
 #include <Eigen/Core>
 
 #include "factors/marginalization_prior.h"
+#include "walkgraph/graph.h"
 #include "walkgraph/status.h"
 
 namespace walkgraph {
 
-using StateKey = int64_t;
+using StateKey = Key;  // graph.h
 
 // One parameter block as marginalization sees it.
 struct BlockRef {

@@ -180,8 +180,9 @@ class StepGraph {
 
   int num_nodes() const { return static_cast<int>(node_t_.size()); }
   double node_time(int k) const { return node_t_[k]; }
-  static StateKey PositionKey(int k) { return 2 * static_cast<StateKey>(k); }
-  static StateKey HeadingKey(int k) { return 2 * static_cast<StateKey>(k) + 1; }
+  // Node k's keys (graph.h): x(k) its position, h(k) its heading.
+  static StateKey PositionKey(int k) { return Symbol('x', static_cast<uint64_t>(k)); }
+  static StateKey HeadingKey(int k) { return Symbol('h', static_cast<uint64_t>(k)); }
 
   // Static (untimed) states: path loss, range bias, gyro bias blocks.
   std::vector<SmootherState> StaticStates() const;

@@ -1,0 +1,155 @@
+// The factor-graph core that walkgraph's smoothers and users' code share, in the shape of
+// GTSAM's NonlinearFactorGraph + Values, over Ceres cost functions:
+//
+//   FactorGraph graph;
+//   graph.AddState({Symbol('x', 0), 0.0, {0.0, 0.0}});          // key, time, initial value
+//   graph.AddFactor({std::move(cost), nullptr, {Symbol('x', 0)}});
+//   StatusOr<SolveSummary> s = SolveBatch(&graph, SolverOptions());
+//   graph.Value(Symbol('x', 0));  MarginalCovariances(&graph, {{Symbol('x', 0)}});
+//
+// States are parameter blocks named by a Key (a letter and an index, GTSAM's Symbol), each with
+// an optional timestamp (none: a "static" state such as a path-loss or bias block), an optional
+// ceres::Manifold, and a constant flag. Factors are cost functions (factors/) over states by key,
+// with an optional robust loss. The same GraphState/GraphFactor feed the FixedLagSmoother
+// (smoothers/fixed_lag_smoother.h), which is this container's sliding-window solver.
+//
+// The keys walkgraph's own graphs use (the letters are reserved for them; a user's factor may
+// refer to any of them):
+//   step graph (fg-batch, fg-window):  x(k) position (x, y) of node k,  h(k) heading θ_k,
+//     l(g) path loss (A, η) of group g (0, or the anchor index with path_loss: per-anchor),
+//     b(g) range bias, s(g) range scale, g(0) gyro bias.
+#ifndef WALKGRAPH_GRAPH_H_
+#define WALKGRAPH_GRAPH_H_
+
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <ceres/cost_function.h>
+#include <ceres/loss_function.h>
+#include <ceres/manifold.h>
+#include <Eigen/Core>
+
+#include "walkgraph/status.h"
+
+namespace ceres {
+class Problem;
+}
+
+namespace walkgraph {
+
+// A state's name: Symbol(letter, index) packs a letter (any char but '\0') and an index below
+// 2⁵⁶ into one integer, so keys sort by letter, then index.
+using Key = std::int64_t;
+inline constexpr std::uint64_t kMaxSymbolIndex = (std::uint64_t{1} << 56) - 1;
+constexpr Key Symbol(char letter, std::uint64_t index) {
+  return static_cast<Key>((static_cast<std::uint64_t>(static_cast<unsigned char>(letter)) << 56) |
+                          (index & kMaxSymbolIndex));
+}
+constexpr char SymbolLetter(Key key) {
+  return static_cast<char>(static_cast<std::uint64_t>(key) >> 56);
+}
+constexpr std::uint64_t SymbolIndex(Key key) {
+  return static_cast<std::uint64_t>(key) & kMaxSymbolIndex;
+}
+std::string KeyToString(Key key);  // "x12"
+
+struct GraphState {
+  Key key = 0;
+  std::optional<double> t_s;                        // none: static (never marginalized)
+  std::vector<double> value;                        // initial estimate (ambient)
+  std::shared_ptr<const ceres::Manifold> manifold;  // nullptr = Euclidean
+  bool constant = false;                            // held fixed by the solver
+};
+
+struct GraphFactor {
+  std::unique_ptr<ceres::CostFunction> cost;
+  std::shared_ptr<const ceres::LossFunction> loss;  // nullptr = squared loss
+  std::vector<Key> keys;                            // in the cost function's block order
+};
+
+// Ceres' options for a batch solve or a window update, in one place.
+enum class LinearSolver { kSparseNormalCholesky, kDenseNormalCholesky, kDenseQr };
+struct SolverOptions {
+  int max_iterations = 100;
+  double function_tolerance = 1e-6;
+  double parameter_tolerance = 1e-8;
+  double gradient_tolerance = 1e-10;
+  // Levenberg–Marquardt's starting trust-region radius (Ceres' default 1e4).
+  double initial_trust_region_radius = 1e4;
+  LinearSolver linear_solver = LinearSolver::kSparseNormalCholesky;
+  // With kSparseNormalCholesky: SuiteSparse (CHOLMOD), or Eigen's SimplicialLDLT (less set-up
+  // per solve, which pays on small, repeatedly solved windows).
+  bool eigen_sparse = false;
+  int num_threads = 1;
+  Status Validate() const;
+};
+
+enum class Termination { kConverged, kNoConvergence, kFailure };
+const char* ToString(Termination t);
+
+struct SolveSummary {
+  int iterations = 0;
+  double initial_cost = 0.0, final_cost = 0.0;
+  Termination termination = Termination::kConverged;
+  double time_s = 0.0;
+  int num_residuals = 0, num_parameters = 0;  // tangent dimensions, reduced (constants out)
+  // 2F/(m − n): ≈ 1 when the residuals are as large as their noise models say.
+  double normalized_cost() const;
+};
+
+class FactorGraph {
+ public:
+  FactorGraph();
+  ~FactorGraph();
+  FactorGraph(const FactorGraph&) = delete;
+  FactorGraph& operator=(const FactorGraph&) = delete;
+
+  // Errors: a key already present, an empty value, a manifold whose ambient size differs.
+  Status AddState(GraphState state);
+  // Errors: no cost function, a key not in the graph, a block size that differs from the
+  // cost function's.
+  Status AddFactor(GraphFactor factor);
+
+  bool Contains(Key key) const { return states_.count(key) > 0; }
+  StatusOr<std::vector<double>> Value(Key key) const;
+  Status SetValue(Key key, const std::vector<double>& value);  // same size
+  Status SetConstant(Key key, bool constant);
+  // The keys with a timestamp, by time (then key); the static ones.
+  std::vector<Key> TimedKeys() const;
+  std::vector<Key> StaticKeys() const;
+  std::optional<double> Time(Key key) const;
+  size_t num_states() const { return states_.size(); }
+  size_t num_factors() const { return factors_.size(); }
+
+ private:
+  friend StatusOr<SolveSummary> SolveBatch(FactorGraph* graph, const SolverOptions& options);
+  friend StatusOr<std::vector<Eigen::MatrixXd>> MarginalCovariances(
+      FactorGraph* graph, const std::vector<std::vector<Key>>& groups);
+  struct State {
+    GraphState spec;  // spec.value is the solver's parameter block (stable address)
+  };
+  std::map<Key, State> states_;
+  std::vector<GraphFactor> factors_;
+  std::unique_ptr<ceres::Problem> problem_;
+};
+
+// Solves the whole graph (Levenberg–Marquardt) from the states' current values and leaves the
+// optimum in them. Fails (never aborts) on invalid options, and when Ceres reports a failure
+// or a solution that is not usable; an iteration limit is not a failure (termination says).
+StatusOr<SolveSummary> SolveBatch(FactorGraph* graph, const SolverOptions& options);
+
+// Joint marginal covariances at the current values, one per group of keys (tangent spaces
+// stacked in the group's order; constant states contribute nothing). A graph whose timed
+// states form a chain (each factor on nearby times, plus static states) takes the banded
+// solve of smoothers/chain_covariance.h; any other, ceres::Covariance. Fails (never aborts)
+// when the information is not positive definite (an unobservable direction).
+StatusOr<std::vector<Eigen::MatrixXd>> MarginalCovariances(
+    FactorGraph* graph, const std::vector<std::vector<Key>>& groups);
+
+}  // namespace walkgraph
+
+#endif  // WALKGRAPH_GRAPH_H_

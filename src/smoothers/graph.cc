@@ -1,0 +1,349 @@
+#include "walkgraph/graph.h"
+
+#include <algorithm>
+#include <chrono>
+#include <string>
+#include <utility>
+
+#include <ceres/ceres.h>
+
+#include "smoothers/graph_internal.h"
+#include "walkgraph/smoothers/chain_covariance.h"
+
+namespace walkgraph {
+
+std::string KeyToString(Key key) {
+  const char c = SymbolLetter(key);
+  const std::string letter = c >= 33 && c < 127 ? std::string(1, c) : "#" + std::to_string(+c);
+  return letter + std::to_string(SymbolIndex(key));
+}
+
+Status SolverOptions::Validate() const {
+  if (max_iterations < 1 || !(function_tolerance >= 0) || !(parameter_tolerance >= 0) ||
+      !(gradient_tolerance >= 0) || !(initial_trust_region_radius > 0) || num_threads < 1 ||
+      num_threads > 256) {
+    return InvalidArgument(
+        "solver options: need max_iterations >= 1, tolerances >= 0, "
+        "initial_trust_region_radius > 0, num_threads in [1, 256]");
+  }
+  return Status::Ok();
+}
+
+const char* ToString(Termination t) {
+  switch (t) {
+    case Termination::kConverged:
+      return "converged";
+    case Termination::kNoConvergence:
+      return "no-convergence";
+    default:
+      return "failure";
+  }
+}
+
+double SolveSummary::normalized_cost() const {
+  return 2.0 * final_cost / std::max(1, num_residuals - num_parameters);
+}
+
+namespace internal {
+
+ceres::Solver::Options ToCeres(const SolverOptions& o) {
+  ceres::Solver::Options so;
+  switch (o.linear_solver) {
+    case LinearSolver::kDenseNormalCholesky:
+      so.linear_solver_type = ceres::DENSE_NORMAL_CHOLESKY;
+      break;
+    case LinearSolver::kDenseQr:
+      so.linear_solver_type = ceres::DENSE_QR;
+      break;
+    default:
+      so.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
+      so.sparse_linear_algebra_library_type =
+          o.eigen_sparse ? ceres::EIGEN_SPARSE : ceres::SUITE_SPARSE;
+  }
+  so.max_num_iterations = o.max_iterations;
+  so.function_tolerance = o.function_tolerance;
+  so.parameter_tolerance = o.parameter_tolerance;
+  so.gradient_tolerance = o.gradient_tolerance;
+  so.initial_trust_region_radius = o.initial_trust_region_radius;
+  so.num_threads = o.num_threads;
+  so.logging_type = ceres::SILENT;
+  so.minimizer_progress_to_stdout = false;
+  return so;
+}
+
+StatusOr<Termination> CheckSummary(const ceres::Solver::Summary& s, const char* who) {
+  if (s.termination_type == ceres::FAILURE || !s.IsSolutionUsable()) {
+    return NumericalError(std::string(who) + ": Ceres failed: " + s.message);
+  }
+  return s.termination_type == ceres::CONVERGENCE ? Termination::kConverged
+                                                  : Termination::kNoConvergence;
+}
+
+StatusOr<Eigen::MatrixXd> CeresMarginalCovariance(ceres::Problem* problem,
+                                                  const std::map<Key, KeyedBlock>& blocks_by_key,
+                                                  const std::vector<Key>& keys, const char* who) {
+  std::vector<const double*> blocks;
+  std::vector<int> offsets;
+  int n = 0;
+  for (Key key : keys) {
+    auto it = blocks_by_key.find(key);
+    if (it == blocks_by_key.end()) {
+      return NotFound(std::string(who) + ": " + KeyToString(key) + " not in the graph");
+    }
+    const double* block = it->second.value;
+    if (problem->IsParameterBlockConstant(block)) {
+      return FailedPrecondition(std::string(who) + ": " + KeyToString(key) + " is held constant");
+    }
+    blocks.push_back(block);
+    offsets.push_back(n);
+    n += problem->ParameterBlockTangentSize(block);
+  }
+  std::vector<std::pair<const double*, const double*>> pairs;
+  for (size_t i = 0; i < blocks.size(); ++i) {
+    for (size_t j = i; j < blocks.size(); ++j) pairs.emplace_back(blocks[i], blocks[j]);
+  }
+  ceres::Covariance::Options co;
+  co.algorithm_type = ceres::SPARSE_QR;
+  ceres::Covariance cov(co);
+  if (!cov.Compute(pairs, problem)) {
+    return NumericalError(std::string(who) + ": covariance not computable (rank-deficient)");
+  }
+  Eigen::MatrixXd out(n, n);
+  for (size_t i = 0; i < blocks.size(); ++i) {
+    for (size_t j = i; j < blocks.size(); ++j) {
+      const int ni = problem->ParameterBlockTangentSize(blocks[i]);
+      const int nj = problem->ParameterBlockTangentSize(blocks[j]);
+      Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> c(ni, nj);
+      if (!cov.GetCovarianceBlockInTangentSpace(blocks[i], blocks[j], c.data())) {
+        return NumericalError(std::string(who) + ": covariance block missing");
+      }
+      out.block(offsets[i], offsets[j], ni, nj) = c;
+      out.block(offsets[j], offsets[i], nj, ni) = c.transpose();
+    }
+  }
+  return out;
+}
+
+StatusOr<std::vector<Eigen::MatrixXd>> KeyedMarginalCovariances(
+    ceres::Problem* problem, const std::map<Key, KeyedBlock>& blocks,
+    const std::vector<std::vector<Key>>& groups, const char* who) {
+  // The graph as a chain: timed states grouped by timestamp, in time order; the rest static.
+  std::map<double, std::vector<Key>> by_time;
+  std::vector<double*> statics;
+  for (const auto& [key, b] : blocks) {
+    if (b.t_s) {
+      by_time[*b.t_s].push_back(key);
+    } else {
+      statics.push_back(b.value);
+    }
+  }
+  std::vector<std::vector<double*>> chain;
+  std::map<Key, std::pair<size_t, int>> where;  // key → (chain group, tangent offset)
+  for (const auto& [t, keys] : by_time) {
+    std::vector<double*> g;
+    int off = 0;
+    for (Key k : keys) {
+      double* b = blocks.at(k).value;
+      where[k] = {chain.size(), off};
+      if (!problem->IsParameterBlockConstant(b)) off += problem->ParameterBlockTangentSize(b);
+      g.push_back(b);
+    }
+    chain.push_back(std::move(g));
+  }
+  // Constant states contribute nothing to a group; unknown keys are an error.
+  std::vector<std::vector<Key>> variable(groups.size());
+  for (size_t i = 0; i < groups.size(); ++i) {
+    for (Key k : groups[i]) {
+      auto it = blocks.find(k);
+      if (it == blocks.end()) {
+        return NotFound(std::string(who) + ": " + KeyToString(k) + " not in the graph");
+      }
+      if (!problem->IsParameterBlockConstant(it->second.value)) variable[i].push_back(k);
+    }
+  }
+  // Each requested group must lie within one chain state (one timestamp); only those chain
+  // states' marginals are formed.
+  bool usable = true;
+  std::vector<bool> wanted(chain.size(), false);
+  for (const auto& g : variable) {
+    for (Key k : g) {
+      if (!where.count(k) || where[k].first != where[g.front()].first) usable = false;
+    }
+    if (usable && !g.empty()) wanted[where[g.front()].first] = true;
+  }
+  StatusOr<std::vector<Eigen::MatrixXd>> banded = InternalError("not computed");
+  if (usable) {
+    banded = ChainMarginalCovariances(problem, chain, statics, kChainInlierSigma,
+                                      kChainMaxBandwidth, wanted);
+    usable = banded.ok();
+  }
+  std::vector<Eigen::MatrixXd> out;
+  for (const auto& g : variable) {
+    if (g.empty()) {
+      out.emplace_back(0, 0);
+    } else if (!usable) {  // fall back to Ceres, one group at a time
+      WG_ASSIGN_OR_RETURN(Eigen::MatrixXd c, CeresMarginalCovariance(problem, blocks, g, who));
+      out.push_back(std::move(c));
+    } else {
+      std::vector<int> idx;
+      for (Key k : g) {
+        const int n = problem->ParameterBlockTangentSize(blocks.at(k).value);
+        for (int i = 0; i < n; ++i) idx.push_back(where[k].second + i);
+      }
+      const Eigen::MatrixXd& full = (*banded)[where[g.front()].first];
+      Eigen::MatrixXd c(idx.size(), idx.size());
+      for (size_t i = 0; i < idx.size(); ++i) {
+        for (size_t j = 0; j < idx.size(); ++j) c(i, j) = full(idx[i], idx[j]);
+      }
+      out.push_back(std::move(c));
+    }
+  }
+  return out;
+}
+
+}  // namespace internal
+
+namespace {
+
+ceres::Problem::Options ProblemOptions() {
+  ceres::Problem::Options o;
+  // The graph owns its cost functions, losses and manifolds (GraphFactor, GraphState).
+  o.cost_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  o.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  o.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  return o;
+}
+
+}  // namespace
+
+FactorGraph::FactorGraph() : problem_(std::make_unique<ceres::Problem>(ProblemOptions())) {}
+
+FactorGraph::~FactorGraph() {
+  problem_.reset();  // before the cost functions and manifolds it points to
+}
+
+Status FactorGraph::AddState(GraphState s) {
+  const std::string name = KeyToString(s.key);
+  if (states_.count(s.key)) return InvalidArgument("factor graph: " + name + " added twice");
+  if (s.value.empty()) return InvalidArgument("factor graph: " + name + " has an empty value");
+  if (s.manifold && s.manifold->AmbientSize() != static_cast<int>(s.value.size())) {
+    return InvalidArgument("factor graph: the manifold of " + name + " has another size");
+  }
+  if (s.t_s && !std::isfinite(*s.t_s)) {
+    return InvalidArgument("factor graph: " + name + " has a non-finite time");
+  }
+  State& st = states_[s.key];
+  st.spec = std::move(s);
+  problem_->AddParameterBlock(st.spec.value.data(), static_cast<int>(st.spec.value.size()),
+                              const_cast<ceres::Manifold*>(st.spec.manifold.get()));
+  if (st.spec.constant) problem_->SetParameterBlockConstant(st.spec.value.data());
+  return Status::Ok();
+}
+
+Status FactorGraph::AddFactor(GraphFactor f) {
+  if (!f.cost) return InvalidArgument("factor graph: a factor without a cost function");
+  const std::vector<int32_t>& sizes = f.cost->parameter_block_sizes();
+  if (sizes.size() != f.keys.size()) {
+    return InvalidArgument("factor graph: a factor with " + std::to_string(sizes.size()) +
+                           " parameter blocks but " + std::to_string(f.keys.size()) + " keys");
+  }
+  std::vector<double*> blocks;
+  for (size_t i = 0; i < f.keys.size(); ++i) {
+    auto it = states_.find(f.keys[i]);
+    if (it == states_.end()) {
+      return InvalidArgument("factor graph: a factor on " + KeyToString(f.keys[i]) +
+                             ", which is not in the graph");
+    }
+    if (static_cast<int>(it->second.spec.value.size()) != sizes[i]) {
+      return InvalidArgument("factor graph: block " + std::to_string(i) + " of a factor has size " +
+                             std::to_string(sizes[i]) + " but " + KeyToString(f.keys[i]) + " has " +
+                             std::to_string(it->second.spec.value.size()));
+    }
+    if (std::find(blocks.begin(), blocks.end(), it->second.spec.value.data()) != blocks.end()) {
+      return InvalidArgument("factor graph: a factor names " + KeyToString(f.keys[i]) + " twice");
+    }
+    blocks.push_back(it->second.spec.value.data());
+  }
+  problem_->AddResidualBlock(f.cost.get(), const_cast<ceres::LossFunction*>(f.loss.get()), blocks);
+  factors_.push_back(std::move(f));
+  return Status::Ok();
+}
+
+StatusOr<std::vector<double>> FactorGraph::Value(Key key) const {
+  auto it = states_.find(key);
+  if (it == states_.end()) return NotFound("factor graph: no state " + KeyToString(key));
+  return it->second.spec.value;
+}
+
+Status FactorGraph::SetValue(Key key, const std::vector<double>& value) {
+  auto it = states_.find(key);
+  if (it == states_.end()) return NotFound("factor graph: no state " + KeyToString(key));
+  if (value.size() != it->second.spec.value.size()) {
+    return InvalidArgument("factor graph: a value of another size for " + KeyToString(key));
+  }
+  std::copy(value.begin(), value.end(), it->second.spec.value.begin());
+  return Status::Ok();
+}
+
+Status FactorGraph::SetConstant(Key key, bool constant) {
+  auto it = states_.find(key);
+  if (it == states_.end()) return NotFound("factor graph: no state " + KeyToString(key));
+  it->second.spec.constant = constant;
+  double* block = it->second.spec.value.data();
+  if (constant) {
+    problem_->SetParameterBlockConstant(block);
+  } else {
+    problem_->SetParameterBlockVariable(block);
+  }
+  return Status::Ok();
+}
+
+std::vector<Key> FactorGraph::TimedKeys() const {
+  std::vector<std::pair<double, Key>> timed;
+  for (const auto& [key, st] : states_) {
+    if (st.spec.t_s) timed.emplace_back(*st.spec.t_s, key);
+  }
+  std::sort(timed.begin(), timed.end());
+  std::vector<Key> keys;
+  for (const auto& tk : timed) keys.push_back(tk.second);
+  return keys;
+}
+
+std::vector<Key> FactorGraph::StaticKeys() const {
+  std::vector<Key> keys;
+  for (const auto& [key, st] : states_) {
+    if (!st.spec.t_s) keys.push_back(key);
+  }
+  return keys;
+}
+
+std::optional<double> FactorGraph::Time(Key key) const {
+  auto it = states_.find(key);
+  return it == states_.end() ? std::nullopt : it->second.spec.t_s;
+}
+
+StatusOr<SolveSummary> SolveBatch(FactorGraph* graph, const SolverOptions& options) {
+  WG_RETURN_IF_ERROR(options.Validate());
+  SolveSummary out;
+  if (graph->problem_->NumResidualBlocks() == 0) return out;  // nothing to solve
+  const auto start = std::chrono::steady_clock::now();
+  ceres::Solver::Summary summary;
+  ceres::Solve(internal::ToCeres(options), graph->problem_.get(), &summary);
+  WG_ASSIGN_OR_RETURN(out.termination, internal::CheckSummary(summary, "batch solve"));
+  out.iterations = static_cast<int>(summary.iterations.size());
+  out.initial_cost = summary.initial_cost;
+  out.final_cost = summary.final_cost;
+  out.num_residuals = summary.num_residuals_reduced;
+  out.num_parameters = summary.num_effective_parameters_reduced;
+  out.time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return out;
+}
+
+StatusOr<std::vector<Eigen::MatrixXd>> MarginalCovariances(
+    FactorGraph* graph, const std::vector<std::vector<Key>>& groups) {
+  std::map<Key, internal::KeyedBlock> blocks;
+  for (auto& [key, st] : graph->states_) blocks[key] = {st.spec.value.data(), st.spec.t_s};
+  return internal::KeyedMarginalCovariances(graph->problem_.get(), blocks, groups, "factor graph");
+}
+
+}  // namespace walkgraph

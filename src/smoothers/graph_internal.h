@@ -1,0 +1,45 @@
+// What the batch solve and the fixed-lag smoother share beyond graph.h: Ceres' solver options
+// and the marginal-covariance extractor over keyed parameter blocks.
+#ifndef WALKGRAPH_SRC_SMOOTHERS_GRAPH_INTERNAL_H_
+#define WALKGRAPH_SRC_SMOOTHERS_GRAPH_INTERNAL_H_
+
+#include <map>
+#include <optional>
+#include <vector>
+
+#include <ceres/problem.h>
+#include <ceres/solver.h>
+#include <Eigen/Core>
+
+#include "walkgraph/graph.h"
+#include "walkgraph/status.h"
+
+namespace walkgraph {
+namespace internal {
+
+// The one place that fills ceres::Solver::Options (silent, LM).
+ceres::Solver::Options ToCeres(const SolverOptions& options);
+// Termination of a Ceres summary; a failure or an unusable solution is an error naming `who`.
+StatusOr<Termination> CheckSummary(const ceres::Solver::Summary& summary, const char* who);
+
+// A keyed parameter block of a problem: its storage and time (none: static).
+struct KeyedBlock {
+  double* value = nullptr;
+  std::optional<double> t_s;
+};
+
+// Joint marginal covariances of `groups` (see MarginalCovariances in graph.h): the banded chain
+// solve when every group lies at one timestamp, else ceres::Covariance per group.
+StatusOr<std::vector<Eigen::MatrixXd>> KeyedMarginalCovariances(
+    ceres::Problem* problem, const std::map<Key, KeyedBlock>& blocks,
+    const std::vector<std::vector<Key>>& groups, const char* who);
+
+// ceres::Covariance (sparse QR) for one group of keys: the fallback, and small queries.
+StatusOr<Eigen::MatrixXd> CeresMarginalCovariance(ceres::Problem* problem,
+                                                  const std::map<Key, KeyedBlock>& blocks,
+                                                  const std::vector<Key>& keys, const char* who);
+
+}  // namespace internal
+}  // namespace walkgraph
+
+#endif  // WALKGRAPH_SRC_SMOOTHERS_GRAPH_INTERNAL_H_
