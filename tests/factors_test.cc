@@ -12,6 +12,7 @@
 #include "factors/heading_factor.h"
 #include "factors/heading_increment_factor.h"
 #include "factors/odometry_factor.h"
+#include "factors/position_prior_factor.h"
 #include "factors/position_random_walk_factor.h"
 #include "factors/range_factor.h"
 #include "factors/rss_factor.h"
@@ -99,6 +100,41 @@ TEST(PositionRandomWalkFactorTest, WhitensByTheDiffusion) {
   EXPECT_NEAR(r[0], 0.6, 1e-12);
   EXPECT_NEAR(r[1], -0.8, 1e-12);
   ExpectGradientsMatch(*f, {a, b});
+}
+
+TEST(PositionPriorFactorTest, OneNodeIsTheWhitenedOffset) {
+  std::unique_ptr<ceres::CostFunction> f(
+      PositionPriorFactor<2>::Create(Eigen::Vector2d(3.0, -1.0), 0.5));
+  const double p[2] = {3.4, -1.3};
+  const auto r = Residuals(*f, {p});
+  EXPECT_NEAR(r[0], 0.8, 1e-12);
+  EXPECT_NEAR(r[1], -0.6, 1e-12);
+  ExpectGradientsMatch(*f, {p});
+}
+
+TEST(PositionPriorFactorTest, TwoNodesInterpolateLinearly) {
+  // α = 0.25: the estimate at t is 0.75 p_a + 0.25 p_b = (1.5, 2.5); z = (1, 3), σ = 2.
+  std::unique_ptr<ceres::CostFunction> f(
+      PositionPriorFactor<2>::CreateInterpolated(Eigen::Vector2d(1.0, 3.0), 2.0, 0.25));
+  const double a[2] = {1.0, 2.0}, b[2] = {3.0, 4.0};
+  const auto r = Residuals(*f, {a, b});
+  EXPECT_NEAR(r[0], 0.25, 1e-12);
+  EXPECT_NEAR(r[1], -0.25, 1e-12);
+  ExpectGradientsMatch(*f, {a, b});
+  // α = 0 and α = 1 reduce to the one-node factor on p_a and p_b.
+  std::unique_ptr<ceres::CostFunction> at_b(
+      PositionPriorFactor<2>::CreateInterpolated(Eigen::Vector2d(1.0, 3.0), 2.0, 1.0));
+  const auto rb = Residuals(*at_b, {a, b});
+  EXPECT_NEAR(rb[0], 1.0, 1e-12);
+  EXPECT_NEAR(rb[1], 0.5, 1e-12);
+  // On 3-D positions (the foot INS) z is free: same residual, zero Jacobian column for z.
+  std::unique_ptr<ceres::CostFunction> f3(
+      PositionPriorFactor<3>::CreateInterpolated(Eigen::Vector2d(1.0, 3.0), 2.0, 0.25));
+  const double a3[3] = {1.0, 2.0, 7.0}, b3[3] = {3.0, 4.0, -2.0};
+  const auto r3 = Residuals(*f3, {a3, b3});
+  EXPECT_NEAR(r3[0], 0.25, 1e-12);
+  EXPECT_NEAR(r3[1], -0.25, 1e-12);
+  ExpectGradientsMatch(*f3, {a3, b3});
 }
 
 TEST(RssFactorTest, ResidualMatchesPathLossModelInBothUnits) {

@@ -259,5 +259,26 @@ TEST(InsGraphBatch, AnUncalibratedWrongExponentIsEstimated) {
       EstimatorRegistry::Builtin().Create("fg-ins-batch", YAML::Load("{path_loss: x}")).ok());
 }
 
+// Waypoints reach the foot-INS graph too (batch and window share InsRadioFactors): five truth
+// points at σ = 1 cm put the estimate within 3 cm of each.
+TEST(InsGraphBatch, WaypointsPullTheFootOntoThem) {
+  auto w = SimulateScenario("jimenez-building", 3, YAML::Load("{laps: 1}"));
+  ASSERT_TRUE(w.ok());
+  const size_t n = w->truth.size();
+  for (size_t i = 1; i <= 5; ++i) {
+    const TruthSample& s = w->truth[i * (n - 1) / 6];
+    w->waypoints.push_back(Waypoint{s.t_s, s.position_m.head<2>(), 0.01});
+  }
+  for (const char* id : {"fg-ins-batch", "fg-ins-window"}) {
+    auto r = RunEstimator(id, *w);
+    ASSERT_TRUE(r.ok()) << r.status().message();
+    for (const Waypoint& p : w->waypoints) {
+      const double e = (r->trajectory.PositionAt(p.t_s).head<2>() - p.position_m).norm();
+      std::printf("%s waypoint t=%.1f s: error %.3f m\n", id, p.t_s, e);
+      EXPECT_LT(e, 0.03) << id << " t = " << p.t_s;
+    }
+  }
+}
+
 }  // namespace
 }  // namespace walkgraph

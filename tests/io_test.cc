@@ -43,6 +43,10 @@ TEST(ReadWalk, AcceptsTheValidFixture) {
   EXPECT_EQ(walk->rss.size(), 4u);
   EXPECT_EQ(walk->odometry.size(), 4u);
   EXPECT_EQ(walk->truth.size(), 5u);
+  ASSERT_EQ(walk->waypoints.size(), 2u);
+  EXPECT_EQ(walk->waypoints[1].t_s, 1.5);
+  EXPECT_EQ(walk->waypoints[1].position_m, Eigen::Vector2d(2.1, 0.05));
+  EXPECT_EQ(walk->waypoints[1].sigma_m, 0.5);
   ASSERT_TRUE(walk->meta.initial_pose.has_value());
   EXPECT_NEAR(walk->TruthDistance(), 2.8, 1e-12);
 }
@@ -142,6 +146,8 @@ const MalformedCase kCases[] = {
     {"duplicate_yaml_key", "walk.yaml:3:", "duplicate key 'name'"},
     {"second_yaml_document", "walk.yaml:19:", "a second YAML document"},
     {"invalid_utf8_name", "walk.yaml", "is not valid UTF-8"},
+    {"waypoint_bad_sigma", "waypoints.csv:3:", "sigma_m 0 outside [0.001, 1000] m"},
+    {"waypoint_time_backwards", "waypoints.csv:4:", "goes backwards"},
 };
 
 TEST(ReadWalk, RejectsEveryMalformedCaseWithFileLineAndExpectation) {
@@ -189,6 +195,19 @@ TEST(WriteWalk, RoundTripsExactly) {
   EXPECT_EQ(back->meta.extra.at("sim.seed"), 7.0);
   EXPECT_EQ(back->truth.back().position_m, walk->truth.back().position_m);
   EXPECT_DOUBLE_EQ(back->meta.initial_pose->x_m, walk->meta.initial_pose->x_m);
+  ASSERT_EQ(back->waypoints.size(), walk->waypoints.size());
+  for (size_t i = 0; i < walk->waypoints.size(); ++i) {
+    EXPECT_EQ(back->waypoints[i].t_s, walk->waypoints[i].t_s);
+    EXPECT_EQ(back->waypoints[i].position_m, walk->waypoints[i].position_m);
+    EXPECT_EQ(back->waypoints[i].sigma_m, walk->waypoints[i].sigma_m);
+  }
+  // ValidateWalk holds a waypoint built in code to the reader's rule.
+  Walk bad = *walk;
+  bad.waypoints[1].sigma_m = -1.0;
+  const Status refused = ValidateWalk(bad);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_THAT(refused.message(), HasSubstr("waypoints[1]"));
+  EXPECT_THAT(refused.message(), HasSubstr("sigma_m"));
   // Writing again over the same directory gives identical bytes.
   std::ifstream a(out / "imu.csv");
   const std::string first((std::istreambuf_iterator<char>(a)), {});

@@ -34,8 +34,9 @@ namespace {
 
 namespace fs = std::filesystem;
 
-const char* const kFiles[] = {"walk.yaml", "anchors.csv",  "imu.csv",   "rss.csv",
-                              "range.csv", "odometry.csv", "truth.csv", "stance_truth.csv"};
+const char* const kFiles[] = {"walk.yaml", "anchors.csv",      "imu.csv",
+                              "rss.csv",   "range.csv",        "odometry.csv",
+                              "truth.csv", "stance_truth.csv", "waypoints.csv"};
 
 enum class Reader { kWalk, kConfig, kManifest };
 
@@ -67,7 +68,8 @@ Fixture& GetFixture() {
                     {"range.csv", "t_s,anchor_id,range_m\n0,1,3\n"},
                     {"odometry.csv", "t_s,dist_m,dheading_rad\n0.5,0.7,0\n"},
                     {"truth.csv", "t_s,x_m,y_m\n0,0,0\n1,1,0\n"},
-                    {"stance_truth.csv", "t_s,stance\n0,1\n"}};
+                    {"stance_truth.csv", "t_s,stance\n0,1\n"},
+                    {"waypoints.csv", "t_s,x_m,y_m,sigma_m\n0.5,0.5,0,0.3\n"}};
     for (const auto& [name, text] : fx.originals) std::ofstream(fx.dir / name) << text;
     return fx;
   }();

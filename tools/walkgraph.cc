@@ -163,8 +163,11 @@ int RunValidate(const std::string& walk_dir) {
   if (!walk.ok()) return Fail(walk.status());
   std::cout << walk_dir << ": OK (" << walk->anchors.size() << " anchors, " << walk->imu.size()
             << " IMU, " << walk->rss.size() << " RSS, " << walk->ranges.size() << " range, "
-            << walk->odometry.size() << " odometry, " << walk->truth.size() << " truth samples; "
-            << walk->EndTime() - walk->StartTime() << " s)\n";
+            << walk->odometry.size() << " odometry, " << walk->truth.size() << " truth samples"
+            << (walk->waypoints.empty()
+                    ? ""
+                    : ", " + std::to_string(walk->waypoints.size()) + " waypoints")
+            << "; " << walk->EndTime() - walk->StartTime() << " s)\n";
   return 0;
 }
 

@@ -114,6 +114,15 @@ struct TruthSample {
   bool has_z = false;
 };
 
+// A known position at a known time (waypoints.csv: t_s,x_m,y_m,sigma_m), e.g. a surveyed
+// landmark the walker stepped on: every factor-graph estimator adds it as a position factor
+// (σ sigma_m per axis) on its estimate interpolated at t_s.
+struct Waypoint {
+  double t_s = 0.0;
+  Eigen::Vector2d position_m = Eigen::Vector2d::Zero();
+  double sigma_m = 1.0;
+};
+
 struct StanceSample {
   double t_s = 0.0;
   bool stance = false;
@@ -147,6 +156,7 @@ struct Walk {
   std::vector<OdometrySample> odometry;
   std::vector<TruthSample> truth;
   std::vector<StanceSample> stance_truth;  // optional labels (e.g. PyShoe's zv_vicon)
+  std::vector<Waypoint> waypoints;         // optional known positions (not truth: an input)
 
   bool has_imu() const { return !imu.empty(); }
   bool has_rss() const { return !rss.empty(); }

@@ -311,6 +311,38 @@ Status ReadOdometry(const std::string& path, std::vector<OdometrySample>* out) {
   return Status::Ok();
 }
 
+// A waypoint's rule, for the reader and ValidateWalk alike ("" when it holds).
+std::string CheckWaypoint(const Waypoint& w, const Waypoint* previous,
+                          const ValidationLimits& lim) {
+  if (!std::isfinite(w.t_s) || !w.position_m.allFinite() || !std::isfinite(w.sigma_m)) {
+    return "non-finite value";
+  }
+  std::string e = CheckTimeStrictlyIncreasing(w.t_s, previous ? &previous->t_s : nullptr);
+  if (e.empty() && w.position_m.cwiseAbs().maxCoeff() > lim.max_abs_coordinate_m) {
+    e = "coordinate beyond " + G(lim.max_abs_coordinate_m) + " m";
+  }
+  if (e.empty() && !(w.sigma_m >= 1e-3 && w.sigma_m <= 1e3)) {
+    e = "sigma_m " + G(w.sigma_m) + " outside [0.001, 1000] m";
+  }
+  return e;
+}
+
+Status ReadWaypoints(const std::string& path, const ValidationLimits& lim,
+                     std::vector<Waypoint>* out) {
+  CsvReader r(path, {"t_s", "x_m", "y_m", "sigma_m"});
+  WG_RETURN_IF_ERROR(r.Open());
+  std::vector<double> f;
+  while (true) {
+    WG_ASSIGN_OR_RETURN(bool more, r.Next(&f));
+    if (!more) break;
+    const Waypoint w{f[0], Eigen::Vector2d(f[1], f[2]), f[3]};
+    const std::string e = CheckWaypoint(w, out->empty() ? nullptr : &out->back(), lim);
+    if (!e.empty()) return InvalidArgument(r.Where() + e);
+    out->push_back(w);
+  }
+  return Status::Ok();
+}
+
 Status ReadTruth(const std::string& path, const ValidationLimits& lim,
                  std::vector<TruthSample>* out) {
   CsvReader r(path, {"t_s", "x_m", "y_m"}, {"z_m"});
@@ -427,7 +459,7 @@ StatusOr<Walk> ReadWalk(const std::string& dir, const ValidationLimits& limits) 
   // Which streams are there: each must be a regular file or absent.
   std::map<std::string, bool> present;
   for (const char* name : {"anchors.csv", "imu.csv", "rss.csv", "range.csv", "odometry.csv",
-                           "truth.csv", "stance_truth.csv"}) {
+                           "truth.csv", "stance_truth.csv", "waypoints.csv"}) {
     WG_ASSIGN_OR_RETURN(present[name], internal::OptionalInputFile((root / name).string()));
   }
   const auto path = [&](const char* name) { return (root / name).string(); };
@@ -466,6 +498,9 @@ StatusOr<Walk> ReadWalk(const std::string& dir, const ValidationLimits& limits) 
   if (present["truth.csv"]) WG_RETURN_IF_ERROR(ReadTruth(path("truth.csv"), limits, &walk.truth));
   if (present["stance_truth.csv"]) {
     WG_RETURN_IF_ERROR(ReadStanceTruth(path("stance_truth.csv"), &walk.stance_truth));
+  }
+  if (present["waypoints.csv"]) {
+    WG_RETURN_IF_ERROR(ReadWaypoints(path("waypoints.csv"), limits, &walk.waypoints));
   }
   if (walk.meta.truth_kind != TruthKind::kNone && walk.truth.empty()) {
     return InvalidArgument(yaml.string() + ": truth is '" + ToString(walk.meta.truth_kind) +
@@ -559,6 +594,11 @@ Status ValidateWalk(const Walk& walk, const ValidationLimits& limits) {
     const std::string e = CheckTimeStrictlyIncreasing(walk.stance_truth[i].t_s,
                                                       i ? &walk.stance_truth[i - 1].t_s : nullptr);
     if (!e.empty()) return InvalidArgument(where("stance_truth", i) + e);
+  }
+  for (size_t i = 0; i < walk.waypoints.size(); ++i) {
+    const std::string e =
+        CheckWaypoint(walk.waypoints[i], i ? &walk.waypoints[i - 1] : nullptr, limits);
+    if (!e.empty()) return InvalidArgument(where("waypoints", i) + e);
   }
   for (size_t i = 0; i < walk.truth.size(); ++i) {
     const TruthSample& s = walk.truth[i];
@@ -692,6 +732,16 @@ Status WriteWalkFiles(const Walk& walk, const fs::path& root) {
           }
           return true;
         }));
+  }
+  if (!walk.waypoints.empty()) {
+    WG_RETURN_IF_ERROR(WriteFileInOutput((root / "waypoints.csv").string(), [&](std::ostream& o) {
+      o << "t_s,x_m,y_m,sigma_m\n";
+      for (const Waypoint& w : walk.waypoints) {
+        o << Num(w.t_s) << ',' << Num(w.position_m.x()) << ',' << Num(w.position_m.y()) << ','
+          << Num(w.sigma_m) << '\n';
+      }
+      return true;
+    }));
   }
   return Status::Ok();
 }

@@ -17,6 +17,7 @@
 #include "factors/imu_preintegration_factor.h"
 #include "factors/ins_prior_factor.h"
 #include "factors/nav_quaternion_manifold.h"
+#include "factors/position_prior_factor.h"
 #include "factors/range_factor.h"
 #include "factors/rss_factor.h"
 #include "factors/zaru_factor.h"
@@ -469,6 +470,18 @@ StatusOr<std::vector<InsFactor>> InsRadioFactors(const InsGraphContext& c,
       f.loss.reset(loss);
       out.push_back(std::move(f));
     }
+  }
+  for (const Waypoint& wp : w.waypoints) {  // known positions of the foot
+    if (!inside(wp.t_s)) continue;
+    const Where at = where(wp.t_s);
+    out.push_back(
+        at.b == nullptr
+            ? MakeFactor("waypoint", PositionPriorFactor<3>::Create(wp.position_m, wp.sigma_m),
+                         {at.a->p.data()})
+            : MakeFactor(
+                  "waypoint",
+                  PositionPriorFactor<3>::CreateInterpolated(wp.position_m, wp.sigma_m, at.alpha),
+                  {at.a->p.data(), at.b->p.data()}));
   }
   return out;
 }

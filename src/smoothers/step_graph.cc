@@ -16,6 +16,7 @@
 #include "factors/heading_factor.h"
 #include "factors/heading_increment_factor.h"
 #include "factors/odometry_factor.h"
+#include "factors/position_prior_factor.h"
 #include "factors/position_random_walk_factor.h"
 #include "factors/range_factor.h"
 #include "factors/rss_factor.h"
@@ -235,9 +236,11 @@ StateKey PathLossKey(int group) { return Symbol('l', static_cast<uint64_t>(group
 StateKey RangeBiasKey(int group) { return Symbol('b', static_cast<uint64_t>(group)); }
 StateKey RangeScaleKey(int group) { return Symbol('s', static_cast<uint64_t>(group)); }
 
+// A measurement at one instant, attached to the node(s) around it.
 struct Reading {
-  int anchor = 0;  // index into walk.anchors
-  bool is_rss = true;
+  enum class Kind { kRss, kRange, kWaypoint };
+  int index = 0;  // into walk.anchors (RSS, range) or walk.waypoints
+  Kind kind = Kind::kRss;
   double value = 0.0;           // RSS or range
   int node_a = 0, node_b = -1;  // node_b < 0: at node_a alone
   double alpha = 0.0;
@@ -344,6 +347,7 @@ struct StepGraph::Impl {
   std::vector<bool> bridged;         // node k's step spans an IMU gap (Walk::ImuGaps)
   std::vector<OdometrySample> odom;  // node k ≥ 1 ends odom[k − 1] (odometry walks)
   std::vector<Anchor> anchors;
+  std::vector<Waypoint> waypoints;
   RadioDefaults radio;
   std::optional<InitialPose> start;
   std::vector<std::vector<Reading>> readings_at;  // by newest node
@@ -411,6 +415,7 @@ StatusOr<std::unique_ptr<StepGraph>> StepGraph::Build(const Walk& walk, const St
   Impl& m = *g->impl_;
   m.o = o;
   m.anchors = walk.anchors;
+  m.waypoints = walk.waypoints;
   m.radio = walk.meta.radio;
   if (std::isfinite(o.A_dbm)) m.radio.path_loss.A_dbm = o.A_dbm;
   if (o.eta > 0) m.radio.path_loss.eta = o.eta;
@@ -516,7 +521,7 @@ StatusOr<std::unique_ptr<StepGraph>> StepGraph::Build(const Walk& walk, const St
       return InvalidArgument("step graph: RSS from unknown anchor " + std::to_string(s.anchor_id));
     m.anchor_has_rss[a] = true;
     m.any_rss = true;
-    attach(s.t_s, Reading{a, true, s.rss});
+    attach(s.t_s, Reading{a, Reading::Kind::kRss, s.rss});
   }
   for (const RangeSample& s : walk.ranges) {
     const int a = walk.AnchorIndex(s.anchor_id);
@@ -525,7 +530,10 @@ StatusOr<std::unique_ptr<StepGraph>> StepGraph::Build(const Walk& walk, const St
                              std::to_string(s.anchor_id));
     m.anchor_has_range[a] = true;
     m.any_range = true;
-    attach(s.t_s, Reading{a, false, s.range_m});
+    attach(s.t_s, Reading{a, Reading::Kind::kRange, s.range_m});
+  }
+  for (size_t i = 0; i < walk.waypoints.size(); ++i) {
+    attach(walk.waypoints[i].t_s, Reading{static_cast<int>(i), Reading::Kind::kWaypoint});
   }
 
   if (m.radio_only) {
@@ -742,11 +750,18 @@ std::vector<SmootherFactor> StepGraph::FactorsAt(int k) const {
   const double sign = m.radio.units == RssUnits::kDbm ? 1.0 : -1.0;
   const double range_sigma = o.range_sigma_m > 0 ? o.range_sigma_m : m.radio.range_sigma_m;
   for (const Reading& r : m.readings_at[k]) {
-    const Eigen::Vector3d& anchor = m.anchors[r.anchor].position_m;
     std::vector<StateKey> keys = {PositionKey(r.node_a)};
     if (r.node_b >= 0) keys.push_back(PositionKey(r.node_b));
     const bool two = r.node_b >= 0;
-    if (r.is_rss && o.rss_residual == "db") {
+    if (r.kind == Reading::Kind::kWaypoint) {
+      const Waypoint& w = m.waypoints[r.index];
+      add(two ? PositionPriorFactor<2>::CreateInterpolated(w.position_m, w.sigma_m, r.alpha)
+              : PositionPriorFactor<2>::Create(w.position_m, w.sigma_m),
+          keys);
+      continue;
+    }
+    const Eigen::Vector3d& anchor = m.anchors[r.index].position_m;
+    if (r.kind == Reading::Kind::kRss && o.rss_residual == "db") {
       RssFactor<2>::Reading rd;
       rd.rss = r.value;
       rd.anchor_m = anchor;
@@ -754,10 +769,10 @@ std::vector<SmootherFactor> StepGraph::FactorsAt(int k) const {
       rd.sign = sign;
       rd.d0_m = pl.d0_m;
       rd.receiver_height_m = o.receiver_height_m;
-      keys.push_back(PathLossKey(m.PathLossGroup(r.anchor)));
+      keys.push_back(PathLossKey(m.PathLossGroup(r.index)));
       add(two ? RssFactor<2>::CreateInterpolated(rd, r.alpha) : RssFactor<2>::Create(rd), keys,
           m.rss_loss);
-    } else if (r.is_rss) {
+    } else if (r.kind == Reading::Kind::kRss) {
       RssRangeFactor<2>::Reading rd;
       rd.rss = r.value;
       rd.anchor_m = anchor;
@@ -770,8 +785,8 @@ std::vector<SmootherFactor> StepGraph::FactorsAt(int k) const {
       add(two ? RssRangeFactor<2>::CreateInterpolated(rd, r.alpha) : RssRangeFactor<2>::Create(rd),
           keys, m.rss_loss);
     } else {
-      keys.push_back(RangeBiasKey(m.RangeBiasGroup(r.anchor)));
-      keys.push_back(RangeScaleKey(m.RangeScaleGroup(r.anchor)));
+      keys.push_back(RangeBiasKey(m.RangeBiasGroup(r.index)));
+      keys.push_back(RangeScaleKey(m.RangeScaleGroup(r.index)));
       add(two ? ScaledRangeFactor<2>::CreateInterpolated(r.value, anchor, range_sigma, r.alpha,
                                                          o.receiver_height_m)
               : ScaledRangeFactor<2>::Create(r.value, anchor, range_sigma, o.receiver_height_m),

@@ -17,7 +17,8 @@
 //   RssFactor<3>             each rss.csv reading, dB domain, path loss (A, η) of walk.yaml held
 //                            constant, Cauchy loss (the integrator's factors/rss_factor.h),
 //   RangeFactor<3>           each range.csv reading, σ = radio.range_sigma_m, Cauchy loss,
-//                            per-anchor additive bias constant 0 or estimated (option).
+//                            per-anchor additive bias constant 0 or estimated (option),
+//   PositionPriorFactor<3>   each waypoints.csv point on the foot's (x, y) at its time.
 // Cost: Σ ‖r‖², one Ceres problem solved with SPARSE_NORMAL_CHOLESKY (single-threaded, hence
 // the same output for the same input). Gauge: without radio, position (3) and yaw (1) are
 // unobservable; the InsPriorFactor on the first state fixes them from walk.yaml initial_pose

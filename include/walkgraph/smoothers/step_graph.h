@@ -10,6 +10,7 @@
 //   OdometryFactor(p_{k−1}, θ_{k−1}, p_k, θ_k)  instead of the two above for odometry walks
 //   RssFactor / RssRangeFactor / ScaledRangeFactor  every radio reading, received at the position
 //                                             interpolated between the two nodes around it
+//   PositionPriorFactor(p_a [, p_b])          each waypoints.csv point, interpolated the same way
 //   priors                                    initial pose (walk.yaml initial_pose), path loss,
 //                                             range bias, gyro bias (ceres::NormalPrior)
 // A step moves the walker only during the last max_step_duration_s before its node; a reading
