@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include <ceres/normal_prior.h>
 #include <gtest/gtest.h>
 
 #include "test_util.h"
@@ -311,6 +312,51 @@ TEST_P(StepGraphWaypointTest, WaypointsPullTheEstimateOntoThem) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Seeds, StepGraphWaypointTest, ::testing::Values(1, 2, 3));
+
+// The user-factor hook: its factors reach the batch and the window; its failures and keys
+// beyond the graph come back as a Status naming them.
+TEST(StepGraphTest, UserFactorsReachBatchAndWindow) {
+  auto sim = SimulateScenario("tarrio-circle", 2, YAML::Load("{duration_s: 40}"));
+  ASSERT_TRUE(sim.ok()) << sim.status().message();
+  const Eigen::Vector2d target(3.0, -2.0);  // far from the walk: a pull that must show
+  size_t pose = 0;
+  StepGraphOptions o;
+  o.user_factors = [&](const Walk&, const std::vector<double>& times,
+                       std::vector<GraphFactor>* out) {
+    pose = times.size() / 2;
+    out->push_back({std::shared_ptr<ceres::CostFunction>(
+                        new ceres::NormalPrior(ceres::Matrix::Identity(2, 2) / 0.01, target)),
+                    nullptr,
+                    {StepGraph::PositionKey(static_cast<int>(pose))}});
+    return Status::Ok();
+  };
+  auto batch = StepGraphBatch(o).Run(*sim);
+  auto window = StepGraphWindow(o).Run(*sim);
+  ASSERT_TRUE(batch.ok() && window.ok());
+  EXPECT_LT((batch->trajectory.points[pose].position_m.head<2>() - target).norm(), 0.03);
+  EXPECT_LT((window->trajectory.points[pose].position_m.head<2>() - target).norm(), 0.03);
+
+  StepGraphOptions failing;
+  failing.user_factors = [](const Walk&, const std::vector<double>&, std::vector<GraphFactor>*) {
+    return InvalidArgument("no gate map");
+  };
+  auto r = StepGraphBatch(failing).Run(*sim);
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.status().message().find("user factors: no gate map"), std::string::npos);
+  StepGraphOptions beyond;
+  beyond.user_factors = [&](const Walk&, const std::vector<double>& times,
+                            std::vector<GraphFactor>* out) {
+    out->push_back({std::shared_ptr<ceres::CostFunction>(
+                        new ceres::NormalPrior(ceres::Matrix::Identity(2, 2), target)),
+                    nullptr,
+                    {StepGraph::PositionKey(static_cast<int>(times.size()))}});
+    return Status::Ok();
+  };
+  r = StepGraphWindow(beyond).Run(*sim);
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.status().message().find("beyond the last pose"), std::string::npos)
+      << r.status().message();
+}
 
 TEST(StepGraphTest, OptionsAreStrict) {
   const auto& reg = EstimatorRegistry::Builtin();

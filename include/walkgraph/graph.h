@@ -22,6 +22,7 @@
 #define WALKGRAPH_GRAPH_H_
 
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <memory>
 #include <optional>
@@ -65,11 +66,23 @@ struct GraphState {
   bool constant = false;                            // held fixed by the solver
 };
 
+// A factor owns its cost function jointly (a user's factor may be handed to the batch solve and
+// to a window pass of the same walk).
 struct GraphFactor {
-  std::unique_ptr<ceres::CostFunction> cost;
+  std::shared_ptr<ceres::CostFunction> cost;
   std::shared_ptr<const ceres::LossFunction> loss;  // nullptr = squared loss
   std::vector<Key> keys;                            // in the cost function's block order
 };
+
+// The extension hook of every factor-graph estimator (StepGraphOptions::user_factors): called
+// once per walk, after the built-in factors are made, with the times of the graph's poses
+// (pose_times[k] is the time of pose k, whose position key is Symbol('x', k)); the factors it
+// appends are added after the built-in ones, by the batch solve and by the window alike. A
+// window adds a factor with its newest pose, so there it may span at most the lag. A non-OK
+// Status stops the run with that message.
+struct Walk;
+using UserFactorsFn = std::function<Status(const Walk& walk, const std::vector<double>& pose_times,
+                                           std::vector<GraphFactor>* factors)>;
 
 // Ceres' options for a batch solve or a window update, in one place.
 enum class LinearSolver { kSparseNormalCholesky, kDenseNormalCholesky, kDenseQr };

@@ -358,6 +358,8 @@ struct StepGraph::Impl {
 
   int PathLossGroup(int anchor) const { return o.path_loss == "per-anchor" ? anchor : 0; }
   void CheckStartHeading(const Walk& walk, StepGraph* g);
+  Status AddUserFactors(const Walk& walk, const std::vector<double>& node_t);
+  std::vector<std::vector<GraphFactor>> user_at;  // the user's factors, by newest node
 
   // Dead reckoning: node k's (p, θ) from node k − 1's by its increment (odometry: move along
   // the heading, then turn; a step: turn, then move along the new heading; radio-only: stay).
@@ -387,6 +389,32 @@ StepGraph::~StepGraph() = default;
 // unknown (no heading prior) and the dead reckoning is rotated about the start position by
 // that angle. A position-only start on a walk whose steps carry no heading (odometry) takes
 // its heading from the same alignment instead of 0.
+// StepGraphOptions::user_factors, called once; each factor goes with its newest node (static
+// keys only: node 0), so the window adds it when every pose it names is there.
+Status StepGraph::Impl::AddUserFactors(const Walk& walk, const std::vector<double>& node_t) {
+  user_at.assign(node_t.size(), {});
+  if (!o.user_factors) return Status::Ok();
+  std::vector<GraphFactor> factors;
+  const Status s = o.user_factors(walk, node_t, &factors);
+  if (!s.ok()) return Status(s.code(), "user factors: " + s.message());
+  for (size_t i = 0; i < factors.size(); ++i) {
+    const std::string where = "user factor " + std::to_string(i) + ": ";
+    if (!factors[i].cost) return InvalidArgument(where + "no cost function");
+    uint64_t newest = 0;
+    for (const Key key : factors[i].keys) {
+      const char letter = SymbolLetter(key);
+      if (letter != 'x' && letter != 'h') continue;
+      if (SymbolIndex(key) >= node_t.size()) {
+        return InvalidArgument(where + "key " + KeyToString(key) + " beyond the last pose (" +
+                               std::to_string(node_t.size() - 1) + ")");
+      }
+      newest = std::max(newest, SymbolIndex(key));
+    }
+    user_at[newest].push_back(std::move(factors[i]));
+  }
+  return Status::Ok();
+}
+
 void StepGraph::Impl::CheckStartHeading(const Walk& walk, StepGraph* g) {
   Impl* m = this;
   const bool no_heading = !m->start->heading_known && (m->odometry || m->steps.empty());
@@ -585,6 +613,7 @@ StatusOr<std::unique_ptr<StepGraph>> StepGraph::Build(const Walk& walk, const St
   } else if (m.any_rss || m.any_range) {
     m.CheckStartHeading(walk, g.get());
   }
+  WG_RETURN_IF_ERROR(m.AddUserFactors(walk, g->node_t_));
   return g;
 }
 
@@ -793,6 +822,7 @@ std::vector<SmootherFactor> StepGraph::FactorsAt(int k) const {
           keys, m.range_loss);
     }
   }
+  for (const GraphFactor& f : m.user_at[k]) out.push_back(f);  // shared cost functions
   return out;
 }
 

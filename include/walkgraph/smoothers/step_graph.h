@@ -167,6 +167,10 @@ struct StepGraphOptions {
   // (BLE +0.1 to +0.8 %, 2.80 G).
   double window_function_tolerance = 1e-4;
 
+  // A user's own factors (graph.h UserFactorsFn): pose k of the hook is node k (keys
+  // StepGraph::PositionKey(k), HeadingKey(k)); the static keys are listed at the top of graph.h.
+  UserFactorsFn user_factors;
+
   // Keys: every field by its name, `pdr` a PdrOptions map; absent keys keep `defaults`.
   static StatusOr<StepGraphOptions> FromYaml(const YAML::Node& node, const std::string& context,
                                              StepGraphOptions defaults);
