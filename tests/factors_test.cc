@@ -6,6 +6,7 @@
 
 #include <ceres/gradient_checker.h>
 #include <ceres/manifold.h>
+#include <ceres/manifold_test_utils.h>
 #include <gtest/gtest.h>
 
 #include "factors/angle_manifold.h"
@@ -51,6 +52,26 @@ TEST(AngleManifoldTest, PlusAndMinusWrap) {
   double a = -3.1, b = 3.1, diff = 0.0;
   m.Minus(&a, &b, &diff);  // a ⊟ b: the short way round
   EXPECT_NEAR(diff, 2 * kPi - 6.2, 1e-12);
+}
+
+// Ceres' manifold invariants (ceres/manifold_test_utils.h): x ⊞ 0 = x, x ⊟ x = 0,
+// (x ⊞ δ) ⊟ x = δ, x ⊞ (y ⊟ x) = y, and Plus/Minus Jacobians against numeric ones — at points
+// across the circle with |δ| < π (the chart's domain). x stays 0.04 rad from ±π: Ceres'
+// numeric Jacobian steps ~1.4e-3 either side, and at x = −3.14 its difference straddles the wrap
+// (it reads 2π/2h ≈ −2290 where the derivative is 1).
+TEST(AngleManifoldTest, CeresManifoldInvariantsHold) {
+  using namespace ceres;  // NOLINT: the macro names ceres' matchers and Vector unqualified
+  const AngleManifold manifold;
+  for (const double x0 : {-3.1, -2.0, 0.0, 0.5, 3.1}) {
+    for (const double d0 : {0.3, -2.5, 3.0}) {
+      for (const double y0 : {2.9, -3.1, 0.0}) {
+        SCOPED_TRACE(::testing::Message() << "x " << x0 << " delta " << d0 << " y " << y0);
+        const Vector x = Vector::Constant(1, x0), delta = Vector::Constant(1, d0);
+        const Vector y = Vector::Constant(1, y0);
+        EXPECT_THAT_MANIFOLD_INVARIANTS_HOLD(manifold, x, delta, y, 1e-9);
+      }
+    }
+  }
 }
 
 TEST(StepFactorTest, ResidualIsAlongAndCrossTrackError) {
