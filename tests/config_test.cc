@@ -1,7 +1,12 @@
 #include <gmock/gmock.h>
+#include <cmath>
+#include <set>
+#include <variant>
+
 #include <gtest/gtest.h>
 
 #include "walkgraph/config.h"
+#include "walkgraph/estimator.h"
 
 namespace walkgraph {
 namespace {
@@ -107,4 +112,56 @@ TEST(LoadYamlFile, ExpectsARegularFile) {
 }
 
 }  // namespace
+// The options every estimator reads, with their defaults: each recorded key, written back with
+// its default, is accepted (so the list holds no key the YAML would refuse), and known defaults
+// come out (fg-batch's lag_s 10, its nested pdr map, tarrio-kf's sigma_p_m).
+TEST(OptionDefaults, EveryEstimatorsKeysRoundTrip) {
+  const EstimatorRegistry& reg = EstimatorRegistry::Builtin();
+  for (const std::string& id : reg.Ids()) {
+    SCOPED_TRACE(id);
+    auto defaults = reg.OptionDefaults(id);
+    ASSERT_TRUE(defaults.ok()) << defaults.status().message();
+    ASSERT_FALSE(defaults->empty());
+    // All of them at once, nested by their dotted keys, written here independently.
+    YAML::Node config(YAML::NodeType::Map);
+    for (const OptionDefault& d : *defaults) {
+      std::vector<std::string> path;
+      std::string key = d.key;
+      for (size_t dot; (dot = key.find('.')) != std::string::npos; key = key.substr(dot + 1)) {
+        path.push_back(key.substr(0, dot));
+      }
+      std::vector<YAML::Node> chain = {config};
+      for (const std::string& p : path) {
+        if (!chain.back()[p]) chain.back()[p] = YAML::Node(YAML::NodeType::Map);
+        chain.push_back(chain.back()[p]);
+      }
+      const double* x = std::get_if<double>(&d.value);
+      if (x && std::isnan(*x)) {
+        chain.back()[key] = YAML::Node();  // unset: null keeps the default
+      } else {
+        std::visit([&](const auto& v) { chain.back()[key] = v; }, d.value);
+      }
+    }
+    EXPECT_GT(config.size(), 0u);
+    auto est = reg.Create(id, config);
+    EXPECT_TRUE(est.ok()) << est.status().message();
+  }
+  auto fg = reg.OptionDefaults("fg-batch");
+  ASSERT_TRUE(fg.ok());
+  auto find = [&](const std::string& key) -> const OptionDefault* {
+    for (const OptionDefault& d : *fg) {
+      if (d.key == key) return &d;
+    }
+    return nullptr;
+  };
+  ASSERT_NE(find("lag_s"), nullptr);
+  EXPECT_EQ(std::get<double>(find("lag_s")->value), 10.0);
+  ASSERT_NE(find("path_loss"), nullptr);
+  EXPECT_EQ(std::get<std::string>(find("path_loss")->value), "auto");
+  bool nested = false;
+  for (const OptionDefault& d : *fg) nested |= d.key.rfind("pdr.", 0) == 0;
+  EXPECT_TRUE(nested);
+  EXPECT_FALSE(reg.OptionDefaults("no-such-estimator").ok());
+}
+
 }  // namespace walkgraph

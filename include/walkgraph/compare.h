@@ -210,6 +210,9 @@ std::string FormatComparisonTable(const Comparison& comparison);
 Status WriteComparison(const Comparison& comparison, const std::string& out_dir,
                        const OutputOptions& options = {});
 
+// results.json's text alone (what WriteComparison writes there).
+std::string ResultsJsonText(const Comparison& comparison);
+
 // The report page alone (self-contained HTML with inline SVG).
 std::string RenderHtmlReport(const Comparison& comparison);
 

@@ -7,8 +7,11 @@
 #define WALKGRAPH_CONFIG_H_
 
 #include <cstdint>
+#include <functional>
 #include <set>
 #include <string>
+#include <variant>
+#include <vector>
 
 #include <yaml-cpp/yaml.h>
 
@@ -37,9 +40,20 @@ class ConfigReader {
 
   YAML::Node node_;
   std::string context_;
+  std::string record_path_;  // under RecordOptionDefaults: this reader's prefix ("pdr.")
   std::set<std::string> known_;
   Status first_error_;
 };
+
+// An option and the value it holds before the YAML is applied: its default.
+struct OptionDefault {
+  std::string key;  // nested options as "parent.key"
+  std::variant<double, int, bool, std::string> value;
+};
+// Runs `fn` (e.g. creating an estimator from an empty config) while every ConfigReader of this
+// thread records the keys it is asked for with the values they hold: the options `fn` reads and
+// their defaults, in reading order (each key once). Fails with `fn`'s Status.
+StatusOr<std::vector<OptionDefault>> RecordOptionDefaults(const std::function<Status()>& fn);
 
 // How every option and manifest value is read from its YAML text: numbers decimal and finite
 // ("0x5", ".nan", ".inf", "1e999" are refused; integers within their type's range), booleans

@@ -18,6 +18,7 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include "walkgraph/config.h"
 #include "walkgraph/status.h"
 #include "walkgraph/trajectory.h"
 #include "walkgraph/walk.h"
@@ -64,6 +65,8 @@ class EstimatorRegistry {
   StatusOr<std::unique_ptr<Estimator>> Create(const std::string& id,
                                               const YAML::Node& config = YAML::Node()) const;
   const EstimatorInfo* Find(const std::string& id) const;
+  // The options `id` accepts (the keys of its YAML config) with their defaults.
+  StatusOr<std::vector<OptionDefault>> OptionDefaults(const std::string& id) const;
   std::vector<std::string> Ids() const;  // in registration order
 
  private:

@@ -1,3 +1,8 @@
+#include <cmath>
+#include <string>
+#include <variant>
+#include <vector>
+
 #include "estimators/builtin.h"
 #include "util/text.h"
 #include "walkgraph/estimator.h"
@@ -38,6 +43,44 @@ const EstimatorInfo* EstimatorRegistry::Find(const std::string& id) const {
     if (e.id == id) return &e;
   }
   return nullptr;
+}
+
+namespace {
+
+// {a: {b: value}} for the key "a.b"; an unset number (NaN, "the walk's value") as null, which
+// keeps the default.
+YAML::Node ConfigWith(const OptionDefault& d) {
+  YAML::Node value;
+  std::visit([&](const auto& v) { value = v; }, d.value);
+  if (const double* x = std::get_if<double>(&d.value); x && std::isnan(*x)) value = YAML::Node();
+  std::string key = d.key;
+  std::vector<std::string> path;
+  for (size_t dot; (dot = key.find('.')) != std::string::npos; key = key.substr(dot + 1)) {
+    path.push_back(key.substr(0, dot));
+  }
+  YAML::Node node(YAML::NodeType::Map);
+  node[key] = value;
+  for (auto it = path.rbegin(); it != path.rend(); ++it) {
+    YAML::Node parent(YAML::NodeType::Map);
+    parent[*it] = node;
+    node = parent;
+  }
+  return node;
+}
+
+}  // namespace
+
+StatusOr<std::vector<OptionDefault>> EstimatorRegistry::OptionDefaults(
+    const std::string& id) const {
+  WG_ASSIGN_OR_RETURN(std::vector<OptionDefault> read,
+                      RecordOptionDefaults([&] { return Create(id).status(); }));
+  // What the parsers read is a superset of what a config may set (a key the id fixes, a
+  // nested reader of a part this variant does not use): keep the keys the estimator accepts.
+  std::vector<OptionDefault> accepted;
+  for (OptionDefault& d : read) {
+    if (Create(id, ConfigWith(d)).ok()) accepted.push_back(std::move(d));
+  }
+  return accepted;
 }
 
 StatusOr<std::unique_ptr<Estimator>> EstimatorRegistry::Create(const std::string& id,

@@ -382,11 +382,8 @@ nlohmann::ordered_json OutcomeJson(const Comparison& c, const EstimatorOutcome& 
   return e;
 }
 
-Status WriteComparisonFiles(const Comparison& c, const fs::path& tmp) {
-  std::error_code ec;
-  if (!fs::create_directories(tmp / "trajectories", ec)) {
-    return IoError(tmp.string() + ": cannot create trajectories/: " + ec.message());
-  }
+// results.json (and, under Monte Carlo, timing.json's content in `timing`).
+nlohmann::ordered_json ResultsJson(const Comparison& c, nlohmann::ordered_json* timing) {
   nlohmann::ordered_json j;
   j["walk"] = c.walk_name;
   j["runs"] = c.runs;
@@ -394,17 +391,26 @@ Status WriteComparisonFiles(const Comparison& c, const fs::path& tmp) {
   if (c.score_from_s > 0.0) j["score_from_s"] = c.score_from_s;
   j["truth_kind"] = ToString(c.truth_kind);
   j["estimators"] = nlohmann::ordered_json::object();
-  const bool monte_carlo = c.runs > 1;
-  nlohmann::ordered_json timing;
-  timing["runs"] = c.runs;
-  timing["estimators"] = nlohmann::ordered_json::object();
+  (*timing)["runs"] = c.runs;
+  (*timing)["estimators"] = nlohmann::ordered_json::object();
   for (const EstimatorOutcome& o : c.outcomes) {
-    j["estimators"][o.id] = OutcomeJson(c, o, &timing);
+    j["estimators"][o.id] = OutcomeJson(c, o, timing);
   }
   j["pcrb_rmse_m"] = c.pcrb_rmse_m ? nlohmann::ordered_json(*c.pcrb_rmse_m) : nullptr;
   j["pcrb_filter_rmse_m"] =
       c.pcrb_filter_rmse_m ? nlohmann::ordered_json(*c.pcrb_filter_rmse_m) : nullptr;
   if (!c.pcrb_note.empty()) j["pcrb_note"] = c.pcrb_note;
+  return j;
+}
+
+Status WriteComparisonFiles(const Comparison& c, const fs::path& tmp) {
+  std::error_code ec;
+  if (!fs::create_directories(tmp / "trajectories", ec)) {
+    return IoError(tmp.string() + ": cannot create trajectories/: " + ec.message());
+  }
+  const bool monte_carlo = c.runs > 1;
+  nlohmann::ordered_json timing;
+  const nlohmann::ordered_json j = ResultsJson(c, &timing);
   Status s = WriteFileInOutput((tmp / "results.json").string(), [&](std::ostream& out) {
     out << j.dump(2, ' ', false, nlohmann::ordered_json::error_handler_t::replace) << "\n";
     return true;
@@ -448,6 +454,13 @@ Status WriteComparisonFiles(const Comparison& c, const fs::path& tmp) {
 }
 
 }  // namespace
+
+std::string ResultsJsonText(const Comparison& comparison) {
+  nlohmann::ordered_json timing;
+  return ResultsJson(comparison, &timing)
+             .dump(2, ' ', false, nlohmann::ordered_json::error_handler_t::replace) +
+         "\n";
+}
 
 Status WriteComparison(const Comparison& c, const std::string& out_dir,
                        const OutputOptions& options) {

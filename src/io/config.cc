@@ -49,8 +49,36 @@ bool ParseScalar(const std::string& text, std::string* value) {
   return true;
 }
 
+namespace {
+
+// RecordOptionDefaults' sink (this thread's), and the key under which Child() hands a nested
+// reader its prefix while recording.
+thread_local std::vector<OptionDefault>* g_recording = nullptr;
+constexpr char kRecordPathKey[] = "\x01walkgraph-record-path";
+
+}  // namespace
+
+StatusOr<std::vector<OptionDefault>> RecordOptionDefaults(const std::function<Status()>& fn) {
+  std::vector<OptionDefault> recorded;
+  std::vector<OptionDefault>* outer = g_recording;
+  g_recording = &recorded;
+  const Status s = fn();
+  g_recording = outer;
+  if (!s.ok()) return s;
+  std::vector<OptionDefault> unique;
+  std::set<std::string> seen;
+  for (OptionDefault& d : recorded) {
+    if (seen.insert(d.key).second) unique.push_back(std::move(d));
+  }
+  return unique;
+}
+
 ConfigReader::ConfigReader(YAML::Node node, std::string context)
     : node_(std::move(node)), context_(std::move(context)) {
+  if (g_recording != nullptr && node_.IsMap() && node_[kRecordPathKey]) {
+    record_path_ = node_[kRecordPathKey].Scalar();
+    node_.remove(kRecordPathKey);
+  }
   if (node_.IsDefined() && !node_.IsNull() && !node_.IsMap()) {
     first_error_ = InvalidArgument(context_ + LineOf(node_) + ": expected a map of options");
   }
@@ -59,6 +87,7 @@ ConfigReader::ConfigReader(YAML::Node node, std::string context)
 template <typename T>
 void ConfigReader::ReadScalar(const std::string& key, T* value, const char* type_name) {
   known_.insert(key);
+  if (g_recording != nullptr) g_recording->push_back({record_path_ + key, *value});
   if (!first_error_.ok() || !node_.IsMap()) return;
   const YAML::Node child = node_[key];
   if (!child.IsDefined() || child.IsNull()) return;
@@ -84,6 +113,11 @@ void ConfigReader::Read(const std::string& key, std::string* value) {
 
 YAML::Node ConfigReader::Child(const std::string& key) {
   known_.insert(key);
+  if (g_recording != nullptr && (!node_.IsMap() || !node_[key])) {
+    YAML::Node child(YAML::NodeType::Map);  // tells the nested reader its prefix
+    child[kRecordPathKey] = record_path_ + key + ".";
+    return child;
+  }
   if (!node_.IsMap()) return YAML::Node(YAML::NodeType::Undefined);
   return node_[key];
 }
