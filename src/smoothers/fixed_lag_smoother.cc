@@ -1,9 +1,11 @@
 #include "walkgraph/smoothers/fixed_lag_smoother.h"
 
+
 #include <algorithm>
 #include <string>
 
 #include "smoothers/graph_internal.h"
+#include "walkgraph/output.h"
 
 namespace walkgraph {
 
@@ -61,6 +63,7 @@ Status FixedLagSmoother::AddFactor(SmootherFactor f) {
 
 StatusOr<FixedLagSmoother::UpdateResult> FixedLagSmoother::Update(
     std::vector<SmootherState> new_states, std::vector<SmootherFactor> new_factors) {
+  if (CancelRequested()) return Cancelled("fixed-lag smoother: interrupted");
   for (SmootherState& s : new_states) {
     if (states_.count(s.key)) {
       return InvalidArgument("fixed-lag smoother: " + KeyName(s.key) + " added twice");

@@ -8,6 +8,7 @@
 #include <ceres/ceres.h>
 
 #include "smoothers/graph_internal.h"
+#include "walkgraph/output.h"
 #include "walkgraph/smoothers/chain_covariance.h"
 
 namespace walkgraph {
@@ -46,8 +47,23 @@ double SolveSummary::normalized_cost() const {
 
 namespace internal {
 
+namespace {
+
+// Every solve stops at the end of the iteration in which cancellation was requested
+// (RequestCancel: a signal in the CLI, Ctrl-C in Python); CheckSummary reports it as kCancelled.
+class CancelCallback : public ceres::IterationCallback {
+ public:
+  ceres::CallbackReturnType operator()(const ceres::IterationSummary&) override {
+    return CancelRequested() ? ceres::SOLVER_ABORT : ceres::SOLVER_CONTINUE;
+  }
+};
+
+}  // namespace
+
 ceres::Solver::Options ToCeres(const SolverOptions& o) {
+  static CancelCallback cancel;
   ceres::Solver::Options so;
+  so.callbacks.push_back(&cancel);
   switch (o.linear_solver) {
     case LinearSolver::kDenseNormalCholesky:
       so.linear_solver_type = ceres::DENSE_NORMAL_CHOLESKY;
@@ -72,6 +88,9 @@ ceres::Solver::Options ToCeres(const SolverOptions& o) {
 }
 
 StatusOr<Termination> CheckSummary(const ceres::Solver::Summary& s, const char* who) {
+  if (s.termination_type == ceres::USER_FAILURE && CancelRequested()) {
+    return Cancelled(std::string(who) + ": interrupted");
+  }
   if (s.termination_type == ceres::FAILURE || !s.IsSolutionUsable()) {
     return NumericalError(std::string(who) + ": Ceres failed: " + s.message);
   }
