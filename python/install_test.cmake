@@ -1,6 +1,6 @@
 # cmake --install puts the package where python3 finds it: install into a temporary prefix and
-# import walkgraph from <prefix>/${INSTALL_DIR} (the directory Debian's python3 searches for
-# the prefixes /usr and /usr/local), outside the build tree.
+# import walkgraph from <prefix>/${INSTALL_DIR} (lib/python3.X/dist-packages, which Debian's
+# python3 searches under /usr and /usr/local), outside the build tree.
 file(REMOVE_RECURSE ${WORK_DIR})
 execute_process(COMMAND ${CMAKE_COMMAND} --install ${BUILD_DIR} --prefix ${WORK_DIR}/prefix
                 RESULT_VARIABLE rc OUTPUT_QUIET)
