@@ -17,6 +17,7 @@
 #include "factors/rss_factor.h"
 #include "walkgraph/graph.h"
 #include "walkgraph/smoothers/fixed_lag_smoother.h"
+#include "walkgraph/smoothers/step_graph.h"
 
 namespace walkgraph::python {
 
@@ -170,9 +171,13 @@ void BindGraph(py::module_& m) {
           py::arg("factor"))
       .def(
           "solve",
-          [](FactorGraph& g, int max_iterations) {
+          [](FactorGraph& g, int max_iterations, double function_tolerance,
+             double parameter_tolerance, double initial_trust_region_radius) {
             SolverOptions o;
             o.max_iterations = max_iterations;
+            o.function_tolerance = function_tolerance;
+            o.parameter_tolerance = parameter_tolerance;
+            o.initial_trust_region_radius = initial_trust_region_radius;
             std::optional<SolveSummary> s;
             Check(RunInterruptible([&]() -> Status {
               WG_ASSIGN_OR_RETURN(s, SolveBatch(&g, o));
@@ -180,7 +185,9 @@ void BindGraph(py::module_& m) {
             }));
             return SummaryDict(*s);
           },
-          py::arg("max_iterations") = 100, "Levenberg-Marquardt from the current values.")
+          py::arg("max_iterations") = 100, py::arg("function_tolerance") = 1e-6,
+          py::arg("parameter_tolerance") = 1e-8, py::arg("initial_trust_region_radius") = 1e4,
+          "Levenberg-Marquardt from the current values (Ceres' options; invalid ones raise).")
       .def("value",
            [](const FactorGraph& g, Key key) {
              const std::vector<double> v = Value(g.Value(key));
@@ -192,9 +199,33 @@ void BindGraph(py::module_& m) {
             return Value(MarginalCovariances(&g, {keys})).front();
           },
           py::arg("keys"), "Joint marginal covariance of the keys (tangent spaces stacked).")
+      .def(
+          "set_value",
+          [](FactorGraph& g, Key key, const std::vector<double>& v) { Check(g.SetValue(key, v)); },
+          py::arg("key"), py::arg("value"))
       .def("__contains__", &FactorGraph::Contains)
       .def_property_readonly("num_states", &FactorGraph::num_states)
       .def_property_readonly("num_factors", &FactorGraph::num_factors);
+
+  m.def(
+      "step_graph",
+      [](const Walk& walk, const py::object& config) {
+        const YAML::Node yaml = ToYaml(config, "step_graph");
+        const StepGraphOptions o = Value(StepGraphOptions::FromYaml(
+            yaml.IsNull() ? YAML::Node() : yaml, "step_graph", StepGraphOptions()));
+        auto graph = std::make_unique<FactorGraph>();
+        std::vector<double> times;
+        Check(RunInterruptible([&]() -> Status {
+          WG_ASSIGN_OR_RETURN(std::unique_ptr<StepGraph> sg, StepGraph::Build(walk, o));
+          for (int k = 0; k < sg->num_nodes(); ++k) times.push_back(sg->node_time(k));
+          return sg->AddTo(graph.get());
+        }));
+        return py::make_tuple(py::cast(std::move(graph)), times);
+      },
+      py::arg("walk"), py::arg("config") = py::none(),
+      "fg-batch's graph of a walk before it solves, and its pose times: pose k has keys "
+      "symbol('x', k) (position) and symbol('h', k) (heading), at dead-reckoning values. Add "
+      "factors and solve() it; fg-batch itself may first initialize from a window pass.");
 
   py::class_<FixedLagSmoother>(m, "FixedLagSmoother",
                                "Sliding-window smoother: states older than lag_s are "

@@ -224,3 +224,20 @@ print("then ran", len(e))
     print(p.stdout)
     assert secs < 5.0, p.stdout
     assert "then ran" in p.stdout
+
+
+def test_step_graph_from_a_walk_takes_a_waypoint(plaza1):
+    # fg-batch's own graph of Plaza1 (odometry walks start from dead reckoning, as fg-batch
+    # does): solved as is it gives fg-batch's positions; with a waypoint it moves onto it.
+    g, times = walkgraph.step_graph(plaza1)
+    assert len(times) > 1000 and walkgraph.symbol("x", len(times) - 1) in g
+    g.solve(initial_trust_region_radius=1e8)  # fg-batch's solver options
+    e = walkgraph.run("fg-batch", plaza1, {"covariance": False})
+    k = len(times) // 2
+    assert np.linalg.norm(g.value(walkgraph.symbol("x", k)) - e.xy[k]) < 1e-6
+    target = e.xy[k] + np.array([1.0, 0.0])
+    g.add_factor(walkgraph.factors.position_prior(walkgraph.symbol("x", k), target, 0.05))
+    g.solve()
+    assert np.linalg.norm(g.value(walkgraph.symbol("x", k)) - target) < 0.1
+    with pytest.raises(ValueError, match="unknown option"):
+        walkgraph.step_graph(plaza1, {"no_such_key": 1})

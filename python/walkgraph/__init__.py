@@ -30,6 +30,7 @@ from ._walkgraph import (  # noqa: F401
     run,
     scenarios,
     simulate,
+    step_graph,
     symbol,
     write_walk,
 )
@@ -37,5 +38,5 @@ from ._walkgraph import (  # noqa: F401
 __all__ = [
     "Estimate", "Factor", "FactorGraph", "FixedLagSmoother", "NotFoundError", "Walk", "compare", "errors",
     "estimators", "factors", "key_to_string", "pcrb", "read_walk", "run", "scenarios",
-    "simulate", "symbol", "write_walk",
+    "simulate", "step_graph", "symbol", "write_walk",
 ]

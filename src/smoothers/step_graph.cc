@@ -935,25 +935,30 @@ StatusOr<EstimateResult> RunWindowNodes(const Walk& walk, const StepGraphOptions
 
 Status StepGraphBatch::CheckApplicable(const Walk& walk) const { return CheckStepWalk(walk); }
 
+Status StepGraph::AddTo(FactorGraph* fg) const {
+  for (SmootherState& s : StaticStates()) WG_RETURN_IF_ERROR(fg->AddState(std::move(s)));
+  for (int k = 0; k < num_nodes(); ++k) {
+    const Eigen::Vector3d& x = init_[k];
+    for (SmootherState& s : NodeStates(k, x.head<2>(), x[2])) {
+      if (k > 0)
+        s.value =
+            s.key == PositionKey(k) ? std::vector<double>{x[0], x[1]} : std::vector<double>{x[2]};
+      WG_RETURN_IF_ERROR(fg->AddState(std::move(s)));
+    }
+  }
+  for (int k = 0; k < num_nodes(); ++k) {
+    for (SmootherFactor& f : FactorsAt(k)) WG_RETURN_IF_ERROR(fg->AddFactor(std::move(f)));
+  }
+  return Status::Ok();
+}
+
 StatusOr<EstimateResult> StepGraphBatch::Run(const Walk& walk) const {
   WG_RETURN_IF_ERROR(CheckApplicable(walk));
   WG_ASSIGN_OR_RETURN(std::unique_ptr<StepGraph> graph, StepGraph::Build(walk, options_));
   const int n = graph->num_nodes();
 
   FactorGraph fg;
-  for (SmootherState& s : graph->StaticStates()) WG_RETURN_IF_ERROR(fg.AddState(std::move(s)));
-  for (int k = 0; k < n; ++k) {
-    const Eigen::Vector3d& x = graph->initial_nodes()[k];
-    for (SmootherState& s : graph->NodeStates(k, x.head<2>(), x[2])) {
-      if (k > 0)
-        s.value = s.key == StepGraph::PositionKey(k) ? std::vector<double>{x[0], x[1]}
-                                                     : std::vector<double>{x[2]};
-      WG_RETURN_IF_ERROR(fg.AddState(std::move(s)));
-    }
-  }
-  for (int k = 0; k < n; ++k) {
-    for (SmootherFactor& f : graph->FactorsAt(k)) WG_RETURN_IF_ERROR(fg.AddFactor(std::move(f)));
-  }
+  WG_RETURN_IF_ERROR(graph->AddTo(&fg));
   SolverOptions so;
   so.max_iterations = options_.max_iterations;
   so.initial_trust_region_radius = options_.initial_trust_region_radius;

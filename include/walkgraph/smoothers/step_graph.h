@@ -199,6 +199,9 @@ class StepGraph {
   const std::vector<Eigen::Vector3d>& initial_nodes() const { return init_; }
   // Every factor whose newest node is k (priors on static states come with k = 0).
   std::vector<SmootherFactor> FactorsAt(int k) const;
+  // The whole graph into `fg` (fg-batch's graph before it solves): every state at its dead-
+  // reckoning value and every factor, the user's included. A caller may add more and solve.
+  Status AddTo(FactorGraph* fg) const;
   // Whether node 0 must be held constant (no prior and no anchors: see the top of this file).
   bool fix_first_node() const { return fix_first_node_; }
   // path_loss "auto" held the path loss because the walk is radio-only (not identifiable).
