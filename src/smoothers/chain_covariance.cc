@@ -88,59 +88,42 @@ Band BandInverse(const Band& l) {
 
 }  // namespace
 
-StatusOr<std::vector<Eigen::MatrixXd>> ChainMarginalCovariances(
-    ceres::Problem* problem, const std::vector<std::vector<double*>>& groups,
-    const std::vector<double*>& statics, double inlier_sigma, int max_bandwidth,
-    const std::vector<bool>& wanted) {
-  if (!wanted.empty() && wanted.size() != groups.size()) {
-    return InvalidArgument("covariance: 'wanted' must have one entry per group");
-  }
-  // Column layout: the chain's variable blocks in order, then the statics.
-  struct Column {
-    int offset = 0;
-    int size = 0;
-  };
-  std::unordered_map<const double*, Column> column_of;
-  std::vector<std::vector<std::pair<int, int>>> group_cols(groups.size());  // (offset, size)
-  int n_chain = 0;
-  for (size_t g = 0; g < groups.size(); ++g) {
-    for (double* b : groups[g]) {
-      if (problem->IsParameterBlockConstant(b)) continue;
-      const int t = problem->ParameterBlockTangentSize(b);
-      group_cols[g].emplace_back(n_chain, t);
-      column_of[b] = {n_chain, t};
-      n_chain += t;
-    }
-  }
-  int n = n_chain;
-  for (double* b : statics) {
-    if (problem->IsParameterBlockConstant(b)) continue;
-    const int t = problem->ParameterBlockTangentSize(b);
-    column_of[b] = {n, t};
-    n += t;
-  }
-  const int n_static = n - n_chain;
-  std::vector<Eigen::MatrixXd> out(groups.size());
-  if (n_chain == 0) return out;
+namespace {
 
-  // Each residual block's Jacobian in the tangent spaces of its variable blocks (the others are
-  // held), evaluated directly: a Problem::Evaluate would set up a whole program per call.
-  // Stored flat: per term its rows, then per variable block a (rows × tangent) row-major slab.
-  struct Slab {
-    Column column;
-    size_t at = 0;  // into `jac`
-  };
-  struct Term {
-    int rows = 0;
-    size_t first = 0, count = 0;  // into `slabs`
-  };
-  std::vector<ceres::ResidualBlockId> ids;
-  problem->GetResidualBlocks(&ids);
+struct Column {
+  int offset = 0;
+  int size = 0;
+};
+// One variable block's rows of a residual block's tangent Jacobian (row-major, in `jac`).
+struct Slab {
+  Column column;
+  size_t at = 0;  // into Jacobians::jac
+};
+struct Term {
+  int rows = 0;
+  size_t first = 0, count = 0;  // into Jacobians::slabs
+};
+struct Jacobians {
   std::vector<Term> terms;
   std::vector<Slab> slabs;
   std::vector<double> jac;
+  int bandwidth = 0;  // half-bandwidth of the chain part
+};
+
+// Every residual block's weighted tangent Jacobian over the variable blocks in `column_of`.
+Status CollectJacobians(ceres::Problem* problem,
+                        const std::unordered_map<const double*, Column>& column_of, int n_chain,
+                        double inlier_sigma, Jacobians* out) {
+  // Each residual block's Jacobian in the tangent spaces of its variable blocks (the others are
+  // held), evaluated directly: a Problem::Evaluate would set up a whole program per call.
+  // Stored flat: per term its rows, then per variable block a (rows × tangent) row-major slab.
+  std::vector<ceres::ResidualBlockId> ids;
+  problem->GetResidualBlocks(&ids);
+  std::vector<Term>& terms = out->terms;
+  std::vector<Slab>& slabs = out->slabs;
+  std::vector<double>& jac = out->jac;
   terms.reserve(ids.size());
-  int w = 0;
+  int& w = out->bandwidth;
   std::vector<double*> params;
   std::vector<double> ambient, plus, r;
   std::vector<double*> jac_ptrs;
@@ -221,19 +204,18 @@ StatusOr<std::vector<Eigen::MatrixXd>> ChainMarginalCovariances(
     if (hi >= lo) w = std::max(w, hi - lo);
     terms.push_back(term);
   }
-  for (const auto& cols : group_cols) {  // a group's own entries must lie inside the band
-    if (!cols.empty())
-      w = std::max(w, cols.back().first + cols.back().second - 1 - cols.front().first);
-  }
-  if (w > max_bandwidth) {
-    return FailedPrecondition("covariance: not chain-structured (half-bandwidth " +
-                              std::to_string(w) + ")");
-  }
-  // H = JᵀJ = [A B; Bᵀ C], assembled slab by slab: A's lower band, B, and C in full.
-  Band a(n_chain, w);
-  Eigen::MatrixXd B = Eigen::MatrixXd::Zero(n_chain, n_static);
-  Eigen::MatrixXd C = Eigen::MatrixXd::Zero(n_static, n_static);
-  for (const Term& term : terms) {
+  return Status::Ok();
+}
+
+// H = JᵀJ = [A B; Bᵀ C]: A's lower band into `a`, B and C in full.
+void AssembleInformation(const Jacobians& J, int n_chain, Band* a_band, Eigen::MatrixXd* B_out,
+                         Eigen::MatrixXd* C_out) {
+  Band& a = *a_band;
+  Eigen::MatrixXd& B = *B_out;
+  Eigen::MatrixXd& C = *C_out;
+  const std::vector<Slab>& slabs = J.slabs;
+  const std::vector<double>& jac = J.jac;
+  for (const Term& term : J.terms) {
     for (size_t i = term.first; i < term.first + term.count; ++i) {
       const Slab& si = slabs[i];
       const double* ji = jac.data() + si.at;
@@ -263,6 +245,57 @@ StatusOr<std::vector<Eigen::MatrixXd>> ChainMarginalCovariances(
       }
     }
   }
+}
+
+}  // namespace
+
+StatusOr<std::vector<Eigen::MatrixXd>> ChainMarginalCovariances(
+    ceres::Problem* problem, const std::vector<std::vector<double*>>& groups,
+    const std::vector<double*>& statics, double inlier_sigma, int max_bandwidth,
+    const std::vector<bool>& wanted) {
+  if (!wanted.empty() && wanted.size() != groups.size()) {
+    return InvalidArgument("covariance: 'wanted' must have one entry per group");
+  }
+  // Column layout: the chain's variable blocks in order, then the statics.
+  std::unordered_map<const double*, Column> column_of;
+  std::vector<std::vector<std::pair<int, int>>> group_cols(groups.size());  // (offset, size)
+  int n_chain = 0;
+  for (size_t g = 0; g < groups.size(); ++g) {
+    for (double* b : groups[g]) {
+      if (problem->IsParameterBlockConstant(b)) continue;
+      const int t = problem->ParameterBlockTangentSize(b);
+      group_cols[g].emplace_back(n_chain, t);
+      column_of[b] = {n_chain, t};
+      n_chain += t;
+    }
+  }
+  int n = n_chain;
+  for (double* b : statics) {
+    if (problem->IsParameterBlockConstant(b)) continue;
+    const int t = problem->ParameterBlockTangentSize(b);
+    column_of[b] = {n, t};
+    n += t;
+  }
+  const int n_static = n - n_chain;
+  std::vector<Eigen::MatrixXd> out(groups.size());
+  if (n_chain == 0) return out;
+
+  Jacobians J;
+  WG_RETURN_IF_ERROR(CollectJacobians(problem, column_of, n_chain, inlier_sigma, &J));
+  int w = J.bandwidth;
+  for (const auto& cols : group_cols) {  // a group's own entries must lie inside the band
+    if (!cols.empty())
+      w = std::max(w, cols.back().first + cols.back().second - 1 - cols.front().first);
+  }
+  if (w > max_bandwidth) {
+    return FailedPrecondition("covariance: not chain-structured (half-bandwidth " +
+                              std::to_string(w) + ")");
+  }
+  // H = JᵀJ = [A B; Bᵀ C], assembled slab by slab: A's lower band, B, and C in full.
+  Band a(n_chain, w);
+  Eigen::MatrixXd B = Eigen::MatrixXd::Zero(n_chain, n_static);
+  Eigen::MatrixXd C = Eigen::MatrixXd::Zero(n_static, n_static);
+  AssembleInformation(J, n_chain, &a, &B, &C);
   if (!BandCholesky(&a)) {
     return NumericalError("covariance: information matrix not positive definite (unobservable)");
   }

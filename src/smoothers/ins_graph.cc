@@ -22,6 +22,7 @@
 #include "factors/rss_factor.h"
 #include "factors/zaru_factor.h"
 #include "factors/zupt_factor.h"
+#include "smoothers/graph_internal.h"
 #include "walkgraph/angle.h"
 #include "walkgraph/config.h"
 #include "walkgraph/filters/kalman.h"
@@ -578,6 +579,54 @@ Status InsGraphBatch::CheckApplicable(const Walk& walk) const {
   return Status::Ok();
 }
 
+namespace {
+
+// (x, y, yaw) covariance of every state by the graphs' one extractor (graph_internal.h: the
+// banded chain solve, ceres::Covariance where the graph is no chain), the states' blocks keyed
+// x(i) p, v(i), q(i), g(i) b_g, a(i) b_a at their time, the radio's blocks static. False (and
+// `out` untouched) when it cannot be computed (rank deficiency).
+bool InsPoseCovariances(ceres::Problem* problem, std::vector<InsState>* states,
+                        InsRadioBlocks* radio, std::vector<std::optional<Eigen::Matrix3d>>* out) {
+  std::map<Key, internal::KeyedBlock> blocks;
+  std::vector<std::vector<Key>> groups;
+  for (size_t i = 0; i < states->size(); ++i) {
+    InsState& s = (*states)[i];
+    blocks[Symbol('x', i)] = {s.p.data(), s.t_s};
+    blocks[Symbol('v', i)] = {s.v.data(), s.t_s};
+    blocks[Symbol('q', i)] = {s.q.data(), s.t_s};
+    blocks[Symbol('g', i)] = {s.bg.data(), s.t_s};
+    blocks[Symbol('a', i)] = {s.ba.data(), s.t_s};
+    groups.push_back({Symbol('x', i), Symbol('q', i)});
+  }
+  if (problem->HasParameterBlock(radio->path_loss.data())) {
+    blocks[Symbol('l', 0)] = {radio->path_loss.data(), std::nullopt};
+  }
+  for (auto& [id, bias] : radio->range_bias_m) {
+    if (problem->HasParameterBlock(&bias)) {
+      blocks[Symbol('b', static_cast<uint64_t>(id))] = {&bias, std::nullopt};
+    }
+  }
+  StatusOr<std::vector<Eigen::MatrixXd>> cov =
+      internal::KeyedMarginalCovariances(problem, blocks, groups, "fg-ins-batch covariance");
+  if (!cov.ok()) return false;
+  std::vector<std::optional<Eigen::Matrix3d>> pose(states->size());
+  for (size_t i = 0; i < states->size(); ++i) {
+    const Eigen::MatrixXd& c = (*cov)[i];
+    if (c.rows() != 6) return false;  // p or q held constant: no pose covariance
+    const int index[3] = {0, 1, 5};   // x, y of p; δθ_z of q (the yaw)
+    Eigen::MatrixXd c3(3, 3);
+    for (int r = 0; r < 3; ++r) {
+      for (int k = 0; k < 3; ++k) c3(r, k) = c(index[r], index[k]);
+    }
+    Symmetrize(&c3);
+    pose[i] = Eigen::Matrix3d(c3);
+  }
+  *out = std::move(pose);
+  return true;
+}
+
+}  // namespace
+
 StatusOr<EstimateResult> InsGraphBatch::Run(const Walk& walk) const {
   WG_RETURN_IF_ERROR(CheckApplicable(walk));
   const InsGraphOptions& o = options_;
@@ -604,16 +653,14 @@ StatusOr<EstimateResult> InsGraphBatch::Run(const Walk& walk) const {
   context.options = o;
 
   EstimateResult result;
-  ceres::Solver::Options solver;
-  solver.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
-  solver.num_threads = 1;
-  solver.max_num_iterations = o.max_iterations;
-  solver.function_tolerance = o.function_tolerance;
-  solver.parameter_tolerance = o.parameter_tolerance;
-  solver.gradient_tolerance = o.gradient_tolerance;
-  solver.logging_type = ceres::SILENT;
-  solver.minimizer_progress_to_stdout = false;
-  solver.initial_trust_region_radius = o.initial_trust_region_radius;
+  SolverOptions so;  // single-threaded SPARSE_NORMAL_CHOLESKY: the same output for the same input
+  so.max_iterations = o.max_iterations;
+  so.function_tolerance = o.function_tolerance;
+  so.parameter_tolerance = o.parameter_tolerance;
+  so.gradient_tolerance = o.gradient_tolerance;
+  so.initial_trust_region_radius = o.initial_trust_region_radius;
+  WG_RETURN_IF_ERROR(so.Validate());
+  const ceres::Solver::Options solver = internal::ToCeres(so);
 
   std::unique_ptr<ceres::Problem> problem;
   int iterations = 0, relinearizations = 0;
@@ -644,9 +691,7 @@ StatusOr<EstimateResult> InsGraphBatch::Run(const Walk& walk) const {
     }
     ceres::Solver::Summary summary;
     ceres::Solve(solver, problem.get(), &summary);
-    if (!summary.IsSolutionUsable()) {
-      return InternalError("fg-ins-batch: Ceres failed: " + summary.message);
-    }
+    WG_RETURN_IF_ERROR(internal::CheckSummary(summary, "fg-ins-batch").status());
     if (round == 0) initial_cost = summary.initial_cost;
     final_cost = summary.final_cost;
     iterations += static_cast<int>(summary.iterations.size());
@@ -663,83 +708,9 @@ StatusOr<EstimateResult> InsGraphBatch::Run(const Walk& walk) const {
   }
 
   // Marginal covariances of (x, y, yaw) per state.
-  std::vector<Eigen::Matrix3d> cov(states.size(), Eigen::Matrix3d::Zero());
-  bool cov_ok = false;
-  if (o.compute_covariance) {
-    // The graph is a chain (each factor on one or two consecutive states, plus the radio's
-    // static blocks): banded covariances (chain_covariance.h), O(n). ceres::Covariance's
-    // sparse QR, the fallback, took 30 s of a 68 s run on a 1-h walk, superlinear.
-    std::vector<std::vector<double*>> chain;
-    for (InsState& s : states) {
-      chain.push_back({s.p.data(), s.v.data(), s.q.data(), s.bg.data(), s.ba.data()});
-    }
-    std::vector<double*> statics;
-    if (problem->HasParameterBlock(radio.path_loss.data())) {
-      statics.push_back(radio.path_loss.data());
-    }
-    for (auto& [id, bias] : radio.range_bias_m) {
-      if (problem->HasParameterBlock(&bias)) statics.push_back(&bias);
-    }
-    StatusOr<std::vector<Eigen::MatrixXd>> banded =
-        ChainMarginalCovariances(problem.get(), chain, statics);
-    if (banded.ok()) {
-      cov_ok = true;
-      for (size_t i = 0; i < states.size() && cov_ok; ++i) {
-        // Tangent offsets of x, y (p) and yaw (δθ_z of q) in the group, constant blocks
-        // skipped as ChainMarginalCovariances skips them.
-        int offset = 0, px = -1, yaw = -1;
-        for (int b = 0; b < 5; ++b) {
-          double* block = chain[i][b];
-          if (problem->IsParameterBlockConstant(block)) continue;
-          if (b == 0) px = offset;
-          if (b == 2) yaw = offset + 2;
-          offset += problem->ParameterBlockTangentSize(block);
-        }
-        if (px < 0 || yaw < 0) {
-          cov_ok = false;
-          break;
-        }
-        const int index[3] = {px, px + 1, yaw};
-        Eigen::MatrixXd c(3, 3);
-        for (int r = 0; r < 3; ++r) {
-          for (int k = 0; k < 3; ++k) c(r, k) = (*banded)[i](index[r], index[k]);
-        }
-        Symmetrize(&c);
-        cov[i] = c;
-      }
-    } else {
-      ceres::Covariance::Options co;
-      co.algorithm_type = ceres::SPARSE_QR;
-      co.num_threads = 1;
-      ceres::Covariance covariance(co);
-      std::vector<std::pair<const double*, const double*>> blocks;
-      for (const InsState& s : states) {
-        blocks.emplace_back(s.p.data(), s.p.data());
-        blocks.emplace_back(s.q.data(), s.q.data());
-        blocks.emplace_back(s.p.data(), s.q.data());
-      }
-      if (covariance.Compute(blocks, problem.get())) {
-        cov_ok = true;
-        for (size_t i = 0; i < states.size() && cov_ok; ++i) {
-          double pp[9], qq[9], pq[9];
-          cov_ok = covariance.GetCovarianceBlock(states[i].p.data(), states[i].p.data(), pp) &&
-                   covariance.GetCovarianceBlockInTangentSpace(states[i].q.data(),
-                                                               states[i].q.data(), qq) &&
-                   covariance.GetCovarianceBlockInTangentSpace(states[i].p.data(),
-                                                               states[i].q.data(), pq);
-          if (!cov_ok) break;
-          Eigen::Matrix3d c;
-          c << pp[0], pp[1], pq[2], pp[3], pp[4], pq[5], pq[2], pq[5], qq[8];
-          Eigen::MatrixXd cx = c;
-          Symmetrize(&cx);
-          cov[i] = cx;
-        }
-      }
-    }
-  }
-
   std::vector<std::optional<Eigen::Matrix3d>> state_cov(states.size());
-  if (cov_ok) state_cov.assign(cov.begin(), cov.end());
+  bool cov_ok = false;
+  if (o.compute_covariance) cov_ok = InsPoseCovariances(problem.get(), &states, &radio, &state_cov);
   result.trajectory = InsStatesTrajectory(walk, states, state_cov, o, /*close_segments=*/true);
 
   result.diagnostics["num_states"] = static_cast<double>(states.size());

@@ -359,6 +359,13 @@ struct StepGraph::Impl {
   int PathLossGroup(int anchor) const { return o.path_loss == "per-anchor" ? anchor : 0; }
   void CheckStartHeading(const Walk& walk, StepGraph* g);
   Status AddUserFactors(const Walk& walk, const std::vector<double>& node_t);
+  // Build's steps, in order: node times; dead-reckoned initial values; the readings attached
+  // to their nodes; the start placed (radio fixes, alignment or the start check).
+  Status MakeNodes(const Walk& walk, StepGraph* g);
+  void DeadReckon(const Walk& walk, StepGraph* g);
+  Status AttachReadings(const Walk& walk, StepGraph* g);
+  void PlaceStart(const Walk& walk, StepGraph* g);
+  void AddReadingFactors(int k, std::vector<SmootherFactor>* out) const;
   std::vector<std::vector<GraphFactor>> user_at;  // the user's factors, by newest node
 
   // Dead reckoning: node k's (p, θ) from node k − 1's by its increment (odometry: move along
@@ -437,27 +444,11 @@ void StepGraph::Impl::CheckStartHeading(const Walk& walk, StepGraph* g) {
   }
 }
 
-StatusOr<std::unique_ptr<StepGraph>> StepGraph::Build(const Walk& walk, const StepGraphOptions& o) {
-  std::unique_ptr<StepGraph> g(new StepGraph());
-  g->impl_ = std::make_unique<Impl>();
-  Impl& m = *g->impl_;
-  m.o = o;
-  m.anchors = walk.anchors;
-  m.waypoints = walk.waypoints;
-  m.radio = walk.meta.radio;
-  if (std::isfinite(o.A_dbm)) m.radio.path_loss.A_dbm = o.A_dbm;
-  if (o.eta > 0) m.radio.path_loss.eta = o.eta;
-  if (o.sigma_db > 0) m.radio.path_loss.sigma_db = o.sigma_db;
-  m.start = walk.meta.initial_pose;
-  m.odometry = walk.has_odometry();
-  m.o.path_loss = ResolvePathLoss(walk, o, &g->path_loss_held_radio_only_);
-  m.rss_loss = MakeLoss(o.rss_loss, o.rss_loss_scale);
-  m.range_loss = MakeLoss(o.range_loss, o.range_loss_scale);
-  m.mag_loss = MakeLoss(o.mag_heading_loss, o.mag_heading_loss_scale);
-
+Status StepGraph::Impl::MakeNodes(const Walk& walk, StepGraph* g) {
+  const StepGraphOptions& o = this->o;
   std::vector<double> t;
-  m.radio_only = !walk.has_odometry() && !walk.has_imu();
-  if (m.radio_only) {
+  radio_only = !walk.has_odometry() && !walk.has_imu();
+  if (radio_only) {
     // No steps: one node per radio epoch (a new node once radio_epoch_s has passed), joined by
     // the random-walk motion model; the first reading's time is node 0.
     std::vector<double> rt;
@@ -470,13 +461,13 @@ StatusOr<std::unique_ptr<StepGraph>> StepGraph::Build(const Walk& walk, const St
       if (x >= node + o.radio_epoch_s) t.push_back(node = x);
     }
     if (t.empty()) t.push_back(rt.back() + o.radio_epoch_s);
-  } else if (m.odometry) {
-    m.odom = walk.odometry;
-    for (const OdometrySample& s : m.odom) t.push_back(s.t_s);
+  } else if (odometry) {
+    odom = walk.odometry;
+    for (const OdometrySample& s : odom) t.push_back(s.t_s);
   } else {
     WG_ASSIGN_OR_RETURN(StepSequence seq, StepsForWalk(walk, o.pdr));
-    m.steps = std::move(seq.steps);
-    for (const Step& s : m.steps) t.push_back(s.t_s);
+    steps = std::move(seq.steps);
+    for (const Step& s : steps) t.push_back(s.t_s);
   }
   if (t.empty()) return FailedPrecondition("step graph: the walk has no steps or odometry");
   for (size_t i = 1; i < t.size(); ++i) {
@@ -485,41 +476,49 @@ StatusOr<std::unique_ptr<StepGraph>> StepGraph::Build(const Walk& walk, const St
                              " at " + internal::Num(t[i]) + " s)");
     }
   }
-  const double first_duration = m.odometry || m.radio_only ? 0.0 : m.steps.front().duration_s;
+  const double first_duration = odometry || radio_only ? 0.0 : steps.front().duration_s;
   const double t0 =
-      m.radio_only
+      radio_only
           ? t.front() - o.radio_epoch_s
           : std::min(walk.StartTime(), t.front() - std::max(std::min(first_duration, 1.0), 0.01));
   g->node_t_.push_back(t0);
   g->node_t_.insert(g->node_t_.end(), t.begin(), t.end());
-  const int n = g->num_nodes();
 
+  return Status::Ok();
+}
+
+void StepGraph::Impl::DeadReckon(const Walk& walk, StepGraph* g) {
+  const int n = g->num_nodes();
   // Dead reckoning from the start (or the origin), θ the node heading.
-  m.bridged = BridgedNodes(walk, !m.odometry && !m.radio_only, g->node_t_);
+  bridged = BridgedNodes(walk, !odometry && !radio_only, g->node_t_);
   Eigen::Vector3d x = Eigen::Vector3d::Zero();
-  if (m.start) {
+  if (start) {
     // A position-only start: the front end's heading at the start (before the first step).
     const double heading =
-        m.start->heading_known || m.steps.empty()
-            ? m.start->heading_rad
-            : NormalizeAngle(m.steps.front().heading_rad - m.steps.front().dheading_rad);
-    x = Eigen::Vector3d(m.start->x_m, m.start->y_m, heading);
+        start->heading_known || steps.empty()
+            ? start->heading_rad
+            : NormalizeAngle(steps.front().heading_rad - steps.front().dheading_rad);
+    x = Eigen::Vector3d(start->x_m, start->y_m, heading);
   }
   g->init_.push_back(x);
   for (int k = 1; k < n; ++k) {
-    x = m.Predict(k, x);  // radio-only walks: positions come from the radio fixes below
+    x = Predict(k, x);  // radio-only walks: positions come from the radio fixes below
     g->init_.push_back(x);
   }
+}
 
+Status StepGraph::Impl::AttachReadings(const Walk& walk, StepGraph* g) {
+  const StepGraphOptions& o = this->o;
+  const int n = g->num_nodes();
   // Radio readings, attached to the node(s) around them.
-  m.anchor_has_rss.assign(walk.anchors.size(), false);
-  m.anchor_has_range.assign(walk.anchors.size(), false);
-  m.readings_at.assign(n, {});
+  anchor_has_rss.assign(walk.anchors.size(), false);
+  anchor_has_range.assign(walk.anchors.size(), false);
+  readings_at.assign(n, {});
   auto attach = [&](double ts, Reading r) {
-    if (m.radio_only) {  // the epoch's node: the last node at or before the reading
+    if (radio_only) {  // the epoch's node: the last node at or before the reading
       const auto up = std::upper_bound(g->node_t_.begin(), g->node_t_.end(), ts);
       r.node_a = std::max(0, static_cast<int>(up - g->node_t_.begin()) - 1);
-      m.readings_at[r.node_a].push_back(r);
+      readings_at[r.node_a].push_back(r);
       return;
     }
     const auto it = std::lower_bound(g->node_t_.begin(), g->node_t_.end(), ts);
@@ -531,7 +530,7 @@ StatusOr<std::unique_ptr<StepGraph>> StepGraph::Build(const Walk& walk, const St
       const int b = static_cast<int>(it - g->node_t_.begin()), a = b - 1;
       const double tb = g->node_t_[b];
       const double ta =
-          m.bridged[b] ? g->node_t_[a] : std::max(g->node_t_[a], tb - o.max_step_duration_s);
+          bridged[b] ? g->node_t_[a] : std::max(g->node_t_[a], tb - o.max_step_duration_s);
       const double alpha = ts <= ta ? 0.0 : std::min(1.0, (ts - ta) / (tb - ta));
       if (alpha <= 1e-9) {
         r.node_a = a;
@@ -541,14 +540,14 @@ StatusOr<std::unique_ptr<StepGraph>> StepGraph::Build(const Walk& walk, const St
         r.node_a = a, r.node_b = b, r.alpha = alpha;
       }
     }
-    m.readings_at[r.node_b >= 0 ? r.node_b : r.node_a].push_back(r);
+    readings_at[r.node_b >= 0 ? r.node_b : r.node_a].push_back(r);
   };
   for (const RssSample& s : walk.rss) {
     const int a = walk.AnchorIndex(s.anchor_id);
     if (a < 0)
       return InvalidArgument("step graph: RSS from unknown anchor " + std::to_string(s.anchor_id));
-    m.anchor_has_rss[a] = true;
-    m.any_rss = true;
+    anchor_has_rss[a] = true;
+    any_rss = true;
     attach(s.t_s, Reading{a, Reading::Kind::kRss, s.rss});
   }
   for (const RangeSample& s : walk.ranges) {
@@ -556,15 +555,21 @@ StatusOr<std::unique_ptr<StepGraph>> StepGraph::Build(const Walk& walk, const St
     if (a < 0)
       return InvalidArgument("step graph: range from unknown anchor " +
                              std::to_string(s.anchor_id));
-    m.anchor_has_range[a] = true;
-    m.any_range = true;
+    anchor_has_range[a] = true;
+    any_range = true;
     attach(s.t_s, Reading{a, Reading::Kind::kRange, s.range_m});
   }
   for (size_t i = 0; i < walk.waypoints.size(); ++i) {
     attach(walk.waypoints[i].t_s, Reading{static_cast<int>(i), Reading::Kind::kWaypoint});
   }
 
-  if (m.radio_only) {
+  return Status::Ok();
+}
+
+void StepGraph::Impl::PlaceStart(const Walk& walk, StepGraph* g) {
+  const StepGraphOptions& o = this->o;
+  const int n = g->num_nodes();
+  if (radio_only) {
     // Initial positions: the radio position fixes, interpolated in time (the anchors' centroid
     // where no fix exists); headings are not states of a radio-only walk (held at 0).
     Eigen::Vector2d centroid = Eigen::Vector2d::Zero();
@@ -598,7 +603,7 @@ StatusOr<std::unique_ptr<StepGraph>> StepGraph::Build(const Walk& walk, const St
       }
       g->init_[k] = Eigen::Vector3d(q.x(), q.y(), 0.0);
     }
-  } else if (!m.start) {
+  } else if (!start) {
     // Without a known start: align the dead reckoning to the first radio fixes; with no radio
     // either, node 0 is the gauge.
     const std::optional<Alignment> a = AlignToFirstFixes(walk, o, g->node_t_, g->init_);
@@ -608,11 +613,35 @@ StatusOr<std::unique_ptr<StepGraph>> StepGraph::Build(const Walk& walk, const St
         p[2] = NormalizeAngle(p[2] + a->rotation_rad);
       }
     } else {
-      g->fix_first_node_ = !(m.any_rss || m.any_range) || walk.anchors.size() < 3;
+      g->fix_first_node_ = !(any_rss || any_range) || walk.anchors.size() < 3;
     }
-  } else if (m.any_rss || m.any_range) {
-    m.CheckStartHeading(walk, g.get());
+  } else if (any_rss || any_range) {
+    CheckStartHeading(walk, g);
   }
+}
+
+StatusOr<std::unique_ptr<StepGraph>> StepGraph::Build(const Walk& walk, const StepGraphOptions& o) {
+  std::unique_ptr<StepGraph> g(new StepGraph());
+  g->impl_ = std::make_unique<Impl>();
+  Impl& m = *g->impl_;
+  m.o = o;
+  m.anchors = walk.anchors;
+  m.waypoints = walk.waypoints;
+  m.radio = walk.meta.radio;
+  if (std::isfinite(o.A_dbm)) m.radio.path_loss.A_dbm = o.A_dbm;
+  if (o.eta > 0) m.radio.path_loss.eta = o.eta;
+  if (o.sigma_db > 0) m.radio.path_loss.sigma_db = o.sigma_db;
+  m.start = walk.meta.initial_pose;
+  m.odometry = walk.has_odometry();
+  m.o.path_loss = ResolvePathLoss(walk, o, &g->path_loss_held_radio_only_);
+  m.rss_loss = MakeLoss(o.rss_loss, o.rss_loss_scale);
+  m.range_loss = MakeLoss(o.range_loss, o.range_loss_scale);
+  m.mag_loss = MakeLoss(o.mag_heading_loss, o.mag_heading_loss_scale);
+
+  WG_RETURN_IF_ERROR(m.MakeNodes(walk, g.get()));
+  m.DeadReckon(walk, g.get());
+  WG_RETURN_IF_ERROR(m.AttachReadings(walk, g.get()));
+  m.PlaceStart(walk, g.get());
   WG_RETURN_IF_ERROR(m.AddUserFactors(walk, g->node_t_));
   return g;
 }
@@ -687,6 +716,65 @@ std::vector<SmootherState> StepGraph::NodeStates(int k, const Eigen::Vector2d& p
   if (k == 0 && fix_first_node_) p.constant = th.constant = true;
   if (m.radio_only) th.constant = true;  // no heading information without steps
   return {p, th};
+}
+
+// The factors of the readings whose newest node is k (radio, waypoints).
+void StepGraph::Impl::AddReadingFactors(int k, std::vector<SmootherFactor>* out) const {
+  auto add = [&](ceres::CostFunction* cost, std::vector<StateKey> keys,
+                 std::shared_ptr<const ceres::LossFunction> loss = nullptr) {
+    SmootherFactor f;
+    f.cost.reset(cost);
+    f.keys = std::move(keys);
+    f.loss = std::move(loss);
+    out->push_back(std::move(f));
+  };
+  const PathLossParams& pl = radio.path_loss;
+  const double sign = radio.units == RssUnits::kDbm ? 1.0 : -1.0;
+  const double range_sigma = o.range_sigma_m > 0 ? o.range_sigma_m : radio.range_sigma_m;
+  for (const Reading& r : readings_at[k]) {
+    std::vector<StateKey> keys = {PositionKey(r.node_a)};
+    if (r.node_b >= 0) keys.push_back(PositionKey(r.node_b));
+    const bool two = r.node_b >= 0;
+    if (r.kind == Reading::Kind::kWaypoint) {
+      const Waypoint& w = waypoints[r.index];
+      add(two ? PositionPriorFactor<2>::CreateInterpolated(w.position_m, w.sigma_m, r.alpha)
+              : PositionPriorFactor<2>::Create(w.position_m, w.sigma_m),
+          keys);
+      continue;
+    }
+    const Eigen::Vector3d& anchor = anchors[r.index].position_m;
+    if (r.kind == Reading::Kind::kRss && o.rss_residual == "db") {
+      RssFactor<2>::Reading rd;
+      rd.rss = r.value;
+      rd.anchor_m = anchor;
+      rd.sigma_db = pl.sigma_db;
+      rd.sign = sign;
+      rd.d0_m = pl.d0_m;
+      rd.receiver_height_m = o.receiver_height_m;
+      keys.push_back(PathLossKey(PathLossGroup(r.index)));
+      add(two ? RssFactor<2>::CreateInterpolated(rd, r.alpha) : RssFactor<2>::Create(rd), keys,
+          rss_loss);
+    } else if (r.kind == Reading::Kind::kRss) {
+      RssRangeFactor<2>::Reading rd;
+      rd.rss = r.value;
+      rd.anchor_m = anchor;
+      rd.A = pl.A_dbm;
+      rd.eta = pl.eta;
+      rd.d0_m = pl.d0_m;
+      rd.sigma_db = pl.sigma_db;
+      rd.sign = sign;
+      rd.receiver_height_m = o.receiver_height_m;
+      add(two ? RssRangeFactor<2>::CreateInterpolated(rd, r.alpha) : RssRangeFactor<2>::Create(rd),
+          keys, rss_loss);
+    } else {
+      keys.push_back(RangeBiasKey(RangeBiasGroup(r.index)));
+      keys.push_back(RangeScaleKey(RangeScaleGroup(r.index)));
+      add(two ? ScaledRangeFactor<2>::CreateInterpolated(r.value, anchor, range_sigma, r.alpha,
+                                                         o.receiver_height_m)
+              : ScaledRangeFactor<2>::Create(r.value, anchor, range_sigma, o.receiver_height_m),
+          keys, range_loss);
+    }
+  }
 }
 
 std::vector<SmootherFactor> StepGraph::FactorsAt(int k) const {
@@ -775,53 +863,7 @@ std::vector<SmootherFactor> StepGraph::FactorsAt(int k) const {
     }
   }
 
-  const PathLossParams& pl = m.radio.path_loss;
-  const double sign = m.radio.units == RssUnits::kDbm ? 1.0 : -1.0;
-  const double range_sigma = o.range_sigma_m > 0 ? o.range_sigma_m : m.radio.range_sigma_m;
-  for (const Reading& r : m.readings_at[k]) {
-    std::vector<StateKey> keys = {PositionKey(r.node_a)};
-    if (r.node_b >= 0) keys.push_back(PositionKey(r.node_b));
-    const bool two = r.node_b >= 0;
-    if (r.kind == Reading::Kind::kWaypoint) {
-      const Waypoint& w = m.waypoints[r.index];
-      add(two ? PositionPriorFactor<2>::CreateInterpolated(w.position_m, w.sigma_m, r.alpha)
-              : PositionPriorFactor<2>::Create(w.position_m, w.sigma_m),
-          keys);
-      continue;
-    }
-    const Eigen::Vector3d& anchor = m.anchors[r.index].position_m;
-    if (r.kind == Reading::Kind::kRss && o.rss_residual == "db") {
-      RssFactor<2>::Reading rd;
-      rd.rss = r.value;
-      rd.anchor_m = anchor;
-      rd.sigma_db = pl.sigma_db;
-      rd.sign = sign;
-      rd.d0_m = pl.d0_m;
-      rd.receiver_height_m = o.receiver_height_m;
-      keys.push_back(PathLossKey(m.PathLossGroup(r.index)));
-      add(two ? RssFactor<2>::CreateInterpolated(rd, r.alpha) : RssFactor<2>::Create(rd), keys,
-          m.rss_loss);
-    } else if (r.kind == Reading::Kind::kRss) {
-      RssRangeFactor<2>::Reading rd;
-      rd.rss = r.value;
-      rd.anchor_m = anchor;
-      rd.A = pl.A_dbm;
-      rd.eta = pl.eta;
-      rd.d0_m = pl.d0_m;
-      rd.sigma_db = pl.sigma_db;
-      rd.sign = sign;
-      rd.receiver_height_m = o.receiver_height_m;
-      add(two ? RssRangeFactor<2>::CreateInterpolated(rd, r.alpha) : RssRangeFactor<2>::Create(rd),
-          keys, m.rss_loss);
-    } else {
-      keys.push_back(RangeBiasKey(m.RangeBiasGroup(r.index)));
-      keys.push_back(RangeScaleKey(m.RangeScaleGroup(r.index)));
-      add(two ? ScaledRangeFactor<2>::CreateInterpolated(r.value, anchor, range_sigma, r.alpha,
-                                                         o.receiver_height_m)
-              : ScaledRangeFactor<2>::Create(r.value, anchor, range_sigma, o.receiver_height_m),
-          keys, m.range_loss);
-    }
-  }
+  m.AddReadingFactors(k, &out);
   for (const GraphFactor& f : m.user_at[k]) out.push_back(f);  // shared cost functions
   return out;
 }
@@ -1043,24 +1085,41 @@ StatusOr<EstimateResult> StepGraphWindow::Run(const Walk& walk) const {
 namespace {
 
 // fg-window's estimates, one point per graph node.
+// The static states' and the graph's diagnostics, from the window's final estimates.
+void AddWindowGraphDiagnostics(const StepGraph& graph, const FixedLagSmoother& smoother,
+                               const Walk& walk, const StepGraphOptions& o,
+                               std::map<std::string, double>* d) {
+  AddStaticDiagnostics(
+      graph.StaticStates(),
+      [&](StateKey k) {
+        auto v = smoother.Estimate(k);
+        return v.ok() ? *v : std::vector<double>{0.0, 0.0};
+      },
+      walk, o, d);
+  AddGraphDiagnostics(graph, walk, d);
+}
+
+// fg-window's smoother: the lag and the window_* solver options.
+FixedLagSmoother::Options WindowSmootherOptions(const StepGraphOptions& o) {
+  FixedLagSmoother::Options so;
+  so.lag_s = o.lag_s;
+  so.marginalize_batch_s = o.window_marginalize_batch_s;
+  so.solver.initial_trust_region_radius = o.window_initial_trust_region_radius;
+  so.solver.max_iterations = o.window_max_iterations;
+  so.solver.linear_solver = o.window_linear_solver == "dense" ? LinearSolver::kDenseNormalCholesky
+                                                              : LinearSolver::kSparseNormalCholesky;
+  so.solver.eigen_sparse = o.window_linear_solver == "eigen-sparse";
+  so.solver.function_tolerance = o.window_function_tolerance;
+  so.solver.parameter_tolerance = o.parameter_tolerance;
+  so.solver.num_threads = o.num_threads;
+  return so;
+}
+
 StatusOr<EstimateResult> RunWindowNodes(const Walk& walk, const StepGraphOptions& options_) {
   WG_ASSIGN_OR_RETURN(std::unique_ptr<StepGraph> graph, StepGraph::Build(walk, options_));
   const int n = graph->num_nodes();
   const bool online = options_.window_output == "online";
-
-  FixedLagSmoother::Options so;
-  so.lag_s = options_.lag_s;
-  so.marginalize_batch_s = options_.window_marginalize_batch_s;
-  so.solver.initial_trust_region_radius = options_.window_initial_trust_region_radius;
-  so.solver.max_iterations = options_.window_max_iterations;
-  so.solver.linear_solver = options_.window_linear_solver == "dense"
-                                ? LinearSolver::kDenseNormalCholesky
-                                : LinearSolver::kSparseNormalCholesky;
-  so.solver.eigen_sparse = options_.window_linear_solver == "eigen-sparse";
-  so.solver.function_tolerance = options_.window_function_tolerance;
-  so.solver.parameter_tolerance = options_.parameter_tolerance;
-  so.solver.num_threads = options_.num_threads;
-  FixedLagSmoother smoother(so);
+  FixedLagSmoother smoother(WindowSmootherOptions(options_));
 
   std::vector<TrajectoryPoint> points(n);
   std::vector<bool> have(n, false);
@@ -1159,20 +1218,13 @@ StatusOr<EstimateResult> RunWindowNodes(const Walk& walk, const StepGraphOptions
     if (have[k]) result.trajectory.points.push_back(points[k]);
   }
   auto& d = result.diagnostics;
-  d["ceres_iterations"] = iterations;
-  d["window_solves"] = solves;
-  d["window_max_states"] = static_cast<double>(max_states);
-  d["window_max_factors"] = static_cast<double>(max_factors);
-  d["nodes"] = n;
+  d = {{"ceres_iterations", iterations},
+       {"window_solves", solves},
+       {"window_max_states", static_cast<double>(max_states)},
+       {"window_max_factors", static_cast<double>(max_factors)},
+       {"nodes", n}};
   AddUpdateLatencyTimings(latency, &result.timings);
-  AddStaticDiagnostics(
-      graph->StaticStates(),
-      [&](StateKey k) {
-        auto v = smoother.Estimate(k);
-        return v.ok() ? *v : std::vector<double>{0.0, 0.0};
-      },
-      walk, options_, &d);
-  AddGraphDiagnostics(*graph, walk, &d);
+  AddWindowGraphDiagnostics(*graph, smoother, walk, options_, &d);
   return result;
 }
 
