@@ -374,6 +374,17 @@ TEST(StepGraphTest, OptionsAreStrict) {
   EXPECT_FALSE(reg.Create("fg-window", YAML::Load("{window_linear_solver: cg}")).ok());
   EXPECT_TRUE(reg.Create("fg-window", YAML::Load("{window_linear_solver: sparse}")).ok());
   EXPECT_FALSE(reg.Create("fg-batch", YAML::Load("{pdr: {detector: nope}}")).ok());
+  // Set in C++, the same rules hold at Run: "Huber" is not a loss name (it used to mean none).
+  StepGraphOptions o;
+  EXPECT_TRUE(o.Validate().ok());
+  o.rss_loss = "Huber";
+  auto walk = SimulateScenario("tarrio-circle", 1, YAML::Load("{duration_s: 10}"));
+  ASSERT_TRUE(walk.ok());
+  for (const auto& r : {StepGraphBatch(o).Run(*walk), StepGraphWindow(o).Run(*walk)}) {
+    ASSERT_FALSE(r.ok());
+    EXPECT_NE(r.status().message().find("loss 'Huber' is not"), std::string::npos)
+        << r.status().message();
+  }
 }
 
 TEST(StepGraphTest, WalkWithoutStepsNeedsThreeAnchors) {

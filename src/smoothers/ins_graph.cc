@@ -30,8 +30,24 @@
 namespace walkgraph {
 
 namespace {
+StatusOr<ceres::LossFunction*> MakeLoss(const std::string& name, double scale);
+}  // namespace
 
-Status CheckOptions(const InsGraphOptions& o) {
+Status InsGraphOptions::Validate() const {
+  const InsGraphOptions& o = *this;
+  for (const std::string* loss : {&o.rss_loss, &o.range_loss}) {
+    WG_ASSIGN_OR_RETURN(ceres::LossFunction * l, MakeLoss(*loss, 1.0));
+    delete l;
+  }
+  if (o.initialization != "front-end" && o.initialization != "window") {
+    return InvalidArgument("fg-ins-batch: initialization must be front-end|window");
+  }
+  if (!(o.init_lag_s > 0) || !(o.init_marginalize_batch_s >= 0) ||
+      !(o.initial_trust_region_radius > 0)) {
+    return InvalidArgument(
+        "fg-ins-batch: need init_lag_s > 0, init_marginalize_batch_s >= 0, "
+        "initial_trust_region_radius > 0");
+  }
   if (o.every_n_samples < 1 || !(o.zupt_sigma_mps > 0) || !(o.zaru_sigma_radps > 0) ||
       !(o.initial_sigma_z_m > 0) || !(o.gauge_sigma_m > 0) || !(o.gauge_sigma_yaw_rad > 0) ||
       !(o.output_rate_hz > 0) || o.max_iterations < 1 || o.max_relinearizations < 0 ||
@@ -54,6 +70,8 @@ Status CheckOptions(const InsGraphOptions& o) {
   }
   return Status::Ok();
 }
+
+namespace {
 
 StatusOr<ceres::LossFunction*> MakeLoss(const std::string& name, double scale) {
   if (name == "none") return static_cast<ceres::LossFunction*>(nullptr);
@@ -143,19 +161,6 @@ StatusOr<InsGraphOptions> InsGraphOptions::FromYaml(const YAML::Node& node) {
   r.Read("eta_prior_sigma", &o.eta_prior_sigma);
   r.Read("range_bias_sigma_m", &o.range_bias_sigma_m);
   WG_RETURN_IF_ERROR(r.Finish());
-  if (o.initialization != "front-end" && o.initialization != "window") {
-    return InvalidArgument("fg-ins-batch: initialization must be front-end|window");
-  }
-  if (!(o.init_lag_s > 0) || !(o.init_marginalize_batch_s >= 0) ||
-      !(o.initial_trust_region_radius > 0)) {
-    return InvalidArgument(
-        "fg-ins-batch: need init_lag_s > 0, init_marginalize_batch_s >= 0, "
-        "initial_trust_region_radius > 0");
-  }
-  for (const std::string* loss : {&o.rss_loss, &o.range_loss}) {
-    WG_ASSIGN_OR_RETURN(ceres::LossFunction * l, MakeLoss(*loss, 1.0));
-    delete l;
-  }
   if (front.IsDefined()) {
     WG_ASSIGN_OR_RETURN(o.front_end, StrideOptions::FromYaml(front));
   }
@@ -164,13 +169,13 @@ StatusOr<InsGraphOptions> InsGraphOptions::FromYaml(const YAML::Node& node) {
   } else if (!placement.empty() && placement != "stance") {
     return InvalidArgument("fg-ins-batch: placement must be stance|every-n");
   }
-  WG_RETURN_IF_ERROR(CheckOptions(o));
+  WG_RETURN_IF_ERROR(o.Validate());
   return o;
 }
 
 StatusOr<std::vector<InsState>> InitialInsStates(const Walk& walk, const ZuptInsSolution& front,
                                                  const InsGraphOptions& o) {
-  WG_RETURN_IF_ERROR(CheckOptions(o));
+  WG_RETURN_IF_ERROR(o.Validate());
   const size_t n = walk.imu.size();
   if (n < 2 || front.states.size() != n) {
     return FailedPrecondition("fg-ins-batch: the front end's solution does not match the IMU");

@@ -65,6 +65,10 @@ std::unique_ptr<ceres::CostFunction> DiagonalPrior(const Eigen::VectorXd& mean,
 
 }  // namespace
 
+namespace {
+Status CheckStepGraphOptions(const StepGraphOptions& o, const std::string& context);
+}  // namespace
+
 StatusOr<StepGraphOptions> StepGraphOptions::FromYaml(const YAML::Node& node,
                                                       const std::string& context,
                                                       StepGraphOptions o) {
@@ -132,6 +136,16 @@ StatusOr<StepGraphOptions> StepGraphOptions::FromYaml(const YAML::Node& node,
   if (pdr.IsDefined()) {
     WG_ASSIGN_OR_RETURN(o.pdr, PdrOptions::FromYaml(pdr));
   }
+  WG_RETURN_IF_ERROR(CheckStepGraphOptions(o, context));
+  return o;
+}
+
+Status StepGraphOptions::Validate() const { return CheckStepGraphOptions(*this, "step graph"); }
+
+namespace {
+
+// Every rule of the options, messages prefixed with `context`.
+Status CheckStepGraphOptions(const StepGraphOptions& o, const std::string& context) {
   auto positive = [&](double v, const char* name) -> Status {
     if (!(v > 0)) return InvalidArgument(context + ": " + name + " must be > 0");
     return Status::Ok();
@@ -213,8 +227,10 @@ StatusOr<StepGraphOptions> StepGraphOptions::FromYaml(const YAML::Node& node,
   if (!OneOf(o.window_output, {"lagged", "online"})) {
     return InvalidArgument(context + ": window_output must be 'lagged' or 'online'");
   }
-  return o;
+  return Status::Ok();
 }
+
+}  // namespace
 
 // ------------------------------------------------------------------ the graph
 
@@ -621,6 +637,7 @@ void StepGraph::Impl::PlaceStart(const Walk& walk, StepGraph* g) {
 }
 
 StatusOr<std::unique_ptr<StepGraph>> StepGraph::Build(const Walk& walk, const StepGraphOptions& o) {
+  WG_RETURN_IF_ERROR(o.Validate());  // options set in C++ meet the YAML's rules
   std::unique_ptr<StepGraph> g(new StepGraph());
   g->impl_ = std::make_unique<Impl>();
   Impl& m = *g->impl_;

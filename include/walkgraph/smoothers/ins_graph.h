@@ -143,6 +143,8 @@ struct InsGraphOptions {
   double A_prior_sigma_db = 10.0;
   double eta_prior_sigma = 1.0;
 
+  // Every rule the YAML reader applies; the estimators' Run refuses options that break one.
+  Status Validate() const;
   // Keys: front_end (a map of StrideOptions keys), placement (stance|every-n) and every other
   // field by its name.
   static StatusOr<InsGraphOptions> FromYaml(const YAML::Node& node);

@@ -171,6 +171,9 @@ struct StepGraphOptions {
   // StepGraph::PositionKey(k), HeadingKey(k)); the static keys are listed at the top of graph.h.
   UserFactorsFn user_factors;
 
+  // Every rule the YAML reader applies (ranges, names of losses and modes); StepGraph::Build,
+  // hence every step-graph estimator's Run, refuses options that break one.
+  Status Validate() const;
   // Keys: every field by its name, `pdr` a PdrOptions map; absent keys keep `defaults`.
   static StatusOr<StepGraphOptions> FromYaml(const YAML::Node& node, const std::string& context,
                                              StepGraphOptions defaults);
