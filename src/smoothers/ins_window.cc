@@ -155,266 +155,329 @@ Status InsGraphWindow::CheckApplicable(const Walk& walk) const {
 namespace {
 
 // The window pass; `lagged_out` (optional) receives every state's lagged estimate.
-StatusOr<EstimateResult> RunInsWindow(const Walk& walk, const InsWindowOptions& options_,
-                                      std::vector<InsState>* lagged_out) {
-  using Clock = std::chrono::steady_clock;
-  const Clock::time_point run_start = Clock::now();
-  const InsGraphOptions& g = options_.graph;
-  const bool online = options_.window_output == "online";
-  const bool bias_from_estimate = options_.preintegration_bias == "estimate";
-  WG_ASSIGN_OR_RETURN(ZuptInsSolution front, RunZuptIns(walk, g.front_end));
+// One fg-ins-window run: states fed in time order, one update per node (or per
+// window_update_s), the window held open across IMU gaps, lagged or online output.
+class InsWindowRun {
+ public:
+  InsWindowRun(const Walk& walk, const InsWindowOptions& options)
+      : walk_(walk),
+        o_(options),
+        g_(options.graph),
+        online_(options.window_output == "online"),
+        smoother_(SmootherOptions(options)) {}
+
+  StatusOr<EstimateResult> Run(std::vector<InsState>* lagged_out);
+
+ private:
+  static FixedLagSmoother::Options SmootherOptions(const InsWindowOptions& o) {
+    FixedLagSmoother::Options so;
+    so.lag_s = o.lag_s;
+    so.solver.max_iterations = o.window_max_iterations;
+    so.solver.function_tolerance = o.graph.function_tolerance;
+    so.solver.parameter_tolerance = o.graph.parameter_tolerance;
+    so.marginalize_batch_s = o.window_marginalize_batch_s;
+    so.solver.initial_trust_region_radius = o.window_initial_trust_region_radius;
+    return so;
+  }
+  Status Start();
+  StatusOr<InsState> EstimateOf(size_t i);
+  void StoreCovariances(const std::vector<size_t>& states);
+  Status ToSmoother(std::vector<InsFactor>* factors);
+  void HoldAcrossGap(size_t i);
+  Status AddState(size_t i);
+  Status Update(size_t i);
+  EstimateResult Finish();
+
+  const Walk& walk_;
+  const InsWindowOptions& o_;
+  const InsGraphOptions& g_;
+  const bool online_;
+  FixedLagSmoother smoother_;
+  const std::shared_ptr<NavQuaternionManifold> manifold_ =
+      std::make_shared<NavQuaternionManifold>();
+  std::chrono::steady_clock::time_point run_start_ = std::chrono::steady_clock::now();
+  ZuptInsSolution front_;
   // What the factor makers read: times, IMU indices and the front end's values (with
   // preintegration_bias: estimate, each state's biases become the window's estimate before the
   // next state's preintegration is built).
-  WG_ASSIGN_OR_RETURN(std::vector<InsState> build, InitialInsStates(walk, front, g));
-  const std::vector<InsState> front_states = build;
-  const size_t n = build.size();
-  InsGraphContext context;
-  context.walk = &walk;
-  context.imu_gap_s = ImuGapThresholdS(walk.imu);
-  context.still = &front.stance.still;
-  context.path = &front.states;
-  context.options = g;
+  std::vector<InsState> build_, front_states_, lagged_, current_;
+  size_t n_ = 0;
+  InsGraphContext context_;
+  std::unordered_map<const double*, StateKey> key_of_;
+  InsRadioBlocks radio_;
+  std::set<StateKey> statics_added_;
+  std::vector<std::optional<Eigen::Matrix3d>> cov_;
+  std::vector<SmootherState> new_states_;
+  std::vector<SmootherFactor> new_factors_;
+  std::vector<double> latency_;
+  std::vector<size_t> pending_;
+  size_t num_radio_ = 0, max_keys_ = 0;
+  int iterations_ = 0, solves_ = 0, unconverged_ = 0;
+  double final_cost_ = 0.0;
+  InsState last_;  // the newest state's estimate (its initial value until solved)
+  double last_update_t_ = 0.0;
+  // IMU gaps: the window is held open across them (InsWindowOptions::gap_hold_max_s).
+  std::vector<ImuGap> gaps_;
+  size_t next_gap_ = 0;
+  std::optional<double> yaw_sigma_before_gap_;
+  double hold_until_s_ = 0.0, held_s_ = 0.0;
+  int holds_ = 0;
+};
 
-  FixedLagSmoother::Options so;
-  so.lag_s = options_.lag_s;
-  so.solver.max_iterations = options_.window_max_iterations;
-  so.solver.function_tolerance = g.function_tolerance;
-  so.solver.parameter_tolerance = g.parameter_tolerance;
-  so.marginalize_batch_s = options_.window_marginalize_batch_s;
-  so.solver.initial_trust_region_radius = options_.window_initial_trust_region_radius;
-  FixedLagSmoother smoother(so);
-  const auto manifold = std::make_shared<NavQuaternionManifold>();
-
-  std::unordered_map<const double*, StateKey> key_of;
-  for (size_t i = 0; i < n; ++i) {
-    for (int b = 0; b < kBlocksPerState; ++b) key_of[BlockOf(&build[i], b)] = Key(i, b);
+Status InsWindowRun::Start() {
+  WG_ASSIGN_OR_RETURN(front_, RunZuptIns(walk_, g_.front_end));
+  WG_ASSIGN_OR_RETURN(build_, InitialInsStates(walk_, front_, g_));
+  front_states_ = build_;
+  n_ = build_.size();
+  context_.walk = &walk_;
+  context_.imu_gap_s = ImuGapThresholdS(walk_.imu);
+  context_.still = &front_.stance.still;
+  context_.path = &front_.states;
+  context_.options = g_;
+  for (size_t i = 0; i < n_; ++i) {
+    for (int b = 0; b < kBlocksPerState; ++b) key_of_[BlockOf(&build_[i], b)] = Key(i, b);
   }
-  InsRadioBlocks radio;
-  key_of[radio.path_loss.data()] = kPathLossKey;
-  std::set<StateKey> statics_added;
-
-  std::vector<InsState> lagged = build, current = build;
-  std::vector<std::optional<Eigen::Matrix3d>> cov(n);
-  auto estimate_of = [&](size_t i) -> StatusOr<InsState> {
-    InsState s = build[i];
-    for (int b = 0; b < kBlocksPerState; ++b) {
-      WG_ASSIGN_OR_RETURN(std::vector<double> v, smoother.Estimate(Key(i, b)));
-      SetBlock(&s, b, v);
-    }
-    return s;
-  };
-  // (x, y, yaw) covariances of states in the current window: tangent (δp, δθ), δθ_z the yaw.
-  auto store_covariances = [&](const std::vector<size_t>& states) {
-    if (!g.compute_covariance || states.empty()) return;
-    std::vector<std::vector<StateKey>> groups;
-    for (size_t i : states) groups.push_back({Key(i, kP), Key(i, kQ)});
-    StatusOr<std::vector<Eigen::MatrixXd>> c = smoother.MarginalCovariances(groups);
-    if (!c.ok()) return;  // rank-deficient window: these states go without covariance
-    const int index[3] = {0, 1, 5};
-    for (size_t m = 0; m < states.size(); ++m) {
-      Eigen::MatrixXd xy_yaw(3, 3);
-      for (int r = 0; r < 3; ++r) {
-        for (int s = 0; s < 3; ++s) xy_yaw(r, s) = (*c)[m](index[r], index[s]);
-      }
-      Symmetrize(&xy_yaw);
-      cov[states[m]] = Eigen::Matrix3d(xy_yaw);
-    }
-  };
-  smoother.set_before_marginalize([&](const std::vector<StateKey>& keys) {
-    if (online) return;
+  key_of_[radio_.path_loss.data()] = kPathLossKey;
+  lagged_ = current_ = build_;
+  cov_.assign(n_, std::nullopt);
+  latency_.reserve(n_);
+  last_ = build_[0];
+  last_update_t_ = build_[0].t_s;
+  gaps_ = walk_.ImuGaps();
+  smoother_.set_before_marginalize([this](const std::vector<StateKey>& keys) {
+    if (online_) return;
     std::vector<size_t> states;
     for (StateKey k : keys) {
       if (k >= 0 && k % kBlocksPerState == kP) states.push_back(k / kBlocksPerState);
     }
-    store_covariances(states);
+    StoreCovariances(states);
   });
-  smoother.set_on_marginalize([&](StateKey key, double, const std::vector<double>& v) {
-    if (key >= 0) SetBlock(&lagged[key / kBlocksPerState], key % kBlocksPerState, v);
+  smoother_.set_on_marginalize([this](StateKey key, double, const std::vector<double>& v) {
+    if (key >= 0) SetBlock(&lagged_[key / kBlocksPerState], key % kBlocksPerState, v);
   });
+  return Status::Ok();
+}
 
-  std::vector<SmootherState> new_states;
-  std::vector<SmootherFactor> new_factors;
-  // Factors by key; a block met for the first time that is not a state's is a static state
-  // (the path loss or an anchor's range bias), added to the same update.
-  auto to_smoother = [&](std::vector<InsFactor>* factors) -> Status {
-    for (InsFactor& f : *factors) {
-      SmootherFactor sf;
-      for (double* block : f.blocks) {
-        auto it = key_of.find(block);
-        if (it == key_of.end()) {
-          for (auto& [id, bias] : radio.range_bias_m) {
-            if (&bias != block) continue;
-            const int ai = walk.AnchorIndex(id);
-            if (ai < 0) return InternalError("fg-ins-window: range bias of an unknown anchor");
-            it = key_of.emplace(block, RangeBiasKey(ai)).first;
-            SmootherState st;
-            st.key = it->second;
-            st.value = std::vector<double>(1, bias);
-            st.constant = !g.estimate_range_bias;
-            new_states.push_back(std::move(st));
-            break;
-          }
-          if (it == key_of.end()) return InternalError("fg-ins-window: factor on an unknown block");
-        }
-        if (it->second == kPathLossKey && statics_added.insert(kPathLossKey).second) {
-          SmootherState st;
-          st.key = kPathLossKey;
-          st.value = std::vector<double>(radio.path_loss.begin(), radio.path_loss.end());
-          st.constant = !radio.estimate_path_loss;  // as in fg-ins-batch
-          new_states.push_back(std::move(st));
-        }
-        sf.keys.push_back(it->second);
-      }
-      sf.cost = std::move(f.cost);
-      sf.loss = std::shared_ptr<const ceres::LossFunction>(f.loss.release());
-      new_factors.push_back(std::move(sf));
-    }
-    factors->clear();
-    return Status::Ok();
-  };
-
-  std::vector<double> latency;
-  latency.reserve(n);
-  std::vector<size_t> pending;
-  size_t num_radio = 0, max_keys = 0;
-  int iterations = 0, solves = 0, unconverged = 0;
-  double final_cost = 0.0;
-  InsState last = build[0];  // the newest state's estimate (its initial value until solved)
-  double last_update_t = build[0].t_s;
-  // IMU gaps: the window is held open across them (InsWindowOptions::gap_hold_max_s).
-  const std::vector<ImuGap> gaps = walk.ImuGaps();
-  size_t next_gap = 0;
-  std::optional<double> yaw_sigma_before_gap;
-  double hold_until_s = 0.0, held_s = 0.0;
-  int holds = 0;
-  for (size_t i = 0; i < n; ++i) {
-    InsState init = build[i];
-    bool bridged = false;
-    for (; next_gap < gaps.size() && gaps[next_gap].t_begin_s < build[i].t_s; ++next_gap) {
-      bridged = bridged || (i > 0 && gaps[next_gap].t_begin_s >= build[i - 1].t_s);
-    }
-    if (bridged && options_.gap_hold_max_s > 0) {
-      if (!smoother.holding()) {
-        yaw_sigma_before_gap = YawSigma(&smoother, Key(i - 1, kQ));
-        smoother.HoldFrom(build[i - 1].t_s);
-        ++holds;
-      }
-      hold_until_s = build[i].t_s + options_.gap_hold_max_s;
-    }
-    if (i > 0) {
-      init = CarryForward(front_states[i - 1], front_states[i], last);
-      if (bias_from_estimate) {
-        build[i - 1].bg = last.bg;
-        build[i - 1].ba = last.ba;
-      }
-    }
-    for (int b = 0; b < kBlocksPerState; ++b) {
-      SmootherState st;
-      st.key = Key(i, b);
-      st.t_s = build[i].t_s;
-      st.value.resize(static_cast<size_t>(BlockSize(b)));
-      std::copy_n(BlockOf(&init, b), BlockSize(b), st.value.begin());
-      if (b == kQ) st.manifold = manifold;
-      new_states.push_back(std::move(st));
-    }
-    // State 0: the gauge and its unary factors; state i > 0: the segment i−1 → i alone
-    // (InsSegmentFactors(·, 0, ·) would return the gauge again). The readings at t_0 come with
-    // those of (t_0, t_1] (InsRadioFactors with k = 0 takes both), so none is added twice.
-    std::vector<InsFactor> segment, readings;
-    if (i == 0) {
-      WG_ASSIGN_OR_RETURN(segment, InsSegmentFactors(context, &build, 0, 0));
-    } else {
-      WG_ASSIGN_OR_RETURN(segment, InsBetweenFactors(context, &build[i - 1], &build[i]));
-      for (InsFactor& f : InsStateFactors(context, &build[i])) segment.push_back(std::move(f));
-    }
-    if (i > 0 || n == 1) {
-      WG_ASSIGN_OR_RETURN(
-          readings, InsRadioFactors(context, &build, i == 0 ? 0 : i - 1, i == 0 ? 0 : 1, &radio));
-    }
-    num_radio += readings.size();
-    WG_RETURN_IF_ERROR(to_smoother(&segment));
-    WG_RETURN_IF_ERROR(to_smoother(&readings));
-    last = init;
-    pending.push_back(i);
-    if (i + 1 < n && build[i].t_s - last_update_t < options_.window_update_s) continue;
-    last_update_t = build[i].t_s;
-
-    const Clock::time_point start = Clock::now();
-    WG_ASSIGN_OR_RETURN(FixedLagSmoother::UpdateResult u,
-                        smoother.Update(std::move(new_states), std::move(new_factors)));
-    new_states.clear();
-    new_factors.clear();
-    iterations += u.ceres_iterations;
-    solves += u.solved ? 1 : 0;
-    if (u.solved) final_cost = u.final_cost;
-    unconverged += u.converged ? 0 : 1;
-    max_keys = std::max(max_keys, smoother.WindowKeys().size());
-    WG_ASSIGN_OR_RETURN(last, estimate_of(i));
-    if (smoother.holding()) {
-      const std::optional<double> yaw_sigma = YawSigma(&smoother, Key(i, kQ));
-      const double release = yaw_sigma_before_gap.value_or(options_.gap_release_yaw_sigma_rad);
-      if (build[i].t_s >= hold_until_s || (yaw_sigma && *yaw_sigma <= release)) {
-        held_s = std::max(held_s, build[i].t_s - (hold_until_s - options_.gap_hold_max_s));
-        smoother.Release();
-      }
-    }
-    if (online) {
-      std::vector<size_t> in_window;
-      for (size_t j : pending) {
-        if (!smoother.Contains(Key(j, kP))) {  // left already (window_update_s > lag_s)
-          current[j] = lagged[j];
-          continue;
-        }
-        WG_ASSIGN_OR_RETURN(current[j], estimate_of(j));
-        in_window.push_back(j);
-      }
-      store_covariances(in_window);
-    }
-    latency.push_back(std::chrono::duration<double>(Clock::now() - start).count());
-    pending.clear();
+StatusOr<InsState> InsWindowRun::EstimateOf(size_t i) {
+  InsState s = build_[i];
+  for (int b = 0; b < kBlocksPerState; ++b) {
+    WG_ASSIGN_OR_RETURN(std::vector<double> v, smoother_.Estimate(Key(i, b)));
+    SetBlock(&s, b, v);
   }
-  if (!online) {
+  return s;
+}
+
+// (x, y, yaw) covariances of states in the current window: tangent (δp, δθ), δθ_z the yaw.
+void InsWindowRun::StoreCovariances(const std::vector<size_t>& states) {
+  if (!g_.compute_covariance || states.empty()) return;
+  std::vector<std::vector<StateKey>> groups;
+  for (size_t i : states) groups.push_back({Key(i, kP), Key(i, kQ)});
+  StatusOr<std::vector<Eigen::MatrixXd>> c = smoother_.MarginalCovariances(groups);
+  if (!c.ok()) return;  // rank-deficient window: these states go without covariance
+  const int index[3] = {0, 1, 5};
+  for (size_t m = 0; m < states.size(); ++m) {
+    Eigen::MatrixXd xy_yaw(3, 3);
+    for (int r = 0; r < 3; ++r) {
+      for (int s = 0; s < 3; ++s) xy_yaw(r, s) = (*c)[m](index[r], index[s]);
+    }
+    Symmetrize(&xy_yaw);
+    cov_[states[m]] = Eigen::Matrix3d(xy_yaw);
+  }
+}
+
+// Factors by key; a block met for the first time that is not a state's is a static state
+// (the path loss or an anchor's range bias), added to the same update.
+Status InsWindowRun::ToSmoother(std::vector<InsFactor>* factors) {
+  for (InsFactor& f : *factors) {
+    SmootherFactor sf;
+    for (double* block : f.blocks) {
+      auto it = key_of_.find(block);
+      if (it == key_of_.end()) {
+        for (auto& [id, bias] : radio_.range_bias_m) {
+          if (&bias != block) continue;
+          const int ai = walk_.AnchorIndex(id);
+          if (ai < 0) return InternalError("fg-ins-window: range bias of an unknown anchor");
+          it = key_of_.emplace(block, RangeBiasKey(ai)).first;
+          SmootherState st;
+          st.key = it->second;
+          st.value = std::vector<double>(1, bias);
+          st.constant = !g_.estimate_range_bias;
+          new_states_.push_back(std::move(st));
+          break;
+        }
+        if (it == key_of_.end()) return InternalError("fg-ins-window: factor on an unknown block");
+      }
+      if (it->second == kPathLossKey && statics_added_.insert(kPathLossKey).second) {
+        SmootherState st;
+        st.key = kPathLossKey;
+        st.value = std::vector<double>(radio_.path_loss.begin(), radio_.path_loss.end());
+        st.constant = !radio_.estimate_path_loss;  // as in fg-ins-batch
+        new_states_.push_back(std::move(st));
+      }
+      sf.keys.push_back(it->second);
+    }
+    sf.cost = std::move(f.cost);
+    sf.loss = std::shared_ptr<const ceres::LossFunction>(f.loss.release());
+    new_factors_.push_back(std::move(sf));
+  }
+  factors->clear();
+  return Status::Ok();
+}
+
+// Before state i: a gap between i − 1 and i holds the window open from state i − 1 on.
+void InsWindowRun::HoldAcrossGap(size_t i) {
+  bool bridged = false;
+  for (; next_gap_ < gaps_.size() && gaps_[next_gap_].t_begin_s < build_[i].t_s; ++next_gap_) {
+    bridged = bridged || (i > 0 && gaps_[next_gap_].t_begin_s >= build_[i - 1].t_s);
+  }
+  if (!bridged || !(o_.gap_hold_max_s > 0)) return;
+  if (!smoother_.holding()) {
+    yaw_sigma_before_gap_ = YawSigma(&smoother_, Key(i - 1, kQ));
+    smoother_.HoldFrom(build_[i - 1].t_s);
+    ++holds_;
+  }
+  hold_until_s_ = build_[i].t_s + o_.gap_hold_max_s;
+}
+
+// State i's blocks (from the front end's motion carried onto the newest estimate) and factors.
+Status InsWindowRun::AddState(size_t i) {
+  InsState init = build_[i];
+  if (i > 0) {
+    init = CarryForward(front_states_[i - 1], front_states_[i], last_);
+    if (o_.preintegration_bias == "estimate") {
+      build_[i - 1].bg = last_.bg;
+      build_[i - 1].ba = last_.ba;
+    }
+  }
+  for (int b = 0; b < kBlocksPerState; ++b) {
+    SmootherState st;
+    st.key = Key(i, b);
+    st.t_s = build_[i].t_s;
+    st.value.resize(static_cast<size_t>(BlockSize(b)));
+    std::copy_n(BlockOf(&init, b), BlockSize(b), st.value.begin());
+    if (b == kQ) st.manifold = manifold_;
+    new_states_.push_back(std::move(st));
+  }
+  // State 0: the gauge and its unary factors; state i > 0: the segment i−1 → i alone
+  // (InsSegmentFactors(·, 0, ·) would return the gauge again). The readings at t_0 come with
+  // those of (t_0, t_1] (InsRadioFactors with k = 0 takes both), so none is added twice.
+  std::vector<InsFactor> segment, readings;
+  if (i == 0) {
+    WG_ASSIGN_OR_RETURN(segment, InsSegmentFactors(context_, &build_, 0, 0));
+  } else {
+    WG_ASSIGN_OR_RETURN(segment, InsBetweenFactors(context_, &build_[i - 1], &build_[i]));
+    for (InsFactor& f : InsStateFactors(context_, &build_[i])) segment.push_back(std::move(f));
+  }
+  if (i > 0 || n_ == 1) {
+    WG_ASSIGN_OR_RETURN(
+        readings, InsRadioFactors(context_, &build_, i == 0 ? 0 : i - 1, i == 0 ? 0 : 1, &radio_));
+  }
+  num_radio_ += readings.size();
+  WG_RETURN_IF_ERROR(ToSmoother(&segment));
+  WG_RETURN_IF_ERROR(ToSmoother(&readings));
+  last_ = init;
+  pending_.push_back(i);
+  return Status::Ok();
+}
+
+// One smoother update with what is pending, ending at state i.
+Status InsWindowRun::Update(size_t i) {
+  const auto start = std::chrono::steady_clock::now();
+  WG_ASSIGN_OR_RETURN(FixedLagSmoother::UpdateResult u,
+                      smoother_.Update(std::move(new_states_), std::move(new_factors_)));
+  new_states_.clear();
+  new_factors_.clear();
+  iterations_ += u.ceres_iterations;
+  solves_ += u.solved ? 1 : 0;
+  if (u.solved) final_cost_ = u.final_cost;
+  unconverged_ += u.converged ? 0 : 1;
+  max_keys_ = std::max(max_keys_, smoother_.WindowKeys().size());
+  WG_ASSIGN_OR_RETURN(last_, EstimateOf(i));
+  if (smoother_.holding()) {
+    const std::optional<double> yaw_sigma = YawSigma(&smoother_, Key(i, kQ));
+    const double release = yaw_sigma_before_gap_.value_or(o_.gap_release_yaw_sigma_rad);
+    if (build_[i].t_s >= hold_until_s_ || (yaw_sigma && *yaw_sigma <= release)) {
+      held_s_ = std::max(held_s_, build_[i].t_s - (hold_until_s_ - o_.gap_hold_max_s));
+      smoother_.Release();
+    }
+  }
+  if (online_) {
+    std::vector<size_t> in_window;
+    for (size_t j : pending_) {
+      if (!smoother_.Contains(Key(j, kP))) {  // left already (window_update_s > lag_s)
+        current_[j] = lagged_[j];
+        continue;
+      }
+      WG_ASSIGN_OR_RETURN(current_[j], EstimateOf(j));
+      in_window.push_back(j);
+    }
+    StoreCovariances(in_window);
+  }
+  latency_.push_back(
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+  pending_.clear();
+  return Status::Ok();
+}
+
+EstimateResult InsWindowRun::Finish() {
+  if (!online_) {
     // The states still in the window at the end: their final (smoothed) estimates.
     std::vector<size_t> states;
-    for (StateKey key : smoother.WindowKeys()) {
+    for (StateKey key : smoother_.WindowKeys()) {
       if (key % kBlocksPerState == kP) states.push_back(key / kBlocksPerState);
     }
-    store_covariances(states);
-    smoother.Flush();
+    StoreCovariances(states);
+    smoother_.Flush();
   }
-
   EstimateResult result;
-  result.trajectory = InsStatesTrajectory(walk, online ? current : lagged, cov, g, !online);
+  result.trajectory = InsStatesTrajectory(walk_, online_ ? current_ : lagged_, cov_, g_, !online_);
   const size_t missing = static_cast<size_t>(
-      std::count_if(cov.begin(), cov.end(), [](const auto& c) { return !c.has_value(); }));
+      std::count_if(cov_.begin(), cov_.end(), [](const auto& c) { return !c.has_value(); }));
   auto& d = result.diagnostics;
-  d["num_states"] = static_cast<double>(n);
-  d["num_strides"] = static_cast<double>(front.strides.steps.size());
-  d["num_radio_factors"] = static_cast<double>(num_radio);
-  d["ceres_iterations"] = iterations;
-  d["window_solves"] = solves;
-  d["window_unconverged_solves"] = unconverged;
-  d["ceres_final_cost"] = final_cost;  // of the last solve
-  d["window_max_keys"] = static_cast<double>(max_keys);
-  d["window_max_states"] = static_cast<double>(max_keys / kBlocksPerState);
-  d["window_gap_holds"] = holds;
-  d["window_gap_hold_max_s"] = held_s;  // longest time from a gap to its release
-  d["states_without_covariance"] = g.compute_covariance ? static_cast<double>(missing) : 0.0;
-  d["covariance_ok"] = g.compute_covariance && missing == 0 ? 1.0 : 0.0;
-  if (radio.estimate_path_loss) {  // the window's last estimate of the static block
-    auto v = smoother.Estimate(kPathLossKey);
-    if (v.ok() && v->size() == 2) radio.path_loss = {(*v)[0], (*v)[1]};
+  d["num_states"] = static_cast<double>(n_);
+  d["num_strides"] = static_cast<double>(front_.strides.steps.size());
+  d["num_radio_factors"] = static_cast<double>(num_radio_);
+  d["ceres_iterations"] = iterations_;
+  d["window_solves"] = solves_;
+  d["window_unconverged_solves"] = unconverged_;
+  d["ceres_final_cost"] = final_cost_;  // of the last solve
+  d["window_max_keys"] = static_cast<double>(max_keys_);
+  d["window_max_states"] = static_cast<double>(max_keys_ / kBlocksPerState);
+  d["window_gap_holds"] = holds_;
+  d["window_gap_hold_max_s"] = held_s_;  // longest time from a gap to its release
+  d["states_without_covariance"] = g_.compute_covariance ? static_cast<double>(missing) : 0.0;
+  d["covariance_ok"] = g_.compute_covariance && missing == 0 ? 1.0 : 0.0;
+  if (radio_.estimate_path_loss) {  // the window's last estimate of the static block
+    auto v = smoother_.Estimate(kPathLossKey);
+    if (v.ok() && v->size() == 2) radio_.path_loss = {(*v)[0], (*v)[1]};
   }
-  AddInsPathLossDiagnostics(walk, radio, &d);
-
-  AddUpdateLatencyTimings(latency, &result.timings);
-  const double run_s = std::chrono::duration<double>(Clock::now() - run_start).count();
-  const double minutes = (walk.imu.back().t_s - walk.imu.front().t_s) / 60.0;
+  AddInsPathLossDiagnostics(walk_, radio_, &d);
+  AddUpdateLatencyTimings(latency_, &result.timings);
+  const double run_s =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - run_start_).count();
+  const double minutes = (walk_.imu.back().t_s - walk_.imu.front().t_s) / 60.0;
   result.timings["run_s"] = run_s;
   result.timings["run_s_per_walk_minute"] = minutes > 0 ? run_s / minutes : 0.0;
-  if (lagged_out) *lagged_out = std::move(lagged);
   return result;
+}
+
+StatusOr<EstimateResult> InsWindowRun::Run(std::vector<InsState>* lagged_out) {
+  WG_RETURN_IF_ERROR(Start());
+  for (size_t i = 0; i < n_; ++i) {
+    HoldAcrossGap(i);
+    WG_RETURN_IF_ERROR(AddState(i));
+    if (i + 1 < n_ && build_[i].t_s - last_update_t_ < o_.window_update_s) continue;
+    last_update_t_ = build_[i].t_s;
+    WG_RETURN_IF_ERROR(Update(i));
+  }
+  EstimateResult result = Finish();
+  if (lagged_out) *lagged_out = std::move(lagged_);
+  return result;
+}
+
+StatusOr<EstimateResult> RunInsWindow(const Walk& walk, const InsWindowOptions& options,
+                                      std::vector<InsState>* lagged_out) {
+  return InsWindowRun(walk, options).Run(lagged_out);
 }
 
 }  // namespace
