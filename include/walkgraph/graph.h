@@ -18,6 +18,9 @@
 //   step graph (fg-batch, fg-window):  x(k) position (x, y) of node k,  h(k) heading θ_k,
 //     l(g) path loss (A, η) of group g (0, or the anchor index with path_loss: per-anchor),
 //     b(g) range bias, s(g) range scale, g(0) gyro bias.
+//   foot-INS graph (fg-ins-window, fg-ins-batch's covariances):  x(i) position (x, y, z) of state
+//     i, v(i) velocity, q(i) attitude (NavQuaternionManifold), g(i) gyro bias, a(i) accelerometer
+//     bias; l(0) path loss (A, η), b(a) range bias of anchor index a.
 #ifndef WALKGRAPH_GRAPH_H_
 #define WALKGRAPH_GRAPH_H_
 

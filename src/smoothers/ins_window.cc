@@ -23,12 +23,23 @@ namespace walkgraph {
 
 namespace {
 
-// State i's blocks have keys 5i + block; the static states negative keys.
+// State i's blocks have keys x(i) p, v(i) v, q(i) q, g(i) b_g, a(i) b_a (graph.h); the static
+// states l(0) the path loss and b(a) the range bias of anchor index a.
 constexpr int kBlocksPerState = 5;
 enum InsBlock { kP = 0, kV = 1, kQ = 2, kBg = 3, kBa = 4 };
-constexpr StateKey kPathLossKey = -1;
-StateKey Key(size_t i, int block) { return kBlocksPerState * static_cast<StateKey>(i) + block; }
-StateKey RangeBiasKey(int anchor_index) { return -2 - static_cast<StateKey>(anchor_index); }
+constexpr char kBlockLetters[kBlocksPerState + 1] = "xvqga";
+constexpr StateKey kPathLossKey = Symbol('l', 0);
+StateKey Key(size_t i, int block) { return Symbol(kBlockLetters[block], i); }
+StateKey RangeBiasKey(int anchor_index) {
+  return Symbol('b', static_cast<uint64_t>(anchor_index));
+}
+// The block of a state's key (kP … kBa), or −1 for a static state's.
+int BlockOfKey(StateKey key) {
+  for (int b = 0; b < kBlocksPerState; ++b) {
+    if (SymbolLetter(key) == kBlockLetters[b]) return b;
+  }
+  return -1;
+}
 
 double* BlockOf(InsState* s, int block) {
   switch (block) {
@@ -248,12 +259,13 @@ Status InsWindowRun::Start() {
     if (online_) return;
     std::vector<size_t> states;
     for (StateKey k : keys) {
-      if (k >= 0 && k % kBlocksPerState == kP) states.push_back(k / kBlocksPerState);
+      if (BlockOfKey(k) == kP) states.push_back(SymbolIndex(k));
     }
     StoreCovariances(states);
   });
   smoother_.set_on_marginalize([this](StateKey key, double, const std::vector<double>& v) {
-    if (key >= 0) SetBlock(&lagged_[key / kBlocksPerState], key % kBlocksPerState, v);
+    const int block = BlockOfKey(key);
+    if (block >= 0) SetBlock(&lagged_[SymbolIndex(key)], block, v);
   });
   return Status::Ok();
 }
@@ -424,7 +436,7 @@ EstimateResult InsWindowRun::Finish() {
     // The states still in the window at the end: their final (smoothed) estimates.
     std::vector<size_t> states;
     for (StateKey key : smoother_.WindowKeys()) {
-      if (key % kBlocksPerState == kP) states.push_back(key / kBlocksPerState);
+      if (BlockOfKey(key) == kP) states.push_back(SymbolIndex(key));
     }
     StoreCovariances(states);
     smoother_.Flush();
