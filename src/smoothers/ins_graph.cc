@@ -364,6 +364,46 @@ StatusOr<std::vector<InsFactor>> InsSegmentFactors(const InsGraphContext& c,
   return out;
 }
 
+namespace {
+
+// Where a reading at time t is received: the bracketing states of states[k..k+n] and α along
+// the front end's path (see the top of ins_graph.h); b null: at a alone.
+struct Where {
+  InsState* a;
+  InsState* b;
+  double alpha;
+};
+Where ReceiverAt(const InsGraphContext& c, std::vector<InsState>* states, size_t k, size_t n,
+                 double t) {
+  const Walk& w = *c.walk;
+  size_t j =
+      static_cast<size_t>(std::upper_bound(states->begin() + static_cast<long>(k),
+                                           states->begin() + static_cast<long>(k + n + 1), t,
+                                           [](double x, const InsState& s) { return x < s.t_s; }) -
+                          states->begin());
+  if (j == 0) j = 1;
+  if (j > k + n) return {&(*states)[k + n], nullptr, 0.0};
+  InsState* a = &(*states)[j - 1];
+  InsState* b = &(*states)[j];
+  double alpha = (t - a->t_s) / (b->t_s - a->t_s);
+  if (c.path != nullptr && c.path->size() == w.imu.size()) {
+    const Eigen::Vector3d pa = (*c.path)[a->imu_index].p_n, pb = (*c.path)[b->imu_index].p_n;
+    const Eigen::Vector3d d = pb - pa;
+    if (d.squaredNorm() > 1e-4) {
+      // The IMU sample at or after t.
+      size_t m = a->imu_index;
+      while (m < b->imu_index && w.imu[m].t_s < t) ++m;
+      alpha = ((*c.path)[m].p_n - pa).dot(d) / d.squaredNorm();
+    }
+  }
+  alpha = std::clamp(alpha, 0.0, 1.0);
+  if (alpha < 1e-3) return {a, nullptr, 0.0};
+  if (alpha > 1.0 - 1e-3) return {b, nullptr, 0.0};
+  return {a, b, alpha};
+}
+
+}  // namespace
+
 StatusOr<std::vector<InsFactor>> InsRadioFactors(const InsGraphContext& c,
                                                  std::vector<InsState>* states, size_t k, size_t n,
                                                  InsRadioBlocks* blocks) {
@@ -373,38 +413,7 @@ StatusOr<std::vector<InsFactor>> InsRadioFactors(const InsGraphContext& c,
   std::vector<InsFactor> out;
   const double t_lo = (*states)[k].t_s, t_hi = (*states)[k + n].t_s;
   auto inside = [&](double t) { return (t > t_lo || (k == 0 && t == t_lo)) && t <= t_hi; };
-  // The receiver at time t: the bracketing states and α along the front end's path.
-  struct Where {
-    InsState* a;
-    InsState* b;  // null: at a alone
-    double alpha;
-  };
-  auto where = [&](double t) -> Where {
-    size_t j = static_cast<size_t>(
-        std::upper_bound(states->begin() + static_cast<long>(k),
-                         states->begin() + static_cast<long>(k + n + 1), t,
-                         [](double x, const InsState& s) { return x < s.t_s; }) -
-        states->begin());
-    if (j == 0) j = 1;
-    if (j > k + n) return {&(*states)[k + n], nullptr, 0.0};
-    InsState* a = &(*states)[j - 1];
-    InsState* b = &(*states)[j];
-    double alpha = (t - a->t_s) / (b->t_s - a->t_s);
-    if (c.path != nullptr && c.path->size() == w.imu.size()) {
-      const Eigen::Vector3d pa = (*c.path)[a->imu_index].p_n, pb = (*c.path)[b->imu_index].p_n;
-      const Eigen::Vector3d d = pb - pa;
-      if (d.squaredNorm() > 1e-4) {
-        // The IMU sample at or after t.
-        size_t m = a->imu_index;
-        while (m < b->imu_index && w.imu[m].t_s < t) ++m;
-        alpha = ((*c.path)[m].p_n - pa).dot(d) / d.squaredNorm();
-      }
-    }
-    alpha = std::clamp(alpha, 0.0, 1.0);
-    if (alpha < 1e-3) return {a, nullptr, 0.0};
-    if (alpha > 1.0 - 1e-3) return {b, nullptr, 0.0};
-    return {a, b, alpha};
-  };
+  auto where = [&](double t) { return ReceiverAt(c, states, k, n, t); };
   const Eigen::Vector3d lower(0.0, 0.0, o.receiver_offset_z_m);
   if (UsesRss(c)) {
     const RadioDefaults& radio = w.meta.radio;
