@@ -11,11 +11,13 @@
 #include <Eigen/Eigenvalues>
 
 #include "factors/nav_quaternion_manifold.h"
+#include "factors/position_prior_factor.h"
 #include "test_util.h"
 #include "walkgraph/convert.h"
 #include "walkgraph/estimator.h"
 #include "walkgraph/metrics.h"
 #include "walkgraph/simulate.h"
+#include "walkgraph/smoothers/ins_window.h"
 
 namespace walkgraph {
 namespace {
@@ -278,6 +280,64 @@ TEST(InsGraphBatch, WaypointsPullTheFootOntoThem) {
       EXPECT_LT(e, 0.03) << id << " t = " << p.t_s;
     }
   }
+}
+
+// The user-factor hook on the foot-INS estimators: a position prior of the user's on the
+// middle state's x(k) (3-D block) pulls batch and window onto it; keys that name no state block
+// and wrong block sizes come back as errors.
+TEST(InsGraphBatch, UserFactorsReachBatchAndWindow) {
+  auto w = SimulateScenario("jimenez-building", 4, YAML::Load("{duration_s: 40}"));
+  ASSERT_TRUE(w.ok());
+  size_t state = 0;
+  double t_state = 0.0;
+  const Eigen::Vector2d target(2.0, -3.0);
+  InsGraphOptions o;
+  o.user_factors = [&](const Walk&, const std::vector<double>& times,
+                       std::vector<GraphFactor>* out) {
+    state = times.size() / 2;
+    t_state = times[state];
+    out->push_back(
+        {std::shared_ptr<ceres::CostFunction>(PositionPriorFactor<3>::Create(target, 0.01)),
+         nullptr,
+         {InsStateKey(state, 'x')}});
+    return Status::Ok();
+  };
+  InsWindowOptions wo;
+  wo.graph = o;
+  auto batch = InsGraphBatch(o).Run(*w);
+  auto window = InsGraphWindow(wo).Run(*w);
+  ASSERT_TRUE(batch.ok()) << batch.status().message();
+  ASSERT_TRUE(window.ok()) << window.status().message();
+  EXPECT_LT((batch->trajectory.PositionAt(t_state).head<2>() - target).norm(), 0.03);
+  EXPECT_LT((window->trajectory.PositionAt(t_state).head<2>() - target).norm(), 0.03);
+
+  InsGraphOptions bad = o;
+  bad.user_factors = [](const Walk&, const std::vector<double>& times,
+                        std::vector<GraphFactor>* out) {
+    out->push_back({std::shared_ptr<ceres::CostFunction>(
+                        PositionPriorFactor<2>::Create(Eigen::Vector2d::Zero(), 1.0)),
+                    nullptr,
+                    {InsStateKey(0, 'x')}});  // a 2-D factor on a 3-D block
+    (void)times;
+    return Status::Ok();
+  };
+  auto r = InsGraphBatch(bad).Run(*w);
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.status().message().find("has size 3, the cost function expects 2"), std::string::npos)
+      << r.status().message();
+  bad.user_factors = [](const Walk&, const std::vector<double>& times,
+                        std::vector<GraphFactor>* out) {
+    out->push_back({std::shared_ptr<ceres::CostFunction>(
+                        PositionPriorFactor<3>::Create(Eigen::Vector2d::Zero(), 1.0)),
+                    nullptr,
+                    {InsStateKey(times.size(), 'x')}});
+    return Status::Ok();
+  };
+  wo.graph = bad;
+  r = InsGraphWindow(wo).Run(*w);
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.status().message().find("names no state block"), std::string::npos)
+      << r.status().message();
 }
 
 }  // namespace

@@ -77,7 +77,8 @@ struct GraphFactor {
   std::vector<Key> keys;                            // in the cost function's block order
 };
 
-// The extension hook of every factor-graph estimator (StepGraphOptions::user_factors): called
+// The extension hook of every factor-graph estimator (StepGraphOptions::user_factors for fg-batch
+// and fg-window, InsGraphOptions::user_factors for fg-ins-batch and fg-ins-window): called
 // once per walk, after the built-in factors are made, with the times of the graph's poses
 // (pose_times[k] is the time of pose k, whose position key is Symbol('x', k)); the factors it
 // appends are added after the built-in ones, by the batch solve and by the window alike. A

@@ -521,6 +521,101 @@ void HoldInsRadioBlocks(ceres::Problem* problem, InsRadioBlocks* blocks,
   }
 }
 
+Key InsStateKey(size_t state, char letter) { return Symbol(letter, state); }
+
+double* InsBlockOfKey(std::vector<InsState>* states, Key key) {
+  const uint64_t i = SymbolIndex(key);
+  if (i >= states->size()) return nullptr;
+  InsState& s = (*states)[i];
+  switch (SymbolLetter(key)) {
+    case 'x':
+      return s.p.data();
+    case 'v':
+      return s.v.data();
+    case 'q':
+      return s.q.data();
+    case 'g':
+      return s.bg.data();
+    case 'a':
+      return s.ba.data();
+    default:
+      return nullptr;
+  }
+}
+
+StatusOr<std::vector<std::vector<GraphFactor>>> InsUserFactors(const InsGraphContext& c,
+                                                               std::vector<InsState>* states) {
+  std::vector<std::vector<GraphFactor>> out(states->size());
+  if (!c.options.user_factors) return out;
+  std::vector<double> times;
+  for (const InsState& s : *states) times.push_back(s.t_s);
+  std::vector<GraphFactor> factors;
+  const Status s = c.options.user_factors(*c.walk, times, &factors);
+  if (!s.ok()) return Status(s.code(), "user factors: " + s.message());
+  for (size_t i = 0; i < factors.size(); ++i) {
+    const std::string where = "user factor " + std::to_string(i) + ": ";
+    if (!factors[i].cost) return InvalidArgument(where + "no cost function");
+    const std::vector<int32_t>& sizes = factors[i].cost->parameter_block_sizes();
+    if (sizes.size() != factors[i].keys.size()) {
+      return InvalidArgument(where + "the cost function has " + std::to_string(sizes.size()) +
+                             " blocks, " + std::to_string(factors[i].keys.size()) + " keys given");
+    }
+    uint64_t newest = 0;
+    for (size_t b = 0; b < factors[i].keys.size(); ++b) {
+      const Key key = factors[i].keys[b];
+      if (InsBlockOfKey(states, key) == nullptr) {
+        return InvalidArgument(where + "key " + KeyToString(key) + " names no state block");
+      }
+      const int size = SymbolLetter(key) == 'q' ? 4 : 3;
+      if (sizes[b] != size) {
+        return InvalidArgument(where + "block " + KeyToString(key) + " has size " +
+                               std::to_string(size) + ", the cost function expects " +
+                               std::to_string(sizes[b]));
+      }
+      newest = std::max(newest, SymbolIndex(key));
+    }
+    out[newest].push_back(std::move(factors[i]));
+  }
+  return out;
+}
+
+namespace {
+
+// A shared cost function for a problem that owns its cost functions: the problem deletes the
+// wrapper, the wrapped one lives on with its other owners.
+class SharedCost : public ceres::CostFunction {
+ public:
+  explicit SharedCost(std::shared_ptr<ceres::CostFunction> cost) : cost_(std::move(cost)) {
+    set_num_residuals(cost_->num_residuals());
+    *mutable_parameter_block_sizes() = cost_->parameter_block_sizes();
+  }
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override {
+    return cost_->Evaluate(parameters, residuals, jacobians);
+  }
+
+ private:
+  std::shared_ptr<ceres::CostFunction> cost_;
+};
+
+}  // namespace
+
+Status AddInsUserFactors(ceres::Problem* problem, std::vector<InsState>* states,
+                         const std::vector<std::vector<GraphFactor>>& factors) {
+  for (const auto& at : factors) {
+    for (const GraphFactor& f : at) {
+      std::vector<double*> blocks;
+      for (const Key key : f.keys) blocks.push_back(InsBlockOfKey(states, key));
+      ceres::LossFunction* loss =
+          f.loss ? new ceres::LossFunctionWrapper(const_cast<ceres::LossFunction*>(f.loss.get()),
+                                                  ceres::DO_NOT_TAKE_OWNERSHIP)
+                 : nullptr;
+      problem->AddResidualBlock(new SharedCost(f.cost), loss, blocks);
+    }
+  }
+  return Status::Ok();
+}
+
 void AddInsFactors(ceres::Problem* problem, std::vector<InsFactor>* factors) {
   for (InsFactor& f : *factors) {
     problem->AddResidualBlock(f.cost.release(), f.loss.release(), f.blocks);
@@ -665,6 +760,8 @@ StatusOr<EstimateResult> InsGraphBatch::Run(const Walk& walk) const {
   context.still = &front.stance.still;
   context.path = &front.states;
   context.options = o;
+  WG_ASSIGN_OR_RETURN(const std::vector<std::vector<GraphFactor>> user,
+                      InsUserFactors(context, &states));
 
   EstimateResult result;
   SolverOptions so;  // single-threaded SPARSE_NORMAL_CHOLESKY: the same output for the same input
@@ -695,6 +792,7 @@ StatusOr<EstimateResult> InsGraphBatch::Run(const Walk& walk) const {
                         InsRadioFactors(context, &states, 0, states.size() - 1, &radio));
     num_radio = radio_factors.size();
     AddInsFactors(problem.get(), &radio_factors);
+    WG_RETURN_IF_ERROR(AddInsUserFactors(problem.get(), &states, user));
     HoldInsRadioBlocks(problem.get(), &radio, o);
     std::vector<std::array<double, 6>> linearization(states.size());
     for (size_t i = 0; i < states.size(); ++i) {

@@ -30,9 +30,7 @@ enum InsBlock { kP = 0, kV = 1, kQ = 2, kBg = 3, kBa = 4 };
 constexpr char kBlockLetters[kBlocksPerState + 1] = "xvqga";
 constexpr StateKey kPathLossKey = Symbol('l', 0);
 StateKey Key(size_t i, int block) { return Symbol(kBlockLetters[block], i); }
-StateKey RangeBiasKey(int anchor_index) {
-  return Symbol('b', static_cast<uint64_t>(anchor_index));
-}
+StateKey RangeBiasKey(int anchor_index) { return Symbol('b', static_cast<uint64_t>(anchor_index)); }
 // The block of a state's key (kP … kBa), or −1 for a static state's.
 int BlockOfKey(StateKey key) {
   for (int b = 0; b < kBlocksPerState; ++b) {
@@ -220,6 +218,7 @@ class InsWindowRun {
   std::vector<std::optional<Eigen::Matrix3d>> cov_;
   std::vector<SmootherState> new_states_;
   std::vector<SmootherFactor> new_factors_;
+  std::vector<std::vector<GraphFactor>> user_;  // InsGraphOptions::user_factors by newest state
   std::vector<double> latency_;
   std::vector<size_t> pending_;
   size_t num_radio_ = 0, max_keys_ = 0;
@@ -249,6 +248,7 @@ Status InsWindowRun::Start() {
     for (int b = 0; b < kBlocksPerState; ++b) key_of_[BlockOf(&build_[i], b)] = Key(i, b);
   }
   key_of_[radio_.path_loss.data()] = kPathLossKey;
+  WG_ASSIGN_OR_RETURN(user_, InsUserFactors(context_, &build_));
   lagged_ = current_ = build_;
   cov_.assign(n_, std::nullopt);
   latency_.reserve(n_);
@@ -387,6 +387,7 @@ Status InsWindowRun::AddState(size_t i) {
   num_radio_ += readings.size();
   WG_RETURN_IF_ERROR(ToSmoother(&segment));
   WG_RETURN_IF_ERROR(ToSmoother(&readings));
+  for (const GraphFactor& f : user_[i]) new_factors_.push_back(f);  // keys as the window's
   last_ = init;
   pending_.push_back(i);
   return Status::Ok();

@@ -80,6 +80,7 @@
 #include <Eigen/Geometry>
 
 #include "walkgraph/estimator.h"
+#include "walkgraph/graph.h"
 #include "walkgraph/status.h"
 #include "walkgraph/strides.h"
 #include "walkgraph/walk.h"
@@ -142,6 +143,11 @@ struct InsGraphOptions {
   std::string path_loss = "auto";
   double A_prior_sigma_db = 10.0;
   double eta_prior_sigma = 1.0;
+
+  // A user's own factors (graph.h UserFactorsFn), for fg-ins-batch and fg-ins-window alike:
+  // pose k of the hook is state k, keys x(k) its position (x, y, z: 3-D), v(k) velocity,
+  // q(k) attitude (x, y, z, w; NavQuaternionManifold), g(k) gyro bias, a(k) accelerometer bias.
+  UserFactorsFn user_factors;
 
   // Every rule the YAML reader applies; the estimators' Run refuses options that break one.
   Status Validate() const;
@@ -235,6 +241,18 @@ void HoldInsRadioBlocks(ceres::Problem* problem, InsRadioBlocks* blocks,
 // estimated.
 void AddInsPathLossDiagnostics(const Walk& walk, const InsRadioBlocks& blocks,
                                std::map<std::string, double>* diagnostics);
+
+// The key of one of a state's blocks (see InsGraphOptions::user_factors) and back: the block
+// of `key` among `states`, or null when it names none.
+Key InsStateKey(size_t state, char letter);
+double* InsBlockOfKey(std::vector<InsState>* states, Key key);
+// InsGraphOptions::user_factors for `states`, each factor's keys checked to name a state block;
+// by the index of the newest state it names.
+StatusOr<std::vector<std::vector<GraphFactor>>> InsUserFactors(const InsGraphContext& context,
+                                                               std::vector<InsState>* states);
+// Adds user factors to a problem that owns its cost functions (they are shared: wrapped).
+Status AddInsUserFactors(ceres::Problem* problem, std::vector<InsState>* states,
+                         const std::vector<std::vector<GraphFactor>>& factors);
 
 // Moves the factors into `problem` (which takes ownership of costs and losses).
 void AddInsFactors(ceres::Problem* problem, std::vector<InsFactor>* factors);
