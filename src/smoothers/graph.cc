@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <string>
+#include <unordered_map>
 #include <utility>
 
 #include <ceres/ceres.h>
@@ -156,39 +157,56 @@ StatusOr<std::vector<Eigen::MatrixXd>> KeyedMarginalCovariances(
       statics.push_back(b.value);
     }
   }
+  // Per timed key: its chain state, tangent offset in it and size, and whether it is held
+  // (each asked of Ceres once: its lookups dominate on long walks).
+  struct Place {
+    size_t group = 0;
+    int offset = 0, size = 0;
+    bool constant = false;
+  };
   std::vector<std::vector<double*>> chain;
-  std::map<Key, std::pair<size_t, int>> where;  // key → (chain group, tangent offset)
+  std::unordered_map<Key, Place> where;
+  where.reserve(blocks.size());
   for (const auto& [t, keys] : by_time) {
     std::vector<double*> g;
     int off = 0;
     for (Key k : keys) {
       double* b = blocks.at(k).value;
-      where[k] = {chain.size(), off};
-      if (!problem->IsParameterBlockConstant(b)) off += problem->ParameterBlockTangentSize(b);
+      Place p{chain.size(), off, problem->ParameterBlockTangentSize(b),
+              problem->IsParameterBlockConstant(b)};
+      if (!p.constant) off += p.size;
+      where[k] = p;
       g.push_back(b);
     }
     chain.push_back(std::move(g));
   }
   // Constant states contribute nothing to a group; unknown keys are an error.
   std::vector<std::vector<Key>> variable(groups.size());
+  bool usable = true;  // every group within one chain state (one timestamp)
   for (size_t i = 0; i < groups.size(); ++i) {
     for (Key k : groups[i]) {
       auto it = blocks.find(k);
       if (it == blocks.end()) {
         return NotFound(std::string(who) + ": " + KeyToString(k) + " not in the graph");
       }
-      if (!problem->IsParameterBlockConstant(it->second.value)) variable[i].push_back(k);
+      auto w = where.find(k);
+      if (w == where.end()) {  // a static state: no chain state holds it
+        if (!problem->IsParameterBlockConstant(it->second.value)) {
+          variable[i].push_back(k);
+          usable = false;
+        }
+      } else if (!w->second.constant) {
+        variable[i].push_back(k);
+      }
     }
   }
-  // Each requested group must lie within one chain state (one timestamp); only those chain
-  // states' marginals are formed.
-  bool usable = true;
+  // Only the chain states of requested groups get their marginals formed.
   std::vector<bool> wanted(chain.size(), false);
   for (const auto& g : variable) {
     for (Key k : g) {
-      if (!where.count(k) || where[k].first != where[g.front()].first) usable = false;
+      if (usable && where.at(k).group != where.at(g.front()).group) usable = false;
     }
-    if (usable && !g.empty()) wanted[where[g.front()].first] = true;
+    if (usable && !g.empty()) wanted[where.at(g.front()).group] = true;
   }
   StatusOr<std::vector<Eigen::MatrixXd>> banded = InternalError("not computed");
   if (usable) {
@@ -206,10 +224,10 @@ StatusOr<std::vector<Eigen::MatrixXd>> KeyedMarginalCovariances(
     } else {
       std::vector<int> idx;
       for (Key k : g) {
-        const int n = problem->ParameterBlockTangentSize(blocks.at(k).value);
-        for (int i = 0; i < n; ++i) idx.push_back(where[k].second + i);
+        const Place& p = where.at(k);
+        for (int i = 0; i < p.size; ++i) idx.push_back(p.offset + i);
       }
-      const Eigen::MatrixXd& full = (*banded)[where[g.front()].first];
+      const Eigen::MatrixXd& full = (*banded)[where.at(g.front()).group];
       Eigen::MatrixXd c(idx.size(), idx.size());
       for (size_t i = 0; i < idx.size(); ++i) {
         for (size_t j = 0; j < idx.size(); ++j) c(i, j) = full(idx[i], idx[j]);
