@@ -1,6 +1,5 @@
 #include "walkgraph/smoothers/fixed_lag_smoother.h"
 
-
 #include <algorithm>
 #include <string>
 
@@ -11,23 +10,14 @@ namespace walkgraph {
 
 namespace {
 
-ceres::Problem::Options ProblemOptions() {
-  ceres::Problem::Options o;
-  // The smoother owns every cost function, loss and manifold, and frees them as states leave
-  // the window (a Problem that owned them would keep them until it is destroyed).
-  o.cost_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
-  o.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
-  o.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
-  o.enable_fast_removal = true;
-  return o;
-}
-
 std::string KeyName(StateKey k) { return "state " + KeyToString(k); }
 
 }  // namespace
 
 FixedLagSmoother::FixedLagSmoother(Options options)
-    : options_(options), problem_(std::make_unique<ceres::Problem>(ProblemOptions())) {}
+    : options_(options),
+      problem_(std::make_unique<ceres::Problem>(
+          internal::BorrowingProblemOptions(/*fast_removal=*/true))) {}
 
 FixedLagSmoother::~FixedLagSmoother() {
   problem_.reset();  // before the cost functions and manifolds it points to
@@ -215,16 +205,7 @@ StatusOr<std::vector<Eigen::MatrixXd>> FixedLagSmoother::MarginalCovariances(
                                             "fixed-lag smoother");
 }
 
-std::vector<StateKey> FixedLagSmoother::WindowKeys() const {
-  std::vector<std::pair<double, StateKey>> timed;
-  for (const auto& [key, st] : states_) {
-    if (st.spec.t_s) timed.emplace_back(*st.spec.t_s, key);
-  }
-  std::sort(timed.begin(), timed.end());
-  std::vector<StateKey> keys;
-  for (const auto& tk : timed) keys.push_back(tk.second);
-  return keys;
-}
+std::vector<StateKey> FixedLagSmoother::WindowKeys() const { return internal::KeysByTime(states_); }
 
 void FixedLagSmoother::Flush() const {
   if (!on_marginalize_) return;

@@ -238,22 +238,19 @@ StatusOr<std::vector<Eigen::MatrixXd>> KeyedMarginalCovariances(
   return out;
 }
 
-}  // namespace internal
-
-namespace {
-
-ceres::Problem::Options ProblemOptions() {
+ceres::Problem::Options BorrowingProblemOptions(bool fast_removal) {
   ceres::Problem::Options o;
-  // The graph owns its cost functions, losses and manifolds (GraphFactor, GraphState).
   o.cost_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
   o.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
   o.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  o.enable_fast_removal = fast_removal;
   return o;
 }
 
-}  // namespace
+}  // namespace internal
 
-FactorGraph::FactorGraph() : problem_(std::make_unique<ceres::Problem>(ProblemOptions())) {}
+FactorGraph::FactorGraph()
+    : problem_(std::make_unique<ceres::Problem>(internal::BorrowingProblemOptions(false))) {}
 
 FactorGraph::~FactorGraph() {
   problem_.reset();  // before the cost functions and manifolds it points to
@@ -335,16 +332,7 @@ Status FactorGraph::SetConstant(Key key, bool constant) {
   return Status::Ok();
 }
 
-std::vector<Key> FactorGraph::TimedKeys() const {
-  std::vector<std::pair<double, Key>> timed;
-  for (const auto& [key, st] : states_) {
-    if (st.spec.t_s) timed.emplace_back(*st.spec.t_s, key);
-  }
-  std::sort(timed.begin(), timed.end());
-  std::vector<Key> keys;
-  for (const auto& tk : timed) keys.push_back(tk.second);
-  return keys;
-}
+std::vector<Key> FactorGraph::TimedKeys() const { return internal::KeysByTime(states_); }
 
 std::vector<Key> FactorGraph::StaticKeys() const {
   std::vector<Key> keys;

@@ -3,8 +3,10 @@
 #ifndef WALKGRAPH_SRC_SMOOTHERS_GRAPH_INTERNAL_H_
 #define WALKGRAPH_SRC_SMOOTHERS_GRAPH_INTERNAL_H_
 
+#include <algorithm>
 #include <map>
 #include <optional>
+#include <utility>
 #include <vector>
 
 #include <ceres/problem.h>
@@ -17,10 +19,27 @@
 namespace walkgraph {
 namespace internal {
 
+// A problem over blocks and costs its owner keeps (FactorGraph, FixedLagSmoother: they own
+// every cost function, loss and manifold); fast_removal for one that removes blocks.
+ceres::Problem::Options BorrowingProblemOptions(bool fast_removal);
+
 // The one place that fills ceres::Solver::Options (silent, LM).
 ceres::Solver::Options ToCeres(const SolverOptions& options);
 // Termination of a Ceres summary; a failure or an unusable solution is an error naming `who`.
 StatusOr<Termination> CheckSummary(const ceres::Solver::Summary& summary, const char* who);
+
+// The timed keys of a key → state map (FactorGraph's, the FixedLagSmoother's) by time, then key.
+template <typename StateMap>
+std::vector<Key> KeysByTime(const StateMap& states) {
+  std::vector<std::pair<double, Key>> timed;
+  for (const auto& [key, st] : states) {
+    if (st.spec.t_s) timed.emplace_back(*st.spec.t_s, key);
+  }
+  std::sort(timed.begin(), timed.end());
+  std::vector<Key> keys;
+  for (const auto& tk : timed) keys.push_back(tk.second);
+  return keys;
+}
 
 // A keyed parameter block of a problem: its storage and time (none: static).
 struct KeyedBlock {

@@ -735,15 +735,26 @@ std::vector<SmootherState> StepGraph::NodeStates(int k, const Eigen::Vector2d& p
   return {p, th};
 }
 
+namespace {
+
+// A factor that takes ownership of `cost`.
+void AppendFactor(ceres::CostFunction* cost, std::vector<StateKey> keys,
+                  std::shared_ptr<const ceres::LossFunction> loss,
+                  std::vector<SmootherFactor>* out) {
+  SmootherFactor f;
+  f.cost.reset(cost);
+  f.keys = std::move(keys);
+  f.loss = std::move(loss);
+  out->push_back(std::move(f));
+}
+
+}  // namespace
+
 // The factors of the readings whose newest node is k (radio, waypoints).
 void StepGraph::Impl::AddReadingFactors(int k, std::vector<SmootherFactor>* out) const {
   auto add = [&](ceres::CostFunction* cost, std::vector<StateKey> keys,
                  std::shared_ptr<const ceres::LossFunction> loss = nullptr) {
-    SmootherFactor f;
-    f.cost.reset(cost);
-    f.keys = std::move(keys);
-    f.loss = std::move(loss);
-    out->push_back(std::move(f));
+    AppendFactor(cost, std::move(keys), std::move(loss), out);
   };
   const PathLossParams& pl = radio.path_loss;
   const double sign = radio.units == RssUnits::kDbm ? 1.0 : -1.0;
@@ -800,11 +811,7 @@ std::vector<SmootherFactor> StepGraph::FactorsAt(int k) const {
   std::vector<SmootherFactor> out;
   auto add = [&](ceres::CostFunction* cost, std::vector<StateKey> keys,
                  std::shared_ptr<const ceres::LossFunction> loss = nullptr) {
-    SmootherFactor f;
-    f.cost.reset(cost);
-    f.keys = std::move(keys);
-    f.loss = std::move(loss);
-    out.push_back(std::move(f));
+    AppendFactor(cost, std::move(keys), std::move(loss), &out);
   };
   auto add_owned = [&](std::unique_ptr<ceres::CostFunction> cost, std::vector<StateKey> keys) {
     SmootherFactor f;
