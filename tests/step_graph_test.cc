@@ -272,7 +272,8 @@ TEST(StepGraphTest, PositionOnlyStartLeavesTheHeadingFree) {
 // being the body's) fg-batch's error at each is below σ and their sum is below 0.8× that
 // without them; at σ = 0.01 m the estimate goes through them (< 2 cm), batch and window alike
 // (one factor list). Measured at σ = 0.3 m: up to 0.36 m at two corners where the
-// graph's own σ (~0.33 m) is smaller than its error without the waypoint (0.9 m).
+// error without the waypoint is 0.9 m and the pull is weaker than σ alone would give (the
+// graph's own uncertainty there, inferred from the pull, is ~0.3 m: overconfident).
 class StepGraphWaypointTest : public ::testing::TestWithParam<int> {};
 
 TEST_P(StepGraphWaypointTest, WaypointsPullTheEstimateOntoThem) {
@@ -355,6 +356,20 @@ TEST(StepGraphTest, UserFactorsReachBatchAndWindow) {
   r = StepGraphWindow(beyond).Run(*sim);
   ASSERT_FALSE(r.ok());
   EXPECT_NE(r.status().message().find("beyond the last pose"), std::string::npos)
+      << r.status().message();
+  StepGraphOptions miscounted;  // a 1-block cost function given two keys
+  miscounted.user_factors = [&](const Walk&, const std::vector<double>&,
+                                std::vector<GraphFactor>* out) {
+    out->push_back({std::shared_ptr<ceres::CostFunction>(
+                        new ceres::NormalPrior(ceres::Matrix::Identity(2, 2), target)),
+                    nullptr,
+                    {StepGraph::PositionKey(0), StepGraph::PositionKey(1)}});
+    return Status::Ok();
+  };
+  r = StepGraphBatch(miscounted).Run(*sim);
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.status().message().find("user factor 0: the cost function has 1 blocks, 2 keys"),
+            std::string::npos)
       << r.status().message();
 }
 

@@ -238,6 +238,24 @@ StatusOr<std::vector<Eigen::MatrixXd>> KeyedMarginalCovariances(
   return out;
 }
 
+StatusOr<std::vector<GraphFactor>> CallUserFactors(const UserFactorsFn& fn, const Walk& walk,
+                                                   const std::vector<double>& pose_times) {
+  std::vector<GraphFactor> factors;
+  if (!fn) return factors;
+  const Status s = fn(walk, pose_times, &factors);
+  if (!s.ok()) return Status(s.code(), "user factors: " + s.message());
+  for (size_t i = 0; i < factors.size(); ++i) {
+    const std::string where = "user factor " + std::to_string(i) + ": ";
+    if (!factors[i].cost) return InvalidArgument(where + "no cost function");
+    const size_t blocks = factors[i].cost->parameter_block_sizes().size();
+    if (blocks != factors[i].keys.size()) {
+      return InvalidArgument(where + "the cost function has " + std::to_string(blocks) +
+                             " blocks, " + std::to_string(factors[i].keys.size()) + " keys given");
+    }
+  }
+  return factors;
+}
+
 ceres::Problem::Options BorrowingProblemOptions(bool fast_removal) {
   ceres::Problem::Options o;
   o.cost_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;

@@ -23,6 +23,12 @@ namespace internal {
 // every cost function, loss and manifold); fast_removal for one that removes blocks.
 ceres::Problem::Options BorrowingProblemOptions(bool fast_removal);
 
+// Calls a user's factor hook (graph.h UserFactorsFn) with the graph's pose times and checks
+// what it returned: each factor a cost function with one key per parameter block. Errors are
+// prefixed "user factors: " (the hook's) or "user factor i: ".
+StatusOr<std::vector<GraphFactor>> CallUserFactors(const UserFactorsFn& fn, const Walk& walk,
+                                                   const std::vector<double>& pose_times);
+
 // The one place that fills ceres::Solver::Options (silent, LM).
 ceres::Solver::Options ToCeres(const SolverOptions& options);
 // Termination of a Ceres summary; a failure or an unusable solution is an error naming `who`.

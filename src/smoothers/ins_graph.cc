@@ -545,21 +545,14 @@ double* InsBlockOfKey(std::vector<InsState>* states, Key key) {
 
 StatusOr<std::vector<std::vector<GraphFactor>>> InsUserFactors(const InsGraphContext& c,
                                                                std::vector<InsState>* states) {
-  std::vector<std::vector<GraphFactor>> out(states->size());
-  if (!c.options.user_factors) return out;
   std::vector<double> times;
   for (const InsState& s : *states) times.push_back(s.t_s);
-  std::vector<GraphFactor> factors;
-  const Status s = c.options.user_factors(*c.walk, times, &factors);
-  if (!s.ok()) return Status(s.code(), "user factors: " + s.message());
+  WG_ASSIGN_OR_RETURN(std::vector<GraphFactor> factors,
+                      internal::CallUserFactors(c.options.user_factors, *c.walk, times));
+  std::vector<std::vector<GraphFactor>> out(states->size());
   for (size_t i = 0; i < factors.size(); ++i) {
     const std::string where = "user factor " + std::to_string(i) + ": ";
-    if (!factors[i].cost) return InvalidArgument(where + "no cost function");
     const std::vector<int32_t>& sizes = factors[i].cost->parameter_block_sizes();
-    if (sizes.size() != factors[i].keys.size()) {
-      return InvalidArgument(where + "the cost function has " + std::to_string(sizes.size()) +
-                             " blocks, " + std::to_string(factors[i].keys.size()) + " keys given");
-    }
     uint64_t newest = 0;
     for (size_t b = 0; b < factors[i].keys.size(); ++b) {
       const Key key = factors[i].keys[b];

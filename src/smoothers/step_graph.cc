@@ -22,6 +22,7 @@
 #include "factors/rss_factor.h"
 #include "factors/rss_range_factor.h"
 #include "factors/step_factor.h"
+#include "smoothers/graph_internal.h"
 #include "util/text.h"
 #include "walkgraph/angle.h"
 #include "walkgraph/config.h"
@@ -416,20 +417,16 @@ StepGraph::~StepGraph() = default;
 // keys only: node 0), so the window adds it when every pose it names is there.
 Status StepGraph::Impl::AddUserFactors(const Walk& walk, const std::vector<double>& node_t) {
   user_at.assign(node_t.size(), {});
-  if (!o.user_factors) return Status::Ok();
-  std::vector<GraphFactor> factors;
-  const Status s = o.user_factors(walk, node_t, &factors);
-  if (!s.ok()) return Status(s.code(), "user factors: " + s.message());
+  WG_ASSIGN_OR_RETURN(std::vector<GraphFactor> factors,
+                      internal::CallUserFactors(o.user_factors, walk, node_t));
   for (size_t i = 0; i < factors.size(); ++i) {
-    const std::string where = "user factor " + std::to_string(i) + ": ";
-    if (!factors[i].cost) return InvalidArgument(where + "no cost function");
     uint64_t newest = 0;
     for (const Key key : factors[i].keys) {
       const char letter = SymbolLetter(key);
       if (letter != 'x' && letter != 'h') continue;
       if (SymbolIndex(key) >= node_t.size()) {
-        return InvalidArgument(where + "key " + KeyToString(key) + " beyond the last pose (" +
-                               std::to_string(node_t.size() - 1) + ")");
+        return InvalidArgument("user factor " + std::to_string(i) + ": key " + KeyToString(key) +
+                               " beyond the last pose (" + std::to_string(node_t.size() - 1) + ")");
       }
       newest = std::max(newest, SymbolIndex(key));
     }
