@@ -207,38 +207,6 @@ TEST(RadioTest, PathLossFitRecoversSimulatedParameters) {
   EXPECT_FALSE(FitPathLoss({{0, 2.0, -60}, {0, 2.0, -61}, {0, 2.0, -62}}, RssUnits::kDbm).ok());
 }
 
-TEST(RadioTest, ScmtThresholdMatchesMonteCarloFalseAlarmRate) {
-  PathLossParams p;  // 001: P_1m = A at d0 = 1 m
-  p.A_dbm = -50;
-  p.eta = 2.0;
-  p.sigma_db = 4.0;
-  const double d_min = 0.1, d_max = 20.0;
-  auto t = ComputeScmtThreshold(p, d_min, d_max, 0.05);
-  ASSERT_TRUE(t.ok());
-  EXPECT_NEAR(t->p_fa, 0.05, 1e-6);
-  EXPECT_GT(t->p_d, 0.5);
-  EXPECT_LT(t->p_d, 1.0);
-  // Independent check of eq. 19: sample d uniform on (1, d_max], P ~ N(μ(d), σ).
-  std::mt19937_64 rng(9);
-  std::uniform_real_distribution<double> ud(1.0, d_max), un(d_min, 1.0);
-  std::normal_distribution<double> n(0.0, p.sigma_db);
-  const int n_mc = 200000;
-  int fa = 0, det = 0;
-  for (int i = 0; i < n_mc; ++i) {
-    if (p.A_dbm - 20.0 * std::log10(ud(rng)) + n(rng) >= t->p_th) ++fa;
-    if (p.A_dbm - 20.0 * std::log10(un(rng)) + n(rng) >= t->p_th) ++det;
-  }
-  EXPECT_NEAR(static_cast<double>(fa) / n_mc, 0.05, 0.003);
-  EXPECT_NEAR(static_cast<double>(det) / n_mc, t->p_d, 0.005);
-  // A larger σ needs a higher threshold for the same P_FA.
-  PathLossParams wide = p;
-  wide.sigma_db = 8.0;
-  auto t2 = ComputeScmtThreshold(wide, d_min, d_max, 0.05);
-  ASSERT_TRUE(t2.ok());
-  EXPECT_GT(t2->p_th, t->p_th);
-  EXPECT_FALSE(ComputeScmtThreshold(p, 0.0, d_max).ok());
-}
-
 std::vector<std::string> SplitCsv(const std::string& line) {
   std::vector<std::string> out;
   std::stringstream ss(line);

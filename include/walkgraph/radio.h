@@ -112,18 +112,6 @@ StatusOr<std::vector<PathLossFit>> FitPathLossPerAnchor(const std::vector<PathLo
                                                         RssUnits units, double d0_m = 1.0,
                                                         int min_observations = 10);
 
-struct ScmtThreshold {
-  double p_th = 0.0;  // power threshold, same units as A
-  double p_fa = 0.0;  // achieved false-alarm probability
-  double p_d = 0.0;   // detection probability at p_th
-};
-// P_FA and P_D of 001 eq. 18–19 for a given threshold (dBm model).
-double ScmtFalseAlarm(const PathLossParams& p, double p_th, double d_max_m);
-double ScmtDetection(const PathLossParams& p, double p_th, double d_min_m);
-// P_Th with P_FA(P_Th) = target_p_fa (001: 5 %).
-StatusOr<ScmtThreshold> ComputeScmtThreshold(const PathLossParams& p, double d_min_m,
-                                             double d_max_m, double target_p_fa = 0.05);
-
 }  // namespace walkgraph
 
 #endif  // WALKGRAPH_RADIO_H_

@@ -58,21 +58,6 @@ bool InvertInformation(const Eigen::Matrix2d& info, Eigen::Matrix2d* cov) {
   return cov->allFinite();
 }
 
-double QFunction(double x) { return 0.5 * std::erfc(x / std::sqrt(2.0)); }
-
-// ∫_a^b Q((p_th − μ(x))/σ) dx / (b − a) by composite Simpson in x.
-double MeanExceedance(const PathLossParams& p, double p_th, double a, double b) {
-  const int n = 2000;  // even
-  const double h = (b - a) / n;
-  auto f = [&](double x) {
-    const double mu = p.A_dbm - 10.0 * p.eta * std::log10(x / p.d0_m);
-    return QFunction((p_th - mu) / p.sigma_db);
-  };
-  double sum = f(a) + f(b);
-  for (int i = 1; i < n; ++i) sum += (i % 2 ? 4.0 : 2.0) * f(a + i * h);
-  return sum * h / 3.0 / (b - a);
-}
-
 }  // namespace
 
 const char* ToString(FixStatus s) {
@@ -331,40 +316,6 @@ StatusOr<std::vector<PathLossFit>> FitPathLossPerAnchor(const std::vector<PathLo
   }
   if (fits.empty()) return FailedPrecondition("path-loss fit: no anchor has enough readings");
   return fits;
-}
-
-double ScmtFalseAlarm(const PathLossParams& p, double p_th, double d_max_m) {
-  return MeanExceedance(p, p_th, 1.0, d_max_m);  // 001 eq. 19
-}
-
-double ScmtDetection(const PathLossParams& p, double p_th, double d_min_m) {
-  return MeanExceedance(p, p_th, d_min_m, 1.0);  // 001 eq. 18
-}
-
-StatusOr<ScmtThreshold> ComputeScmtThreshold(const PathLossParams& p, double d_min_m,
-                                             double d_max_m, double target_p_fa) {
-  if (!(d_min_m > 0 && d_min_m < 1.0 && d_max_m > 1.0)) {
-    return InvalidArgument("scmt: need 0 < d_min < 1 m < d_max");
-  }
-  if (!(target_p_fa > 0 && target_p_fa < 1) || !(p.sigma_db > 0) || !(p.eta > 0)) {
-    return InvalidArgument("scmt: need 0 < P_FA < 1, σ > 0, η > 0");
-  }
-  // P_FA falls monotonically with P_Th: bracket around the mean power at 1 m.
-  double lo = p.A_dbm - 10.0 * p.eta * std::log10(d_max_m) - 10.0 * p.sigma_db;
-  double hi = p.A_dbm + 10.0 * p.sigma_db;
-  for (int it = 0; it < 100; ++it) {
-    const double mid = 0.5 * (lo + hi);
-    if (ScmtFalseAlarm(p, mid, d_max_m) > target_p_fa) {
-      lo = mid;
-    } else {
-      hi = mid;
-    }
-  }
-  ScmtThreshold t;
-  t.p_th = 0.5 * (lo + hi);
-  t.p_fa = ScmtFalseAlarm(p, t.p_th, d_max_m);
-  t.p_d = ScmtDetection(p, t.p_th, d_min_m);
-  return t;
 }
 
 }  // namespace walkgraph
