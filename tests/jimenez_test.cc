@@ -102,6 +102,12 @@ TEST(JimenezApplicability, NeedsFootImuAndRadioInRfcode) {
   EXPECT_TRUE((*iez)->CheckApplicable(*foot).ok());
   EXPECT_TRUE((*rss)->CheckApplicable(*foot).ok());
   EXPECT_FALSE((*iez)->CheckApplicable(*waist).ok());  // waist IMU: no ZUPTs
+  // The public entry point does the same check.
+  auto options = JimenezIezOptions::FromYaml(YAML::Node(), "jimenez-iez", false, false);
+  ASSERT_TRUE(options.ok());
+  const auto direct = RunJimenezIez(*waist, *options);
+  EXPECT_EQ(direct.status().code(), StatusCode::kFailedPrecondition);
+  EXPECT_NE(direct.status().message().find("foot-mounted"), std::string::npos);
   Walk no_radio = *foot;
   no_radio.rss.clear();
   EXPECT_TRUE((*iez)->CheckApplicable(no_radio).ok());

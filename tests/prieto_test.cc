@@ -190,6 +190,26 @@ TEST(PrietoOptions, PaperDefaultsAndStrictYaml) {
   EXPECT_FALSE(EstimatorRegistry::Builtin().Create("prieto-ekf", YAML::Load("{x: 1}")).ok());
 }
 
+// The struct default (built without YAML on every construction) is the parsed paper default.
+TEST(PrietoOptions, DefaultStanceEqualsTheParsedPaperDefault) {
+  auto parsed = StanceOptions::FromYaml(YAML::Load("{detector: multi-condition}"));
+  ASSERT_TRUE(parsed.ok()) << parsed.status().message();
+  const StanceOptions d = PrietoOptions().stance;
+  EXPECT_EQ(d.detector, parsed->detector);
+  EXPECT_EQ(d.window, parsed->window);
+  EXPECT_EQ(d.mc_std_window, parsed->mc_std_window);
+  EXPECT_EQ(d.mc_median_window, parsed->mc_median_window);
+  for (auto field : {&StanceOptions::sigma_acc_mps2, &StanceOptions::sigma_gyro_radps,
+                     &StanceOptions::gravity_mps2, &StanceOptions::glrt_threshold,
+                     &StanceOptions::mv_threshold, &StanceOptions::mag_threshold,
+                     &StanceOptions::are_threshold, &StanceOptions::mc_acc_min_mps2,
+                     &StanceOptions::mc_acc_max_mps2, &StanceOptions::mc_acc_std_max_mps2,
+                     &StanceOptions::mc_gyro_max_radps, &StanceOptions::still_window_s,
+                     &StanceOptions::still_gyro_radps, &StanceOptions::still_acc_std_mps2}) {
+    EXPECT_EQ(d.*field, (*parsed).*field);
+  }
+}
+
 // ------------------------------------------------------------------ on simulated walks
 
 // Walk lengths of the tests that do not judge accuracy: shorter under the sanitizer (5x slower).
@@ -234,6 +254,12 @@ TEST(PrietoFilter, InsVariantsNeedAFootImu) {
     EXPECT_EQ(s.code(), StatusCode::kFailedPrecondition) << id;
     EXPECT_NE(s.message().find("foot-mounted"), std::string::npos) << s.message();
     EXPECT_FALSE((*est)->Run(*hip).ok()) << id;
+    // The public entry point does the same check.
+    auto* filter = dynamic_cast<const PrietoFilter*>(est->get());
+    ASSERT_NE(filter, nullptr);
+    const auto direct = RunPrietoFilter(*hip, filter->options());
+    EXPECT_EQ(direct.status().code(), StatusCode::kFailedPrecondition) << id;
+    EXPECT_NE(direct.status().message().find("foot-mounted"), std::string::npos) << id;
   }
   auto wifi = EstimatorRegistry::Builtin().Create("prieto-ekf-wifi", YAML::Node());
   ASSERT_TRUE(wifi.ok());
@@ -327,7 +353,8 @@ TEST(PrietoFilter, UkfAndUrtsMatchEkfAndRtsForATinySpread) {
 }
 
 // Table I of 002 on seeded prieto-laps walks: 1 and 4 laps here (8 laps ≈ 16 min is too long
-// for a test; docs/results.md gives the 50-run 1 / 4 / 8-lap `walkgraph compare` command and figures).
+// for a test; docs/results.md gives the 50-run 1 / 4 / 8-lap `walkgraph compare` command and
+// figures).
 TEST(PrietoTableI, FusionStaysFlatWhileImuOnlyDriftsAndUkfMatchesEkf) {
   // Runs: as many as the ~25 s budget of a test file allows (3 walks of 1 lap, 3 of 4 laps).
   const int runs[2] = {testing::MonteCarloRuns(3), testing::MonteCarloRuns(3)};

@@ -61,7 +61,12 @@ class EstimatorRegistry {
   // Every estimator shipped with the library.
   static const EstimatorRegistry& Builtin();
 
+  // Adds `info`; an empty id, a missing factory or an id already registered is an error, which
+  // the registry also keeps (status()).
   Status Register(EstimatorInfo info);
+  // The first failed Register, or OK. While it is not OK, Create and OptionDefaults fail with
+  // it: a registry that dropped an estimator does not pass for a complete one.
+  const Status& status() const { return status_; }
   StatusOr<std::unique_ptr<Estimator>> Create(const std::string& id,
                                               const YAML::Node& config = YAML::Node()) const;
   const EstimatorInfo* Find(const std::string& id) const;
@@ -71,6 +76,7 @@ class EstimatorRegistry {
 
  private:
   std::vector<EstimatorInfo> entries_;
+  Status status_ = Status::Ok();
 };
 
 }  // namespace walkgraph

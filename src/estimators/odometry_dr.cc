@@ -74,13 +74,11 @@ StatusOr<EstimateResult> OdometryDeadReckoning::Run(const Walk& walk) const {
 
 namespace internal {
 
-void RegisterOdometryDeadReckoning(EstimatorRegistry* registry) {
-  registry->Register({"odometry-dr", "dead reckoning from odometry increments (no radio)",
-                      [](const YAML::Node& config) -> StatusOr<std::unique_ptr<Estimator>> {
-                        WG_ASSIGN_OR_RETURN(auto options,
-                                            OdometryDeadReckoningOptions::FromYaml(config));
-                        return std::unique_ptr<Estimator>(new OdometryDeadReckoning(options));
-                      }});
+Status RegisterOdometryDeadReckoning(EstimatorRegistry* registry) {
+  return registry->Register({"odometry-dr", "dead reckoning from odometry increments (no radio)",
+                             OptionsFactory<OdometryDeadReckoning>([](const YAML::Node& config) {
+                               return OdometryDeadReckoningOptions::FromYaml(config);
+                             })});
 }
 
 }  // namespace internal

@@ -14,13 +14,13 @@ const EstimatorRegistry& EstimatorRegistry::Builtin() {
     auto* r = new EstimatorRegistry();
     // Order of tables and `walkgraph list`: dead reckoning and the papers' baselines and
     // filters (000 … 004), then walkgraph's factor-graph smoothers.
-    internal::RegisterOdometryDeadReckoning(r);
-    internal::RegisterZuptIns(r);
-    internal::RegisterTarrio(r);
-    internal::RegisterCorrea(r);
-    internal::RegisterPrieto(r);
-    internal::RegisterGadeke(r);
-    internal::RegisterJimenezIez(r);
+    // A failure is kept in r->status() (Register records it) and surfaces in every Create.
+    for (Status (*unit)(EstimatorRegistry*) :
+         {internal::RegisterOdometryDeadReckoning, internal::RegisterZuptIns,
+          internal::RegisterTarrio, internal::RegisterCorrea, internal::RegisterPrieto,
+          internal::RegisterGadeke, internal::RegisterJimenezIez}) {
+      if (!unit(r).ok()) break;
+    }
     internal::RegisterStepGraphSmoothers(r);
     internal::RegisterInsGraphBatch(r);
     internal::RegisterInsGraphWindow(r);
@@ -30,10 +30,16 @@ const EstimatorRegistry& EstimatorRegistry::Builtin() {
 }
 
 Status EstimatorRegistry::Register(EstimatorInfo info) {
-  if (info.id.empty() || !info.factory)
-    return InvalidArgument("estimator needs an id and a factory");
-  if (Find(info.id) != nullptr)
-    return InvalidArgument("estimator id '" + info.id + "' registered twice");
+  Status status = Status::Ok();
+  if (info.id.empty() || !info.factory) {
+    status = InvalidArgument("estimator needs an id and a factory");
+  } else if (Find(info.id) != nullptr) {
+    status = InvalidArgument("estimator id '" + info.id + "' registered twice");
+  }
+  if (!status.ok()) {
+    if (status_.ok()) status_ = status;
+    return status;
+  }
   entries_.push_back(std::move(info));
   return Status::Ok();
 }
@@ -46,6 +52,11 @@ const EstimatorInfo* EstimatorRegistry::Find(const std::string& id) const {
 }
 
 namespace {
+
+Status RegistryBroken(const Status& registration) {
+  return Status(registration.code(),
+                "estimator registry: a registration failed: " + registration.message());
+}
 
 // {a: {b: value}} for the key "a.b"; an unset number (NaN, "the walk's value") as null, which
 // keeps the default.
@@ -72,6 +83,7 @@ YAML::Node ConfigWith(const OptionDefault& d) {
 
 StatusOr<std::vector<OptionDefault>> EstimatorRegistry::OptionDefaults(
     const std::string& id) const {
+  if (!status_.ok()) return RegistryBroken(status_);
   WG_ASSIGN_OR_RETURN(std::vector<OptionDefault> read,
                       RecordOptionDefaults([&] { return Create(id).status(); }));
   // What the parsers read is a superset of what a config may set (a key the id fixes, a
@@ -85,6 +97,7 @@ StatusOr<std::vector<OptionDefault>> EstimatorRegistry::OptionDefaults(
 
 StatusOr<std::unique_ptr<Estimator>> EstimatorRegistry::Create(const std::string& id,
                                                                const YAML::Node& config) const {
+  if (!status_.ok()) return RegistryBroken(status_);
   const EstimatorInfo* info = Find(id);
   if (info == nullptr) {
     std::string ids;

@@ -85,15 +85,13 @@ StatusOr<EstimateResult> ZuptInsDeadReckoning::Run(const Walk& walk) const {
 
 namespace internal {
 
-void RegisterZuptIns(EstimatorRegistry* registry) {
-  registry->Register(
+Status RegisterZuptIns(EstimatorRegistry* registry) {
+  return registry->Register(
       {"zupt-ins",
        "ZUPT/ZARU-aided strapdown INS, 15-state error-state EKF (step-wise dead reckoning, "
        "Nilsson et al. 2014; foot IMU)",
-       [](const YAML::Node& config) -> StatusOr<std::unique_ptr<Estimator>> {
-         WG_ASSIGN_OR_RETURN(auto options, ZuptInsOptions::FromYaml(config));
-         return std::unique_ptr<Estimator>(new ZuptInsDeadReckoning(options));
-       }});
+       OptionsFactory<ZuptInsDeadReckoning>(
+           [](const YAML::Node& config) { return ZuptInsOptions::FromYaml(config); })});
 }
 
 }  // namespace internal

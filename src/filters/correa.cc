@@ -319,7 +319,7 @@ StatusOr<EstimateResult> CorreaEstimator::Run(const Walk& walk) const {
 
 namespace internal {
 
-void RegisterCorrea(EstimatorRegistry* registry) {
+Status RegisterCorrea(EstimatorRegistry* registry) {
   struct Entry {
     const char* id;
     const char* description;
@@ -342,14 +342,13 @@ void RegisterCorrea(EstimatorRegistry* registry) {
     const std::string id = e.id;
     const CorreaVariant variant = e.variant;
     const bool smooth = e.smooth;
-    registry->Register(
-        {id, e.description,
-         [id, variant, smooth](const YAML::Node& config) -> StatusOr<std::unique_ptr<Estimator>> {
-           WG_ASSIGN_OR_RETURN(auto options,
-                               CorreaEstimatorOptions::FromYaml(config, variant, smooth, id));
-           return std::unique_ptr<Estimator>(new CorreaEstimator(id, variant, std::move(options)));
-         }});
+    auto parse = [id, variant, smooth](const YAML::Node& config) {
+      return CorreaEstimatorOptions::FromYaml(config, variant, smooth, id);
+    };
+    WG_RETURN_IF_ERROR(registry->Register(
+        {id, e.description, OptionsFactory<CorreaEstimator>(parse, id, variant)}));
   }
+  return Status::Ok();
 }
 
 }  // namespace internal

@@ -234,18 +234,19 @@ StatusOr<EstimateResult> GadekeEstimator::Run(const Walk& walk) const {
 
 namespace internal {
 
-void RegisterGadeke(EstimatorRegistry* registry) {
+Status RegisterGadeke(EstimatorRegistry* registry) {
   for (const bool smooth : {false, true}) {
     const std::string id = smooth ? "gadeke-kf-rts" : "gadeke-kf";
-    registry->Register(
+    auto parse = [id, smooth](const YAML::Node& config) {
+      return GadekeEstimatorOptions::FromYaml(config, smooth, id);
+    };
+    WG_RETURN_IF_ERROR(registry->Register(
         {id,
          smooth ? "003 KF + RTS smoother over every step/reading epoch (offline)"
                 : "003 Sec. 3.2: KF on [p v], PDR displacement as control input, RSS range EKF",
-         [id, smooth](const YAML::Node& config) -> StatusOr<std::unique_ptr<Estimator>> {
-           WG_ASSIGN_OR_RETURN(auto options, GadekeEstimatorOptions::FromYaml(config, smooth, id));
-           return std::unique_ptr<Estimator>(new GadekeEstimator(id, std::move(options)));
-         }});
+         OptionsFactory<GadekeEstimator>(parse, id)}));
   }
+  return Status::Ok();
 }
 
 }  // namespace internal

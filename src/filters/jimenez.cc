@@ -253,21 +253,21 @@ void JimenezInjectError(const JimenezVector& dx, JimenezNominal* nominal, Eigen:
   Symmetrize(P);
 }
 
-Status JimenezIez::CheckApplicable(const Walk& walk) const {
-  const char* id = options_.use_rss ? "jimenez-iez-rss" : "jimenez-iez";
+Status CheckJimenezApplicable(const Walk& walk, const JimenezIezOptions& options) {
+  const char* id = options.use_rss ? "jimenez-iez-rss" : "jimenez-iez";
   if (walk.imu.size() < 2) return FailedPrecondition(std::string(id) + " needs imu.csv");
-  if (options_.stance_source == "labels" && walk.stance_truth.empty()) {
+  if (options.stance_source == "labels" && walk.stance_truth.empty()) {
     return FailedPrecondition(std::string(id) + ": stance_source labels needs stance_truth.csv");
   }
   if (walk.meta.imu_placement != ImuPlacement::kFoot) {
     return FailedPrecondition(
         std::string(id) + " needs a foot-mounted IMU (imu_placement: foot): it relies on ZUPTs");
   }
-  if (options_.use_rss) {
+  if (options.use_rss) {
     if (!walk.has_rss() && !walk.has_ranges()) {
       return FailedPrecondition(std::string(id) + " needs rss.csv (or range.csv)");
     }
-    if (walk.has_rss() && !options_.path_loss_from_walk &&
+    if (walk.has_rss() && !options.path_loss_from_walk &&
         walk.meta.radio.units != RssUnits::kRfcode) {
       return FailedPrecondition(
           std::string(id) +
@@ -278,14 +278,17 @@ Status JimenezIez::CheckApplicable(const Walk& walk) const {
   return Status::Ok();
 }
 
+Status JimenezIez::CheckApplicable(const Walk& walk) const {
+  return CheckJimenezApplicable(walk, options_);
+}
+
 StatusOr<EstimateResult> JimenezIez::Run(const Walk& walk) const {
-  WG_RETURN_IF_ERROR(CheckApplicable(walk));
-  return RunJimenezIez(walk, options_);
+  return RunJimenezIez(walk, options_);  // checks applicability first
 }
 
 StatusOr<EstimateResult> RunJimenezIez(const Walk& walk, const JimenezIezOptions& o,
                                        JimenezDetails* details) {
-  if (walk.imu.size() < 2) return FailedPrecondition("jimenez-iez: the walk needs IMU samples");
+  WG_RETURN_IF_ERROR(CheckJimenezApplicable(walk, o));
   const std::vector<ImuSample>& imu = walk.imu;
   const size_t n_imu = imu.size();
   WG_ASSIGN_OR_RETURN(ImuSampling sampling, SamplingFromString(o.imu_sampling));
@@ -587,7 +590,7 @@ StatusOr<EstimateResult> RunJimenezIez(const Walk& walk, const JimenezIezOptions
 
 namespace internal {
 
-void RegisterJimenezIez(EstimatorRegistry* registry) {
+Status RegisterJimenezIez(EstimatorRegistry* registry) {
   struct Variant {
     const char* id;
     const char* description;
@@ -605,14 +608,12 @@ void RegisterJimenezIez(EstimatorRegistry* registry) {
        }) {
     const std::string id = v.id;
     const bool use_rss = v.use_rss, smooth = v.smooth;
-    registry->Register(
-        {id, v.description,
-         [id, use_rss, smooth](const YAML::Node& config) -> StatusOr<std::unique_ptr<Estimator>> {
-           WG_ASSIGN_OR_RETURN(auto options,
-                               JimenezIezOptions::FromYaml(config, id, use_rss, smooth));
-           return std::unique_ptr<Estimator>(new JimenezIez(options));
-         }});
+    auto parse = [id, use_rss, smooth](const YAML::Node& config) {
+      return JimenezIezOptions::FromYaml(config, id, use_rss, smooth);
+    };
+    WG_RETURN_IF_ERROR(registry->Register({id, v.description, OptionsFactory<JimenezIez>(parse)}));
   }
+  return Status::Ok();
 }
 
 }  // namespace internal

@@ -38,8 +38,11 @@ StatusOr<StanceOptions> StanceFromYaml(const YAML::Node& user) {
 }  // namespace
 
 StanceOptions PrietoDefaultStance() {
-  auto s = StanceFromYaml(YAML::Node());
-  return s.ok() ? *s : StanceOptions();
+  // kStanceDefaults as a struct, not parsed: PrietoOptions' member initializer calls this on
+  // every construction (a test checks that the two agree).
+  StanceOptions s;
+  s.detector = StanceDetector::kMultiCondition;
+  return s;
 }
 
 StatusOr<PrietoOptions> PrietoOptions::FromYaml(const YAML::Node& node,
@@ -805,7 +808,29 @@ TrajectoryPoint ToPoint(double t, const NominalState& y, const Eigen::MatrixXd& 
 
 }  // namespace
 
+Status CheckPrietoApplicable(const Walk& walk, const PrietoOptions& options) {
+  const bool use_imu = options.sensors != PrietoSensors::kRadioOnly;
+  const bool use_radio = options.sensors != PrietoSensors::kImuOnly;
+  if (use_imu && walk.imu.size() < 2) return FailedPrecondition("prieto: needs imu.csv");
+  // 002 Sec. III-C: the stance evidences (zero v, a, ω) hold only on a foot.
+  if (use_imu && walk.meta.imu_placement != ImuPlacement::kFoot) {
+    return FailedPrecondition(
+        "prieto: needs a foot-mounted IMU (imu_placement: foot): its stance evidences of zero "
+        "velocity hold only on a foot (radio-only: prieto-ekf-wifi / prieto-ukf-wifi)");
+  }
+  if (use_radio) {
+    const bool rss = options.use_rss && walk.has_rss();
+    const bool toa = options.use_toa && walk.has_ranges();
+    if (!rss && !toa) return FailedPrecondition("prieto: needs rss.csv or range.csv");
+  }
+  if (!use_radio && !walk.meta.initial_pose) {
+    return FailedPrecondition("prieto IMU-only: needs initial_pose in walk.yaml (a known start)");
+  }
+  return Status::Ok();
+}
+
 StatusOr<EstimateResult> RunPrietoFilter(const Walk& walk, const PrietoOptions& o) {
+  WG_RETURN_IF_ERROR(CheckPrietoApplicable(walk, o));
   const bool use_imu = o.sensors != PrietoSensors::kRadioOnly;
   const bool use_radio = o.sensors != PrietoSensors::kImuOnly;
   const int dim = use_imu ? prieto::kFullDim : prieto::kKinematicDim;
@@ -1048,34 +1073,16 @@ StatusOr<EstimateResult> RunPrietoFilter(const Walk& walk, const PrietoOptions& 
 }
 
 Status PrietoFilter::CheckApplicable(const Walk& walk) const {
-  const bool use_imu = options_.sensors != PrietoSensors::kRadioOnly;
-  const bool use_radio = options_.sensors != PrietoSensors::kImuOnly;
-  if (use_imu && walk.imu.size() < 2) return FailedPrecondition("prieto: needs imu.csv");
-  // 002 Sec. III-C: the stance evidences (zero v, a, ω) hold only on a foot.
-  if (use_imu && walk.meta.imu_placement != ImuPlacement::kFoot) {
-    return FailedPrecondition(
-        "prieto: needs a foot-mounted IMU (imu_placement: foot): its stance evidences of zero "
-        "velocity hold only on a foot (radio-only: prieto-ekf-wifi / prieto-ukf-wifi)");
-  }
-  if (use_radio) {
-    const bool rss = options_.use_rss && walk.has_rss();
-    const bool toa = options_.use_toa && walk.has_ranges();
-    if (!rss && !toa) return FailedPrecondition("prieto: needs rss.csv or range.csv");
-  }
-  if (!use_radio && !walk.meta.initial_pose) {
-    return FailedPrecondition("prieto IMU-only: needs initial_pose in walk.yaml (a known start)");
-  }
-  return Status::Ok();
+  return CheckPrietoApplicable(walk, options_);
 }
 
 StatusOr<EstimateResult> PrietoFilter::Run(const Walk& walk) const {
-  WG_RETURN_IF_ERROR(CheckApplicable(walk));
-  return RunPrietoFilter(walk, options_);
+  return RunPrietoFilter(walk, options_);  // checks applicability first
 }
 
 namespace internal {
 
-void RegisterPrieto(EstimatorRegistry* registry) {
+Status RegisterPrieto(EstimatorRegistry* registry) {
   struct Variant {
     const char* id;
     const char* description;
@@ -1112,13 +1119,13 @@ void RegisterPrieto(EstimatorRegistry* registry) {
       defaults.radio_epoch_s = 1.0;
     }
     const std::string id = v.id;
-    registry->Register(
-        {id, v.description,
-         [id, defaults](const YAML::Node& config) -> StatusOr<std::unique_ptr<Estimator>> {
-           WG_ASSIGN_OR_RETURN(auto options, PrietoOptions::FromYaml(config, id, defaults));
-           return std::unique_ptr<Estimator>(new PrietoFilter(options));
-         }});
+    auto parse = [id, defaults](const YAML::Node& config) {
+      return PrietoOptions::FromYaml(config, id, defaults);
+    };
+    WG_RETURN_IF_ERROR(
+        registry->Register({id, v.description, OptionsFactory<PrietoFilter>(parse)}));
   }
+  return Status::Ok();
 }
 
 }  // namespace internal

@@ -302,7 +302,7 @@ StatusOr<EstimateResult> TarrioEstimator::Run(const Walk& walk) const {
 
 namespace internal {
 
-void RegisterTarrio(EstimatorRegistry* registry) {
+Status RegisterTarrio(EstimatorRegistry* registry) {
   struct Entry {
     const char* id;
     const char* description;
@@ -326,14 +326,13 @@ void RegisterTarrio(EstimatorRegistry* registry) {
     const std::string id = e.id;
     const TarrioMode mode = e.mode;
     const bool smooth = e.smooth;
-    registry->Register(
-        {id, e.description,
-         [id, mode, smooth](const YAML::Node& config) -> StatusOr<std::unique_ptr<Estimator>> {
-           WG_ASSIGN_OR_RETURN(auto options,
-                               TarrioEstimatorOptions::FromYaml(config, mode, smooth, id));
-           return std::unique_ptr<Estimator>(new TarrioEstimator(id, mode, std::move(options)));
-         }});
+    auto parse = [id, mode, smooth](const YAML::Node& config) {
+      return TarrioEstimatorOptions::FromYaml(config, mode, smooth, id);
+    };
+    WG_RETURN_IF_ERROR(
+        registry->Register({id, e.description, OptionsFactory<TarrioEstimator>(parse, id, mode)}));
   }
+  return Status::Ok();
 }
 
 }  // namespace internal

@@ -207,8 +207,11 @@ struct JimenezDetails {
   std::string stance_detector;
 };
 
+// Why `options`' variant cannot run on `walk` (no IMU, not on a foot, no radio, stance labels
+// or RSS units missing), or OK.
+Status CheckJimenezApplicable(const Walk& walk, const JimenezIezOptions& options);
 // The filter on a walk (EstimateResult::nis holds the range NIS when use_rss, else the ZUPT
-// NIS). `details` may be null.
+// NIS). `details` may be null. Fails, like JimenezIez::Run, where CheckJimenezApplicable does.
 StatusOr<EstimateResult> RunJimenezIez(const Walk& walk, const JimenezIezOptions& options,
                                        JimenezDetails* details = nullptr);
 

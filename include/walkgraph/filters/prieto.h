@@ -271,7 +271,10 @@ PlanarPose ToPlanarPose(const NominalState& y, const Eigen::MatrixXd& P);
 
 }  // namespace prieto
 
-// The filter on a walk (fusion / IMU-only / radio-only; EKF / UKF; optional RTS).
+// Why `options`' variant cannot run on `walk` (missing sensors, an IMU not on a foot), or OK.
+Status CheckPrietoApplicable(const Walk& walk, const PrietoOptions& options);
+// The filter on a walk (fusion / IMU-only / radio-only; EKF / UKF; optional RTS). Fails, like
+// PrietoFilter::Run, where CheckPrietoApplicable does.
 StatusOr<EstimateResult> RunPrietoFilter(const Walk& walk, const PrietoOptions& options);
 
 class PrietoFilter : public Estimator {
