@@ -83,25 +83,50 @@ Eigen::Vector4d CorreaPredict(const Eigen::Vector4d& x, double T, Eigen::Matrix4
   return Eigen::Vector4d(x[0] + T * c * x[2], x[1] + T * sn * x[2], x[2], x[3]);  // eq. 3, 8
 }
 
+namespace {
+
+// P_Th of the SCMT detector (eq. 18–19) with d_max from the options or the anchors' extent;
+// +∞ (never near an anchor) without SCMT.
+StatusOr<double> ScmtThreshold(const CorreaInputs& in, const CorreaEkfOptions& o) {
+  if (!o.scmt) return std::numeric_limits<double>::infinity();
+  double d_max = o.d_max_m;
+  if (d_max <= 0) {
+    if (in.anchor_xy.size() < 2) return FailedPrecondition("correa: d_max needs 2 anchors");
+    Eigen::Vector2d mn = in.anchor_xy.front(), mx = mn;
+    for (const Eigen::Vector2d& a : in.anchor_xy) {
+      mn = mn.cwiseMin(a);
+      mx = mx.cwiseMax(a);
+    }
+    d_max = (mx - mn).norm();
+  }
+  return CorreaPowerThreshold(in.model, o.p_fa, d_max);
+}
+
+// (x, y, θ) and its covariance of each state (filtered or smoothed).
+void AppendTrajectory(const std::vector<SmoothedState>& states, Trajectory* trajectory) {
+  for (const SmoothedState& st : states) {
+    TrajectoryPoint pt;
+    pt.t_s = st.t_s;
+    pt.position_m = Eigen::Vector3d(st.x[0], st.x[1], 0.0);
+    pt.heading_rad = st.x[3];
+    Eigen::Matrix3d C;
+    const int idx[3] = {0, 1, 3};
+    for (int i = 0; i < 3; ++i) {
+      for (int j = 0; j < 3; ++j) C(i, j) = st.P(idx[i], idx[j]);
+    }
+    pt.covariance = C;
+    trajectory->points.push_back(pt);
+  }
+}
+
+}  // namespace
+
 StatusOr<EstimateResult> RunCorreaEkf(const CorreaInputs& in, const CorreaEkfOptions& o) {
   using Vec4 = Eigen::Matrix<double, 4, 1>;
   using Mat4 = Eigen::Matrix<double, 4, 4>;
   if (in.fixes.empty()) return FailedPrecondition("correa: no LS position fixes");
-  double p_th = std::numeric_limits<double>::infinity();
+  WG_ASSIGN_OR_RETURN(const double p_th, ScmtThreshold(in, o));
   const double s = in.model.sign();
-  if (o.scmt) {
-    double d_max = o.d_max_m;
-    if (d_max <= 0) {
-      if (in.anchor_xy.size() < 2) return FailedPrecondition("correa: d_max needs 2 anchors");
-      Eigen::Vector2d mn = in.anchor_xy.front(), mx = mn;
-      for (const Eigen::Vector2d& a : in.anchor_xy) {
-        mn = mn.cwiseMin(a);
-        mx = mx.cwiseMax(a);
-      }
-      d_max = (mx - mn).norm();
-    }
-    WG_ASSIGN_OR_RETURN(p_th, CorreaPowerThreshold(in.model, o.p_fa, d_max));
-  }
   EstimateResult result;
   result.diagnostics["p_th"] = o.scmt ? p_th : 0.0;
   std::vector<FilterEpoch> epochs;
@@ -197,19 +222,7 @@ StatusOr<EstimateResult> RunCorreaEkf(const CorreaInputs& in, const CorreaEkfOpt
   } else {
     for (const FilterEpoch& e : epochs) states.push_back({e.t_s, e.x_post, e.P_post});
   }
-  for (const SmoothedState& st : states) {
-    TrajectoryPoint pt;
-    pt.t_s = st.t_s;
-    pt.position_m = Eigen::Vector3d(st.x[0], st.x[1], 0.0);
-    pt.heading_rad = st.x[3];
-    Eigen::Matrix3d C;
-    const int idx[3] = {0, 1, 3};
-    for (int i = 0; i < 3; ++i) {
-      for (int j = 0; j < 3; ++j) C(i, j) = st.P(idx[i], idx[j]);
-    }
-    pt.covariance = C;
-    result.trajectory.points.push_back(pt);
-  }
+  AppendTrajectory(states, &result.trajectory);
   return result;
 }
 

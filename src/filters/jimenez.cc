@@ -2,7 +2,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
 #include <memory>
+#include <string>
+#include <utility>
+#include <vector>
 
 #include <Eigen/Cholesky>
 
@@ -286,64 +290,75 @@ StatusOr<EstimateResult> JimenezIez::Run(const Walk& walk) const {
   return RunJimenezIez(walk, options_);  // checks applicability first
 }
 
-StatusOr<EstimateResult> RunJimenezIez(const Walk& walk, const JimenezIezOptions& o,
-                                       JimenezDetails* details) {
-  WG_RETURN_IF_ERROR(CheckJimenezApplicable(walk, o));
+namespace {
+
+// Every radio reading as (d̂, σ_d) through eq. 5 and eq. 7 with the filter's path-loss model
+// (the paper's RFCode model unless path_loss_from_walk).
+StatusOr<std::vector<RangeMeasurement>> JimenezRanges(const Walk& walk,
+                                                      const JimenezIezOptions& o) {
+  Walk radio;
+  radio.meta = walk.meta;
+  if (!o.path_loss_from_walk) {
+    radio.meta.radio.units = RssUnits::kRfcode;
+    radio.meta.radio.path_loss = {o.rss0, o.path_loss_exponent, o.d0_m, o.sigma_rss};
+  }
+  radio.anchors = walk.anchors;
+  radio.rss = walk.rss;
+  radio.ranges = walk.ranges;
+  RangeConversionOptions conv;
+  conv.bias_corrected = o.bias_corrected_ranges;
+  conv.min_sigma_m = o.min_range_sigma_m;
+  return RangeMeasurementsFromWalk(radio, conv);  // eq. 5, eq. 7
+}
+
+// Compass samples: every stance sample, or the middle sample of each stance phase.
+std::vector<bool> CompassSamples(const std::vector<bool>& stance, bool every_stance_sample) {
+  const size_t n = stance.size();
+  std::vector<bool> at(n, false);
+  if (every_stance_sample) {
+    for (size_t k = 0; k < n; ++k) at[k] = stance[k];
+    return at;
+  }
+  for (size_t k = 0; k < n;) {
+    if (!stance[k]) {
+      ++k;
+      continue;
+    }
+    size_t e = k;
+    while (e < n && stance[e]) ++e;
+    at[(k + e - 1) / 2] = true;
+    k = e;
+  }
+  return at;
+}
+
+// Process noise per step (white-noise densities, bias random walks).
+JimenezVector JimenezProcessNoise(const JimenezIezOptions& o, double dt) {
+  JimenezVector q = JimenezVector::Zero();
+  q.segment<3>(kJimenezAtt).setConstant(o.gyro_noise_density * o.gyro_noise_density * dt);
+  q.segment<3>(kJimenezVel).setConstant(o.acc_noise_density * o.acc_noise_density * dt);
+  q.segment<3>(kJimenezGyroBias).setConstant(o.gyro_bias_rw * o.gyro_bias_rw * dt);
+  q.segment<3>(kJimenezAccBias).setConstant(o.acc_bias_rw * o.acc_bias_rw * dt);
+  return q;
+}
+
+// The magnetic references of the start (for the compass and its disturbance test).
+struct MagneticReference {
+  bool have_mag = false;
+  double north_azimuth = 0.0;  // α_N of the magnetic north in the nav frame
+  double field_ut = 0.0, dip_rad = 0.0;
+};
+
+// Initial nominal state (levelling over the first leveling_window_s, heading from the pose or
+// the compass, start from the pose or the anchors' centroid) and its covariance; with
+// smoothing the error state carries a clone (2N).
+FilterState JimenezInitialState(const Walk& walk, const JimenezIezOptions& o,
+                                MagneticReference* mag) {
   const std::vector<ImuSample>& imu = walk.imu;
-  const size_t n_imu = imu.size();
-  WG_ASSIGN_OR_RETURN(ImuSampling sampling, SamplingFromString(o.imu_sampling));
-  if (o.imu_sampling_from_walk) {
-    auto it = walk.meta.extra.find("sim.imu_interval_average");
-    if (it != walk.meta.extra.end()) {
-      sampling = it->second != 0.0 ? ImuSampling::kIntervalAverage : ImuSampling::kInstantaneous;
-    }
-  }
-  WG_ASSIGN_OR_RETURN(StanceMask stance, DetectStance(walk, o.stance));
-  if (o.stance_source == "labels") {
-    WG_ASSIGN_OR_RETURN(stance.stance, StanceLabelsAtImu(walk));
-  }
-  const double imu_dt = (imu.back().t_s - imu.front().t_s) / static_cast<double>(n_imu - 1);
-
-  // Radio: every reading as (d̂, σ_d) through eq. 5 and eq. 7 with the filter's model.
-  std::vector<RangeMeasurement> ranges;
-  if (o.use_rss) {
-    Walk radio;
-    radio.meta = walk.meta;
-    if (!o.path_loss_from_walk) {
-      radio.meta.radio.units = RssUnits::kRfcode;
-      radio.meta.radio.path_loss = {o.rss0, o.path_loss_exponent, o.d0_m, o.sigma_rss};
-    }
-    radio.anchors = walk.anchors;
-    radio.rss = walk.rss;
-    radio.ranges = walk.ranges;
-    RangeConversionOptions conv;
-    conv.bias_corrected = o.bias_corrected_ranges;
-    conv.min_sigma_m = o.min_range_sigma_m;
-    WG_ASSIGN_OR_RETURN(ranges, RangeMeasurementsFromWalk(radio, conv));  // eq. 5, eq. 7
-  }
-
-  // Compass samples: every stance sample, or the middle sample of each stance phase.
-  std::vector<bool> compass_at(n_imu, false);
-  if (o.compass_every_stance_sample) {
-    for (size_t k = 0; k < n_imu; ++k) compass_at[k] = stance.stance[k];
-  } else {
-    for (size_t k = 0; k < n_imu;) {
-      if (!stance.stance[k]) {
-        ++k;
-        continue;
-      }
-      size_t e = k;
-      while (e < n_imu && stance.stance[e]) ++e;
-      compass_at[(k + e - 1) / 2] = true;
-      k = e;
-    }
-  }
-
-  // ---------------------------------------------------------------- initialization
   const double t0 = imu.front().t_s;
   Eigen::Vector3d f_mean = Eigen::Vector3d::Zero(), m_mean = Eigen::Vector3d::Zero();
   int n_level = 0, n_mag = 0;
-  for (size_t k = 0; k < n_imu && (k == 0 || imu[k].t_s - t0 <= o.leveling_window_s); ++k) {
+  for (size_t k = 0; k < imu.size() && (k == 0 || imu[k].t_s - t0 <= o.leveling_window_s); ++k) {
     f_mean += imu[k].acc_mps2;
     ++n_level;
     if (imu[k].has_mag) {
@@ -352,9 +367,9 @@ StatusOr<EstimateResult> RunJimenezIez(const Walk& walk, const JimenezIezOptions
     }
   }
   f_mean /= n_level;
-  const bool have_mag = n_mag > 0;
-  if (have_mag) m_mean /= n_mag;
-  const double north_azimuth = kPi / 2.0 - o.declination_rad;
+  mag->have_mag = n_mag > 0;
+  if (mag->have_mag) m_mean /= n_mag;
+  mag->north_azimuth = kPi / 2.0 - o.declination_rad;
 
   FilterState f;
   double yaw0 = 0.0, yaw_sigma = o.init_yaw_sigma_rad;
@@ -373,15 +388,15 @@ StatusOr<EstimateResult> RunJimenezIez(const Walk& walk, const JimenezIezOptions
       o.initial_heading_from_pose) {
     yaw0 = walk.meta.initial_pose->heading_rad;
     yaw_sigma = walk.meta.initial_pose->sigma_heading_rad;
-  } else if (have_mag && o.compass) {
-    yaw0 = NormalizeAngle(north_azimuth - Azimuth(Level(f_mean, 0.0) * m_mean));
+  } else if (mag->have_mag && o.compass) {
+    yaw0 = NormalizeAngle(mag->north_azimuth - Azimuth(Level(f_mean, 0.0) * m_mean));
     yaw_sigma = o.compass_sigma_rad;
   }
   f.nominal.nav.t_s = t0;
   f.nominal.nav.q_nb = Level(f_mean, yaw0);
   f.nominal.nav.p_n = p0;
-  const double field_ref = m_mean.norm();
-  const double dip_ref = Dip(f.nominal.nav.q_nb * m_mean);
+  mag->field_ut = m_mean.norm();
+  mag->dip_rad = Dip(f.nominal.nav.q_nb * m_mean);
 
   JimenezVector sig0;
   sig0 << o.init_tilt_sigma_rad, o.init_tilt_sigma_rad, yaw_sigma,
@@ -394,17 +409,233 @@ StatusOr<EstimateResult> RunJimenezIez(const Walk& walk, const JimenezIezOptions
   f.dx = Eigen::VectorXd::Zero(n_state);
   f.P = Eigen::MatrixXd::Zero(n_state, n_state);
   f.P.topLeftCorner(N, N) = sig0.cwiseAbs2().asDiagonal();
+  return f;
+}
 
-  // Process noise per step (white-noise densities, bias random walks).
-  auto process_noise = [&o](double dt) {
-    JimenezVector q = JimenezVector::Zero();
-    q.segment<3>(kJimenezAtt).setConstant(o.gyro_noise_density * o.gyro_noise_density * dt);
-    q.segment<3>(kJimenezVel).setConstant(o.acc_noise_density * o.acc_noise_density * dt);
-    q.segment<3>(kJimenezGyroBias).setConstant(o.gyro_bias_rw * o.gyro_bias_rw * dt);
-    q.segment<3>(kJimenezAccBias).setConstant(o.acc_bias_rw * o.acc_bias_rw * dt);
-    return q;
-  };
+// INS mechanization and EKF prediction over one IMU interval (the clone's cross-covariance
+// follows the transition).
+void JimenezPredict(const ImuSample& prev, const ImuSample& cur, ImuSampling sampling,
+                    const JimenezIezOptions& o, FilterState* f) {
+  const double dt = cur.t_s - prev.t_s;
+  const StrapdownOptions sd = StrapdownFor(f->nominal, sampling, o.gravity_mps2);
+  const JimenezMatrix F = JimenezErrorTransition(f->nominal, prev, cur, sd);
+  f->nominal.nav = StrapdownStep(f->nominal.nav, prev, cur, sd);
+  const JimenezMatrix Pcc = f->P.topLeftCorner(N, N);
+  JimenezMatrix Pn = F * Pcc * F.transpose();
+  Pn.diagonal() += JimenezProcessNoise(o, dt);
+  f->P.topLeftCorner(N, N) = 0.5 * (Pn + Pn.transpose());
+  if (o.smooth) {
+    f->P.topRightCorner(N, N) = F * f->P.topRightCorner(N, N);
+    f->P.bottomLeftCorner(N, N) = f->P.topRightCorner(N, N).transpose();
+  }
+  f->corrected = false;
+}
 
+// The error-state RTS with stochastic cloning: at each output epoch the filter holds a clone of
+// the error at the previous epoch, from which C_k = Cov(δx_k, δx_{k+1}) P_{k+1}⁻¹ and
+// D_k = P_{k|k+1} − C_k P_{k+1} C_kᵀ follow; the backward pass is
+//   δx_{k|N} = δx_{k|k+1} + C_k δx_{k+1|N},   P_{k|N} = D_k + C_k P_{k+1|N} C_kᵀ.
+class ClonedErrorRts {
+ public:
+  void Reserve(size_t n) { epochs_.reserve(n); }
+  size_t size() const { return epochs_.size(); }
+
+  // Closes the previous epoch from the clone and starts a new one at f's (reset) state.
+  Status Record(FilterState* f) {
+    if (!epochs_.empty()) {
+      SmootherEpoch& prev = epochs_.back();
+      const JimenezMatrix P_now = f->P.topLeftCorner(N, N);
+      const JimenezMatrix P_now_clone = f->P.topRightCorner(N, N);  // Cov(δx_now, δx_k)
+      const Eigen::LDLT<JimenezMatrix> ldlt(P_now);
+      if (ldlt.info() != Eigen::Success || !ldlt.isPositive()) {
+        return NumericalError("jimenez-iez-rts: filter covariance not positive at t = " +
+                              internal::Num(f->nominal.nav.t_s));
+      }
+      prev.C = ldlt.solve(P_now_clone).transpose();  // C_k = Cov(δx_k, δx_{k+1}) P⁻¹
+      prev.D = f->P.bottomRightCorner(N, N) - prev.C * P_now * prev.C.transpose();
+      prev.D = 0.5 * (prev.D + prev.D.transpose()).eval();
+      prev.dx_next = f->dx.tail(N);
+    }
+    SmootherEpoch e;
+    e.nominal = f->nominal;
+    epochs_.push_back(e);
+    // New clone of the current error (which is 0 after the reset).
+    f->dx.tail(N).setZero();
+    f->P.bottomRightCorner(N, N) = f->P.topLeftCorner(N, N);
+    f->P.topRightCorner(N, N) = f->P.topLeftCorner(N, N);
+    f->P.bottomLeftCorner(N, N) = f->P.topLeftCorner(N, N);
+    return Status::Ok();
+  }
+
+  // The backward pass from the last epoch's covariance P_last (15 × 15).
+  std::vector<TrajectoryPoint> Smooth(const Eigen::MatrixXd& P_last) const {
+    std::vector<TrajectoryPoint> out(epochs_.size());
+    JimenezVector s = JimenezVector::Zero();
+    JimenezMatrix Ps = P_last.topLeftCorner(N, N);
+    for (size_t k = epochs_.size(); k-- > 0;) {
+      if (k + 1 < epochs_.size()) {
+        const SmootherEpoch& e = epochs_[k];
+        s = e.dx_next + e.C * s;                // δx_{k|N} = δx_{k|k+1} + C_k δx_{k+1|N}
+        Ps = e.D + e.C * Ps * e.C.transpose();  // P_{k|N} = D_k + C_k P_{k+1|N} C_kᵀ
+        Ps = 0.5 * (Ps + Ps.transpose()).eval();
+      }
+      JimenezNominal smoothed = epochs_[k].nominal;
+      Eigen::MatrixXd P = Ps;
+      JimenezInjectError(s, &smoothed, &P);
+      out[k] = OutputPoint(smoothed, P);
+    }
+    return out;
+  }
+
+ private:
+  std::vector<SmootherEpoch> epochs_;
+};
+
+// The measurement models of 004 at one IMU sample (Algorithm 1), on the running filter.
+class IezUpdates {
+ public:
+  IezUpdates(const Walk& walk, const JimenezIezOptions& o, const StanceMask& stance,
+             std::vector<bool> compass_at, std::vector<RangeMeasurement> ranges,
+             const MagneticReference& mag, JimenezDetails* d, std::map<std::string, double>* diag)
+      : imu_(walk.imu),
+        o_(o),
+        stance_(stance),
+        compass_at_(std::move(compass_at)),
+        ranges_(std::move(ranges)),
+        mag_(mag),
+        d_(d),
+        diag_(*diag) {
+    R_zupt_ = Eigen::Matrix3d::Identity() * (o.zupt_sigma_mps * o.zupt_sigma_mps);
+    R_zaru_ = Eigen::Matrix3d::Identity() * (o.zaru_sigma_radps * o.zaru_sigma_radps);
+    H_zupt_ = Eigen::MatrixXd::Zero(3, N);
+    H_zupt_.middleCols(kJimenezVel, 3).setIdentity();
+    H_zaru_ = Eigen::MatrixXd::Zero(3, N);
+    H_zaru_.middleCols(kJimenezGyroBias, 3).setIdentity();
+  }
+
+  // Every update due at sample k, in the paper's order.
+  Status At(size_t k, FilterState* f) {
+    WG_RETURN_IF_ERROR(ZuptZaru(k, f));
+    if (o_.compass && compass_at_[k] && imu_[k].has_mag && mag_.have_mag) {
+      WG_RETURN_IF_ERROR(Compass(k, f));
+    }
+    return Ranges(k, f);
+  }
+
+ private:
+  // ZUPT at stance (Algorithm 1 line 9), ZARU when still (line 14).
+  Status ZuptZaru(size_t k, FilterState* f) {
+    if (o_.zupt && stance_.stance[k]) {
+      const Eigen::VectorXd z = -f->nominal.nav.v_n;
+      WG_ASSIGN_OR_RETURN(UpdateOutcome out, Update(z, H_zupt_, R_zupt_, 0.0, f));
+      d_->nis_zupt.push_back(out.nis);
+      if (!stance_.stance[k - 1]) d_->nis_zupt_first.push_back(out.nis);
+      diag_["zupt_updates"] += 1;
+    }
+    if (o_.zaru && !stance_.still.empty() && stance_.still[k]) {
+      const Eigen::VectorXd z = imu_[k].gyro_radps - f->nominal.gyro_bias;
+      WG_ASSIGN_OR_RETURN(UpdateOutcome out, Update(z, H_zaru_, R_zaru_, 0.0, f));
+      d_->nis_zaru.push_back(out.nis);
+      diag_["zaru_updates"] += 1;
+    }
+    return Status::Ok();
+  }
+
+  // Compass heading at stance (lines 10–11), skipped where the field is disturbed.
+  Status Compass(size_t k, FilterState* f) {
+    const Eigen::Vector3d m_n = f->nominal.nav.q_nb * imu_[k].mag_ut;
+    const bool disturbed =
+        (o_.compass_max_field_deviation_ut > 0 &&
+         std::fabs(imu_[k].mag_ut.norm() - mag_.field_ut) > o_.compass_max_field_deviation_ut) ||
+        (o_.compass_max_dip_deviation_rad > 0 &&
+         std::fabs(Dip(m_n) - mag_.dip_rad) > o_.compass_max_dip_deviation_rad);
+    if (disturbed) {
+      diag_["compass_disturbed"] += 1;
+      return Status::Ok();
+    }
+    Eigen::MatrixXd H = Eigen::MatrixXd::Zero(1, N);
+    H.block<1, 3>(0, kJimenezAtt) = JimenezYawJacobian(f->nominal.nav.q_nb);
+    // θ_compass − θ_INS = α_N − α(R̂ m_b), wrapped.
+    const Eigen::VectorXd z =
+        Eigen::VectorXd::Constant(1, NormalizeAngle(mag_.north_azimuth - Azimuth(m_n)));
+    const Eigen::MatrixXd R =
+        Eigen::MatrixXd::Constant(1, 1, o_.compass_sigma_rad * o_.compass_sigma_rad);
+    WG_ASSIGN_OR_RETURN(UpdateOutcome out, Update(z, H, R, o_.compass_gate_probability, f));
+    if (out.accepted) {
+      d_->nis_compass.push_back(out.nis);
+      diag_["compass_updates"] += 1;
+    } else {
+      diag_["compass_gated"] += 1;
+    }
+    return Status::Ok();
+  }
+
+  // RFID range residuals at the reader's 10 Hz (eq. 1, 2, 5, 7): the readings up to sample k.
+  Status Ranges(size_t k, FilterState* f) {
+    for (; ri_ < ranges_.size() && ranges_[ri_].t_s <= imu_[k].t_s; ++ri_) {
+      const RangeMeasurement& m = ranges_[ri_];
+      Eigen::RowVector3d u;
+      const double predicted = JimenezPredictedRange(f->nominal.nav.p_n, m.anchor_m,
+                                                     o_.reader_height_m, o_.planar_ranges, &u);
+      Eigen::MatrixXd H = Eigen::MatrixXd::Zero(1, N);
+      H.block<1, 3>(0, kJimenezPos) = u;
+      const Eigen::VectorXd z = Eigen::VectorXd::Constant(1, m.range_m - predicted);  // eq. 2
+      const Eigen::MatrixXd R = Eigen::MatrixXd::Constant(1, 1, m.sigma_m * m.sigma_m);
+      WG_ASSIGN_OR_RETURN(UpdateOutcome out, Update(z, H, R, o_.range_gate_probability, f));
+      if (out.accepted) {
+        d_->nis_range.push_back(out.nis);
+        diag_["range_updates"] += 1;
+      } else {
+        diag_["range_gated"] += 1;
+      }
+    }
+    return Status::Ok();
+  }
+
+  const std::vector<ImuSample>& imu_;
+  const JimenezIezOptions& o_;
+  const StanceMask& stance_;
+  const std::vector<bool> compass_at_;
+  const std::vector<RangeMeasurement> ranges_;
+  const MagneticReference mag_;
+  JimenezDetails* d_;
+  std::map<std::string, double>& diag_;
+  Eigen::MatrixXd R_zupt_, R_zaru_, H_zupt_, H_zaru_;
+  size_t ri_ = 0;
+};
+
+double Mean(const std::vector<double>& v) {
+  double s = 0.0;
+  for (double x : v) s += x;
+  return v.empty() ? 0.0 : s / static_cast<double>(v.size());
+}
+
+}  // namespace
+
+StatusOr<EstimateResult> RunJimenezIez(const Walk& walk, const JimenezIezOptions& o,
+                                       JimenezDetails* details) {
+  WG_RETURN_IF_ERROR(CheckJimenezApplicable(walk, o));
+  const std::vector<ImuSample>& imu = walk.imu;
+  const size_t n_imu = imu.size();
+  WG_ASSIGN_OR_RETURN(ImuSampling sampling, SamplingFromString(o.imu_sampling));
+  if (o.imu_sampling_from_walk) {
+    auto it = walk.meta.extra.find("sim.imu_interval_average");
+    if (it != walk.meta.extra.end()) {
+      sampling = it->second != 0.0 ? ImuSampling::kIntervalAverage : ImuSampling::kInstantaneous;
+    }
+  }
+  WG_ASSIGN_OR_RETURN(StanceMask stance, DetectStance(walk, o.stance));
+  if (o.stance_source == "labels") {
+    WG_ASSIGN_OR_RETURN(stance.stance, StanceLabelsAtImu(walk));
+  }
+  const double imu_dt = (imu.back().t_s - imu.front().t_s) / static_cast<double>(n_imu - 1);
+  std::vector<RangeMeasurement> ranges;
+  if (o.use_rss) {
+    WG_ASSIGN_OR_RETURN(ranges, JimenezRanges(walk, o));
+  }
+
+  MagneticReference mag;
+  FilterState f = JimenezInitialState(walk, o, &mag);
   const int decimation =
       std::max(1, static_cast<int>(std::lround(1.0 / (o.output_rate_hz * imu_dt))));
   EstimateResult result;
@@ -416,129 +647,22 @@ StatusOr<EstimateResult> RunJimenezIez(const Walk& walk, const JimenezIezOptions
                           "compass_gated", "range_updates", "range_gated"}) {
     diag[key] = 0.0;
   }
-
-  std::vector<SmootherEpoch> epochs;
-  if (o.smooth) epochs.reserve((n_imu - 1) / static_cast<size_t>(decimation) + 2);
+  ClonedErrorRts rts;
+  if (o.smooth) rts.Reserve((n_imu - 1) / static_cast<size_t>(decimation) + 2);
   auto epoch = [&]() {
-    if (!o.smooth) {
-      result.trajectory.points.push_back(OutputPoint(f.nominal, f.P));
-      return Status::Ok();
-    }
-    if (!epochs.empty()) {
-      SmootherEpoch& prev = epochs.back();
-      const JimenezMatrix P_now = f.P.topLeftCorner(N, N);
-      const JimenezMatrix P_now_clone = f.P.topRightCorner(N, N);  // Cov(δx_now, δx_k)
-      const Eigen::LDLT<JimenezMatrix> ldlt(P_now);
-      if (ldlt.info() != Eigen::Success || !ldlt.isPositive()) {
-        return NumericalError("jimenez-iez-rts: filter covariance not positive at t = " +
-                              internal::Num(f.nominal.nav.t_s));
-      }
-      prev.C = ldlt.solve(P_now_clone).transpose();  // C_k = Cov(δx_k, δx_{k+1}) P⁻¹
-      prev.D = f.P.bottomRightCorner(N, N) - prev.C * P_now * prev.C.transpose();
-      prev.D = 0.5 * (prev.D + prev.D.transpose()).eval();
-      prev.dx_next = f.dx.tail(N);
-    }
-    SmootherEpoch e;
-    e.nominal = f.nominal;
-    epochs.push_back(e);
-    // New clone of the current error (which is 0 after the reset).
-    f.dx.tail(N).setZero();
-    f.P.bottomRightCorner(N, N) = f.P.topLeftCorner(N, N);
-    f.P.topRightCorner(N, N) = f.P.topLeftCorner(N, N);
-    f.P.bottomLeftCorner(N, N) = f.P.topLeftCorner(N, N);
+    if (o.smooth) return rts.Record(&f);
+    result.trajectory.points.push_back(OutputPoint(f.nominal, f.P));
     return Status::Ok();
   };
   WG_RETURN_IF_ERROR(epoch());
-
-  const Eigen::MatrixXd R_zupt =
-      Eigen::Matrix3d::Identity() * (o.zupt_sigma_mps * o.zupt_sigma_mps);
-  const Eigen::MatrixXd R_zaru =
-      Eigen::Matrix3d::Identity() * (o.zaru_sigma_radps * o.zaru_sigma_radps);
-  Eigen::MatrixXd H_zupt = Eigen::MatrixXd::Zero(3, N);
-  H_zupt.middleCols(kJimenezVel, 3).setIdentity();
-  Eigen::MatrixXd H_zaru = Eigen::MatrixXd::Zero(3, N);
-  H_zaru.middleCols(kJimenezGyroBias, 3).setIdentity();
-  size_t ri = 0;
+  IezUpdates updates(walk, o, stance, CompassSamples(stance.stance, o.compass_every_stance_sample),
+                     std::move(ranges), mag, d, &diag);
   long stance_samples = 0;
-
-  // ---------------------------------------------------------------- 100 Hz loop (Algorithm 1)
+  // 100 Hz loop (Algorithm 1).
   for (size_t k = 1; k < n_imu; ++k) {
-    const double dt = imu[k].t_s - imu[k - 1].t_s;
-    // INS mechanization and EKF prediction.
-    const StrapdownOptions sd = StrapdownFor(f.nominal, sampling, o.gravity_mps2);
-    const JimenezMatrix F = JimenezErrorTransition(f.nominal, imu[k - 1], imu[k], sd);
-    f.nominal.nav = StrapdownStep(f.nominal.nav, imu[k - 1], imu[k], sd);
-    const JimenezMatrix Pcc = f.P.topLeftCorner(N, N);
-    JimenezMatrix Pn = F * Pcc * F.transpose();
-    Pn.diagonal() += process_noise(dt);
-    f.P.topLeftCorner(N, N) = 0.5 * (Pn + Pn.transpose());
-    if (o.smooth) {
-      f.P.topRightCorner(N, N) = F * f.P.topRightCorner(N, N);
-      f.P.bottomLeftCorner(N, N) = f.P.topRightCorner(N, N).transpose();
-    }
-    f.corrected = false;
-
+    JimenezPredict(imu[k - 1], imu[k], sampling, o, &f);
     if (stance.stance[k]) ++stance_samples;
-    // ZUPT at stance (Algorithm 1 line 9).
-    if (o.zupt && stance.stance[k]) {
-      const Eigen::VectorXd z = -f.nominal.nav.v_n;
-      WG_ASSIGN_OR_RETURN(UpdateOutcome out, Update(z, H_zupt, R_zupt, 0.0, &f));
-      d->nis_zupt.push_back(out.nis);
-      if (!stance.stance[k - 1]) d->nis_zupt_first.push_back(out.nis);
-      diag["zupt_updates"] += 1;
-    }
-    // ZARU when still (line 14).
-    if (o.zaru && !stance.still.empty() && stance.still[k]) {
-      const Eigen::VectorXd z = imu[k].gyro_radps - f.nominal.gyro_bias;
-      WG_ASSIGN_OR_RETURN(UpdateOutcome out, Update(z, H_zaru, R_zaru, 0.0, &f));
-      d->nis_zaru.push_back(out.nis);
-      diag["zaru_updates"] += 1;
-    }
-    // Compass heading at stance (lines 10–11).
-    if (o.compass && compass_at[k] && imu[k].has_mag && have_mag) {
-      const Eigen::Vector3d m_n = f.nominal.nav.q_nb * imu[k].mag_ut;
-      const bool disturbed =
-          (o.compass_max_field_deviation_ut > 0 &&
-           std::fabs(imu[k].mag_ut.norm() - field_ref) > o.compass_max_field_deviation_ut) ||
-          (o.compass_max_dip_deviation_rad > 0 &&
-           std::fabs(Dip(m_n) - dip_ref) > o.compass_max_dip_deviation_rad);
-      if (disturbed) {
-        diag["compass_disturbed"] += 1;
-      } else {
-        Eigen::MatrixXd H = Eigen::MatrixXd::Zero(1, N);
-        H.block<1, 3>(0, kJimenezAtt) = JimenezYawJacobian(f.nominal.nav.q_nb);
-        // θ_compass − θ_INS = α_N − α(R̂ m_b), wrapped.
-        const Eigen::VectorXd z =
-            Eigen::VectorXd::Constant(1, NormalizeAngle(north_azimuth - Azimuth(m_n)));
-        const Eigen::MatrixXd R =
-            Eigen::MatrixXd::Constant(1, 1, o.compass_sigma_rad * o.compass_sigma_rad);
-        WG_ASSIGN_OR_RETURN(UpdateOutcome out, Update(z, H, R, o.compass_gate_probability, &f));
-        if (out.accepted) {
-          d->nis_compass.push_back(out.nis);
-          diag["compass_updates"] += 1;
-        } else {
-          diag["compass_gated"] += 1;
-        }
-      }
-    }
-    // RFID range residuals at the reader's 10 Hz (eq. 1, 2, 5, 7).
-    for (; ri < ranges.size() && ranges[ri].t_s <= imu[k].t_s; ++ri) {
-      const RangeMeasurement& m = ranges[ri];
-      Eigen::RowVector3d u;
-      const double predicted = JimenezPredictedRange(f.nominal.nav.p_n, m.anchor_m,
-                                                     o.reader_height_m, o.planar_ranges, &u);
-      Eigen::MatrixXd H = Eigen::MatrixXd::Zero(1, N);
-      H.block<1, 3>(0, kJimenezPos) = u;
-      const Eigen::VectorXd z = Eigen::VectorXd::Constant(1, m.range_m - predicted);  // eq. 2
-      const Eigen::MatrixXd R = Eigen::MatrixXd::Constant(1, 1, m.sigma_m * m.sigma_m);
-      WG_ASSIGN_OR_RETURN(UpdateOutcome out, Update(z, H, R, o.range_gate_probability, &f));
-      if (out.accepted) {
-        d->nis_range.push_back(out.nis);
-        diag["range_updates"] += 1;
-      } else {
-        diag["range_gated"] += 1;
-      }
-    }
+    WG_RETURN_IF_ERROR(updates.At(k, &f));
     // CORRECTINS: inject the error estimate and reset it.
     if (f.corrected) {
       const JimenezVector dx = f.dx.head(N);
@@ -549,40 +673,16 @@ StatusOr<EstimateResult> RunJimenezIez(const Walk& walk, const JimenezIezOptions
       WG_RETURN_IF_ERROR(epoch());
     }
   }
-
-  // ---------------------------------------------------------------- RTS backward pass
-  if (o.smooth) {
-    std::vector<TrajectoryPoint> out(epochs.size());
-    JimenezVector s = JimenezVector::Zero();
-    JimenezMatrix Ps = f.P.topLeftCorner(N, N);
-    for (size_t k = epochs.size(); k-- > 0;) {
-      if (k + 1 < epochs.size()) {
-        const SmootherEpoch& e = epochs[k];
-        s = e.dx_next + e.C * s;                // δx_{k|N} = δx_{k|k+1} + C_k δx_{k+1|N}
-        Ps = e.D + e.C * Ps * e.C.transpose();  // P_{k|N} = D_k + C_k P_{k+1|N} C_kᵀ
-        Ps = 0.5 * (Ps + Ps.transpose()).eval();
-      }
-      JimenezNominal smoothed = epochs[k].nominal;
-      Eigen::MatrixXd P = Ps;
-      JimenezInjectError(s, &smoothed, &P);
-      out[k] = OutputPoint(smoothed, P);
-    }
-    result.trajectory.points = std::move(out);
-  }
+  if (o.smooth) result.trajectory.points = rts.Smooth(f.P);
 
   result.nis = o.use_rss ? d->nis_range : d->nis_zupt;
-  auto mean = [](const std::vector<double>& v) {
-    double s = 0.0;
-    for (double x : v) s += x;
-    return v.empty() ? 0.0 : s / static_cast<double>(v.size());
-  };
-  diag["nis_mean_zupt"] = mean(d->nis_zupt);
-  diag["nis_mean_zupt_first"] = mean(d->nis_zupt_first);
-  diag["nis_mean_zaru"] = mean(d->nis_zaru);
-  diag["nis_mean_compass"] = mean(d->nis_compass);
-  diag["nis_mean_range"] = mean(d->nis_range);
+  diag["nis_mean_zupt"] = Mean(d->nis_zupt);
+  diag["nis_mean_zupt_first"] = Mean(d->nis_zupt_first);
+  diag["nis_mean_zaru"] = Mean(d->nis_zaru);
+  diag["nis_mean_compass"] = Mean(d->nis_compass);
+  diag["nis_mean_range"] = Mean(d->nis_range);
   diag["stance_fraction"] = static_cast<double>(stance_samples) / static_cast<double>(n_imu - 1);
-  diag["smoother_epochs"] = static_cast<double>(epochs.size());
+  diag["smoother_epochs"] = static_cast<double>(rts.size());
   d->stance = std::move(stance);
   d->stance_detector = o.stance_source == "labels" ? "labels" : ToString(o.stance.detector);
   return result;

@@ -67,10 +67,10 @@ StatusOr<double> TarrioSettlingTime(const TarrioKfOptions& options, double epoch
   return epoch_s * std::log(fraction) / std::log1p(-gain);
 }
 
-StatusOr<EstimateResult> RunTarrio(const StepSequence& steps, const std::vector<PositionFix>& fixes,
-                                   const TarrioKfOptions& options, TarrioMode mode,
-                                   std::optional<Eigen::Vector2d> start) {
-  const bool uses_fixes = mode != TarrioMode::kPdrOnly;
+namespace {
+
+Status CheckTarrioInputs(const StepSequence& steps, const std::vector<PositionFix>& fixes,
+                         TarrioMode mode, const std::optional<Eigen::Vector2d>& start) {
   if (fixes.empty() && !(mode == TarrioMode::kPdrOnly && start)) {
     return FailedPrecondition("tarrio: no RSS position fix (needed to start)");
   }
@@ -85,15 +85,12 @@ StatusOr<EstimateResult> RunTarrio(const StepSequence& steps, const std::vector<
       return InvalidArgument("tarrio: steps not sorted");
     }
   }
-  const bool last_velocity = options.prediction == "last-velocity";
-  const Eigen::Matrix2d R = Eigen::Matrix2d::Identity() * options.sigma_p_m * options.sigma_p_m;
+  return Status::Ok();
+}
 
-  // Event times: every step and every fix, from the start time on.
-  if (mode == TarrioMode::kPdrOnly && !start) start = fixes.front().position_m;
-  const double t0 =
-      mode == TarrioMode::kPdrOnly && (fixes.empty() || steps.steps.front().t_s < fixes.front().t_s)
-          ? steps.steps.front().t_s
-          : fixes.front().t_s;
+// Event times: every step and every fix from t0 on, sorted, each once.
+std::vector<double> EventTimes(const StepSequence& steps, const std::vector<PositionFix>& fixes,
+                               double t0) {
   std::vector<double> times;
   for (const PositionFix& f : fixes) {
     if (f.t_s >= t0) times.push_back(f.t_s);
@@ -103,6 +100,85 @@ StatusOr<EstimateResult> RunTarrio(const StepSequence& steps, const std::vector<
   }
   std::sort(times.begin(), times.end());
   times.erase(std::unique(times.begin(), times.end()), times.end());
+  return times;
+}
+
+// The KF epoch of a fix at t (eq. 8–12): prior from the last epoch, Joseph-form update.
+StatusOr<FilterEpoch> KalmanFixEpoch(const PositionFix& f, double t, double t_epoch,
+                                     const Eigen::Vector2d& p_epoch, const Eigen::Matrix2d& P_epoch,
+                                     const Eigen::Vector2d& p, const Eigen::Vector2d& v,
+                                     const TarrioKfOptions& options, const Eigen::Matrix2d& R,
+                                     EstimateResult* result) {
+  const double dT = t - t_epoch;
+  FilterEpoch e;
+  e.t_s = t;
+  e.F = Eigen::Matrix2d::Identity();
+  e.x_prior =
+      options.prediction == "last-velocity" ? Eigen::Vector2d(p_epoch + dT * v) : p;  // eq. 8
+  e.P_prior = P_epoch + ProcessNoise(options, dT);  // eq. 9, eq. 6
+  Eigen::VectorXd x = e.x_prior;
+  Eigen::MatrixXd Pk = e.P_prior;
+  WG_ASSIGN_OR_RETURN(UpdateOutcome u,  // eq. 10–12 (Joseph form)
+                      KalmanUpdate(f.position_m - x, Eigen::Matrix2d::Identity(), R,
+                                   options.gate_probability, &x, &Pk));
+  if (u.accepted) {
+    result->nis.push_back(u.nis);
+  } else {
+    result->diagnostics["gated_updates"] += 1;
+  }
+  e.x_post = x;
+  e.P_post = Pk;
+  return e;
+}
+
+// RTS over the fix epochs; an output between two epochs is the smoothed epoch plus its PDR since
+// then, with the mismatch at the next smoothed epoch spread linearly over the interval.
+Status SmoothOutputs(const std::vector<FilterEpoch>& epochs,
+                     const std::vector<Eigen::Vector2d>& interval_pdr,
+                     std::vector<Output>* outputs) {
+  WG_ASSIGN_OR_RETURN(std::vector<SmoothedState> sm, RtsSmooth(epochs));
+  for (Output& o : *outputs) {
+    const int k = o.epoch;
+    const double tk = sm[k].t_s;
+    o.p = sm[k].x + o.pdr_since_epoch;
+    o.P = sm[k].P;
+    if (size_t(k + 1) < sm.size() && o.t_s > tk) {
+      const double alpha = (o.t_s - tk) / (sm[k + 1].t_s - tk);
+      o.p += alpha * (sm[k + 1].x - sm[k].x - interval_pdr[k + 1]);
+      o.P = (1 - alpha) * sm[k].P + alpha * sm[k + 1].P;
+    }
+  }
+  return Status::Ok();
+}
+
+void AppendTrajectory(const std::vector<Output>& outputs, Trajectory* trajectory) {
+  for (const Output& o : outputs) {
+    TrajectoryPoint pt;
+    pt.t_s = o.t_s;
+    pt.position_m = Eigen::Vector3d(o.p.x(), o.p.y(), 0.0);
+    pt.heading_rad = o.heading;
+    Eigen::Matrix3d C = Eigen::Matrix3d::Zero();
+    C.topLeftCorner<2, 2>() = o.P;
+    C(2, 2) = o.sigma_heading * o.sigma_heading;
+    pt.covariance = C;
+    trajectory->points.push_back(pt);
+  }
+}
+
+}  // namespace
+
+StatusOr<EstimateResult> RunTarrio(const StepSequence& steps, const std::vector<PositionFix>& fixes,
+                                   const TarrioKfOptions& options, TarrioMode mode,
+                                   std::optional<Eigen::Vector2d> start) {
+  WG_RETURN_IF_ERROR(CheckTarrioInputs(steps, fixes, mode, start));
+  const bool uses_fixes = mode != TarrioMode::kPdrOnly;
+  const Eigen::Matrix2d R = Eigen::Matrix2d::Identity() * options.sigma_p_m * options.sigma_p_m;
+  if (mode == TarrioMode::kPdrOnly && !start) start = fixes.front().position_m;
+  const double t0 =
+      mode == TarrioMode::kPdrOnly && (fixes.empty() || steps.steps.front().t_s < fixes.front().t_s)
+          ? steps.steps.front().t_s
+          : fixes.front().t_s;
+  const std::vector<double> times = EventTimes(steps, fixes, t0);
 
   EstimateResult result;
   std::vector<FilterEpoch> epochs;
@@ -143,27 +219,11 @@ StatusOr<EstimateResult> RunTarrio(const StepSequence& steps, const std::vector<
         P = mode == TarrioMode::kKalman ? R : f.covariance;
         started = true;
       } else if (mode == TarrioMode::kKalman) {
-        const double dT = t - t_epoch;
-        FilterEpoch e;
-        e.t_s = t;
-        e.F = Eigen::Matrix2d::Identity();
-        e.x_prior = last_velocity ? Eigen::Vector2d(p_epoch + dT * v) : p;  // eq. 8
-        e.P_prior = P_epoch + ProcessNoise(options, dT);                    // eq. 9, eq. 6
-        Eigen::VectorXd x = e.x_prior;
-        Eigen::MatrixXd Pk = e.P_prior;
-        WG_ASSIGN_OR_RETURN(UpdateOutcome u,  // eq. 10–12 (Joseph form)
-                            KalmanUpdate(f.position_m - x, Eigen::Matrix2d::Identity(), R,
-                                         options.gate_probability, &x, &Pk));
-        if (u.accepted) {
-          result.nis.push_back(u.nis);
-        } else {
-          result.diagnostics["gated_updates"] += 1;
-        }
-        e.x_post = x;
-        e.P_post = Pk;
-        epochs.push_back(e);
-        p = x;
-        P = Pk;
+        WG_ASSIGN_OR_RETURN(FilterEpoch e, KalmanFixEpoch(f, t, t_epoch, p_epoch, P_epoch, p, v,
+                                                          options, R, &result));
+        p = e.x_post;
+        P = e.P_post;
+        epochs.push_back(std::move(e));
       } else {
         p = f.position_m;  // both baselines: reset to the new fix
         P = f.covariance;
@@ -194,32 +254,9 @@ StatusOr<EstimateResult> RunTarrio(const StepSequence& steps, const std::vector<
   }
 
   if (options.smooth && mode == TarrioMode::kKalman) {
-    WG_ASSIGN_OR_RETURN(std::vector<SmoothedState> sm, RtsSmooth(epochs));
-    for (Output& o : outputs) {
-      const int k = o.epoch;
-      const double tk = sm[k].t_s;
-      o.p = sm[k].x + o.pdr_since_epoch;
-      o.P = sm[k].P;
-      if (size_t(k + 1) < sm.size() && o.t_s > tk) {
-        // Spread the mismatch at the next smoothed epoch linearly over the interval.
-        const double alpha = (o.t_s - tk) / (sm[k + 1].t_s - tk);
-        o.p += alpha * (sm[k + 1].x - sm[k].x - interval_pdr[k + 1]);
-        o.P = (1 - alpha) * sm[k].P + alpha * sm[k + 1].P;
-      }
-    }
+    WG_RETURN_IF_ERROR(SmoothOutputs(epochs, interval_pdr, &outputs));
   }
-
-  for (const Output& o : outputs) {
-    TrajectoryPoint pt;
-    pt.t_s = o.t_s;
-    pt.position_m = Eigen::Vector3d(o.p.x(), o.p.y(), 0.0);
-    pt.heading_rad = o.heading;
-    Eigen::Matrix3d C = Eigen::Matrix3d::Zero();
-    C.topLeftCorner<2, 2>() = o.P;
-    C(2, 2) = o.sigma_heading * o.sigma_heading;
-    pt.covariance = C;
-    result.trajectory.points.push_back(pt);
-  }
+  AppendTrajectory(outputs, &result.trajectory);
   return result;
 }
 
