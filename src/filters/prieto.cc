@@ -3,7 +3,10 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <map>
 #include <memory>
+#include <string>
+#include <vector>
 
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
@@ -806,6 +809,203 @@ TrajectoryPoint ToPoint(double t, const NominalState& y, const Eigen::MatrixXd& 
   return pt;
 }
 
+// Parameters of the radio models (eq. 5–6): the walk's path-loss model and TOA σ unless set.
+StatusOr<MeasurementParams> PrietoMeasurementParams(const Walk& walk, const PrietoOptions& o,
+                                                    double* rss_sigma, double* toa_sigma) {
+  const PathLossParams& pl = walk.meta.radio.path_loss;
+  MeasurementParams mp;
+  mp.gravity_mps2 = o.gravity_mps2;
+  mp.rss_alpha_dbm = std::isnan(o.rss_alpha_dbm) ? pl.A_dbm : o.rss_alpha_dbm;
+  mp.rss_beta = std::isnan(o.rss_beta) ? pl.eta : o.rss_beta;
+  mp.rss_d0_m = pl.d0_m;
+  mp.rss_sign = PathLossModel(pl, walk.meta.radio.units).sign();
+  mp.toa_alpha_m = o.toa_alpha_m;
+  mp.toa_beta = o.toa_beta;
+  mp.receiver_offset_z_m = o.receiver_offset_z_m;
+  *rss_sigma = std::isnan(o.rss_sigma_db) ? pl.sigma_db : o.rss_sigma_db;
+  *toa_sigma = std::isnan(o.toa_sigma_m) ? walk.meta.radio.range_sigma_m : o.toa_sigma_m;
+  if (!(*rss_sigma > 0) || !(*toa_sigma > 0)) {
+    return FailedPrecondition("prieto: the walk's sigma_db and range_sigma_m must be > 0");
+  }
+  return mp;
+}
+
+// The walk's RSS and TOA readings the options fuse, as measurements (eq. 5–6).
+StatusOr<std::vector<RadioReading>> PrietoRadioReadings(const Walk& walk, const PrietoOptions& o,
+                                                        double rss_sigma, double toa_sigma) {
+  WG_ASSIGN_OR_RETURN(const std::vector<RangeMeasurement> readings,
+                      RangeMeasurementsFromWalk(walk));
+  std::vector<RadioReading> radio;
+  for (const RangeMeasurement& r : readings) {
+    if (r.from_rss ? !o.use_rss : !o.use_toa) continue;
+    RadioReading rr;
+    rr.t_s = r.t_s;
+    rr.m.kind = r.from_rss ? MeasurementKind::kRss : MeasurementKind::kToa;
+    rr.m.z = Eigen::VectorXd::Constant(1, r.from_rss ? r.rss : r.range_m);
+    const double s = r.from_rss ? rss_sigma : toa_sigma;
+    rr.m.R = Eigen::MatrixXd::Constant(1, 1, s * s);
+    rr.m.anchor_m = r.anchor_m;
+    radio.push_back(rr);
+  }
+  if (radio.empty()) return FailedPrecondition("prieto: no RSS or TOA readings to fuse");
+  return radio;
+}
+
+// A radio set: readings within radio_epoch_s of the set's first one, fused at its last time.
+struct RadioGroup {
+  double t_s = 0.0;
+  std::vector<Measurement> parts;
+};
+
+std::vector<RadioGroup> GroupRadio(const std::vector<RadioReading>& radio, double epoch_s) {
+  std::vector<RadioGroup> groups;
+  for (size_t i = 0; i < radio.size();) {
+    RadioGroup g;
+    const double t_first = radio[i].t_s;
+    do {
+      g.t_s = radio[i].t_s;
+      g.parts.push_back(radio[i].m);
+      ++i;
+    } while (epoch_s > 0 && i < radio.size() && radio[i].t_s < t_first + epoch_s);
+    groups.push_back(std::move(g));
+  }
+  return groups;
+}
+
+// Timeline: the IMU samples (also for radio-only, when the walk has them), else a grid.
+// Radio-only: an IMU gap (Walk::ImuGaps) is filled with the radio_only_step_s grid, so the
+// [x v a] model is propagated in steps over its true duration and the readings in it are fused
+// at their own times, not all at its end.
+StatusOr<std::vector<double>> PrietoTimeline(const Walk& walk, const PrietoOptions& o, bool use_imu,
+                                             const std::vector<RadioReading>& radio) {
+  std::vector<double> times;
+  if (walk.imu.size() >= 2) {
+    std::vector<ImuGap> gaps = use_imu ? std::vector<ImuGap>() : walk.ImuGaps();
+    size_t next_gap = 0;
+    for (const ImuSample& s : walk.imu) {
+      if (next_gap < gaps.size() && s.t_s >= gaps[next_gap].t_end_s) {
+        const ImuGap& g = gaps[next_gap++];
+        for (double t = g.t_begin_s + o.radio_only_step_s; t < g.t_end_s;
+             t += o.radio_only_step_s) {
+          times.push_back(t);
+        }
+      }
+      times.push_back(s.t_s);
+    }
+    return times;
+  }
+  const double t0 = radio.front().t_s, t1 = radio.back().t_s;
+  const long n = static_cast<long>(std::ceil((t1 - t0) / o.radio_only_step_s - 1e-9));
+  if (n > 50'000'000) return InvalidArgument("prieto: radio_only_step_s too small");
+  for (long i = 0; i <= n; ++i) times.push_back(t0 + static_cast<double>(i) * o.radio_only_step_s);
+  return times;
+}
+
+// The IMU measurement blocks (eq. 7–8) and, at stance, with the stance evidences (eq. 9).
+void ImuMeasurements(const PrietoOptions& o, Measurement* imu_only, Measurement* imu_stance) {
+  Eigen::VectorXd r_imu(15);
+  r_imu << Eigen::Vector3d::Constant(o.sigma_acc_mps2 * o.sigma_acc_mps2),
+      Eigen::Vector3d::Constant(o.sigma_gyro_radps * o.sigma_gyro_radps),
+      Eigen::Vector3d::Constant(o.sigma_v0_mps * o.sigma_v0_mps),
+      Eigen::Vector3d::Constant(o.sigma_a0_mps2 * o.sigma_a0_mps2),
+      Eigen::Vector3d::Constant(o.sigma_w0_radps * o.sigma_w0_radps);
+  imu_only->kind = MeasurementKind::kImu;
+  imu_only->R = r_imu.head<6>().asDiagonal();
+  imu_only->z = Eigen::VectorXd::Zero(6);
+  imu_stance->kind = MeasurementKind::kImuStance;
+  imu_stance->R = r_imu.asDiagonal();
+  imu_stance->z = Eigen::VectorXd::Zero(15);
+}
+
+// The filter's updates with their NIS bookkeeping (per measurement kind; the radio NIS also in
+// `nis`) and innovation gating (kalman.h).
+class UpdateBook {
+ public:
+  UpdateBook(PrietoCore* core, double gate_probability, std::vector<double>* nis)
+      : core_(*core),
+        gate_probability_(gate_probability),
+        gate_quantile_(gate_probability > 0 ? ChiSquareQuantile(gate_probability, 1) : 0.0),
+        nis_(*nis) {}
+
+  Status Update(const Measurement& m, double gate) {
+    WG_ASSIGN_OR_RETURN(const UpdateOutcome out, core_.Update(m, gate));
+    const int kind = static_cast<int>(m.kind);
+    if (!out.accepted) {
+      gated_ += 1.0;
+      return Status::Ok();
+    }
+    nis_sum_[kind] += out.nis;
+    nis_n_[kind] += 1.0;
+    if (m.kind != MeasurementKind::kImu && m.kind != MeasurementKind::kImuStance) {
+      nis_.push_back(out.nis);
+    }
+    return Status::Ok();
+  }
+
+  // A radio set: one reading alone (gated by Update), or the stacked readings, each row gated
+  // against the prior first.
+  Status Radio(const std::vector<Measurement>& parts) {
+    if (parts.size() == 1) return Update(parts[0], gate_probability_);
+    std::vector<Measurement> kept;
+    for (const Measurement& m : parts) {
+      if (gate_probability_ > 0) {
+        WG_ASSIGN_OR_RETURN(const double nis, core_.Nis(m));
+        if (nis > gate_quantile_) {
+          gated_ += 1.0;
+          continue;
+        }
+      }
+      kept.push_back(m);
+    }
+    if (kept.empty()) return Status::Ok();
+    return Update(kept.size() == 1 ? kept[0] : prieto::StackMeasurements(std::move(kept)), 0.0);
+  }
+
+  // updates_<kind>, nis_mean_<kind> (where there were updates), gated_updates.
+  void Report(std::map<std::string, double>* diagnostics) const {
+    const char* names[5] = {"imu", "imu_stance", "rss", "toa", "radio_set"};
+    for (int i = 0; i < 5; ++i) {
+      (*diagnostics)[std::string("updates_") + names[i]] = nis_n_[i];
+      if (nis_n_[i] > 0) {
+        (*diagnostics)[std::string("nis_mean_") + names[i]] = nis_sum_[i] / nis_n_[i];
+      }
+    }
+    (*diagnostics)["gated_updates"] = gated_;
+  }
+
+ private:
+  PrietoCore& core_;
+  const double gate_probability_, gate_quantile_;
+  std::vector<double>& nis_;
+  double nis_sum_[5] = {0, 0, 0, 0, 0}, nis_n_[5] = {0, 0, 0, 0, 0};
+  double gated_ = 0.0;
+};
+
+// Health of the state at the output epochs: unit quaternion, P symmetric PD.
+struct StateHealth {
+  double q_norm_error = 0.0, asymmetry = 0.0, not_pd = 0.0;
+  void Check(const NominalState& y, const Eigen::MatrixXd& P) {
+    q_norm_error = std::max(q_norm_error, std::fabs(y.q_nb.norm() - 1.0));
+    asymmetry = std::max(asymmetry, (P - P.transpose()).cwiseAbs().maxCoeff() /
+                                        std::max(P.cwiseAbs().maxCoeff(), 1e-300));
+    if (Eigen::LLT<Eigen::MatrixXd>(P).info() != Eigen::Success) not_pd += 1.0;
+  }
+};
+
+// An RTS epoch at t: in the chart of the filter state x_{m|m}, x_prior = 0 and x_post = δ (the
+// clone's correction, set when the next epoch closes the clone), F from the previous epoch (see
+// prieto.h).
+FilterEpoch CloneEpoch(double t, int dim, const Eigen::MatrixXd& P) {
+  FilterEpoch e;
+  e.t_s = t;
+  e.x_prior = Eigen::VectorXd::Zero(dim);
+  e.P_prior = P;
+  e.x_post = e.x_prior;
+  e.P_post = e.P_prior;  // until the next epoch closes the clone (the last one keeps it)
+  e.F = Eigen::MatrixXd::Identity(dim, dim);
+  return e;
+}
+
 }  // namespace
 
 Status CheckPrietoApplicable(const Walk& walk, const PrietoOptions& options) {
@@ -834,85 +1034,18 @@ StatusOr<EstimateResult> RunPrietoFilter(const Walk& walk, const PrietoOptions& 
   const bool use_imu = o.sensors != PrietoSensors::kRadioOnly;
   const bool use_radio = o.sensors != PrietoSensors::kImuOnly;
   const int dim = use_imu ? prieto::kFullDim : prieto::kKinematicDim;
-  const bool has_imu = walk.imu.size() >= 2;
-  if (use_imu && !has_imu) return FailedPrecondition("prieto: needs imu.csv (>= 2 samples)");
-
-  // Radio readings (eq. 5–6), parameters from the walk unless set.
-  const PathLossParams& pl = walk.meta.radio.path_loss;
-  MeasurementParams mp;
-  mp.gravity_mps2 = o.gravity_mps2;
-  mp.rss_alpha_dbm = std::isnan(o.rss_alpha_dbm) ? pl.A_dbm : o.rss_alpha_dbm;
-  mp.rss_beta = std::isnan(o.rss_beta) ? pl.eta : o.rss_beta;
-  mp.rss_d0_m = pl.d0_m;
-  mp.rss_sign = PathLossModel(pl, walk.meta.radio.units).sign();
-  mp.toa_alpha_m = o.toa_alpha_m;
-  mp.toa_beta = o.toa_beta;
-  mp.receiver_offset_z_m = o.receiver_offset_z_m;
-  const double rss_sigma = std::isnan(o.rss_sigma_db) ? pl.sigma_db : o.rss_sigma_db;
-  const double toa_sigma =
-      std::isnan(o.toa_sigma_m) ? walk.meta.radio.range_sigma_m : o.toa_sigma_m;
-  if (!(rss_sigma > 0) || !(toa_sigma > 0)) {
-    return FailedPrecondition("prieto: the walk's sigma_db and range_sigma_m must be > 0");
+  if (use_imu && walk.imu.size() < 2) {
+    return FailedPrecondition("prieto: needs imu.csv (>= 2 samples)");
   }
+  double rss_sigma = 0.0, toa_sigma = 0.0;
+  WG_ASSIGN_OR_RETURN(const MeasurementParams mp,
+                      PrietoMeasurementParams(walk, o, &rss_sigma, &toa_sigma));
   std::vector<RadioReading> radio;
   if (use_radio) {
-    WG_ASSIGN_OR_RETURN(const std::vector<RangeMeasurement> readings,
-                        RangeMeasurementsFromWalk(walk));
-    for (const RangeMeasurement& r : readings) {
-      if (r.from_rss ? !o.use_rss : !o.use_toa) continue;
-      RadioReading rr;
-      rr.t_s = r.t_s;
-      rr.m.kind = r.from_rss ? MeasurementKind::kRss : MeasurementKind::kToa;
-      rr.m.z = Eigen::VectorXd::Constant(1, r.from_rss ? r.rss : r.range_m);
-      const double s = r.from_rss ? rss_sigma : toa_sigma;
-      rr.m.R = Eigen::MatrixXd::Constant(1, 1, s * s);
-      rr.m.anchor_m = r.anchor_m;
-      radio.push_back(rr);
-    }
-    if (radio.empty()) return FailedPrecondition("prieto: no RSS or TOA readings to fuse");
+    WG_ASSIGN_OR_RETURN(radio, PrietoRadioReadings(walk, o, rss_sigma, toa_sigma));
   }
-  // Radio sets: readings within radio_epoch_s of the set's first one, fused at its last time.
-  struct RadioGroup {
-    double t_s = 0.0;
-    std::vector<Measurement> parts;
-  };
-  std::vector<RadioGroup> groups;
-  for (size_t i = 0; i < radio.size();) {
-    RadioGroup g;
-    const double t_first = radio[i].t_s;
-    do {
-      g.t_s = radio[i].t_s;
-      g.parts.push_back(radio[i].m);
-      ++i;
-    } while (o.radio_epoch_s > 0 && i < radio.size() && radio[i].t_s < t_first + o.radio_epoch_s);
-    groups.push_back(std::move(g));
-  }
-
-  // Timeline: the IMU samples (also for radio-only, when the walk has them), else a grid.
-  std::vector<double> times;
-  if (has_imu) {
-    // Radio-only: an IMU gap (Walk::ImuGaps) is filled with the radio_only_step_s grid, so the
-    // [x v a] model is propagated in steps over its true duration and the readings in it are
-    // fused at their own times, not all at its end.
-    std::vector<ImuGap> gaps = use_imu ? std::vector<ImuGap>() : walk.ImuGaps();
-    size_t next_gap = 0;
-    for (const ImuSample& s : walk.imu) {
-      if (next_gap < gaps.size() && s.t_s >= gaps[next_gap].t_end_s) {
-        const ImuGap& g = gaps[next_gap++];
-        for (double t = g.t_begin_s + o.radio_only_step_s; t < g.t_end_s;
-             t += o.radio_only_step_s) {
-          times.push_back(t);
-        }
-      }
-      times.push_back(s.t_s);
-    }
-  } else {
-    const double t0 = radio.front().t_s, t1 = radio.back().t_s;
-    const long n = static_cast<long>(std::ceil((t1 - t0) / o.radio_only_step_s - 1e-9));
-    if (n > 50'000'000) return InvalidArgument("prieto: radio_only_step_s too small");
-    for (long i = 0; i <= n; ++i)
-      times.push_back(t0 + static_cast<double>(i) * o.radio_only_step_s);
-  }
+  const std::vector<RadioGroup> groups = GroupRadio(radio, o.radio_epoch_s);
+  WG_ASSIGN_OR_RETURN(const std::vector<double> times, PrietoTimeline(walk, o, use_imu, radio));
 
   StanceMask stance;
   if (use_imu) {
@@ -925,64 +1058,17 @@ StatusOr<EstimateResult> RunPrietoFilter(const Walk& walk, const PrietoOptions& 
   PrietoCore core(o, mp, dim, y0, P0);
   WG_RETURN_IF_ERROR(core.CheckUkfWeights());
 
-  // Measurement noise of the IMU block (eq. 7–9).
-  Eigen::VectorXd r_imu(15);
-  r_imu << Eigen::Vector3d::Constant(o.sigma_acc_mps2 * o.sigma_acc_mps2),
-      Eigen::Vector3d::Constant(o.sigma_gyro_radps * o.sigma_gyro_radps),
-      Eigen::Vector3d::Constant(o.sigma_v0_mps * o.sigma_v0_mps),
-      Eigen::Vector3d::Constant(o.sigma_a0_mps2 * o.sigma_a0_mps2),
-      Eigen::Vector3d::Constant(o.sigma_w0_radps * o.sigma_w0_radps);
-  Measurement imu_only, imu_stance;
-  imu_only.kind = MeasurementKind::kImu;
-  imu_only.R = r_imu.head<6>().asDiagonal();
-  imu_only.z = Eigen::VectorXd::Zero(6);
-  imu_stance.kind = MeasurementKind::kImuStance;
-  imu_stance.R = r_imu.asDiagonal();
-  imu_stance.z = Eigen::VectorXd::Zero(15);
+  Measurement imu_only, imu_stance;  // eq. 7–9
+  ImuMeasurements(o, &imu_only, &imu_stance);
 
   EstimateResult result;
-  double nis_sum[5] = {0, 0, 0, 0, 0}, nis_n[5] = {0, 0, 0, 0, 0};
-  double gated = 0.0;
-  auto update = [&](const Measurement& m, double gate) -> Status {
-    WG_ASSIGN_OR_RETURN(const UpdateOutcome out, core.Update(m, gate));
-    const int kind = static_cast<int>(m.kind);
-    if (!out.accepted) {
-      gated += 1.0;
-      return Status::Ok();
-    }
-    nis_sum[kind] += out.nis;
-    nis_n[kind] += 1.0;
-    if (m.kind != MeasurementKind::kImu && m.kind != MeasurementKind::kImuStance) {
-      result.nis.push_back(out.nis);
-    }
-    return Status::Ok();
-  };
-  // A radio set: one reading alone (gated by update), or the stacked readings, each row gated
-  // against the prior first.
-  const double gate_quantile =
-      o.gate_probability > 0 ? ChiSquareQuantile(o.gate_probability, 1) : 0.0;
-  auto radio_update = [&](const std::vector<Measurement>& parts) -> Status {
-    if (parts.size() == 1) return update(parts[0], o.gate_probability);
-    std::vector<Measurement> kept;
-    for (const Measurement& m : parts) {
-      if (o.gate_probability > 0) {
-        WG_ASSIGN_OR_RETURN(const double nis, core.Nis(m));
-        if (nis > gate_quantile) {
-          gated += 1.0;
-          continue;
-        }
-      }
-      kept.push_back(m);
-    }
-    if (kept.empty()) return Status::Ok();
-    return update(kept.size() == 1 ? kept[0] : prieto::StackMeasurements(std::move(kept)), 0.0);
-  };
+  UpdateBook book(&core, o.gate_probability, &result.nis);
   auto imu_update = [&](size_t k) -> Status {
     const ImuSample& s = walk.imu[k];
     Measurement& m = stance.stance[k] ? imu_stance : imu_only;
     m.z.head<3>() = s.acc_mps2;        // eq. 7
     m.z.segment<3>(3) = s.gyro_radps;  // eq. 8 (stance rows stay 0: eq. 9)
-    return update(m, 0.0);
+    return book.Update(m, 0.0);
   };
 
   // RTS epochs: the filter state x_{m|m} (chart origin) and, in that chart, x_prior = 0,
@@ -995,7 +1081,7 @@ StatusOr<EstimateResult> RunPrietoFilter(const Walk& walk, const PrietoOptions& 
   const bool interval = o.imu_sampling == ImuSampling::kIntervalAverage;
   // Radio-only: the trajectory holds the estimates at the radio epochs (see prieto.h).
   const bool output_at_radio = o.sensors == PrietoSensors::kRadioOnly;
-  double q_norm_error = 0.0, asymmetry = 0.0, not_pd = 0.0;
+  StateHealth health;
   for (size_t k = 0; k < times.size(); ++k) {
     const double t = times[k];
     if (k > 0) {
@@ -1007,7 +1093,7 @@ StatusOr<EstimateResult> RunPrietoFilter(const Walk& walk, const PrietoOptions& 
     }
     bool radio_epoch = false;
     for (; ri < groups.size() && groups[ri].t_s <= t; ++ri) {
-      WG_RETURN_IF_ERROR(radio_update(groups[ri].parts));
+      WG_RETURN_IF_ERROR(book.Radio(groups[ri].parts));
       radio_epoch = true;
     }
     if (output_at_radio) {
@@ -1016,24 +1102,12 @@ StatusOr<EstimateResult> RunPrietoFilter(const Walk& walk, const PrietoOptions& 
       if (!(t >= next_out - 1e-9) && k + 1 != times.size()) continue;
       while (next_out <= t + 1e-9) next_out += period;
     }
-    {  // Health of the state at the output epochs: unit quaternion, P symmetric PD.
-      const Eigen::MatrixXd& P = core.P();
-      q_norm_error = std::max(q_norm_error, std::fabs(core.y().q_nb.norm() - 1.0));
-      asymmetry = std::max(asymmetry, (P - P.transpose()).cwiseAbs().maxCoeff() /
-                                          std::max(P.cwiseAbs().maxCoeff(), 1e-300));
-      if (Eigen::LLT<Eigen::MatrixXd>(P).info() != Eigen::Success) not_pd += 1.0;
-    }
+    health.Check(core.y(), core.P());
     if (!o.smooth) {
       result.trajectory.points.push_back(ToPoint(t, core.y(), core.P()));
       continue;
     }
-    FilterEpoch e;
-    e.t_s = t;
-    e.x_prior = Eigen::VectorXd::Zero(dim);
-    e.P_prior = core.P();
-    e.x_post = e.x_prior;
-    e.P_post = e.P_prior;  // until the next epoch closes the clone (the last one keeps it)
-    e.F = Eigen::MatrixXd::Identity(dim, dim);
+    FilterEpoch e = CloneEpoch(t, dim, core.P());
     if (core.cloning()) {
       const Clone& c = core.clone();
       epochs.back().x_post = c.delta;
@@ -1056,18 +1130,11 @@ StatusOr<EstimateResult> RunPrietoFilter(const Walk& walk, const PrietoOptions& 
     result.diagnostics["rts_epochs"] = static_cast<double>(stored.size());
   }
 
-  const char* names[5] = {"imu", "imu_stance", "rss", "toa", "radio_set"};
-  for (int i = 0; i < 5; ++i) {
-    result.diagnostics[std::string("updates_") + names[i]] = nis_n[i];
-    if (nis_n[i] > 0) {
-      result.diagnostics[std::string("nis_mean_") + names[i]] = nis_sum[i] / nis_n[i];
-    }
-  }
-  result.diagnostics["gated_updates"] = gated;
+  book.Report(&result.diagnostics);
   result.diagnostics["pd_repairs"] = core.pd_repairs();
-  result.diagnostics["quaternion_norm_error_max"] = q_norm_error;
-  result.diagnostics["covariance_asymmetry_max"] = asymmetry;
-  result.diagnostics["covariance_not_pd_epochs"] = not_pd;
+  result.diagnostics["quaternion_norm_error_max"] = health.q_norm_error;
+  result.diagnostics["covariance_asymmetry_max"] = health.asymmetry;
+  result.diagnostics["covariance_not_pd_epochs"] = health.not_pd;
   result.diagnostics["filter_epochs"] = static_cast<double>(times.size());
   return result;
 }

@@ -130,6 +130,141 @@ bool InitialRestGyroMean(const std::vector<ImuSample>& imu, const StanceOptions&
   return true;
 }
 
+Status CheckImu(const Walk& walk) {
+  if (walk.imu.empty()) return FailedPrecondition("strides: the walk needs an IMU (imu.csv)");
+  if (walk.imu.size() < 10) {
+    return FailedPrecondition("strides: the walk has " + std::to_string(walk.imu.size()) +
+                              " IMU samples; expected at least 10");
+  }
+  for (size_t i = 1; i < walk.imu.size(); ++i) {
+    if (!(walk.imu[i].t_s > walk.imu[i - 1].t_s)) {
+      return InvalidArgument("strides: IMU time does not increase at sample " + std::to_string(i));
+    }
+  }
+  return Status::Ok();
+}
+
+// Stance of the walk; with compensate_gyro_bias, detected again on the gyro less the bias of
+// the first still run (≥ 0.5 s), else of the rest the walk starts with (found by spreads, for
+// when the bias itself keeps ‖ω‖ above the still threshold). `bg0` receives that bias (or 0).
+StatusOr<StanceMask> StanceWithGyroBias(const Walk& walk, const StrideOptions& o,
+                                        Eigen::Vector3d* bg0) {
+  WG_ASSIGN_OR_RETURN(StanceMask stance, DetectStance(walk, o.stance));
+  *bg0 = Eigen::Vector3d::Zero();
+  if (o.compensate_gyro_bias && (FirstRunGyroMean(walk.imu, stance.still, 0.5, bg0) ||
+                                 InitialRestGyroMean(walk.imu, o.stance, bg0))) {
+    Walk compensated;
+    compensated.meta = walk.meta;
+    compensated.imu = walk.imu;
+    for (ImuSample& s : compensated.imu) s.gyro_radps -= *bg0;
+    return DetectStance(compensated, o.stance);
+  }
+  return stance;
+}
+
+// Mean specific force for the initial attitude: of the first stance phase (at most 2 s of it),
+// else of the first 20 samples.
+StatusOr<Eigen::Vector3d> LevellingForce(const std::vector<ImuSample>& imu,
+                                         const std::vector<StancePhase>& phases) {
+  const size_t n = imu.size();
+  size_t lev_begin = 0, lev_end = std::min<size_t>(n - 1, 19);
+  if (!phases.empty()) {
+    lev_begin = phases[0].begin;
+    lev_end = phases[0].end;
+    while (lev_end > lev_begin && imu[lev_end].t_s - imu[lev_begin].t_s > 2.0) --lev_end;
+  }
+  Eigen::Vector3d f_mean = Eigen::Vector3d::Zero();
+  for (size_t i = lev_begin; i <= lev_end; ++i) f_mean += imu[i].acc_mps2;
+  f_mean /= static_cast<double>(lev_end - lev_begin + 1);
+  if (f_mean.norm() < 1e-6) return FailedPrecondition("strides: zero specific force at rest");
+  return f_mean;
+}
+
+Eigen::MatrixXd InitialCovariance(const StrideOptions& o) {
+  Eigen::MatrixXd P = Eigen::MatrixXd::Zero(kN, kN);
+  P.block<3, 3>(kV, kV).diagonal().setConstant(o.zupt_sigma_mps * o.zupt_sigma_mps);
+  P(kTh, kTh) = P(kTh + 1, kTh + 1) = o.tilt_sigma_rad * o.tilt_sigma_rad;
+  P.block<3, 3>(kBa, kBa).diagonal().setConstant(o.acc_bias_sigma_mps2 * o.acc_bias_sigma_mps2);
+  P.block<3, 3>(kBg, kBg).diagonal().setConstant(o.gyro_bias_sigma_radps * o.gyro_bias_sigma_radps);
+  return P;
+}
+
+// Error-state transition F and process noise Q over dt (see the header), from the attitude R
+// and bias-corrected specific force f_b before the step. An IMU gap longer than max_dt_s is held
+// by StrapdownStep: the walker went anywhere within walking speed (kImuGapSpeedMps × dt per
+// axis), at any speed and heading.
+void ErrorTransition(const Eigen::Matrix3d& R, const Eigen::Vector3d& f_b, double dt,
+                     double max_dt_s, const StrideOptions& o, Eigen::MatrixXd* F,
+                     Eigen::MatrixXd* Q) {
+  const double sa2 = o.acc_noise_mps2 * o.acc_noise_mps2;
+  const double sg2 = o.gyro_noise_radps * o.gyro_noise_radps;
+  const Eigen::Matrix3d fx = Skew(R * f_b);
+  F->setIdentity();
+  F->block<3, 3>(kP, kV) = Eigen::Matrix3d::Identity() * dt;
+  F->block<3, 3>(kP, kTh) = -0.5 * fx * dt * dt;
+  F->block<3, 3>(kP, kBa) = -0.5 * R * dt * dt;
+  F->block<3, 3>(kV, kTh) = -fx * dt;
+  F->block<3, 3>(kV, kBa) = -R * dt;
+  F->block<3, 3>(kTh, kBg) = -R * dt;
+  Q->setZero();
+  const Eigen::Matrix3d I3 = Eigen::Matrix3d::Identity();
+  Q->block<3, 3>(kP, kP) = 0.25 * sa2 * dt * dt * dt * dt * I3;
+  Q->block<3, 3>(kP, kV) = 0.5 * sa2 * dt * dt * dt * I3;
+  Q->block<3, 3>(kV, kP) = 0.5 * sa2 * dt * dt * dt * I3;
+  Q->block<3, 3>(kV, kV) = sa2 * dt * dt * I3;
+  Q->block<3, 3>(kTh, kTh) = sg2 * dt * dt * I3;
+  Q->block<3, 3>(kBa, kBa) = o.acc_bias_rw_mps2_sqrts * o.acc_bias_rw_mps2_sqrts * dt * I3;
+  Q->block<3, 3>(kBg, kBg) = o.gyro_bias_rw_radps_sqrts * o.gyro_bias_rw_radps_sqrts * dt * I3;
+  if (dt > max_dt_s) {
+    F->setIdentity();
+    Q->block<3, 3>(kP, kP) += std::pow(kImuGapSpeedMps * dt, 2) * I3;
+    Q->block<3, 3>(kV, kV) += kImuGapSpeedMps * kImuGapSpeedMps * I3;
+    (*Q)(kTh + 2, kTh + 2) += kPi * kPi;
+  }
+}
+
+// The filter's covariance of (δp_x, δp_y, δψ), symmetrized.
+Eigen::Matrix3d StrideBlock(const Eigen::MatrixXd& P) {
+  const int idx[3] = {kP, kP + 1, kTh + 2};
+  Eigen::Matrix3d c;
+  for (int a = 0; a < 3; ++a) {
+    for (int b = 0; b < 3; ++b) c(a, b) = P(idx[a], idx[b]);
+  }
+  return 0.5 * (c + c.transpose());
+}
+
+// Position and yaw restart at a reset: their rows and columns of P are zeroed.
+void ResetStrideRows(Eigen::MatrixXd* P) {
+  for (int r : {kP, kP + 1, kP + 2, kTh + 2}) {
+    P->row(r).setZero();
+    P->col(r).setZero();
+  }
+}
+
+// The stride ending at t_s: horizontal displacement d and yaw since the last reset (yaw_ref at
+// t_ref), its length and direction σ from the filter's covariance c of (δp_x, δp_y, δψ);
+// heading_var accumulates the yaw-change variances.
+Step MakeStride(double t_s, double t_ref, const Eigen::Vector2d& d, double yaw, double yaw_ref,
+                const Eigen::Matrix3d& c, const StrideOptions& o, double* heading_var) {
+  Step s;
+  s.t_s = t_s;
+  s.duration_s = t_s - t_ref;
+  s.length_m = d.norm();
+  const Eigen::Vector2d u = s.length_m > 1e-9 ? Eigen::Vector2d(d / s.length_m)
+                                              : Eigen::Vector2d(std::cos(yaw), std::sin(yaw));
+  const Eigen::Vector2d nrm(-u.y(), u.x());
+  s.heading_rad = NormalizeAngle(std::atan2(u.y(), u.x()));
+  s.dheading_rad = NormalizeAngle(yaw - yaw_ref);
+  const Eigen::Matrix2d cxy = c.topLeftCorner<2, 2>();
+  s.sigma_length_m = std::max(std::sqrt(std::max(0.0, u.dot(cxy * u))), o.min_sigma_length_m);
+  const double sigma_dir = std::sqrt(std::max(0.0, nrm.dot(cxy * nrm))) / std::max(s.length_m, 0.1);
+  s.sigma_dheading_rad = std::max(std::sqrt(std::max(0.0, c(2, 2))), o.min_sigma_dheading_rad);
+  *heading_var += s.sigma_dheading_rad * s.sigma_dheading_rad;
+  s.sigma_heading_rad =
+      std::max(std::sqrt(*heading_var + sigma_dir * sigma_dir), o.min_sigma_heading_rad);
+  return s;
+}
+
 }  // namespace
 
 StanceOptions StrideOptions::DefaultStance() {
@@ -180,31 +315,12 @@ StatusOr<StrideOptions> StrideOptions::FromYaml(const YAML::Node& node) {
 
 StatusOr<ZuptInsSolution> RunZuptIns(const Walk& walk, const StrideOptions& o) {
   WG_RETURN_IF_ERROR(CheckOptions(o));
-  if (walk.imu.empty()) return FailedPrecondition("strides: the walk needs an IMU (imu.csv)");
-  if (walk.imu.size() < 10) {
-    return FailedPrecondition("strides: the walk has " + std::to_string(walk.imu.size()) +
-                              " IMU samples; expected at least 10");
-  }
-  for (size_t i = 1; i < walk.imu.size(); ++i) {
-    if (!(walk.imu[i].t_s > walk.imu[i - 1].t_s)) {
-      return InvalidArgument("strides: IMU time does not increase at sample " + std::to_string(i));
-    }
-  }
+  WG_RETURN_IF_ERROR(CheckImu(walk));
   const std::vector<ImuSample>& imu = walk.imu;
   const size_t n = imu.size();
   ZuptInsSolution out;
-  WG_ASSIGN_OR_RETURN(out.stance, DetectStance(walk, o.stance));
-  Eigen::Vector3d bg0 = Eigen::Vector3d::Zero();
-  // The first still run (≥ 0.5 s), else the rest the walk starts with (found by spreads, for
-  // when the bias itself keeps ‖ω‖ above the still threshold).
-  if (o.compensate_gyro_bias && (FirstRunGyroMean(imu, out.stance.still, 0.5, &bg0) ||
-                                 InitialRestGyroMean(imu, o.stance, &bg0))) {
-    Walk compensated;
-    compensated.meta = walk.meta;
-    compensated.imu = imu;
-    for (ImuSample& s : compensated.imu) s.gyro_radps -= bg0;
-    WG_ASSIGN_OR_RETURN(out.stance, DetectStance(compensated, o.stance));
-  }
+  Eigen::Vector3d bg0;
+  WG_ASSIGN_OR_RETURN(out.stance, StanceWithGyroBias(walk, o, &bg0));
   out.phases = StancePhases(imu, out.stance.stance, o, &out.zupt);
   const bool zaru = o.use_zaru && out.stance.still.size() == n;
 
@@ -216,31 +332,14 @@ StatusOr<ZuptInsSolution> RunZuptIns(const Walk& walk, const StrideOptions& o) {
     first_phase = 1;
   }
 
-  // Initial attitude from the mean specific force of the first stance phase (at most 2 s of
-  // it), else of the first 20 samples.
-  size_t lev_begin = 0, lev_end = std::min<size_t>(n - 1, 19);
-  if (!out.phases.empty()) {
-    lev_begin = out.phases[0].begin;
-    lev_end = out.phases[0].end;
-    while (lev_end > lev_begin && imu[lev_end].t_s - imu[lev_begin].t_s > 2.0) --lev_end;
-  }
-  Eigen::Vector3d f_mean = Eigen::Vector3d::Zero();
-  for (size_t i = lev_begin; i <= lev_end; ++i) f_mean += imu[i].acc_mps2;
-  f_mean /= static_cast<double>(lev_end - lev_begin + 1);
-  if (f_mean.norm() < 1e-6) return FailedPrecondition("strides: zero specific force at rest");
-
+  WG_ASSIGN_OR_RETURN(const Eigen::Vector3d f_mean, LevellingForce(imu, out.phases));
   const InitialPose* pose0 = walk.meta.initial_pose ? &*walk.meta.initial_pose : nullptr;
   NavState x;
   x.t_s = imu[0].t_s;
   x.q_nb = LevelledAttitude(f_mean, pose0 ? pose0->heading_rad : 0.0);
   if (pose0) x.p_n = Eigen::Vector3d(pose0->x_m, pose0->y_m, 0.0);
   Eigen::Vector3d ba = Eigen::Vector3d::Zero(), bg = bg0;
-
-  Eigen::MatrixXd P = Eigen::MatrixXd::Zero(kN, kN);
-  P.block<3, 3>(kV, kV).diagonal().setConstant(o.zupt_sigma_mps * o.zupt_sigma_mps);
-  P(kTh, kTh) = P(kTh + 1, kTh + 1) = o.tilt_sigma_rad * o.tilt_sigma_rad;
-  P.block<3, 3>(kBa, kBa).diagonal().setConstant(o.acc_bias_sigma_mps2 * o.acc_bias_sigma_mps2);
-  P.block<3, 3>(kBg, kBg).diagonal().setConstant(o.gyro_bias_sigma_radps * o.gyro_bias_sigma_radps);
+  Eigen::MatrixXd P = InitialCovariance(o);
 
   StrapdownOptions sd;
   sd.gravity_mps2 = o.gravity_mps2;
@@ -253,46 +352,36 @@ StatusOr<ZuptInsSolution> RunZuptIns(const Walk& walk, const StrideOptions& o) {
   out.stride_covariance.resize(n);
   out.strides.absolute_heading = pose0 != nullptr;
 
-  auto correct = [&](const Eigen::VectorXd& dx) {
-    x.p_n += dx.segment<3>(kP);
-    x.v_n += dx.segment<3>(kV);
-    x.q_nb = (QuaternionExp(dx.segment<3>(kTh)) * x.q_nb).normalized();
-    ba += dx.segment<3>(kBa);
-    bg += dx.segment<3>(kBg);
-  };
+  // An update of the error state, injected into the nominal state at once (the error resets).
   auto update = [&](const Eigen::VectorXd& innovation, const Eigen::MatrixXd& H,
                     double sigma) -> Status {
     Eigen::VectorXd dx = Eigen::VectorXd::Zero(kN);
     const Eigen::MatrixXd R =
         Eigen::MatrixXd::Identity(innovation.size(), innovation.size()) * (sigma * sigma);
-    WG_ASSIGN_OR_RETURN(UpdateOutcome u, KalmanUpdate(innovation, H, R, 0.0, &dx, &P));
-    (void)u;
-    correct(dx);
+    WG_RETURN_IF_ERROR(KalmanUpdate(innovation, H, R, 0.0, &dx, &P).status());
+    x.p_n += dx.segment<3>(kP);
+    x.v_n += dx.segment<3>(kV);
+    x.q_nb = (QuaternionExp(dx.segment<3>(kTh)) * x.q_nb).normalized();
+    ba += dx.segment<3>(kBa);
+    bg += dx.segment<3>(kBg);
     return Status::Ok();
   };
-  const std::vector<int> reset_rows = {kP, kP + 1, kP + 2, kTh + 2};
-  auto reset = [&]() {
-    for (int r : reset_rows) {
-      P.row(r).setZero();
-      P.col(r).setZero();
-    }
-  };
-  auto record = [&](size_t k) {
-    out.states[k] = x;
-    out.acc_bias_mps2[k] = ba;
-    out.gyro_bias_radps[k] = bg;
-    const int idx[3] = {kP, kP + 1, kTh + 2};
-    Eigen::Matrix3d c;
-    for (int a = 0; a < 3; ++a) {
-      for (int b = 0; b < 3; ++b) c(a, b) = P(idx[a], idx[b]);
-    }
-    out.stride_covariance[k] = 0.5 * (c + c.transpose());
-  };
-
   Eigen::MatrixXd H_zupt = Eigen::MatrixXd::Zero(3, kN);
   H_zupt.block<3, 3>(0, kV).setIdentity();
   Eigen::MatrixXd H_zaru = Eigen::MatrixXd::Zero(3, kN);
   H_zaru.block<3, 3>(0, kBg).setIdentity();
+  // ZUPT and ZARU at sample k, then the sample's record.
+  auto measure_and_record = [&](size_t k) -> Status {
+    if (out.zupt[k]) WG_RETURN_IF_ERROR(update(-x.v_n, H_zupt, o.zupt_sigma_mps));
+    if (zaru && out.stance.still[k]) {
+      WG_RETURN_IF_ERROR(update(imu[k].gyro_radps - bg, H_zaru, o.zaru_sigma_radps));
+    }
+    out.states[k] = x;
+    out.acc_bias_mps2[k] = ba;
+    out.gyro_bias_radps[k] = bg;
+    out.stride_covariance[k] = StrideBlock(P);
+    return Status::Ok();
+  };
 
   Eigen::Vector3d p_ref = x.p_n;
   double yaw_ref = Yaw(x.q_nb), t_ref = imu[0].t_s;
@@ -303,49 +392,26 @@ StatusOr<ZuptInsSolution> RunZuptIns(const Walk& walk, const StrideOptions& o) {
       p_ref = x.p_n;
       yaw_ref = Yaw(x.q_nb);
       t_ref = imu[k].t_s;
-      reset();
+      ResetStrideRows(&P);
       return;
     }
     if (next_phase >= out.phases.size() || out.phases[next_phase].end != k) return;
     ++next_phase;
-    const Eigen::Vector2d d = (x.p_n - p_ref).head<2>();
     const double yaw = Yaw(x.q_nb);
     const Eigen::Matrix3d& c = out.stride_covariance[k];
-    Step s;
-    s.t_s = imu[k].t_s;
-    s.duration_s = imu[k].t_s - t_ref;
-    s.length_m = d.norm();
-    const Eigen::Vector2d u = s.length_m > 1e-9 ? Eigen::Vector2d(d / s.length_m)
-                                                : Eigen::Vector2d(std::cos(yaw), std::sin(yaw));
-    const Eigen::Vector2d nrm(-u.y(), u.x());
-    s.heading_rad = NormalizeAngle(std::atan2(u.y(), u.x()));
-    s.dheading_rad = NormalizeAngle(yaw - yaw_ref);
-    const Eigen::Matrix2d cxy = c.topLeftCorner<2, 2>();
-    s.sigma_length_m = std::max(std::sqrt(std::max(0.0, u.dot(cxy * u))), o.min_sigma_length_m);
-    const double sigma_dir =
-        std::sqrt(std::max(0.0, nrm.dot(cxy * nrm))) / std::max(s.length_m, 0.1);
-    s.sigma_dheading_rad = std::max(std::sqrt(std::max(0.0, c(2, 2))), o.min_sigma_dheading_rad);
-    heading_var += s.sigma_dheading_rad * s.sigma_dheading_rad;
-    s.sigma_heading_rad =
-        std::max(std::sqrt(heading_var + sigma_dir * sigma_dir), o.min_sigma_heading_rad);
-    out.strides.steps.push_back(s);
+    out.strides.steps.push_back(
+        MakeStride(imu[k].t_s, t_ref, (x.p_n - p_ref).head<2>(), yaw, yaw_ref, c, o, &heading_var));
     out.stride_end.push_back(k);
     out.stride_increment_covariance.push_back(c);
     p_ref = x.p_n;
     yaw_ref = yaw;
     t_ref = imu[k].t_s;
-    reset();
+    ResetStrideRows(&P);
   };
 
   // Sample 0: updates at the first sample, then the per-interval loop.
-  if (out.zupt[0]) WG_RETURN_IF_ERROR(update(-x.v_n, H_zupt, o.zupt_sigma_mps));
-  if (zaru && out.stance.still[0]) {
-    WG_RETURN_IF_ERROR(update(imu[0].gyro_radps - bg, H_zaru, o.zaru_sigma_radps));
-  }
-  record(0);
+  WG_RETURN_IF_ERROR(measure_and_record(0));
   emit_or_reset(0);
-  const double sa2 = o.acc_noise_mps2 * o.acc_noise_mps2;
-  const double sg2 = o.gyro_noise_radps * o.gyro_noise_radps;
   Eigen::MatrixXd F = Eigen::MatrixXd::Identity(kN, kN);
   Eigen::MatrixXd Q = Eigen::MatrixXd::Zero(kN, kN);
   for (size_t k = 1; k < n; ++k) {
@@ -355,42 +421,13 @@ StatusOr<ZuptInsSolution> RunZuptIns(const Walk& walk, const StrideOptions& o) {
         o.sampling == ImuSampling::kIntervalAverage
             ? Eigen::Vector3d(imu[k].acc_mps2 - ba)
             : Eigen::Vector3d(0.5 * (imu[k - 1].acc_mps2 + imu[k].acc_mps2) - ba);
-    const Eigen::Matrix3d fx = Skew(R * f_b);
+    ErrorTransition(R, f_b, dt, sd.max_dt_s, o, &F, &Q);
     sd.acc_bias_mps2 = ba;
     sd.gyro_bias_radps = bg;
     x = StrapdownStep(x, imu[k - 1], imu[k], sd);
-    // Error-state transition and process noise over dt (see the header).
-    F.setIdentity();
-    F.block<3, 3>(kP, kV) = Eigen::Matrix3d::Identity() * dt;
-    F.block<3, 3>(kP, kTh) = -0.5 * fx * dt * dt;
-    F.block<3, 3>(kP, kBa) = -0.5 * R * dt * dt;
-    F.block<3, 3>(kV, kTh) = -fx * dt;
-    F.block<3, 3>(kV, kBa) = -R * dt;
-    F.block<3, 3>(kTh, kBg) = -R * dt;
-    Q.setZero();
-    const Eigen::Matrix3d I3 = Eigen::Matrix3d::Identity();
-    Q.block<3, 3>(kP, kP) = 0.25 * sa2 * dt * dt * dt * dt * I3;
-    Q.block<3, 3>(kP, kV) = 0.5 * sa2 * dt * dt * dt * I3;
-    Q.block<3, 3>(kV, kP) = 0.5 * sa2 * dt * dt * dt * I3;
-    Q.block<3, 3>(kV, kV) = sa2 * dt * dt * I3;
-    Q.block<3, 3>(kTh, kTh) = sg2 * dt * dt * I3;
-    Q.block<3, 3>(kBa, kBa) = o.acc_bias_rw_mps2_sqrts * o.acc_bias_rw_mps2_sqrts * dt * I3;
-    Q.block<3, 3>(kBg, kBg) = o.gyro_bias_rw_radps_sqrts * o.gyro_bias_rw_radps_sqrts * dt * I3;
-    if (dt > sd.max_dt_s) {
-      // An IMU gap, held by StrapdownStep: the walker went anywhere within walking speed
-      // (kImuGapSpeedMps × dt per axis), at any speed and heading.
-      F.setIdentity();
-      Q.block<3, 3>(kP, kP) += std::pow(kImuGapSpeedMps * dt, 2) * I3;
-      Q.block<3, 3>(kV, kV) += kImuGapSpeedMps * kImuGapSpeedMps * I3;
-      Q(kTh + 2, kTh + 2) += kPi * kPi;
-    }
     P = F * P * F.transpose() + Q;
     Symmetrize(&P);
-    if (out.zupt[k]) WG_RETURN_IF_ERROR(update(-x.v_n, H_zupt, o.zupt_sigma_mps));
-    if (zaru && out.stance.still[k]) {
-      WG_RETURN_IF_ERROR(update(imu[k].gyro_radps - bg, H_zaru, o.zaru_sigma_radps));
-    }
-    record(k);
+    WG_RETURN_IF_ERROR(measure_and_record(k));
     emit_or_reset(k);
   }
   return out;
