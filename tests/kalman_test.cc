@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <random>
+#include <vector>
 
 #include <gtest/gtest.h>
 #include <Eigen/Dense>
@@ -179,6 +180,74 @@ TEST(RtsSmoothTest, WrapsAngleDifferences) {
   // C = 0.1/0.2 = 0.5; x_0|N = 3.1 + 0.5·wrap(−3.1 − 3.1) = 3.1 + 0.5·0.0832 → wrapped.
   EXPECT_NEAR(std::abs((*s)[0].x[0]), 3.1 + 0.5 * (2 * M_PI - 6.2), 1e-12);
   EXPECT_FALSE(RtsSmooth({}).ok());
+}
+
+// Stochastic cloning: a filter that records an epoch only every third step (with several
+// updates in between) and carries a clone of its state at the last epoch gives, through
+// FilterEpoch::P_cross, the same smoothed states at its epochs as the textbook RTS over every
+// step.
+TEST(RtsSmoothTest, ClonedCrossCovarianceEqualsFullRateRts) {
+  const double q = 0.5, r = 1.0;
+  const std::vector<double> z = {0.3, 0.9, 1.4, 1.1, 2.0, 2.6, 2.2, 3.1, 3.9, 3.5, 4.4, 5.0};
+  const Eigen::MatrixXd H_full = Eigen::MatrixXd::Identity(1, 1);
+  const Eigen::MatrixXd R = Eigen::MatrixXd::Constant(1, 1, r);
+  // Full rate: an epoch at every step.
+  std::vector<FilterEpoch> full;
+  Eigen::VectorXd x = Eigen::VectorXd::Zero(1);
+  Eigen::MatrixXd P = Eigen::MatrixXd::Constant(1, 1, 4.0);
+  // Cloned: state [x_now; x_clone].
+  Eigen::VectorXd xa = Eigen::VectorXd::Zero(2);
+  Eigen::MatrixXd Pa = Eigen::MatrixXd::Constant(2, 2, 4.0);
+  Eigen::MatrixXd H_aug = Eigen::MatrixXd::Zero(1, 2);
+  H_aug(0, 0) = 1.0;
+  std::vector<FilterEpoch> cloned;
+  std::vector<size_t> cloned_steps;
+  for (size_t k = 0; k < z.size(); ++k) {
+    FilterEpoch e;
+    e.t_s = static_cast<double>(k);
+    e.F = Eigen::MatrixXd::Identity(1, 1);
+    if (k > 0) {
+      P(0, 0) += q;
+      Pa(0, 0) += q;
+    }
+    e.x_prior = x;
+    e.P_prior = P;
+    Eigen::VectorXd nu = Eigen::VectorXd::Constant(1, z[k] - x[0]);
+    ASSERT_TRUE(KalmanUpdate(nu, H_full, R, 0.0, &x, &P).ok());
+    e.x_post = x;
+    e.P_post = P;
+    full.push_back(e);
+    nu = Eigen::VectorXd::Constant(1, z[k] - xa[0]);
+    ASSERT_TRUE(KalmanUpdate(nu, H_aug, R, 0.0, &xa, &Pa).ok());
+    if (k % 3 != 0 && k + 1 != z.size()) continue;
+    FilterEpoch c;
+    c.t_s = e.t_s;
+    c.x_prior = c.x_post = xa.head(1);
+    c.P_prior = c.P_post = Pa.topLeftCorner(1, 1);
+    if (!cloned.empty()) {
+      cloned.back().x_post = xa.tail(1);  // x_{j|k}
+      cloned.back().P_post = Pa.bottomRightCorner(1, 1);
+      c.P_cross = Pa.topRightCorner(1, 1);  // Cov(x_k, x_j)
+    }
+    cloned.push_back(c);
+    cloned_steps.push_back(k);
+    xa[1] = xa[0];  // new clone
+    Pa.col(1) = Pa.col(0);
+    Pa.row(1) = Pa.row(0);
+  }
+  auto a = RtsSmooth(full);
+  auto b = RtsSmooth(cloned);
+  ASSERT_TRUE(a.ok() && b.ok());
+  ASSERT_EQ(b->size(), 5u);
+  for (size_t i = 0; i < cloned_steps.size(); ++i) {
+    const SmoothedState& s = (*a)[cloned_steps[i]];
+    EXPECT_NEAR((*b)[i].x[0], s.x[0], 1e-12) << i;
+    EXPECT_NEAR((*b)[i].P(0, 0), s.P(0, 0), 1e-12) << i;
+  }
+  // The smoother changed the cloned filter's earlier estimates (the test is not vacuous).
+  EXPECT_GT(std::fabs((*b)[1].x[0] - cloned[1].x_prior[0]), 1e-3);
+  cloned.back().P_cross = Eigen::MatrixXd::Zero(2, 2);  // wrong size
+  EXPECT_FALSE(RtsSmooth(cloned).ok());
 }
 
 }  // namespace

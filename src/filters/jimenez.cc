@@ -11,7 +11,6 @@
 #include <Eigen/Cholesky>
 
 #include "estimators/builtin.h"
-#include "util/text.h"
 #include "walkgraph/angle.h"
 #include "walkgraph/config.h"
 #include "walkgraph/filters/kalman.h"
@@ -86,15 +85,6 @@ TrajectoryPoint OutputPoint(const JimenezNominal& nominal, const Eigen::MatrixXd
   pt.covariance = 0.5 * (C + C.transpose());
   return pt;
 }
-
-// One smoother epoch: the nominal state at epoch k, and (once epoch k+1 is reached) the error
-// at k given data through k+1, C_k and D_k (see the header).
-struct SmootherEpoch {
-  JimenezNominal nominal;
-  JimenezVector dx_next = JimenezVector::Zero();
-  JimenezMatrix C = JimenezMatrix::Zero();
-  JimenezMatrix D = JimenezMatrix::Zero();
-};
 
 StatusOr<ImuSampling> SamplingFromString(const std::string& s) {
   if (s == "interval-average") return ImuSampling::kIntervalAverage;
@@ -431,64 +421,55 @@ void JimenezPredict(const ImuSample& prev, const ImuSample& cur, ImuSampling sam
   f->corrected = false;
 }
 
-// The error-state RTS with stochastic cloning: at each output epoch the filter holds a clone of
-// the error at the previous epoch, from which C_k = Cov(δx_k, δx_{k+1}) P_{k+1}⁻¹ and
-// D_k = P_{k|k+1} − C_k P_{k+1} C_kᵀ follow; the backward pass is
-//   δx_{k|N} = δx_{k|k+1} + C_k δx_{k+1|N},   P_{k|N} = D_k + C_k P_{k+1|N} C_kᵀ.
+// The error-state RTS with stochastic cloning (kalman.h's RtsSmooth): at each output epoch the
+// filter holds a clone of the error at the previous epoch; the epoch's error is 0 after the
+// reset (the chart origin), the clone's correction δx_{k|k+1} and covariance P_{k|k+1} and the
+// cross-covariance Cov(δx_{k+1}, δx_k) give C_k = Cov(δx_k, δx_{k+1}) P_{k+1}⁻¹ and
+//   δx_{k|N} = δx_{k|k+1} + C_k δx_{k+1|N},   P_{k|N} = P_{k|k+1} + C_k (P_{k+1|N} − P_{k+1}) C_kᵀ.
 class ClonedErrorRts {
  public:
-  void Reserve(size_t n) { epochs_.reserve(n); }
+  void Reserve(size_t n) {
+    epochs_.reserve(n);
+    nominal_.reserve(n);
+  }
   size_t size() const { return epochs_.size(); }
 
   // Closes the previous epoch from the clone and starts a new one at f's (reset) state.
-  Status Record(FilterState* f) {
+  void Record(FilterState* f) {
+    FilterEpoch e;
+    e.t_s = f->nominal.nav.t_s;
+    e.x_prior = e.x_post = Eigen::VectorXd::Zero(N);
+    e.P_prior = e.P_post = f->P.topLeftCorner(N, N);  // P_post: until the clone closes it
     if (!epochs_.empty()) {
-      SmootherEpoch& prev = epochs_.back();
-      const JimenezMatrix P_now = f->P.topLeftCorner(N, N);
-      const JimenezMatrix P_now_clone = f->P.topRightCorner(N, N);  // Cov(δx_now, δx_k)
-      const Eigen::LDLT<JimenezMatrix> ldlt(P_now);
-      if (ldlt.info() != Eigen::Success || !ldlt.isPositive()) {
-        return NumericalError("jimenez-iez-rts: filter covariance not positive at t = " +
-                              internal::Num(f->nominal.nav.t_s));
-      }
-      prev.C = ldlt.solve(P_now_clone).transpose();  // C_k = Cov(δx_k, δx_{k+1}) P⁻¹
-      prev.D = f->P.bottomRightCorner(N, N) - prev.C * P_now * prev.C.transpose();
-      prev.D = 0.5 * (prev.D + prev.D.transpose()).eval();
-      prev.dx_next = f->dx.tail(N);
+      epochs_.back().x_post = f->dx.tail(N);
+      epochs_.back().P_post = f->P.bottomRightCorner(N, N);
+      e.P_cross = f->P.topRightCorner(N, N);  // Cov(δx_now, δx_k)
     }
-    SmootherEpoch e;
-    e.nominal = f->nominal;
-    epochs_.push_back(e);
+    epochs_.push_back(std::move(e));
+    nominal_.push_back(f->nominal);
     // New clone of the current error (which is 0 after the reset).
     f->dx.tail(N).setZero();
     f->P.bottomRightCorner(N, N) = f->P.topLeftCorner(N, N);
     f->P.topRightCorner(N, N) = f->P.topLeftCorner(N, N);
     f->P.bottomLeftCorner(N, N) = f->P.topLeftCorner(N, N);
-    return Status::Ok();
   }
 
-  // The backward pass from the last epoch's covariance P_last (15 × 15).
-  std::vector<TrajectoryPoint> Smooth(const Eigen::MatrixXd& P_last) const {
+  // The backward pass, each smoothed error injected into its epoch's nominal state.
+  StatusOr<std::vector<TrajectoryPoint>> Smooth() const {
+    WG_ASSIGN_OR_RETURN(const std::vector<SmoothedState> smoothed, RtsSmooth(epochs_));
     std::vector<TrajectoryPoint> out(epochs_.size());
-    JimenezVector s = JimenezVector::Zero();
-    JimenezMatrix Ps = P_last.topLeftCorner(N, N);
-    for (size_t k = epochs_.size(); k-- > 0;) {
-      if (k + 1 < epochs_.size()) {
-        const SmootherEpoch& e = epochs_[k];
-        s = e.dx_next + e.C * s;                // δx_{k|N} = δx_{k|k+1} + C_k δx_{k+1|N}
-        Ps = e.D + e.C * Ps * e.C.transpose();  // P_{k|N} = D_k + C_k P_{k+1|N} C_kᵀ
-        Ps = 0.5 * (Ps + Ps.transpose()).eval();
-      }
-      JimenezNominal smoothed = epochs_[k].nominal;
-      Eigen::MatrixXd P = Ps;
-      JimenezInjectError(s, &smoothed, &P);
-      out[k] = OutputPoint(smoothed, P);
+    for (size_t k = 0; k < epochs_.size(); ++k) {
+      JimenezNominal nominal = nominal_[k];
+      Eigen::MatrixXd P = smoothed[k].P;
+      JimenezInjectError(smoothed[k].x, &nominal, &P);
+      out[k] = OutputPoint(nominal, P);
     }
     return out;
   }
 
  private:
-  std::vector<SmootherEpoch> epochs_;
+  std::vector<FilterEpoch> epochs_;
+  std::vector<JimenezNominal> nominal_;
 };
 
 // The measurement models of 004 at one IMU sample (Algorithm 1), on the running filter.
@@ -650,11 +631,13 @@ StatusOr<EstimateResult> RunJimenezIez(const Walk& walk, const JimenezIezOptions
   ClonedErrorRts rts;
   if (o.smooth) rts.Reserve((n_imu - 1) / static_cast<size_t>(decimation) + 2);
   auto epoch = [&]() {
-    if (o.smooth) return rts.Record(&f);
-    result.trajectory.points.push_back(OutputPoint(f.nominal, f.P));
-    return Status::Ok();
+    if (o.smooth) {
+      rts.Record(&f);
+    } else {
+      result.trajectory.points.push_back(OutputPoint(f.nominal, f.P));
+    }
   };
-  WG_RETURN_IF_ERROR(epoch());
+  epoch();
   IezUpdates updates(walk, o, stance, CompassSamples(stance.stance, o.compass_every_stance_sample),
                      std::move(ranges), mag, d, &diag);
   long stance_samples = 0;
@@ -669,11 +652,15 @@ StatusOr<EstimateResult> RunJimenezIez(const Walk& walk, const JimenezIezOptions
       JimenezInjectError(dx, &f.nominal, &f.P);
       f.dx.head(N).setZero();
     }
-    if (k % static_cast<size_t>(decimation) == 0 || k + 1 == n_imu) {
-      WG_RETURN_IF_ERROR(epoch());
-    }
+    if (k % static_cast<size_t>(decimation) == 0 || k + 1 == n_imu) epoch();
   }
-  if (o.smooth) result.trajectory.points = rts.Smooth(f.P);
+  if (o.smooth) {
+    StatusOr<std::vector<TrajectoryPoint>> smoothed = rts.Smooth();
+    if (!smoothed.ok()) {
+      return Status(smoothed.status().code(), "jimenez-iez-rts: " + smoothed.status().message());
+    }
+    result.trajectory.points = std::move(*smoothed);
+  }
 
   result.nis = o.use_rss ? d->nis_range : d->nis_zupt;
   diag["nis_mean_zupt"] = Mean(d->nis_zupt);

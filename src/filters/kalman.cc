@@ -70,7 +70,8 @@ StatusOr<std::vector<SmoothedState>> RtsSmooth(const std::vector<FilterEpoch>& e
     const FilterEpoch& e = epochs[k];
     if (e.x_prior.size() != n || e.x_post.size() != n || e.P_prior.rows() != n ||
         e.P_prior.cols() != n || e.P_post.rows() != n || e.P_post.cols() != n ||
-        (k > 0 && (e.F.rows() != n || e.F.cols() != n))) {
+        (k > 0 && e.P_cross.size() == 0 && (e.F.rows() != n || e.F.cols() != n)) ||
+        (e.P_cross.size() != 0 && (e.P_cross.rows() != n || e.P_cross.cols() != n))) {
       return InvalidArgument("RtsSmooth: inconsistent state sizes at epoch " + std::to_string(k));
     }
   }
@@ -91,8 +92,11 @@ StatusOr<std::vector<SmoothedState>> RtsSmooth(const std::vector<FilterEpoch>& e
       return NumericalError("RtsSmooth: prior covariance not positive at epoch " +
                             std::to_string(k + 1));
     }
-    // C_k = P_{k|k} F_{k+1}ᵀ P_{k+1|k}⁻¹ = (P_{k+1|k}⁻¹ F_{k+1} P_{k|k})ᵀ.
-    const Eigen::MatrixXd C = prior.solve(next.F * cur.P_post).transpose();
+    // C_k = P_{k|k} F_{k+1}ᵀ P_{k+1|k}⁻¹ = (P_{k+1|k}⁻¹ F_{k+1} P_{k|k})ᵀ; with cloning
+    // F_{k+1} P_{k|k} is the cross-covariance the epoch holds.
+    const Eigen::MatrixXd C = next.P_cross.size() != 0
+                                  ? Eigen::MatrixXd(prior.solve(next.P_cross).transpose())
+                                  : Eigen::MatrixXd(prior.solve(next.F * cur.P_post).transpose());
     SmoothedState& s = out[k];
     s.t_s = cur.t_s;
     s.x = cur.x_post + C * wrap(out[k + 1].x - next.x_prior);

@@ -1112,9 +1112,7 @@ StatusOr<EstimateResult> RunPrietoFilter(const Walk& walk, const PrietoOptions& 
       const Clone& c = core.clone();
       epochs.back().x_post = c.delta;
       epochs.back().P_post = c.P_jj;
-      // F with F P_{j|m} = P_{mj|m}, so that RtsSmooth's C = P_{j|m} Fᵀ P_{m|m}⁻¹.
-      const Eigen::LDLT<Eigen::MatrixXd> ldlt(c.P_jj);
-      e.F = ldlt.solve(c.P_cj.transpose()).transpose();
+      e.P_cross = c.P_cj;  // P_{mj|m}: RtsSmooth's C = P_{mj|m}ᵀ P_{m|m}⁻¹
     }
     stored.push_back(core.y());
     epochs.push_back(std::move(e));

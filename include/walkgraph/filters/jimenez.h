@@ -46,13 +46,15 @@
 //   δx_{k|N} = δx_{k|k+1} + C_k δx_{k+1|N},   P_{k|N} = D_k + C_k P_{k+1|N} C_kᵀ,
 //   D_k = P_{k|k+1} − C_k P_{k+1|k+1} C_kᵀ,
 // all errors relative to epoch k's recorded nominal state (which is what makes the error-state
-// backward pass consistent); δx_{N|N} = 0. The smoothed state is nominal_k ⊕ δx_{k|N}. With
-// one measurement update per epoch this is exactly the RTS recursion of kalman.h. Memory: one
-// nominal state, δx_{k|k+1}, C_k and D_k per epoch (≈3.9 KB; at 10 Hz ≈ 140 MB per hour of
-// walk: lower output_rate_hz for very long walks). The smoother is only as good as the noise
-// models: with the default compass at every stance sample (a spatially correlated disturbance
-// fused as if white, ≈35 times per stance) it gains 8 % RMSE on the 8-lap preset, with the
-// compass once per stance 19 % (jimenez_test JimenezTables.CompassVariantsAndSmoother).
+// backward pass consistent); δx_{N|N} = 0. The smoothed state is nominal_k ⊕ δx_{k|N}. This is
+// kalman.h's RtsSmooth with the cross-covariance Cov(δx_{k+1}, δx_k) of the clone in place of
+// F P (P_{k|N} = P_{k|k+1} + C_k (P_{k+1|N} − P_{k+1|k+1}) C_kᵀ, the same as above). Memory: one
+// nominal state, δx_{k|k+1}, P_{k|k+1}, P_{k+1|k+1} and the cross-covariance per epoch
+// (≈5.6 KB; at 10 Hz ≈ 200 MB per hour of walk: lower output_rate_hz for very long walks). The
+// smoother is only as good as the noise models: with the default compass at every stance sample (a
+// spatially correlated disturbance fused as if white, ≈35 times per stance) it gains 8 % RMSE on
+// the 8-lap preset, with the compass once per stance 19 % (jimenez_test
+// JimenezTables.CompassVariantsAndSmoother).
 //
 // Output: the foot's planar position and the yaw of its x axis with the (x, y, ψ) covariance
 // J P Jᵀ (J picks δPo_x, δPo_y and h_ψ), at output_rate_hz (and the last sample).

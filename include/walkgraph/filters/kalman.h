@@ -12,7 +12,10 @@
 //   x_{k|N} = x_{k|k} + C_k (x_{k+1|N} − x_{k+1|k}),
 //   P_{k|N} = P_{k|k} + C_k (P_{k+1|N} − P_{k+1|k}) C_kᵀ,
 // where F_{k+1} is the transition Jacobian from step k to k+1. Angle components (listed by
-// index) are differenced through NormalizeAngle.
+// index) are differenced through NormalizeAngle. With stochastic cloning (a filter that carries
+// a clone of its state at the last epoch) the epoch supplies the cross-covariance
+// P_{k+1,k} = Cov(x_{k+1|k+1}, x_{k|k+1}) instead, x_{k|k} and P_{k|k} being the clone's
+// x_{k|k+1}, P_{k|k+1} and x_{k+1|k} its chart origin; then C_k = P_{k+1,k}ᵀ P_{k+1|k}⁻¹.
 #ifndef WALKGRAPH_FILTERS_KALMAN_H_
 #define WALKGRAPH_FILTERS_KALMAN_H_
 
@@ -51,6 +54,9 @@ struct FilterEpoch {
   Eigen::VectorXd x_prior, x_post;
   Eigen::MatrixXd P_prior, P_post;
   Eigen::MatrixXd F;
+  // Stochastic cloning: Cov(this epoch's state, the previous epoch's clone), in place of
+  // F · P_post of the previous epoch (empty: that product).
+  Eigen::MatrixXd P_cross;
 };
 
 struct SmoothedState {

@@ -87,8 +87,8 @@
 // x_m,
 //   x_{j|N} = x_{j|m} ⊞ J (x_{m|N} ⊟ x_{m|m}),  J = P_{jm|m} P_{m|m}⁻¹,
 //   P_{j|N} = P_{j|m} + J (P_{m|N} − P_{m|m}) Jᵀ,
-// which is RtsSmooth (kalman.h) with F := P_{mj|m} P_{j|m}⁻¹, in the error chart of each
-// stored filter state (x_prior = 0, x_post = δ_j).
+// which is RtsSmooth (kalman.h) with the cross-covariance P_{mj|m} (FilterEpoch::P_cross) in
+// place of F P, in the error chart of each stored filter state (x_prior = 0, x_post = δ_j).
 //
 // Variants (ids): sensors = fusion (IMU + stance + RSS + TOA), imu (IMU + stance: the
 // paper's EKF-IMU/UKF-IMU), radio (RSS + TOA only: EKF-WiFi/UKF-WiFi, on the 9-D state
