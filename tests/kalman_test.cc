@@ -1,7 +1,9 @@
 #include "walkgraph/filters/kalman.h"
 
 #include <cmath>
+#include <map>
 #include <random>
+#include <string>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -180,6 +182,22 @@ TEST(RtsSmoothTest, WrapsAngleDifferences) {
   // C = 0.1/0.2 = 0.5; x_0|N = 3.1 + 0.5·wrap(−3.1 − 3.1) = 3.1 + 0.5·0.0832 → wrapped.
   EXPECT_NEAR(std::abs((*s)[0].x[0]), 3.1 + 0.5 * (2 * M_PI - 6.2), 1e-12);
   EXPECT_FALSE(RtsSmooth({}).ok());
+}
+
+TEST(KalmanUpdateTest, RecordOutcomeKeepsAcceptedNisAndCountsGated) {
+  std::vector<double> nis;
+  std::map<std::string, double> diagnostics;
+  UpdateOutcome accepted;
+  accepted.accepted = true;
+  accepted.nis = 2.5;
+  UpdateOutcome gated;
+  gated.nis = 40.0;
+  RecordOutcome(accepted, &nis, &diagnostics);
+  RecordOutcome(gated, &nis, &diagnostics);
+  RecordOutcome(gated, &nis, &diagnostics);
+  ASSERT_EQ(nis.size(), 1u);
+  EXPECT_EQ(nis[0], 2.5);
+  EXPECT_EQ(diagnostics.at("gated_updates"), 2.0);
 }
 
 // Stochastic cloning: a filter that records an epoch only every third step (with several

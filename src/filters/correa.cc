@@ -204,11 +204,7 @@ StatusOr<EstimateResult> RunCorreaEkf(const CorreaInputs& in, const CorreaEkfOpt
         UpdateOutcome out,  // eq. 10–12
         KalmanUpdate(nu, H, Eigen::MatrixXd(r_diag.asDiagonal()), o.gate_probability, &x, &P));
     x[3] = NormalizeAngle(x[3]);
-    if (out.accepted) {
-      result.nis.push_back(out.nis);
-    } else {
-      result.diagnostics["gated_updates"] += 1;
-    }
+    RecordOutcome(out, &result.nis, &result.diagnostics);
     e.x_post = x;
     e.P_post = P;
     epochs.push_back(e);

@@ -110,11 +110,7 @@ StatusOr<EstimateResult> RunGadekeKf(const StepSequence& steps,
       const Eigen::VectorXd nu = Eigen::VectorXd::Constant(1, m.range_m - h);
       const Eigen::MatrixXd R = Eigen::MatrixXd::Constant(1, 1, m.sigma_m * m.sigma_m);
       WG_ASSIGN_OR_RETURN(UpdateOutcome out, KalmanUpdate(nu, H, R, o.gate_probability, &x, &P));
-      if (out.accepted) {
-        result.nis.push_back(out.nis);
-      } else {
-        result.diagnostics["gated_updates"] += 1;
-      }
+      RecordOutcome(out, &result.nis, &result.diagnostics);
     }
     e.x_post = x;
     e.P_post = P;

@@ -62,6 +62,15 @@ StatusOr<UpdateOutcome> KalmanUpdate(const Eigen::VectorXd& innovation, const Ei
   return out;
 }
 
+void RecordOutcome(const UpdateOutcome& outcome, std::vector<double>* nis,
+                   std::map<std::string, double>* diagnostics) {
+  if (outcome.accepted) {
+    nis->push_back(outcome.nis);
+  } else {
+    (*diagnostics)["gated_updates"] += 1;
+  }
+}
+
 StatusOr<std::vector<SmoothedState>> RtsSmooth(const std::vector<FilterEpoch>& epochs,
                                                const std::vector<int>& angle_indices) {
   if (epochs.empty()) return InvalidArgument("RtsSmooth: no epochs");

@@ -121,11 +121,7 @@ StatusOr<FilterEpoch> KalmanFixEpoch(const PositionFix& f, double t, double t_ep
   WG_ASSIGN_OR_RETURN(UpdateOutcome u,  // eq. 10–12 (Joseph form)
                       KalmanUpdate(f.position_m - x, Eigen::Matrix2d::Identity(), R,
                                    options.gate_probability, &x, &Pk));
-  if (u.accepted) {
-    result->nis.push_back(u.nis);
-  } else {
-    result->diagnostics["gated_updates"] += 1;
-  }
+  RecordOutcome(u, &result->nis, &result->diagnostics);
   e.x_post = x;
   e.P_post = Pk;
   return e;

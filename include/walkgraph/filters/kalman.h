@@ -19,6 +19,8 @@
 #ifndef WALKGRAPH_FILTERS_KALMAN_H_
 #define WALKGRAPH_FILTERS_KALMAN_H_
 
+#include <map>
+#include <string>
 #include <vector>
 
 #include <Eigen/Core>
@@ -45,6 +47,11 @@ struct UpdateOutcome {
 StatusOr<UpdateOutcome> KalmanUpdate(const Eigen::VectorXd& innovation, const Eigen::MatrixXd& H,
                                      const Eigen::MatrixXd& R, double gate_probability,
                                      Eigen::VectorXd* x, Eigen::MatrixXd* P);
+
+// A filter's bookkeeping of one update: an accepted update's NIS goes to `nis`, a gated one
+// counts in (*diagnostics)["gated_updates"].
+void RecordOutcome(const UpdateOutcome& outcome, std::vector<double>* nis,
+                   std::map<std::string, double>* diagnostics);
 
 // One filter epoch as recorded for smoothing: the prior at this epoch, the transition Jacobian
 // that produced it from the previous epoch's posterior, and the posterior (== prior when no
