@@ -357,6 +357,41 @@ TEST_F(HtmlReport, ScreenshotShowsEveryEstimatorsColour) {
   EXPECT_GT(CountColour(img, 0xf0, 0xc0, 0x00, 30), 30);
 }
 
+// Sorting by a column (ungrouped, descending), hiding an estimator and pinning a row's highlight
+// work in the browser: a script appended to the page clicks them and records the outcome.
+TEST_F(HtmlReport, TableSortsTogglesAndHighlights) {
+  std::string html = report_.html;
+  const size_t end = html.rfind("</body>");
+  ASSERT_NE(end, std::string::npos);
+  html.insert(end, R"(<script>
+const th = document.querySelector('#results thead th[data-col="1"]');
+th.click(); th.click();
+document.getElementById('group').click();
+document.querySelector('tr.est[data-id="fg-0"] input.tog').click();
+document.querySelector('tr.est[data-id="tarrio-1"]').click();
+document.body.setAttribute('data-order', Array.from(document.querySelectorAll('#results tr.est'))
+  .map(r => r.getAttribute('data-id') + (r.classList.contains('off') ? '(off)' : '')).join(' '));
+document.body.setAttribute('data-hl', String(document.querySelectorAll('svg .hl').length));
+</script>)");
+  const fs::path page = dir_ / "clicked.html";
+  std::ofstream(page) << html;
+  std::string dom;
+  DumpCheck(page, &dom);
+  const std::string order = Between(dom, "data-order=\"", "\"");
+  // RMSE descending over all families: the estimators' RMSE from the comparison, sorted.
+  std::vector<std::pair<double, std::string>> rmse;
+  for (const EstimatorOutcome& o : report_.comparison.outcomes) {
+    if (o.Ranked()) rmse.emplace_back(o.stats.rmse_m, o.id);
+  }
+  std::sort(rmse.rbegin(), rmse.rend());
+  std::string expected;
+  for (const auto& [v, id] : rmse)
+    expected += (expected.empty() ? "" : " ") + id + (id == "fg-0" ? "(off)" : "");
+  EXPECT_EQ(order, expected);
+  // tarrio-1's lines in the trajectory, error, CDF and box plots are highlighted.
+  EXPECT_GE(std::stoi(Between(dom, "data-hl=\"", "\"")), 5);
+}
+
 // The self-check is not vacuous: a legend moved over the trajectory plot is reported.
 TEST_F(HtmlReport, SelfCheckReportsALegendOverAPlot) {
   std::string html = report_.html;

@@ -9,7 +9,7 @@
 // Layout self-check: after drawing, the script writes into <pre id="wg-check"> a JSON object
 // with the colour of each estimator's line as drawn, whether they are distinct, the number of
 // legend boxes (.legend) and plot areas (.plot-area) and every overlap between the two in page
-// coordinates. The Chromium test (tests/html_report_test.cc) reads it from --dump-dom.
+// coordinates, and the time the last drawing of every plot took. The Chromium test (tests/html_report_test.cc) reads it from --dump-dom.
 #ifndef WALKGRAPH_SRC_REPORT_REPORT_SCRIPT_H_
 #define WALKGRAPH_SRC_REPORT_REPORT_SCRIPT_H_
 
@@ -393,7 +393,9 @@ function legend() {
     d.addEventListener('mouseleave', () => highlight(pinned));
   });
 }
+let drawMs = 0;
 function drawAll() {
+  const t0 = performance.now();
   legend();
   drawTrajectories();
   drawErrorSeries('p-time', 0, 'Horizontal error vs time', 't [s]');
@@ -405,6 +407,7 @@ function drawAll() {
     r.querySelector('input.tog').checked = !off;
   });
   highlight(pinned);
+  drawMs = Math.round(performance.now() - t0);
   check();
 }
 function toggle(id) { if (hidden.has(id)) hidden.delete(id); else hidden.add(id); drawAll(); }
@@ -485,7 +488,7 @@ function check() {
   }
   document.getElementById('wg-check').textContent = JSON.stringify({
     estimators: E.length, colours: colours, distinct_colours: new Set(drawn).size,
-    legend_boxes: boxes.length, plot_areas: areas.length, overlaps: overlaps});
+    legend_boxes: boxes.length, plot_areas: areas.length, overlaps: overlaps, draw_ms: drawMs});
 }
 drawAll();
 })();
