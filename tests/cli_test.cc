@@ -50,6 +50,37 @@ TEST(Cli, CompareWritesReportFolderAndPrintsTable) {
   fs::remove_all(out);
 }
 
+TEST(Cli, VersionListIdAndSpacedEstimatorList) {
+  CliRun v = Cli("--version");
+  EXPECT_EQ(v.code, 0) << v.output;
+  EXPECT_THAT(v.output, ::testing::MatchesRegex("walkgraph [0-9]+\\.[0-9]+\\.[0-9]+\n"));
+  CliRun list = Cli("list");
+  EXPECT_THAT(list.output, HasSubstr("walkgraph list ID"));
+  CliRun id = Cli("list fg-window");
+  EXPECT_EQ(id.code, 0) << id.output;
+  EXPECT_THAT(id.output, HasSubstr("fg-window  — "));
+  EXPECT_THAT(id.output, ::testing::ContainsRegex("\n  lag_s +10\n"));  // option, default
+  CliRun bad = Cli("list nope");
+  EXPECT_EQ(bad.code, 1);
+  EXPECT_THAT(bad.output, HasSubstr("unknown estimator 'nope'"));
+  const fs::path out = fs::temp_directory_path() / ("wg_cli_sp_" + std::to_string(::getpid()));
+  fs::remove_all(out);
+  CliRun r = Cli("compare " + kData +
+                 "/walks/valid_small --estimators ' odometry-dr , fg-batch' "
+                 "--out " +
+                 out.string());
+  EXPECT_EQ(r.code, 0) << r.output;
+  EXPECT_TRUE(fs::exists(out / "trajectories" / "fg-batch.csv"));
+  EXPECT_TRUE(fs::exists(out / "truth.tum"));
+  CliRun empty = Cli("compare " + kData +
+                     "/walks/valid_small --estimators 'odometry-dr, ,x' "
+                     "--out " +
+                     out.string());
+  EXPECT_EQ(empty.code, 1);
+  EXPECT_THAT(empty.output, HasSubstr("empty estimator id"));
+  fs::remove_all(out);
+}
+
 TEST(Cli, FailureLeavesNoOutput) {
   const fs::path out = fs::temp_directory_path() / ("wg_cli_fail_" + std::to_string(::getpid()));
   fs::remove_all(out);

@@ -1,6 +1,9 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -82,10 +85,11 @@ TEST(WriteComparison, WritesEveryFileWithTheDocumentedSchema) {
   const fs::path out = fs::temp_directory_path() / ("wg_compare_" + std::to_string(::getpid()));
   fs::remove_all(out);
   ASSERT_TRUE(WriteComparison(*c, out.string()).ok());
-  for (const char* f :
-       {"results.json", "errors.csv", "report.html", "trajectories/odometry-dr.tum"}) {
+  for (const char* f : {"results.json", "errors.csv", "report.html", "truth.tum",
+                        "trajectories/odometry-dr.tum", "trajectories/odometry-dr.csv"}) {
     EXPECT_TRUE(fs::exists(out / f)) << f;
   }
+  EXPECT_FALSE(fs::exists(out / "checkpoints.csv"));  // the truth is continuous
   std::ifstream in(out / "results.json");
   const nlohmann::json j = nlohmann::json::parse(in);
   EXPECT_EQ(j["walk"], "valid_small");
@@ -99,10 +103,94 @@ TEST(WriteComparison, WritesEveryFileWithTheDocumentedSchema) {
   EXPECT_TRUE(j.contains("pcrb_rmse_m"));
   std::ifstream html(out / "report.html");
   const std::string page((std::istreambuf_iterator<char>(html)), {});
-  EXPECT_THAT(page, HasSubstr("id=\"trajectories\""));
-  EXPECT_THAT(page, HasSubstr("id=\"error-cdf\""));
-  EXPECT_THAT(page, HasSubstr("class=\"anchor\""));
-  EXPECT_THAT(page, ::testing::Not(HasSubstr("http://www.w3.org/2000/svg\" src")));
+  EXPECT_THAT(page, HasSubstr("id=\"results\""));
+  EXPECT_THAT(page, HasSubstr("id=\"wg-data\""));
+  EXPECT_THAT(page, HasSubstr("\"anchors\":[["));
+  EXPECT_THAT(page, ::testing::Not(HasSubstr(" src=")));  // nothing loaded from anywhere
+  fs::remove_all(out);
+}
+
+std::vector<std::string> Lines(const fs::path& p) {
+  std::ifstream in(p);
+  std::vector<std::string> lines;
+  for (std::string line; std::getline(in, line);) lines.push_back(line);
+  return lines;
+}
+
+std::vector<std::string> Fields(const std::string& line) {
+  std::vector<std::string> f;
+  std::stringstream s(line);
+  for (std::string x; std::getline(s, x, ',');) f.push_back(x);
+  if (!line.empty() && line.back() == ',') f.push_back("");
+  return f;
+}
+
+// trajectories/<id>.csv: the TUM trajectory's points with their (x, y, yaw) covariance; empty
+// covariance fields for an estimator without one. truth.tum: every truth sample.
+TEST(WriteComparison, WritesTrajectoryCsvWithCovariancesAndTruthTum) {
+  auto walk = SimulateScenario("linear-gaussian", 3, YAML::Load("{duration_s: 60}"));
+  ASSERT_TRUE(walk.ok());
+  CompareOptions options;
+  options.estimator_ids = {"odometry-dr", "fg-batch"};
+  auto c = CompareOnWalk(*walk, options);
+  ASSERT_TRUE(c.ok()) << c.status().message();
+  const fs::path out = fs::temp_directory_path() / ("wg_csv_" + std::to_string(::getpid()));
+  fs::remove_all(out);
+  ASSERT_TRUE(WriteComparison(*c, out.string()).ok());
+  for (const EstimatorOutcome& o : c->outcomes) {
+    const std::vector<std::string> csv = Lines(out / "trajectories" / (o.id + ".csv"));
+    const std::vector<std::string> tum = Lines(out / "trajectories" / (o.id + ".tum"));
+    ASSERT_FALSE(csv.empty());
+    EXPECT_EQ(csv[0], "t_s,x_m,y_m,yaw_rad,cov_xx,cov_xy,cov_yy,cov_xyaw,cov_yyaw,cov_yawyaw");
+    ASSERT_EQ(csv.size(), o.result.trajectory.size() + 1) << o.id;
+    EXPECT_EQ(tum.size(), csv.size()) << o.id;
+    for (size_t i = 1; i < csv.size(); i += 97) {
+      const std::vector<std::string> f = Fields(csv[i]);
+      ASSERT_EQ(f.size(), 10u) << csv[i];
+      const TrajectoryPoint& p = o.result.trajectory.points[i - 1];
+      EXPECT_NEAR(std::stod(f[0]), p.t_s, 1e-9);
+      EXPECT_NEAR(std::stod(f[1]), p.position_m.x(), 1e-9);
+      EXPECT_NEAR(std::stod(f[3]), p.heading_rad, 1e-9);
+      if (!p.covariance) {
+        for (int j = 4; j < 10; ++j) EXPECT_EQ(f[j], "") << o.id << " " << csv[i];
+        continue;
+      }
+      EXPECT_NEAR(std::stod(f[4]), (*p.covariance)(0, 0), 1e-12);
+      EXPECT_NEAR(std::stod(f[5]), (*p.covariance)(0, 1), 1e-12);
+      EXPECT_NEAR(std::stod(f[9]), (*p.covariance)(2, 2), 1e-12);
+    }
+  }
+  bool fg_has_cov = false;
+  for (const auto& p : c->outcomes[1].result.trajectory.points)
+    fg_has_cov |= p.covariance.has_value();
+  EXPECT_TRUE(fg_has_cov);  // the covariance fields above were checked on real values
+  const std::vector<std::string> truth = Lines(out / "truth.tum");
+  ASSERT_EQ(truth.size(), walk->truth.size() + 1);
+  std::stringstream row(truth[5]);
+  double t, x, y, z, qx, qy, qz, qw;
+  row >> t >> x >> y >> z >> qx >> qy >> qz >> qw;
+  EXPECT_NEAR(t, walk->truth[4].t_s, 1e-9);
+  EXPECT_NEAR(x, walk->truth[4].position_m.x(), 1e-9);
+  EXPECT_NEAR(y, walk->truth[4].position_m.y(), 1e-9);
+  EXPECT_EQ(qw, 1.0);
+  fs::remove_all(out);
+}
+
+TEST(WriteComparison, WritesCheckpointsCsvWhenTheTruthIsCheckpoints) {
+  Walk walk = SmallWalk();
+  walk.meta.truth_kind = TruthKind::kCheckpoints;
+  auto c = CompareOnWalk(walk, {});
+  ASSERT_TRUE(c.ok()) << c.status().message();
+  const fs::path out = fs::temp_directory_path() / ("wg_ckpt_" + std::to_string(::getpid()));
+  fs::remove_all(out);
+  ASSERT_TRUE(WriteComparison(*c, out.string()).ok());
+  const std::vector<std::string> rows = Lines(out / "checkpoints.csv");
+  ASSERT_EQ(rows.size(), walk.truth.size() + 1);
+  EXPECT_EQ(rows[0], "t_s,x_m,y_m");
+  const std::vector<std::string> f = Fields(rows.back());
+  ASSERT_EQ(f.size(), 3u);
+  EXPECT_NEAR(std::stod(f[1]), walk.truth.back().position_m.x(), 1e-9);
+  EXPECT_EQ(Lines(out / "truth.tum").size(), walk.truth.size() + 1);
   fs::remove_all(out);
 }
 
@@ -137,8 +225,9 @@ TEST(WriteComparison, CompactWritesTheSameFilesAsFull) {
     std::ifstream in(p);
     return std::string((std::istreambuf_iterator<char>(in)), {});
   };
-  for (const char* f : {"results.json", "errors.csv", "trajectories/odometry-dr.tum",
-                        "trajectories/fg-batch.tum"}) {
+  for (const char* f :
+       {"results.json", "errors.csv", "truth.tum", "trajectories/odometry-dr.tum",
+        "trajectories/fg-batch.tum", "trajectories/odometry-dr.csv", "trajectories/fg-batch.csv"}) {
     EXPECT_EQ(read(out / "full" / f), read(out / "compact" / f)) << f;
   }
   fs::remove_all(out);

@@ -11,10 +11,14 @@
 #include <cstdint>
 #include <cstdio>
 #include <exception>
+#include <iomanip>
 #include <iostream>
 #include <map>
 #include <new>
+#include <sstream>
 #include <string>
+#include <type_traits>
+#include <variant>
 #include <vector>
 
 #include <CLI/CLI.hpp>
@@ -132,14 +136,16 @@ std::string ParseSeed(const std::string& text, uint64_t* seed) {
   return "";
 }
 
-// --estimators a,b,c: ids without empty entries.
+// --estimators "a, b,c": ids without empty entries; spaces around an id are ignored.
 walkgraph::StatusOr<std::vector<std::string>> SplitIds(const std::string& text) {
   std::vector<std::string> ids;
-  if (text.empty()) return ids;
+  if (text.find_first_not_of(" \t") == std::string::npos) return ids;
   size_t start = 0;
   while (true) {
     const size_t comma = text.find(',', start);
-    const std::string id = text.substr(start, comma == std::string::npos ? comma : comma - start);
+    std::string id = text.substr(start, comma == std::string::npos ? comma : comma - start);
+    const size_t first = id.find_first_not_of(" \t"), last = id.find_last_not_of(" \t");
+    id = first == std::string::npos ? "" : id.substr(first, last - first + 1);
     if (id.empty()) {
       return walkgraph::InvalidArgument(
           "--estimators: empty estimator id in the list; expected comma-separated ids such as "
@@ -370,7 +376,7 @@ int RunCompare(const CompareArgs& args) {
   std::cout << walkgraph::FormatComparisonTable(*comparison);
   const Status s = walkgraph::WriteComparison(*comparison, args.out, g_output);
   if (!s.ok()) return Fail(s);
-  std::cout << "wrote " << args.out << "/{results.json,errors.csv,trajectories/,report.html}\n";
+  std::cout << "wrote " << args.out << "/{report.html,results.json,errors.csv,truth.tum,trajectories/}\n";
   return 0;
 }
 
@@ -481,19 +487,61 @@ void AddThreads(CLI::App* command, int* threads, const std::string& help) {
   command->add_option("--threads", *threads, help)->check(CLI::Range(0, walkgraph::kMaxThreads));
 }
 
-int RunList() {
-  std::cout << "estimators:\n";
+// An option's default as the YAML reader holds it.
+std::string DefaultText(const walkgraph::OptionDefault& d) {
+  return std::visit(
+      [](const auto& v) -> std::string {
+        using T = std::decay_t<decltype(v)>;
+        if constexpr (std::is_same_v<T, bool>) {
+          return v ? "true" : "false";
+        } else if constexpr (std::is_same_v<T, std::string>) {
+          return "'" + v + "'";
+        } else {
+          std::ostringstream s;
+          s << v;
+          return s.str();
+        }
+      },
+      d.value);
+}
+
+// walkgraph list ID: the estimator's description and every option it accepts with its default
+// (the keys the YAML reader records, so the list cannot drift from what a config may set).
+int RunListEstimator(const std::string& id) {
   const auto& registry = walkgraph::EstimatorRegistry::Builtin();
-  for (const std::string& id : registry.Ids()) {
-    std::cout << "  " << id << "  — " << registry.Find(id)->description << "\n";
+  const walkgraph::EstimatorInfo* info = registry.Find(id);
+  if (info == nullptr) return Fail(registry.Create(id).status());
+  auto defaults = registry.OptionDefaults(id);
+  if (!defaults.ok()) return Fail(defaults.status());
+  std::cout << id << "  — " << info->description << "\n";
+  if (defaults->empty()) {
+    std::cout << "options: none\n";
+    return 0;
+  }
+  std::cout << "options (YAML keys of --config, with their defaults):\n";
+  size_t width = 0;
+  for (const auto& d : *defaults) width = std::max(width, d.key.size());
+  for (const auto& d : *defaults) {
+    std::cout << "  " << std::left << std::setw(static_cast<int>(width)) << d.key << "  "
+              << DefaultText(d) << "\n";
+  }
+  return 0;
+}
+
+int RunList(const std::string& id) {
+  if (!id.empty()) return RunListEstimator(id);
+  std::cout << "estimators (walkgraph list ID: an estimator's options and defaults):\n";
+  const auto& registry = walkgraph::EstimatorRegistry::Builtin();
+  for (const std::string& e : registry.Ids()) {
+    std::cout << "  " << e << "  — " << registry.Find(e)->description << "\n";
   }
   std::cout << "formats (walkgraph convert FORMAT SRC...):\n";
   for (const auto& c : walkgraph::Converters()) {
     std::cout << "  " << c.format << "  — " << c.description << "\n";
   }
   std::cout << "scenarios (walkgraph simulate --scenario NAME):\n";
-  for (const auto& s : walkgraph::Scenarios()) {
-    std::cout << "  " << s.name << "  — " << s.description << "\n";
+  for (const auto& sc : walkgraph::Scenarios()) {
+    std::cout << "  " << sc.name << "  — " << sc.description << "\n";
   }
   return 0;
 }
@@ -505,6 +553,7 @@ int Main(int argc, char** argv) {
       "walkgraph: factor-graph smoothing and Kalman-filter comparison for pedestrian "
       "navigation walks"};
   app.require_subcommand(1);
+  app.set_version_flag("--version", std::string("walkgraph ") + WALKGRAPH_VERSION);
   int verbosity = 0;
   app.add_option("-v,--verbosity", verbosity, "library diagnostics level (0 = quiet)");
 
@@ -559,7 +608,9 @@ int Main(int argc, char** argv) {
   compare->add_option("--seed", compare_seed,
                       "base seed S (run i uses a seed derived from S, i; default 1)");
   AddThreads(compare, &cargs.threads, "worker threads (0 = all cores)");
-  compare->add_option("--estimators", cargs.ids, "comma-separated ids (default: all applicable)");
+  compare->add_option(
+      "--estimators", cargs.ids,
+      "comma-separated ids, e.g. \"fg-batch, tarrio-kf\" (default: all applicable)");
   compare->add_option("--config", cargs.config_path, "YAML file: {estimator id: {option: value}}");
   compare->add_flag("--align-se2", cargs.align_se2,
                     "align each estimate to the truth by a best-fit rotation + translation "
@@ -633,7 +684,9 @@ int Main(int argc, char** argv) {
   stance->callback([&] { rc = RunStanceSearch(walk_dir, detector, config_path, thresholds); });
 
   CLI::App* list = app.add_subcommand("list", "list estimators, converter formats and scenarios");
-  list->callback([&] { rc = RunList(); });
+  std::string list_id;
+  list->add_option("ID", list_id, "an estimator id: print its options with their defaults");
+  list->callback([&] { rc = RunList(list_id); });
 
   app.parse_complete_callback([&] { walkgraph::InitLogging(argv[0], verbosity); });
   try {
@@ -641,6 +694,8 @@ int Main(int argc, char** argv) {
   } catch (const CLI::CallForHelp& e) {
     return app.exit(e);
   } catch (const CLI::CallForAllHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::CallForVersion& e) {
     return app.exit(e);
   } catch (const CLI::ParseError& e) {
     std::string what = e.what();

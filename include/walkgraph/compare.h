@@ -1,8 +1,9 @@
 // Running several estimators on the same walk and scoring them against its truth.
 //
 // The comparison differs only in the estimator: every estimator sees the same Walk. Results
-// are written as results.json, errors.csv, trajectories/<id>.tum and a self-contained
-// report.html (see WriteComparison).
+// are written as results.json, errors.csv, trajectories/<id>.tum and <id>.csv (with the
+// covariances), truth.tum (and checkpoints.csv) and a self-contained report.html (see
+// WriteComparison; reading them with evo: docs/outputs.md).
 //
 // Monte Carlo (CompareMonteCarlo): N walks drawn from a seeded generator, run i with
 // seed_i = MonteCarloSeed(S, i), compared on a pool of threads. Per estimator the figures of
@@ -87,11 +88,16 @@ struct EstimatorOutcome {
   std::optional<ErrorStats> stats_std;
   double runtime_std_s = 0.0;
   int failed_runs = 0;
+  // The RMSE of each run that counts in the figures, in run order (the report's box plot over
+  // runs; 8 bytes a run).
+  std::vector<double> run_rmse_m;
   // Every error point behind `stats` (Monte Carlo: of every successful run; compact: of the
   // whole walk, while `errors` is thinned); empty otherwise (`errors` holds them all).
   std::optional<QuantileSketch> pooled_errors;
-  // CompareOptions::compact: the full trajectory as TUM text (`result.trajectory` is thinned).
+  // CompareOptions::compact: the full trajectory as TUM text and as CSV with its covariances
+  // (io.h FormatTrajectoryCsv); `result.trajectory` is thinned.
   std::shared_ptr<internal::TextSpill> trajectory_tum;
+  std::shared_ptr<internal::TextSpill> trajectory_csv;
   // Set when the estimate diverged (divergence.h); Monte Carlo: the first diverged run's, when
   // every run that ran diverged. Unless DivergenceOptions::keep_in_figures, the outcome is then
   // shown as diverged instead of its figures (which stay in results.json for the record), and is
@@ -119,9 +125,11 @@ struct Comparison {
   std::string pcrb_note;  // why there is no bound, when it was asked for and not computed
   // sqrt(tr B) at the bound's nodes, for the error-vs-time plot.
   std::vector<double> pcrb_t_s, pcrb_filter_m, pcrb_smoother_m;
-  // What the report draws under the trajectories.
+  // What the report draws under the trajectories. CompareOptions::compact thins a continuous
+  // truth (checkpoints are kept) and keeps the whole of it as TUM text in truth_tum.
   std::vector<Anchor> anchors;
   std::vector<TruthSample> truth;
+  std::shared_ptr<internal::TextSpill> truth_tum;
   // Monte Carlo, or CompareOptions::compact: errors.csv's rows ("t_s,estimator,error_m[,run]"),
   // kept in an anonymous temporary file (not in memory); WriteComparison copies them.
   std::shared_ptr<internal::TextSpill> errors_csv_rows;
@@ -200,7 +208,9 @@ class RunAggregator {
 // An aligned text table, one row per estimator; '*' marks the best value of each column.
 std::string FormatComparisonTable(const Comparison& comparison);
 
-// Writes results.json, errors.csv, trajectories/<id>.tum and report.html into `out_dir`.
+// Writes results.json, errors.csv, trajectories/<id>.tum, trajectories/<id>.csv (io.h
+// FormatTrajectoryCsv), truth.tum (io.h FormatTruthTum), checkpoints.csv ("t_s,x_m,y_m", when
+// the truth is checkpoints) and report.html into `out_dir`.
 // With runs > 1, results.json gains "seed", the "*_std" fields and "failed_runs"; its
 // "runtime_s" is null (timings differ from run to run and would make results.json depend on
 // the machine and the thread count) and the timings go to timing.json instead; errors.csv gains

@@ -42,6 +42,13 @@ Status WriteWalk(const Walk& walk, const std::string& dir, const OutputOptions& 
 
 // TUM trajectory format ("t x y z qx qy qz qw", heading as yaw about z), as read by evo.
 void FormatTumTrajectory(const Trajectory& trajectory, std::ostream& out);
+// The same trajectory as CSV with its covariance, one row per point:
+//   t_s,x_m,y_m,yaw_rad,cov_xx,cov_xy,cov_yy,cov_xyaw,cov_yyaw,cov_yawyaw
+// (covariance of (x, y, yaw); the six fields are empty where a point has no covariance).
+void FormatTrajectoryCsv(const Trajectory& trajectory, std::ostream& out);
+// A walk's truth as a TUM trajectory (identity orientation: truth carries no heading), for
+// evo: evo_ape tum truth.tum fg-batch.tum.
+void FormatTruthTum(const std::vector<TruthSample>& truth, std::ostream& out);
 // Writes the file `path` (a new path or a regular file; see WriteOutputFile).
 Status WriteTumTrajectory(const Trajectory& trajectory, const std::string& path,
                           const OutputOptions& options = {});

@@ -73,6 +73,9 @@ void Compact(EstimatorOutcome* o, internal::TextSpill* rows) {
   o->trajectory_tum = std::make_shared<internal::TextSpill>();
   o->trajectory_tum->Append(
       [&](std::ostream& out) { FormatTumTrajectory(o->result.trajectory, out); });
+  o->trajectory_csv = std::make_shared<internal::TextSpill>();
+  o->trajectory_csv->Append(
+      [&](std::ostream& out) { FormatTrajectoryCsv(o->result.trajectory, out); });
   QuantileSketch sketch;
   for (double e : o->errors.error_m) sketch.Add(e);
   o->pooled_errors = std::move(sketch);
@@ -120,7 +123,12 @@ StatusOr<Comparison> CompareOnWalk(const Walk& walk, const CompareOptions& optio
   c.anchors = walk.anchors;
   c.truth = walk.truth;
   if (options.compact) {
-    Thin(ThinnedIndices(c.truth.size(), kCompactPoints), &c.truth);
+    c.truth_tum = std::make_shared<internal::TextSpill>();
+    c.truth_tum->Append([&](std::ostream& out) { FormatTruthTum(walk.truth, out); });
+    WG_RETURN_IF_ERROR(c.truth_tum->status());
+    if (c.truth_kind != TruthKind::kCheckpoints) {
+      Thin(ThinnedIndices(c.truth.size(), kCompactPoints), &c.truth);
+    }
     c.errors_csv_rows = std::make_shared<internal::TextSpill>();
   }
   const double distance = walk.TruthDistance();
@@ -403,6 +411,26 @@ nlohmann::ordered_json ResultsJson(const Comparison& c, nlohmann::ordered_json* 
   return j;
 }
 
+// truth.tum (the whole truth, also under CompareOptions::compact) and, when the truth is
+// checkpoints, checkpoints.csv.
+Status WriteTruthFiles(const Comparison& c, const fs::path& tmp) {
+  if (c.truth.empty() && !c.truth_tum) return Status::Ok();
+  Status s = WriteFileInOutput((tmp / "truth.tum").string(), [&](std::ostream& out) {
+    if (c.truth_tum) return c.truth_tum->CopyTo(out).ok();
+    FormatTruthTum(c.truth, out);
+    return true;
+  });
+  if (!s.ok() || c.truth_kind != TruthKind::kCheckpoints) return s;
+  return WriteFileInOutput((tmp / "checkpoints.csv").string(), [&](std::ostream& out) {
+    out << "t_s,x_m,y_m\n";
+    for (const TruthSample& t : c.truth) {
+      out << internal::Num(t.t_s) << ',' << internal::Num(t.position_m.x()) << ','
+          << internal::Num(t.position_m.y()) << '\n';
+    }
+    return true;
+  });
+}
+
 Status WriteComparisonFiles(const Comparison& c, const fs::path& tmp) {
   std::error_code ec;
   if (!fs::create_directories(tmp / "trajectories", ec)) {
@@ -444,7 +472,16 @@ Status WriteComparisonFiles(const Comparison& c, const fs::path& tmp) {
                             return true;
                           });
     if (!s.ok()) return s;
+    s = WriteFileInOutput((tmp / "trajectories" / (o.id + ".csv")).string(),
+                          [&](std::ostream& out) {
+                            if (o.trajectory_csv) return o.trajectory_csv->CopyTo(out).ok();
+                            FormatTrajectoryCsv(o.result.trajectory, out);
+                            return true;
+                          });
+    if (!s.ok()) return s;
   }
+  s = WriteTruthFiles(c, tmp);
+  if (!s.ok()) return s;
   const std::string html = RenderHtmlReport(c);
   s = WriteFileInOutput((tmp / "report.html").string(), [&](std::ostream& out) {
     out << html;

@@ -136,6 +136,7 @@ void RunAggregator::Add(Comparison run) {
       e.per_run_percentiles[j].Add(o.stats.*kPooledFields[j]);
     }
     e.runtime.Add(o.runtime_s);
+    e.outcome.run_rmse_m.push_back(o.stats.rmse_m);
     for (double v : o.errors.error_m) e.pooled.Add(v);
     st.rows->Append(ErrorRows(o, r));
     e.outcome.errors.n_skipped += o.errors.n_skipped;

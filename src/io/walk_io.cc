@@ -764,6 +764,29 @@ void FormatTumTrajectory(const Trajectory& trajectory, std::ostream& o) {
   }
 }
 
+void FormatTrajectoryCsv(const Trajectory& trajectory, std::ostream& o) {
+  o << "t_s,x_m,y_m,yaw_rad,cov_xx,cov_xy,cov_yy,cov_xyaw,cov_yyaw,cov_yawyaw\n";
+  for (const TrajectoryPoint& p : trajectory.points) {
+    o << Num(p.t_s) << ',' << Num(p.position_m.x()) << ',' << Num(p.position_m.y()) << ','
+      << Num(p.heading_rad);
+    if (p.covariance) {
+      const Eigen::Matrix3d& c = *p.covariance;
+      o << ',' << Num(c(0, 0)) << ',' << Num(c(0, 1)) << ',' << Num(c(1, 1)) << ',' << Num(c(0, 2))
+        << ',' << Num(c(1, 2)) << ',' << Num(c(2, 2)) << '\n';
+    } else {
+      o << ",,,,,,\n";
+    }
+  }
+}
+
+void FormatTruthTum(const std::vector<TruthSample>& truth, std::ostream& o) {
+  o << "# t x y z qx qy qz qw (truth: position only, identity orientation)\n";
+  for (const TruthSample& t : truth) {
+    o << Num(t.t_s) << ' ' << Num(t.position_m.x()) << ' ' << Num(t.position_m.y()) << ' '
+      << Num(t.position_m.z()) << " 0 0 0 1\n";
+  }
+}
+
 Status WriteTumTrajectory(const Trajectory& trajectory, const std::string& path,
                           const OutputOptions& options) {
   return WriteOutputFile(path, options, [&](std::ostream& o) {

@@ -1,10 +1,23 @@
-// The self-contained HTML report: inline SVG plots, no scripts, no network.
+// The self-contained report page (report.html): the results table as HTML, the plotted series
+// as one JSON block, and a small hand-written script (report_script.h) that draws the plots as
+// inline SVG, sorts the table, toggles and highlights estimators and zooms the trajectories.
+// No library and no network: the file opens offline, stays small and is the same bytes for the
+// same comparison (only the runtime column differs from run to run).
+//
+// What is plotted is decimated, not every point: a curve keeps every k-th point and its last,
+// k = ceil(n / kMaxCurvePoints); the error CDF is drawn from 101 percentiles; covariance
+// ellipses are drawn at every k-th pose with a covariance, at most kMaxEllipses. The figures in
+// the table are computed from every point.
 #include <algorithm>
 #include <cmath>
-#include <iomanip>
-#include <limits>
+#include <cstdio>
 #include <sstream>
 
+#include <Eigen/Eigenvalues>
+
+#include "report/estimator_style.h"
+#include "report/report_script.h"
+#include "report/report_table.h"
 #include "report/svg.h"
 #include "walkgraph/compare.h"
 
@@ -12,260 +25,223 @@ namespace walkgraph {
 
 namespace {
 
-using report::Axes;
-using report::Color;
 using report::Escape;
-using report::Open;
-using report::Polyline;
+using report::LineStyle;
 
-std::string Legend(const Comparison& c, const Axes& a, bool with_truth) {
-  std::ostringstream s;
-  double y = a.m + 14;
-  if (with_truth) {
-    s << "<text x=\"" << a.w - a.m - 4 << "\" y=\"" << y
-      << "\" text-anchor=\"end\" font-size=\"11\" fill=\"#000\">truth</text>\n";
-    y += 13;
+constexpr size_t kMaxCurvePoints = 500;
+constexpr size_t kMaxTruthPoints = 1500;
+constexpr size_t kMaxEllipses = 30;
+
+// A number for the JSON block: `decimals` after the point, "null" when not finite.
+std::string Num(double v, int decimals) {
+  if (!std::isfinite(v)) return "null";
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.*f", decimals, v);
+  std::string s = buf;
+  if (s.find('.') != std::string::npos) {  // 1.500 -> 1.5, 2.000 -> 2
+    s.erase(s.find_last_not_of('0') + 1);
+    if (s.back() == '.') s.pop_back();
   }
-  for (size_t i = 0; i < c.outcomes.size(); ++i) {
-    if (!c.outcomes[i].Ranked()) continue;
-    s << "<text class=\"legend\" x=\"" << a.w - a.m - 4 << "\" y=\"" << y
-      << "\" text-anchor=\"end\" font-size=\"11\" fill=\"" << Color(i) << "\">"
-      << Escape(c.outcomes[i].id) << "</text>\n";
-    y += 13;
+  return s == "-0" ? "0" : s;
+}
+
+// A JSON string; '<' escaped so that the text cannot close the <script> element it sits in.
+std::string JsonString(const std::string& v) {
+  std::string o = "\"";
+  for (char ch : v) {
+    if (ch == '"' || ch == '\\') {
+      o += '\\';
+      o += ch;
+    } else if (ch == '<') {
+      o += "\\u003c";
+    } else if (static_cast<unsigned char>(ch) < 0x20) {
+      o += ' ';
+    } else {
+      o += ch;
+    }
+  }
+  return o + "\"";
+}
+
+// Three significant digits (NEES spans decades).
+std::string Sig(double v) {
+  if (!std::isfinite(v)) return "null";
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.3g", v);
+  return buf;
+}
+
+// Indices 0, k, 2k, ... and n - 1, k = ceil(n / max).
+std::vector<size_t> Decimated(size_t n, size_t max) {
+  std::vector<size_t> out;
+  const size_t k = std::max<size_t>(1, (n + max - 1) / max);
+  for (size_t i = 0; i < n; i += k) out.push_back(i);
+  if (n > 0 && out.back() != n - 1) out.push_back(n - 1);
+  return out;
+}
+
+// The error percentile p (0..100) of an outcome: from the sketch of every error when there is
+// one (Monte Carlo, compact), else from its series.
+class ErrorQuantiles {
+ public:
+  explicit ErrorQuantiles(const EstimatorOutcome& o) : o_(o) {
+    if (!o.pooled_errors) {
+      sorted_ = o.errors.error_m;
+      std::sort(sorted_.begin(), sorted_.end());
+    }
+  }
+  double operator()(double p) const {
+    if (o_.pooled_errors) return o_.pooled_errors->Percentile(p);
+    if (sorted_.empty()) return std::nan("");
+    const double r = p / 100.0 * static_cast<double>(sorted_.size() - 1);
+    const size_t i = static_cast<size_t>(std::floor(r));
+    const size_t j = std::min(i + 1, sorted_.size() - 1);
+    return sorted_[i] + (r - static_cast<double>(i)) * (sorted_[j] - sorted_[i]);
+  }
+
+ private:
+  const EstimatorOutcome& o_;
+  std::vector<double> sorted_;
+};
+
+// 2σ ellipses [x, y, rx, ry, angle_deg] at every k-th pose with a position covariance.
+std::string EllipsesJson(const Trajectory& traj) {
+  std::vector<size_t> with_cov;
+  for (size_t i = 0; i < traj.points.size(); ++i) {
+    if (traj.points[i].covariance) with_cov.push_back(i);
+  }
+  std::ostringstream s;
+  const char* sep = "";
+  for (size_t k : Decimated(with_cov.size(), kMaxEllipses)) {
+    const TrajectoryPoint& p = traj.points[with_cov[k]];
+    const Eigen::Matrix2d cov = p.covariance->topLeftCorner<2, 2>();
+    Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eig(cov);
+    if (eig.info() != Eigen::Success || !(eig.eigenvalues()(0) >= 0.0)) continue;
+    const Eigen::Vector2d major = eig.eigenvectors().col(1);
+    s << sep << Num(p.position_m.x(), 2) << ',' << Num(p.position_m.y(), 2) << ','
+      << Num(2.0 * std::sqrt(eig.eigenvalues()(1)), 3) << ','
+      << Num(2.0 * std::sqrt(eig.eigenvalues()(0)), 3) << ','
+      << Num(std::atan2(major.y(), major.x()) * 180.0 / M_PI, 1);
+    sep = ",";
   }
   return s.str();
 }
 
-std::string TrajectoryPlot(const Comparison& c) {
-  Axes a{std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity(),
-         std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity()};
-  a.equal_aspect = true;
-  auto grow = [&](double x, double y) {
-    a.x0 = std::min(a.x0, x);
-    a.x1 = std::max(a.x1, x);
-    a.y0 = std::min(a.y0, y);
-    a.y1 = std::max(a.y1, y);
-  };
-  for (const TruthSample& t : c.truth) grow(t.position_m.x(), t.position_m.y());
-  for (const Anchor& an : c.anchors) grow(an.position_m.x(), an.position_m.y());
-  if (!std::isfinite(a.x0)) {
-    a.x0 = a.y0 = 0;
-    a.x1 = a.y1 = 1;
+// Error points [t, distance, error, x, y] (the estimate's position at t, for the APE map) and
+// NEES points [t, nees].
+void SeriesJson(const EstimatorOutcome& o, std::ostringstream& s) {
+  const ErrorSeries& e = o.errors;
+  const Trajectory& traj = o.result.trajectory;
+  s << ",\"er\":[";
+  const char* sep = "";
+  for (size_t i : Decimated(e.t_s.size(), kMaxCurvePoints)) {
+    const double d = i < e.distance_m.size() ? e.distance_m[i] : std::nan("");
+    const Eigen::Vector3d p = traj.empty() ? Eigen::Vector3d::Zero() : traj.PositionAt(e.t_s[i]);
+    s << sep << Num(e.t_s[i], 2) << ',' << Num(d, 2) << ',' << Num(e.error_m[i], 3) << ','
+      << Num(p.x(), 2) << ',' << Num(p.y(), 2);
+    sep = ",";
   }
-  const double pad = 0.05 * std::max(a.x1 - a.x0, a.y1 - a.y0) + 0.5;
-  a.x0 -= pad;
-  a.x1 += pad;
-  a.y0 -= pad;
-  a.y1 += pad;
-  a.Fix();
-  std::ostringstream s;
-  s << Open(a, "trajectories", "Trajectories", "x east [m]", "y north [m]");
-  s << "<clipPath id=\"clip-traj\"><rect x=\"" << a.m << "\" y=\"" << a.m << "\" width=\""
-    << a.w - 2 * a.m << "\" height=\"" << a.h - 2 * a.m
-    << "\"/></clipPath><g clip-path=\"url(#clip-traj)\">\n";
-  if (c.truth_kind == TruthKind::kCheckpoints) {
-    for (const TruthSample& t : c.truth) {
-      s << "<circle class=\"truth\" cx=\"" << a.X(t.position_m.x()) << "\" cy=\""
-        << a.Y(t.position_m.y()) << "\" r=\"3\" fill=\"#000\"/>\n";
+  s << "],\"ne\":[";
+  sep = "";
+  if (e.nees.size() == e.t_s.size()) {
+    for (size_t i : Decimated(e.nees.size(), kMaxCurvePoints)) {
+      s << sep << Num(e.t_s[i], 2) << ',' << Sig(e.nees[i]);
+      sep = ",";
     }
+  }
+  s << "]";
+}
+
+std::string EstimatorJson(const EstimatorOutcome& o, const LineStyle& style) {
+  std::ostringstream s;
+  s << "{\"id\":" << JsonString(o.id) << ",\"f\":" << style.family << ",\"c\":\"" << style.color
+    << "\",\"d\":\"" << style.dash << "\",\"tr\":[";
+  const auto& pts = o.result.trajectory.points;
+  const char* sep = "";
+  for (size_t i : Decimated(pts.size(), kMaxCurvePoints)) {
+    s << sep << Num(pts[i].position_m.x(), 2) << ',' << Num(pts[i].position_m.y(), 2);
+    sep = ",";
+  }
+  s << "]";
+  SeriesJson(o, s);
+  const ErrorQuantiles q(o);
+  s << ",\"q\":[";
+  for (int p = 0; p <= 100; ++p) s << (p ? "," : "") << Num(q(p), 3);
+  s << "],\"el\":[" << EllipsesJson(o.result.trajectory) << "]";
+  s << ",\"rmse\":" << Num(o.stats.rmse_m, 3);
+  if (!o.run_rmse_m.empty()) {
+    s << ",\"runs\":[";
+    for (size_t i = 0; i < o.run_rmse_m.size(); ++i) {
+      s << (i ? "," : "") << Num(o.run_rmse_m[i], 3);
+    }
+    s << "]";
+  }
+  s << "}";
+  return s.str();
+}
+
+std::string DataJson(const Comparison& c, const std::vector<LineStyle>& styles) {
+  std::ostringstream s;
+  s << "{\"walk\":" << JsonString(c.walk_name) << ",\"runs\":" << c.runs
+    << ",\"checkpoints\":" << (c.truth_kind == TruthKind::kCheckpoints ? "true" : "false")
+    << ",\"families\":[";
+  const auto& families = report::EstimatorFamilies();
+  for (size_t f = 0; f < families.size(); ++f) {
+    s << (f ? "," : "") << JsonString(families[f].label);
+  }
+  s << "],\"truth\":[";
+  const size_t max_truth =
+      c.truth_kind == TruthKind::kCheckpoints ? c.truth.size() + 1 : kMaxTruthPoints;
+  const char* sep = "";
+  for (size_t i : Decimated(c.truth.size(), max_truth)) {
+    s << sep << Num(c.truth[i].position_m.x(), 2) << ',' << Num(c.truth[i].position_m.y(), 2);
+    sep = ",";
+  }
+  s << "],\"anchors\":[";
+  for (size_t i = 0; i < c.anchors.size(); ++i) {
+    s << (i ? "," : "") << "[" << c.anchors[i].id << ',' << Num(c.anchors[i].position_m.x(), 2)
+      << ',' << Num(c.anchors[i].position_m.y(), 2) << "]";
+  }
+  s << "],\"pcrb\":";
+  if (!c.pcrb_t_s.empty() && c.pcrb_smoother_m.size() == c.pcrb_t_s.size()) {
+    s << "{\"rmse\":" << (c.pcrb_rmse_m ? Num(*c.pcrb_rmse_m, 3) : "null") << ",\"ts\":[";
+    sep = "";
+    for (size_t i : Decimated(c.pcrb_t_s.size(), kMaxCurvePoints)) {
+      s << sep << Num(c.pcrb_t_s[i], 2) << ',' << Num(c.pcrb_smoother_m[i], 3) << ','
+        << (i < c.pcrb_filter_m.size() ? Num(c.pcrb_filter_m[i], 3) : "null");
+      sep = ",";
+    }
+    s << "]}";
   } else {
-    s << Polyline(
-        c.truth.size(),
-        [&](size_t i) { return std::pair(c.truth[i].position_m.x(), c.truth[i].position_m.y()); },
-        a, "#000", "truth", 2.5);
+    s << "null";
   }
+  s << ",\"est\":[";
+  sep = "";
   for (size_t k = 0; k < c.outcomes.size(); ++k) {
-    const EstimatorOutcome& o = c.outcomes[k];
-    if (!o.Ranked()) continue;
-    const auto& pts = o.result.trajectory.points;
-    s << Polyline(
-        pts.size(),
-        [&](size_t i) { return std::pair(pts[i].position_m.x(), pts[i].position_m.y()); }, a,
-        Color(k), "estimate");
+    if (!c.outcomes[k].Ranked()) continue;
+    s << sep << "\n" << EstimatorJson(c.outcomes[k], styles[k]);
+    sep = ",";
   }
-  for (const Anchor& an : c.anchors) {
-    const double x = a.X(an.position_m.x()), y = a.Y(an.position_m.y());
-    s << "<polygon class=\"anchor\" points=\"" << x << ',' << y - 6 << ' ' << x - 5 << ',' << y + 4
-      << ' ' << x + 5 << ',' << y + 4 << "\" fill=\"#f0c000\" stroke=\"#000\"/>"
-      << "<text x=\"" << x + 6 << "\" y=\"" << y - 4 << "\" font-size=\"9\">" << an.id
-      << "</text>\n";
-  }
-  s << "</g>" << Legend(c, a, true) << "</svg>\n";
-  return s.str();
-}
-
-std::string ErrorTimePlot(const Comparison& c) {
-  Axes a{std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity(), 0.0,
-         0.0};
-  for (const EstimatorOutcome& o : c.outcomes) {
-    if (!o.Ranked() || o.errors.t_s.empty()) continue;
-    a.x0 = std::min(a.x0, o.errors.t_s.front());
-    a.x1 = std::max(a.x1, o.errors.t_s.back());
-    a.y1 = std::max(a.y1, o.stats.p90_m * 1.5);
-  }
-  for (const std::vector<double>* bound : {&c.pcrb_smoother_m, &c.pcrb_filter_m}) {
-    for (double v : *bound) a.y1 = std::max(a.y1, 1.05 * v);
-  }
-  if (!std::isfinite(a.x0)) {
-    a.x0 = 0;
-    a.x1 = 1;
-  }
-  a.Fix();
-  std::ostringstream s;
-  s << Open(a, "error-time", "Horizontal error vs time", "t [s]", "error [m]");
-  s << "<clipPath id=\"clip-et\"><rect x=\"" << a.m << "\" y=\"" << a.m << "\" width=\""
-    << a.w - 2 * a.m << "\" height=\"" << a.h - 2 * a.m
-    << "\"/></clipPath><g clip-path=\"url(#clip-et)\">\n";
-  for (size_t k = 0; k < c.outcomes.size(); ++k) {
-    const EstimatorOutcome& o = c.outcomes[k];
-    if (!o.Ranked()) continue;
-    // Monte Carlo: the first successful run's errors.
-    const size_t n = o.errors.t_s.size();
-    s << Polyline(
-        n, [&](size_t i) { return std::pair(o.errors.t_s[i], o.errors.error_m[i]); }, a, Color(k),
-        "error-curve");
-  }
-  // The PCRB: sqrt(tr B(t)), a bound on the RMS error at t over the Monte Carlo runs.
-  const std::vector<double>* bounds[] = {&c.pcrb_smoother_m, &c.pcrb_filter_m};
-  const char* const dashes[] = {"6,3", "2,3"};
-  for (int b = 0; b < 2; ++b) {
-    const std::vector<double>& v = *bounds[b];
-    if (v.size() != c.pcrb_t_s.size() || v.empty()) continue;
-    s << Polyline(
-        v.size(), [&](size_t i) { return std::pair(c.pcrb_t_s[i], v[i]); }, a, "#000", "pcrb-curve",
-        1.2, dashes[b]);
-  }
-  s << "</g>" << Legend(c, a, false);
-  if (!c.pcrb_t_s.empty()) {
-    s << "<text class=\"legend\" x=\"" << a.m + 6 << "\" y=\"" << a.m + 14
-      << "\" font-size=\"11\">PCRB: - - smoother, &#183;&#183;&#183; filter</text>\n";
-  }
-  s << "</svg>\n";
-  return s.str();
-}
-
-std::string CdfPlot(const Comparison& c) {
-  Axes a{0.0, 0.0, 0.0, 1.0};
-  for (const EstimatorOutcome& o : c.outcomes) {
-    if (o.Ranked()) a.x1 = std::max(a.x1, o.stats.p90_m * 1.5);
-  }
-  a.Fix();
-  std::ostringstream s;
-  s << Open(a, "error-cdf", "Error CDF", "error [m]", "fraction of points");
-  s << "<clipPath id=\"clip-cdf\"><rect x=\"" << a.m << "\" y=\"" << a.m << "\" width=\""
-    << a.w - 2 * a.m << "\" height=\"" << a.h - 2 * a.m
-    << "\"/></clipPath><g clip-path=\"url(#clip-cdf)\">\n";
-  for (size_t k = 0; k < c.outcomes.size(); ++k) {
-    const EstimatorOutcome& o = c.outcomes[k];
-    if (!o.Ranked() || o.errors.error_m.empty()) continue;
-    if (o.pooled_errors) {  // Monte Carlo: every run's errors, from the sketch
-      constexpr int kPoints = 400;
-      s << Polyline(
-          kPoints + 1,
-          [&](size_t i) {
-            const double f = static_cast<double>(i) / kPoints;
-            return std::pair(o.pooled_errors->Percentile(100.0 * f), f);
-          },
-          a, Color(k), "cdf-curve");
-      continue;
-    }
-    std::vector<double> e = o.errors.error_m;
-    std::sort(e.begin(), e.end());
-    const double n = static_cast<double>(e.size());
-    s << Polyline(
-        e.size(), [&](size_t i) { return std::pair(e[i], (i + 1) / n); }, a, Color(k), "cdf-curve");
-  }
-  s << "</g>" << Legend(c, a, false) << "</svg>\n";
-  return s.str();
-}
-
-std::string Table(const Comparison& c) {
-  const bool with_pcrb = c.pcrb_rmse_m.has_value();
-  const int ncols = with_pcrb ? 13 : 12;
-  std::ostringstream s;
-  s << std::fixed << std::setprecision(3);
-  s << "<table id=\"results\"><tr><th>estimator</th><th>RMSE [m]</th><th>mean</th><th>median</th>"
-       "<th>p75</th><th>p90</th><th>max</th><th>final</th><th>% dist</th><th>mean % dist</th>"
-       "<th>ANEES</th>"
-       "<th>runtime [s]</th><th>n</th>";
-  if (with_pcrb) s << "<th>RMSE / PCRB</th>";
-  s << "</tr>\n";
-  for (size_t k = 0; k < c.outcomes.size(); ++k) {
-    const EstimatorOutcome& o = c.outcomes[k];
-    s << "<tr><td style=\"color:" << Color(k) << "\">" << Escape(o.id) << "</td>";
-    if (!o.Ranked()) {
-      s << "<td colspan=\"" << ncols << "\">"
-        << Escape(o.status.ok() ? ToString(*o.divergence) : "failed: " + o.status.message())
-        << "</td></tr>\n";
-      continue;
-    }
-    const ErrorStats& e = o.stats;
-    const double ErrorStats::*fields[] = {
-        &ErrorStats::rmse_m,  &ErrorStats::mean_m,       &ErrorStats::median_m,
-        &ErrorStats::p75_m,   &ErrorStats::p90_m,        &ErrorStats::max_m,
-        &ErrorStats::final_m, &ErrorStats::pct_distance, &ErrorStats::mean_pct_distance};
-    for (const auto f : fields) {
-      if (std::isnan(e.*f)) {  // mean % dist on a walk whose truth never leaves the start
-        s << "<td></td>";
-        continue;
-      }
-      s << "<td>" << e.*f;
-      if (o.stats_std) s << " &plusmn; " << (*o.stats_std).*f;  // Monte Carlo spread
-      s << "</td>";
-    }
-    s << "<td>";  // position NEES mean (2 = consistent); empty without covariances
-    if (std::isfinite(e.anees)) {
-      s << std::setprecision(2) << e.anees;
-      if (o.stats_std && std::isfinite(o.stats_std->anees)) {
-        s << " &plusmn; " << o.stats_std->anees;
-      }
-      s << std::setprecision(3);
-    }
-    s << "</td>";
-    s << "<td>" << o.runtime_s << "</td>";
-    s << "<td>" << e.n_points << "</td>";
-    if (with_pcrb) {
-      const std::optional<double> ratio = RmseOverPcrb(c, o);
-      s << "<td>";
-      if (ratio) s << std::setprecision(2) << *ratio << std::setprecision(3);
-      s << "</td>";
-    }
-    s << "</tr>\n";
-  }
-  if (with_pcrb) {
-    const std::pair<const char*, std::optional<double>> rows[] = {
-        {"PCRB smoother", c.pcrb_rmse_m}, {"PCRB filter", c.pcrb_filter_rmse_m}};
-    for (const auto& [name, value] : rows) {
-      if (!value) continue;
-      s << "<tr class=\"pcrb\"><td>" << name << "</td><td>" << *value << "</td>";
-      for (int j = 1; j < ncols; ++j) s << "<td>-</td>";
-      s << "</tr>\n";
-    }
-  }
-  s << "</table>\n";
-  if (with_pcrb) {
-    s << "<p>PCRB: posterior Cram&eacute;r&ndash;Rao bound of the position RMSE over the same "
-         "runs (smoother: full-walk Fisher information; filter: Tichavsk&yacute; recursion). "
-         "RMSE / PCRB is against the smoother bound.</p>\n";
-  } else if (!c.pcrb_note.empty()) {
-    s << "<p>PCRB: " << Escape(c.pcrb_note) << "</p>\n";
-  }
+  s << "]}";
   return s.str();
 }
 
 }  // namespace
 
 std::string RenderHtmlReport(const Comparison& c) {
+  std::vector<std::string> ids;
+  for (const EstimatorOutcome& o : c.outcomes) ids.push_back(o.id);
+  const std::vector<LineStyle> styles = report::AssignStyles(ids);
   std::ostringstream s;
-  s << "<!DOCTYPE html>\n<html><head><meta charset=\"utf-8\"><title>walkgraph: "
-    << Escape(c.walk_name) << "</title>\n<style>body{font-family:sans-serif;margin:16px}"
-    << "table{border-collapse:collapse}td,th{border:1px solid #ccc;padding:3px 8px;"
-    << "text-align:right}td:first-child{text-align:left}svg{margin:4px}</style></head><body>\n";
+  s << "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">\n<title>walkgraph: "
+    << Escape(c.walk_name) << "</title>\n<style>" << report::kReportCss
+    << "</style></head>\n<body>\n";
   s << "<h1>walkgraph comparison: " << Escape(c.walk_name) << "</h1>\n";
-  s << "<p>truth: " << ToString(c.truth_kind) << ", runs: " << c.runs << "</p>\n";
-  s << Table(c);
-  s << "<div>" << TrajectoryPlot(c) << ErrorTimePlot(c) << CdfPlot(c) << "</div>\n";
-  s << "</body></html>\n";
+  s << report::ResultsTableHtml(c, styles);
+  s << report::kReportBody;
+  // The series as JSON ("<" is escaped in its strings, the rest are numbers).
+  s << "<script type=\"application/json\" id=\"wg-data\">" << DataJson(c, styles)
+    << "</script>\n<script>" << report::kReportJs << "</script>\n</body></html>\n";
   return s.str();
 }
 
