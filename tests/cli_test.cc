@@ -103,6 +103,44 @@ TEST(Cli, SmoothWritesTum) {
   fs::remove(out);
 }
 
+// smooth --config takes compare's file shape (the section of its estimator) as well as one
+// estimator's options alone; compare's error for the latter says which shape it expects.
+TEST(Cli, SmoothAndCompareTakeTheSameConfigShape) {
+  const fs::path dir = fs::temp_directory_path() / ("wg_cli_shape_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  auto write = [&](const std::string& name, const std::string& text) {
+    std::ofstream(dir / name) << text;
+    return (dir / name).string();
+  };
+  const std::string sections = write("sections.yaml", "fg-batch: {max_iterations: 20}\n");
+  const std::string flat = write("flat.yaml", "max_iterations: 20\n");
+  const std::string bad = write("bad.yaml", "fg-batch: {max_iterations: 0}\n");
+  const std::string other = write("other.yaml", "odometry-dr: {}\n");
+  int n = 0;  // a new output file each time
+  auto smooth = [&](const std::string& config) {
+    return Cli("smooth " + kData + "/walks/valid_small --estimator fg-batch --out " +
+               (dir / ("t" + std::to_string(++n) + ".tum")).string() + " --config " + config);
+  };
+  EXPECT_EQ(smooth(sections).code, 0);
+  EXPECT_EQ(smooth(flat).code, 0);
+  CliRun r = smooth(bad);  // the section is what is read
+  EXPECT_EQ(r.code, 1);
+  EXPECT_THAT(r.output, HasSubstr("max_iterations"));
+  r = smooth(other);
+  EXPECT_EQ(r.code, 1);
+  EXPECT_THAT(r.output, HasSubstr("without a section for 'fg-batch'"));
+  r = Cli("compare " + kData + "/walks/valid_small --estimators fg-batch --out " +
+          (dir / "c").string() + " --config " + flat);
+  EXPECT_EQ(r.code, 1);
+  EXPECT_THAT(r.output, HasSubstr("one section per estimator"));
+  EXPECT_EQ(Cli("compare " + kData + "/walks/valid_small --estimators fg-batch --out " +
+                (dir / "c").string() + " --config " + sections)
+                .code,
+            0);
+  fs::remove_all(dir);
+}
+
 TEST(Cli, UsageErrorsAreNonZero) {
   EXPECT_NE(Cli("").code, 0);
   EXPECT_NE(Cli("validate").code, 0);

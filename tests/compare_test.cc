@@ -18,6 +18,7 @@ namespace {
 
 namespace fs = std::filesystem;
 using ::testing::HasSubstr;
+using ::testing::Not;
 
 Walk SmallWalk() {
   auto w = ReadWalk(std::string(WALKGRAPH_TEST_DATA_DIR) + "/walks/valid_small");
@@ -248,6 +249,32 @@ TEST(FormatComparisonTable, MarksTheBestValuePerColumn) {
   EXPECT_THAT(t, HasSubstr("1.500*"));
   EXPECT_THAT(t, HasSubstr("1.000*"));
   EXPECT_THAT(t, HasSubstr("2.000 "));
+}
+
+// rmse/pcrb below 1 from fewer than 30 runs is flagged with the ratio's 95 % interval:
+// 5 runs, mean RMSE 0.9 m, std 0.1 m, PCRB 1.0 m: 0.9 ± 2.776 · 0.1/√5 = 0.78 to 1.02.
+TEST(FormatComparisonTable, WarnsWhenFewRunsLandBelowTheBound) {
+  Comparison c;
+  c.walk_name = "w";
+  c.runs = 5;
+  c.pcrb_rmse_m = 1.0;
+  EstimatorOutcome a, b;
+  a.id = "a";
+  a.stats.rmse_m = 0.9;
+  a.stats_std = ErrorStats{};
+  a.stats_std->rmse_m = 0.1;
+  a.run_rmse_m = {0.8, 0.85, 0.9, 0.95, 1.0};
+  b = a;
+  b.id = "b";
+  b.stats.rmse_m = 1.2;  // above the bound: no warning
+  c.outcomes = {a, b};
+  std::string t = FormatComparisonTable(c);
+  EXPECT_THAT(t, HasSubstr("warning: a rmse/pcrb 0.90 < 1 from 5 runs (95 % interval 0.78 to "
+                           "1.02)"));
+  EXPECT_THAT(t, Not(HasSubstr("warning: b")));
+  c.runs = 30;  // enough runs: no warning
+  c.outcomes[0].run_rmse_m.resize(30, 0.9);
+  EXPECT_THAT(FormatComparisonTable(c), Not(HasSubstr("warning")));
 }
 
 }  // namespace

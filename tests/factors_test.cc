@@ -10,6 +10,7 @@
 #include <gtest/gtest.h>
 
 #include "factors/angle_manifold.h"
+#include "factors/difference_prior_factor.h"
 #include "factors/heading_factor.h"
 #include "factors/heading_increment_factor.h"
 #include "factors/odometry_factor.h"
@@ -156,6 +157,18 @@ TEST(PositionPriorFactorTest, TwoNodesInterpolateLinearly) {
   EXPECT_NEAR(r3[0], 0.25, 1e-12);
   EXPECT_NEAR(r3[1], -0.25, 1e-12);
   ExpectGradientsMatch(*f3, {a3, b3});
+}
+
+TEST(DifferencePriorFactorTest, WhitensTheOffsetFromTheMean) {
+  // An anchor's (A, η) = (−62, 2.5) against the mean (−58, 2.0), σ = (4 dB, 0.4):
+  // r = (−1, 1.25).
+  std::unique_ptr<ceres::CostFunction> f(
+      DifferencePriorFactor<2>::Create(Eigen::Vector2d(4.0, 0.4)));
+  const double a[2] = {-62.0, 2.5}, m[2] = {-58.0, 2.0};
+  const auto r = Residuals(*f, {a, m});
+  EXPECT_NEAR(r[0], -1.0, 1e-12);
+  EXPECT_NEAR(r[1], 1.25, 1e-12);
+  ExpectGradientsMatch(*f, {a, m});
 }
 
 TEST(RssFactorTest, ResidualMatchesPathLossModelInBothUnits) {

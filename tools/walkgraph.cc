@@ -243,6 +243,25 @@ int RunFitPathLoss(const std::string& walk_dir) {
   return 0;
 }
 
+// smooth --config takes compare's shape, {id: {option: value}} (the section of --estimator
+// used), or one estimator's options alone, {option: value}: a map whose keys are all estimator
+// ids is the former.
+walkgraph::StatusOr<YAML::Node> SmoothOptions(const YAML::Node& config, const std::string& id,
+                                              const std::string& path) {
+  if (!config.IsMap() || config.size() == 0) return config;
+  const auto& registry = walkgraph::EstimatorRegistry::Builtin();
+  for (const auto& kv : config) {
+    if (!kv.first.IsScalar() || registry.Find(kv.first.Scalar()) == nullptr) return config;
+  }
+  if (!config[id]) {
+    return walkgraph::InvalidArgument(
+        path + ":" + std::to_string(config.Mark().line + 1) +
+        ": a file of sections by estimator id (compare's shape) without a section for '" + id +
+        "'");
+  }
+  return config[id];
+}
+
 int RunSmooth(const std::string& walk_dir, const std::string& id, const std::string& config_path,
               const std::string& out) {
   if (Status s = Preflight(out, walkgraph::OutputKind::kFile, {walk_dir, config_path}); !s.ok()) {
@@ -250,7 +269,9 @@ int RunSmooth(const std::string& walk_dir, const std::string& id, const std::str
   }
   auto walk = ReadWalk(walk_dir);
   if (!walk.ok()) return Fail(walk.status());
-  auto config = LoadConfig(config_path);
+  auto file = LoadConfig(config_path);
+  if (!file.ok()) return Fail(file.status());
+  auto config = SmoothOptions(*file, id, config_path);
   if (!config.ok()) return Fail(config.status());
   auto est = walkgraph::EstimatorRegistry::Builtin().Create(id, *config);
   if (!est.ok()) return Fail(InConfig(config_path, est.status()));
@@ -301,8 +322,10 @@ Status ConfigsById(const YAML::Node& config, const std::string& path,
     if (!kv.first.IsScalar() || registry.Find(kv.first.Scalar()) == nullptr) {
       std::string key = kv.first.IsScalar() ? kv.first.Scalar() : "(not a word)";
       if (key.size() > 80) key = key.substr(0, 80) + "...";
-      return walkgraph::InvalidArgument(path + ":" + line(kv.first) + ": '" + key +
-                                        "' is not an estimator id (see walkgraph list)");
+      return walkgraph::InvalidArgument(
+          path + ":" + line(kv.first) + ": '" + key +
+          "' is not an estimator id (see walkgraph list): compare --config takes one section "
+          "per estimator, {estimator id: {option: value}}, as smooth --config also does");
     }
     // Created once here so that a bad option fails now, naming the file.
     auto estimator = registry.Create(kv.first.Scalar(), kv.second);
@@ -376,7 +399,8 @@ int RunCompare(const CompareArgs& args) {
   std::cout << walkgraph::FormatComparisonTable(*comparison);
   const Status s = walkgraph::WriteComparison(*comparison, args.out, g_output);
   if (!s.ok()) return Fail(s);
-  std::cout << "wrote " << args.out << "/{report.html,results.json,errors.csv,truth.tum,trajectories/}\n";
+  std::cout << "wrote " << args.out
+            << "/{report.html,results.json,errors.csv,truth.tum,trajectories/}\n";
   return 0;
 }
 

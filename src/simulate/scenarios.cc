@@ -728,7 +728,9 @@ StatusOr<Simulation> SimulateScenarioDetailed(const std::string& name, uint64_t 
   m.radio.kind = RadioKind::kRss;
   m.radio.units = p.radio.units;
   m.radio.path_loss = p.radio.path_loss;
-  m.radio.calibrated = true;  // the model the readings were drawn from (per-anchor spread aside)
+  // Calibrated: the readings were drawn from this model — unless the anchors spread around it
+  // (A_spread_db, eta_spread), when the declared model is only their mean.
+  m.radio.calibrated = p.radio.A_spread_db == 0.0 && p.radio.eta_spread == 0.0;
   m.radio.range_sigma_m = p.radio.toa_sigma_m;
   const sim::BodyState b0 = plan.At(0.0);
   m.initial_pose = InitialPose{

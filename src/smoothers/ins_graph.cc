@@ -14,6 +14,7 @@
 
 #include "estimators/builtin.h"
 #include "factors/bias_random_walk_factor.h"
+#include "factors/difference_prior_factor.h"
 #include "factors/imu_preintegration_factor.h"
 #include "factors/ins_prior_factor.h"
 #include "factors/nav_quaternion_manifold.h"
@@ -62,11 +63,15 @@ Status InsGraphOptions::Validate() const {
         "0, and every sigma, rate, interval and threshold > 0 (bias sigmas and random walks "
         "of front_end included, and Ceres tolerances)");
   }
-  if (o.path_loss != "auto" && o.path_loss != "fixed" && o.path_loss != "global") {
-    return InvalidArgument("fg-ins-batch: path_loss must be auto, fixed or global");
+  if (o.path_loss != "auto" && o.path_loss != "fixed" && o.path_loss != "global" &&
+      o.path_loss != "hierarchical") {
+    return InvalidArgument("fg-ins-batch: path_loss must be auto, fixed, global or hierarchical");
   }
-  if (!(o.A_prior_sigma_db > 0) || !(o.eta_prior_sigma > 0)) {
-    return InvalidArgument("fg-ins-batch: A_prior_sigma_db and eta_prior_sigma must be > 0");
+  if (!(o.A_prior_sigma_db > 0) || !(o.eta_prior_sigma > 0) || !(o.A_spread_prior_db > 0) ||
+      !(o.eta_spread_prior > 0)) {
+    return InvalidArgument(
+        "fg-ins-batch: A_prior_sigma_db, eta_prior_sigma, A_spread_prior_db and "
+        "eta_spread_prior must be > 0");
   }
   return Status::Ok();
 }
@@ -159,6 +164,8 @@ StatusOr<InsGraphOptions> InsGraphOptions::FromYaml(const YAML::Node& node) {
   r.Read("path_loss", &o.path_loss);
   r.Read("A_prior_sigma_db", &o.A_prior_sigma_db);
   r.Read("eta_prior_sigma", &o.eta_prior_sigma);
+  r.Read("A_spread_prior_db", &o.A_spread_prior_db);
+  r.Read("eta_spread_prior", &o.eta_spread_prior);
   r.Read("range_bias_sigma_m", &o.range_bias_sigma_m);
   WG_RETURN_IF_ERROR(r.Finish());
   if (front.IsDefined()) {
@@ -404,6 +411,31 @@ Where ReceiverAt(const InsGraphContext& c, std::vector<InsState>* states, size_t
 
 }  // namespace
 
+std::string ResolveInsPathLoss(const InsGraphOptions& o, const RadioDefaults& radio) {
+  if (o.path_loss != "auto") return o.path_loss;
+  return radio.calibrated ? "fixed" : "global";
+}
+
+namespace {
+
+// The path-loss block an RSS reading of anchor `id` uses: the walk's, or (hierarchical) the
+// anchor's own, created at the mean's value and tied to it on first use.
+double* PathLossBlock(const InsGraphOptions& o, int id, InsRadioBlocks* blocks,
+                      std::vector<InsFactor>* out) {
+  if (!blocks->per_anchor_path_loss) return blocks->path_loss.data();
+  auto [it, created] = blocks->anchor_path_loss.emplace(id, blocks->path_loss);
+  if (blocks->anchor_path_loss_prior_added.insert(id).second) {
+    out->push_back(MakeFactor(
+        "path_loss_spread",
+        DifferencePriorFactor<2>::Create(Eigen::Vector2d(o.A_spread_prior_db, o.eta_spread_prior)),
+        {it->second.data(), blocks->path_loss.data()}));
+  }
+  (void)created;
+  return it->second.data();
+}
+
+}  // namespace
+
 StatusOr<std::vector<InsFactor>> InsRadioFactors(const InsGraphContext& c,
                                                  std::vector<InsState>* states, size_t k, size_t n,
                                                  InsRadioBlocks* blocks) {
@@ -421,8 +453,9 @@ StatusOr<std::vector<InsFactor>> InsRadioFactors(const InsGraphContext& c,
       blocks->path_loss = {radio.path_loss.A_dbm, radio.path_loss.eta};
       blocks->path_loss_set = true;
     }
-    blocks->estimate_path_loss =
-        o.path_loss == "global" || (o.path_loss == "auto" && !radio.calibrated);
+    const std::string model = ResolveInsPathLoss(o, radio);
+    blocks->estimate_path_loss = model != "fixed";
+    blocks->per_anchor_path_loss = model == "hierarchical";
     if (blocks->estimate_path_loss && !blocks->path_loss_prior_added) {
       blocks->path_loss_prior_added = true;
       out.push_back(MakeFactor(
@@ -442,14 +475,14 @@ StatusOr<std::vector<InsFactor>> InsRadioFactors(const InsGraphContext& c,
       reading.sigma_db = radio.path_loss.sigma_db;
       reading.sign = radio.units == RssUnits::kRfcode ? -1.0 : 1.0;
       reading.d0_m = radio.path_loss.d0_m;
+      double* path_loss = PathLossBlock(o, r.anchor_id, blocks, &out);
       const Where at = where(r.t_s);
       InsFactor f;
       if (at.b == nullptr) {
-        f = MakeFactor("rss", RssFactor<3>::Create(reading),
-                       {at.a->p.data(), blocks->path_loss.data()});
+        f = MakeFactor("rss", RssFactor<3>::Create(reading), {at.a->p.data(), path_loss});
       } else {
         f = MakeFactor("rss", RssFactor<3>::CreateInterpolated(reading, at.alpha),
-                       {at.a->p.data(), at.b->p.data(), blocks->path_loss.data()});
+                       {at.a->p.data(), at.b->p.data(), path_loss});
       }
       WG_ASSIGN_OR_RETURN(ceres::LossFunction * loss, MakeLoss(o.rss_loss, o.rss_loss_scale));
       f.loss.reset(loss);
@@ -508,6 +541,10 @@ void AddInsPathLossDiagnostics(const Walk& walk, const InsRadioBlocks& blocks,
   if (!blocks.estimate_path_loss) return;
   (*d)["path_loss_A"] = blocks.path_loss[0];
   (*d)["path_loss_eta"] = blocks.path_loss[1];
+  for (const auto& [id, v] : blocks.anchor_path_loss) {
+    (*d)["path_loss_A." + std::to_string(id)] = v[0];
+    (*d)["path_loss_eta." + std::to_string(id)] = v[1];
+  }
 }
 
 void HoldInsRadioBlocks(ceres::Problem* problem, InsRadioBlocks* blocks,
@@ -687,6 +724,12 @@ namespace {
 // banded chain solve, ceres::Covariance where the graph is no chain), the states' blocks keyed
 // x(i) p, v(i), q(i), g(i) b_g, a(i) b_a at their time, the radio's blocks static. False (and
 // `out` untouched) when it cannot be computed (rank deficiency).
+// The walk-wide path-loss block's key: l(0), or m(0) when it is hierarchical's mean (l(id)
+// are then the anchors').
+Key InsPathLossKey(const InsRadioBlocks& radio) {
+  return Symbol(radio.per_anchor_path_loss ? 'm' : 'l', 0);
+}
+
 bool InsPoseCovariances(ceres::Problem* problem, std::vector<InsState>* states,
                         InsRadioBlocks* radio, std::vector<std::optional<Eigen::Matrix3d>>* out) {
   std::map<Key, internal::KeyedBlock> blocks;
@@ -701,7 +744,12 @@ bool InsPoseCovariances(ceres::Problem* problem, std::vector<InsState>* states,
     groups.push_back({Symbol('x', i), Symbol('q', i)});
   }
   if (problem->HasParameterBlock(radio->path_loss.data())) {
-    blocks[Symbol('l', 0)] = {radio->path_loss.data(), std::nullopt};
+    blocks[InsPathLossKey(*radio)] = {radio->path_loss.data(), std::nullopt};
+  }
+  for (auto& [id, v] : radio->anchor_path_loss) {
+    if (problem->HasParameterBlock(v.data())) {
+      blocks[Symbol('l', static_cast<uint64_t>(id))] = {v.data(), std::nullopt};
+    }
   }
   for (auto& [id, bias] : radio->range_bias_m) {
     if (problem->HasParameterBlock(&bias)) {
@@ -781,6 +829,7 @@ StatusOr<EstimateResult> InsGraphBatch::Run(const Walk& walk) const {
     AddInsFactors(problem.get(), &factors);
     radio.bias_prior_added.clear();  // a new problem: priors again, bias values kept
     radio.path_loss_prior_added = false;
+    radio.anchor_path_loss_prior_added.clear();
     WG_ASSIGN_OR_RETURN(std::vector<InsFactor> radio_factors,
                         InsRadioFactors(context, &states, 0, states.size() - 1, &radio));
     num_radio = radio_factors.size();

@@ -24,13 +24,14 @@ namespace walkgraph {
 namespace {
 
 // State i's blocks have keys x(i) p, v(i) v, q(i) q, g(i) b_g, a(i) b_a (graph.h); the static
-// states l(0) the path loss and b(a) the range bias of anchor index a.
+// states l(0) the path loss (hierarchical: m(0) the mean, l(a) anchor index a's) and b(a) the
+// range bias of anchor index a.
 constexpr int kBlocksPerState = 5;
 enum InsBlock { kP = 0, kV = 1, kQ = 2, kBg = 3, kBa = 4 };
 constexpr char kBlockLetters[kBlocksPerState + 1] = "xvqga";
-constexpr StateKey kPathLossKey = Symbol('l', 0);
 StateKey Key(size_t i, int block) { return Symbol(kBlockLetters[block], i); }
 StateKey RangeBiasKey(int anchor_index) { return Symbol('b', static_cast<uint64_t>(anchor_index)); }
+StateKey PathLossKey(int anchor_index) { return Symbol('l', static_cast<uint64_t>(anchor_index)); }
 // The block of a state's key (kP … kBa), or −1 for a static state's.
 int BlockOfKey(StateKey key) {
   for (int b = 0; b < kBlocksPerState; ++b) {
@@ -192,6 +193,8 @@ class InsWindowRun {
   StatusOr<InsState> EstimateOf(size_t i);
   void StoreCovariances(const std::vector<size_t>& states);
   Status ToSmoother(std::vector<InsFactor>* factors);
+  using KeyIt = std::unordered_map<const double*, StateKey>::iterator;
+  StatusOr<KeyIt> AddStaticBlock(const double* block);
   void HoldAcrossGap(size_t i);
   Status AddState(size_t i);
   Status Update(size_t i);
@@ -215,6 +218,7 @@ class InsWindowRun {
   std::unordered_map<const double*, StateKey> key_of_;
   InsRadioBlocks radio_;
   std::set<StateKey> statics_added_;
+  StateKey path_loss_key_ = 0;  // the walk-wide path-loss block's (l(0), or m(0) the mean)
   std::vector<std::optional<Eigen::Matrix3d>> cov_;
   std::vector<SmootherState> new_states_;
   std::vector<SmootherFactor> new_factors_;
@@ -247,7 +251,9 @@ Status InsWindowRun::Start() {
   for (size_t i = 0; i < n_; ++i) {
     for (int b = 0; b < kBlocksPerState; ++b) key_of_[BlockOf(&build_[i], b)] = Key(i, b);
   }
-  key_of_[radio_.path_loss.data()] = kPathLossKey;
+  path_loss_key_ =
+      ResolveInsPathLoss(g_, walk_.meta.radio) == "hierarchical" ? Symbol('m', 0) : PathLossKey(0);
+  key_of_[radio_.path_loss.data()] = path_loss_key_;
   WG_ASSIGN_OR_RETURN(user_, InsUserFactors(context_, &build_));
   lagged_ = current_ = build_;
   cov_.assign(n_, std::nullopt);
@@ -299,29 +305,41 @@ void InsWindowRun::StoreCovariances(const std::vector<size_t>& states) {
 
 // Factors by key; a block met for the first time that is not a state's is a static state
 // (the path loss or an anchor's range bias), added to the same update.
+// A block met for the first time that is no state's: an anchor's range bias or (hierarchical)
+// path loss, keyed by its anchor index and added as a static state.
+StatusOr<InsWindowRun::KeyIt> InsWindowRun::AddStaticBlock(const double* block) {
+  auto add = [&](int id, StateKey (*key)(int), std::vector<double> value,
+                 bool constant) -> StatusOr<KeyIt> {
+    const int ai = walk_.AnchorIndex(id);
+    if (ai < 0) return InternalError("fg-ins-window: a static block of an unknown anchor");
+    auto it = key_of_.emplace(block, key(ai)).first;
+    SmootherState st;
+    st.key = it->second;
+    st.value = std::move(value);
+    st.constant = constant;
+    new_states_.push_back(std::move(st));
+    return it;
+  };
+  for (auto& [id, bias] : radio_.range_bias_m) {
+    if (&bias == block) return add(id, RangeBiasKey, {bias}, !g_.estimate_range_bias);
+  }
+  for (auto& [id, pl] : radio_.anchor_path_loss) {
+    if (pl.data() == block) return add(id, PathLossKey, {pl[0], pl[1]}, false);
+  }
+  return InternalError("fg-ins-window: factor on an unknown block");
+}
+
 Status InsWindowRun::ToSmoother(std::vector<InsFactor>* factors) {
   for (InsFactor& f : *factors) {
     SmootherFactor sf;
     for (double* block : f.blocks) {
       auto it = key_of_.find(block);
       if (it == key_of_.end()) {
-        for (auto& [id, bias] : radio_.range_bias_m) {
-          if (&bias != block) continue;
-          const int ai = walk_.AnchorIndex(id);
-          if (ai < 0) return InternalError("fg-ins-window: range bias of an unknown anchor");
-          it = key_of_.emplace(block, RangeBiasKey(ai)).first;
-          SmootherState st;
-          st.key = it->second;
-          st.value = std::vector<double>(1, bias);
-          st.constant = !g_.estimate_range_bias;
-          new_states_.push_back(std::move(st));
-          break;
-        }
-        if (it == key_of_.end()) return InternalError("fg-ins-window: factor on an unknown block");
+        WG_ASSIGN_OR_RETURN(it, AddStaticBlock(block));
       }
-      if (it->second == kPathLossKey && statics_added_.insert(kPathLossKey).second) {
+      if (it->second == path_loss_key_ && statics_added_.insert(path_loss_key_).second) {
         SmootherState st;
-        st.key = kPathLossKey;
+        st.key = path_loss_key_;
         st.value = std::vector<double>(radio_.path_loss.begin(), radio_.path_loss.end());
         st.constant = !radio_.estimate_path_loss;  // as in fg-ins-batch
         new_states_.push_back(std::move(st));
@@ -460,9 +478,13 @@ EstimateResult InsWindowRun::Finish() {
   d["window_gap_hold_max_s"] = held_s_;  // longest time from a gap to its release
   d["states_without_covariance"] = g_.compute_covariance ? static_cast<double>(missing) : 0.0;
   d["covariance_ok"] = g_.compute_covariance && missing == 0 ? 1.0 : 0.0;
-  if (radio_.estimate_path_loss) {  // the window's last estimate of the static block
-    auto v = smoother_.Estimate(kPathLossKey);
+  if (radio_.estimate_path_loss) {  // the window's last estimates of the static blocks
+    auto v = smoother_.Estimate(path_loss_key_);
     if (v.ok() && v->size() == 2) radio_.path_loss = {(*v)[0], (*v)[1]};
+    for (auto& [id, pl] : radio_.anchor_path_loss) {
+      auto va = smoother_.Estimate(PathLossKey(walk_.AnchorIndex(id)));
+      if (va.ok() && va->size() == 2) pl = {(*va)[0], (*va)[1]};
+    }
   }
   AddInsPathLossDiagnostics(walk_, radio_, &d);
   AddUpdateLatencyTimings(latency_, &result.timings);

@@ -13,6 +13,7 @@
 
 #include "estimators/builtin.h"
 #include "factors/angle_manifold.h"
+#include "factors/difference_prior_factor.h"
 #include "factors/heading_factor.h"
 #include "factors/heading_increment_factor.h"
 #include "factors/odometry_factor.h"
@@ -107,6 +108,8 @@ StatusOr<StepGraphOptions> StepGraphOptions::FromYaml(const YAML::Node& node,
   r.Read("path_loss", &o.path_loss);
   r.Read("A_prior_sigma_db", &o.A_prior_sigma_db);
   r.Read("eta_prior_sigma", &o.eta_prior_sigma);
+  r.Read("A_spread_prior_db", &o.A_spread_prior_db);
+  r.Read("eta_spread_prior", &o.eta_spread_prior);
   r.Read("range_bias", &o.range_bias);
   r.Read("range_bias_prior_sigma_m", &o.range_bias_prior_sigma_m);
   r.Read("range_scale", &o.range_scale);
@@ -169,6 +172,8 @@ Status CheckStepGraphOptions(const StepGraphOptions& o, const std::string& conte
   WG_RETURN_IF_ERROR(positive(o.range_loss_scale, "range_loss_scale"));
   WG_RETURN_IF_ERROR(positive(o.A_prior_sigma_db, "A_prior_sigma_db"));
   WG_RETURN_IF_ERROR(positive(o.eta_prior_sigma, "eta_prior_sigma"));
+  WG_RETURN_IF_ERROR(positive(o.A_spread_prior_db, "A_spread_prior_db"));
+  WG_RETURN_IF_ERROR(positive(o.eta_spread_prior, "eta_spread_prior"));
   WG_RETURN_IF_ERROR(positive(o.range_bias_prior_sigma_m, "range_bias_prior_sigma_m"));
   WG_RETURN_IF_ERROR(positive(o.range_scale_prior_sigma, "range_scale_prior_sigma"));
   WG_RETURN_IF_ERROR(positive(o.align_window_s, "align_window_s"));
@@ -201,10 +206,11 @@ Status CheckStepGraphOptions(const StepGraphOptions& o, const std::string& conte
   for (const std::string* l : {&o.rss_loss, &o.range_loss, &o.mag_heading_loss}) {
     if (!IsLoss(*l)) return InvalidArgument(context + ": loss '" + *l + "' is not " + kLosses);
   }
-  if (!OneOf(o.path_loss, {"auto", "fixed", "global", "per-anchor"})) {
-    return InvalidArgument(context + ": path_loss must be auto, fixed, global or per-anchor");
+  if (!OneOf(o.path_loss, {"auto", "fixed", "global", "per-anchor", "hierarchical"})) {
+    return InvalidArgument(context +
+                           ": path_loss must be auto, fixed, global, per-anchor or hierarchical");
   }
-  if ((o.path_loss == "global" || o.path_loss == "per-anchor") && o.rss_residual != "db") {
+  if (o.path_loss != "auto" && o.path_loss != "fixed" && o.rss_residual != "db") {
     return InvalidArgument(context + ": path-loss self-calibration needs rss_residual 'db'");
   }
   if (!OneOf(o.range_bias, {"none", "global", "per-anchor"}) ||
@@ -244,12 +250,13 @@ std::string ResolvePathLoss(const Walk& walk, const StepGraphOptions& o, bool* h
   if (o.path_loss != "auto") return o.path_loss;
   if (walk.meta.radio.calibrated || o.rss_residual != "db") return "fixed";
   *held_radio_only = !walk.has_odometry() && !walk.has_imu();
-  return *held_radio_only ? "fixed" : "global";
+  return *held_radio_only ? "fixed" : "hierarchical";
 }
 
 // The static states' keys (graph.h lists the letters); group: the anchor index or 0.
 constexpr StateKey kGyroBiasKey = Symbol('g', 0);
 StateKey PathLossKey(int group) { return Symbol('l', static_cast<uint64_t>(group)); }
+constexpr StateKey kPathLossMeanKey = Symbol('m', 0);  // hierarchical: the walk's mean (A, η)
 StateKey RangeBiasKey(int group) { return Symbol('b', static_cast<uint64_t>(group)); }
 StateKey RangeScaleKey(int group) { return Symbol('s', static_cast<uint64_t>(group)); }
 
@@ -373,7 +380,10 @@ struct StepGraph::Impl {
   std::shared_ptr<const ceres::Manifold> angle = std::make_shared<AngleManifold>();
   std::shared_ptr<const ceres::LossFunction> rss_loss, range_loss, mag_loss;
 
-  int PathLossGroup(int anchor) const { return o.path_loss == "per-anchor" ? anchor : 0; }
+  bool PathLossPerAnchor() const {
+    return o.path_loss == "per-anchor" || o.path_loss == "hierarchical";
+  }
+  int PathLossGroup(int anchor) const { return PathLossPerAnchor() ? anchor : 0; }
   void CheckStartHeading(const Walk& walk, StepGraph* g);
   Status AddUserFactors(const Walk& walk, const std::vector<double>& node_t);
   // Build's steps, in order: node times; dead-reckoned initial values; the readings attached
@@ -660,6 +670,8 @@ StatusOr<std::unique_ptr<StepGraph>> StepGraph::Build(const Walk& walk, const St
   return g;
 }
 
+bool StepGraph::path_loss_per_anchor() const { return impl_->PathLossPerAnchor(); }
+
 bool StepGraph::path_loss_estimated() const {
   return impl_->any_rss && impl_->o.rss_residual == "db" && impl_->o.path_loss != "fixed";
 }
@@ -678,6 +690,12 @@ std::vector<SmootherState> StepGraph::StaticStates() const {
       s.key = PathLossKey(gr);
       s.value = {pl.A_dbm, pl.eta};
       s.constant = m.o.path_loss == "fixed";
+      out.push_back(std::move(s));
+    }
+    if (m.o.path_loss == "hierarchical") {
+      SmootherState s;
+      s.key = kPathLossMeanKey;
+      s.value = {pl.A_dbm, pl.eta};
       out.push_back(std::move(s));
     }
   }
@@ -842,7 +860,11 @@ std::vector<SmootherFactor> StepGraph::FactorsAt(int k) const {
         add_owned(DiagonalPrior(Eigen::VectorXd::Zero(1),
                                 Eigen::VectorXd::Constant(1, o.range_bias_prior_sigma_m)),
                   {s.key});
-      } else {  // path loss: weak prior at the walk's model
+      } else if (letter == 'l' && o.path_loss == "hierarchical") {  // tied to the mean
+        add(DifferencePriorFactor<2>::Create(
+                Eigen::Vector2d(o.A_spread_prior_db, o.eta_spread_prior)),
+            {s.key, kPathLossMeanKey});
+      } else {  // path loss (a block, or hierarchical's mean): weak prior at the walk's model
         add_owned(DiagonalPrior(Eigen::Vector2d(s.value[0], s.value[1]),
                                 Eigen::Vector2d(o.A_prior_sigma_db, o.eta_prior_sigma)),
                   {s.key});
@@ -902,7 +924,7 @@ Status CheckStepWalk(const Walk& walk) {
   return Status::Ok();
 }
 
-void AddStaticDiagnostics(const std::vector<SmootherState>& statics,
+void AddStaticDiagnostics(const StepGraph& graph,
                           const std::function<std::vector<double>(StateKey)>& value_of,
                           const Walk& walk, const StepGraphOptions& o,
                           std::map<std::string, double>* d) {
@@ -910,7 +932,7 @@ void AddStaticDiagnostics(const std::vector<SmootherState>& statics,
   auto name = [&](const std::string& what, bool per_anchor, int group) {
     return per_anchor ? what + "." + std::to_string(walk.anchors[group].id) : what;
   };
-  for (const SmootherState& s : statics) {
+  for (const SmootherState& s : graph.StaticStates()) {
     if (s.constant) continue;
     const std::vector<double> v = value_of(s.key);
     const char letter = SymbolLetter(s.key);
@@ -921,9 +943,10 @@ void AddStaticDiagnostics(const std::vector<SmootherState>& statics,
       (*d)[name("range_scale", o.range_scale == "per-anchor", g)] = v[0];
     } else if (letter == 'b') {
       (*d)[name("range_bias_m", o.range_bias == "per-anchor", g)] = v[0];
-    } else {
-      (*d)[name("path_loss_A", o.path_loss == "per-anchor", g)] = v[0];
-      (*d)[name("path_loss_eta", o.path_loss == "per-anchor", g)] = v[1];
+    } else {  // l(g): per anchor unless global; m(0): hierarchical's walk-wide mean
+      const bool per_anchor = letter == 'l' && graph.path_loss_per_anchor();
+      (*d)[name("path_loss_A", per_anchor, g)] = v[0];
+      (*d)[name("path_loss_eta", per_anchor, g)] = v[1];
     }
   }
 }
@@ -1069,7 +1092,7 @@ StatusOr<EstimateResult> StepGraphBatch::Run(const Walk& walk) const {
   d["nodes"] = n;
   d["residual_blocks"] = static_cast<double>(fg.num_factors());
   auto value = [&](StateKey k) { return *fg.Value(k); };  // every key below is in the graph
-  AddStaticDiagnostics(graph->StaticStates(), value, walk, options_, &d);
+  AddStaticDiagnostics(*graph, value, walk, options_, &d);
   AddGraphDiagnostics(*graph, walk, &d);
   for (int k = 0; k < n; ++k) {
     result.trajectory.points.push_back(MakePoint(graph->node_time(k),
@@ -1111,7 +1134,7 @@ void AddWindowGraphDiagnostics(const StepGraph& graph, const FixedLagSmoother& s
                                const Walk& walk, const StepGraphOptions& o,
                                std::map<std::string, double>* d) {
   AddStaticDiagnostics(
-      graph.StaticStates(),
+      graph,
       [&](StateKey k) {
         auto v = smoother.Estimate(k);
         return v.ok() ? *v : std::vector<double>{0.0, 0.0};
