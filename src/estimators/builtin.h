@@ -26,7 +26,7 @@ EstimatorFactory OptionsFactory(Parse parse, Args... args) {
   };
 }
 
-// The units in scope of the filters and dead reckoning return their first failed registration.
+// Each unit returns its first failed registration.
 Status RegisterOdometryDeadReckoning(EstimatorRegistry* registry);  // estimators/odometry_dr.cc
 Status RegisterZuptIns(EstimatorRegistry* registry);                // estimators/zupt_ins.cc
 Status RegisterTarrio(EstimatorRegistry* registry);                 // filters/tarrio.cc
@@ -34,11 +34,9 @@ Status RegisterCorrea(EstimatorRegistry* registry);                 // filters/c
 Status RegisterPrieto(EstimatorRegistry* registry);                 // filters/prieto.cc
 Status RegisterGadeke(EstimatorRegistry* registry);                 // filters/gadeke.cc
 Status RegisterJimenezIez(EstimatorRegistry* registry);             // filters/jimenez.cc
-// The smoothers' units ignore Register's status; the registry keeps their failures
-// (EstimatorRegistry::status()).
-void RegisterStepGraphSmoothers(EstimatorRegistry* registry);  // smoothers/step_graph.cc
-void RegisterInsGraphBatch(EstimatorRegistry* registry);       // smoothers/ins_graph.cc
-void RegisterInsGraphWindow(EstimatorRegistry* registry);      // smoothers/ins_window.cc
+Status RegisterStepGraphSmoothers(EstimatorRegistry* registry);     // smoothers/step_graph.cc
+Status RegisterInsGraphBatch(EstimatorRegistry* registry);          // smoothers/ins_graph.cc
+Status RegisterInsGraphWindow(EstimatorRegistry* registry);         // smoothers/ins_window.cc
 
 }  // namespace walkgraph::internal
 

@@ -18,12 +18,11 @@ const EstimatorRegistry& EstimatorRegistry::Builtin() {
     for (Status (*unit)(EstimatorRegistry*) :
          {internal::RegisterOdometryDeadReckoning, internal::RegisterZuptIns,
           internal::RegisterTarrio, internal::RegisterCorrea, internal::RegisterPrieto,
-          internal::RegisterGadeke, internal::RegisterJimenezIez}) {
+          internal::RegisterGadeke, internal::RegisterJimenezIez,
+          internal::RegisterStepGraphSmoothers, internal::RegisterInsGraphBatch,
+          internal::RegisterInsGraphWindow}) {
       if (!unit(r).ok()) break;
     }
-    internal::RegisterStepGraphSmoothers(r);
-    internal::RegisterInsGraphBatch(r);
-    internal::RegisterInsGraphWindow(r);
     return r;
   }();
   return *registry;

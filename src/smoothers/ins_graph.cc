@@ -882,15 +882,13 @@ StatusOr<EstimateResult> InsGraphBatch::Run(const Walk& walk) const {
 
 namespace internal {
 
-void RegisterInsGraphBatch(EstimatorRegistry* registry) {
-  registry->Register(
+Status RegisterInsGraphBatch(EstimatorRegistry* registry) {
+  return registry->Register(
       {"fg-ins-batch",
        "foot-INS factor graph: Forster preintegration between stance states, ZUPT, ZARU, bias "
        "random walks; one Ceres problem (foot IMU)",
-       [](const YAML::Node& config) -> StatusOr<std::unique_ptr<Estimator>> {
-         WG_ASSIGN_OR_RETURN(auto options, InsGraphOptions::FromYaml(config));
-         return std::unique_ptr<Estimator>(new InsGraphBatch(options));
-       }});
+       OptionsFactory<InsGraphBatch>(
+           [](const YAML::Node& config) { return InsGraphOptions::FromYaml(config); })});
 }
 
 }  // namespace internal

@@ -534,20 +534,21 @@ StatusOr<std::vector<InsState>> InsWindowLaggedStates(const Walk& walk,
 
 namespace internal {
 
-void RegisterInsGraphWindow(EstimatorRegistry* registry) {
-  auto make = [](const char* id, const char* output) {
-    return [id, output](const YAML::Node& config) -> StatusOr<std::unique_ptr<Estimator>> {
-      WG_ASSIGN_OR_RETURN(InsWindowOptions o, InsWindowOptions::FromYaml(config, id, output));
-      return std::unique_ptr<Estimator>(new InsGraphWindow(o));
+Status RegisterInsGraphWindow(EstimatorRegistry* registry) {
+  auto parse = [](const char* id, const char* output) {
+    return [id, output](const YAML::Node& config) {
+      return InsWindowOptions::FromYaml(config, id, output);
     };
   };
-  registry->Register({"fg-ins-window",
-                      "foot-INS factor graph as a fixed-lag smoother (10 s lag, marginalization "
-                      "prior): lagged estimates (foot IMU)",
-                      make("fg-ins-window", "lagged")});
-  registry->Register({"fg-ins-window-online",
-                      "fg-ins-window's online output: each state right after its own update",
-                      make("fg-ins-window-online", "online")});
+  WG_RETURN_IF_ERROR(registry->Register(
+      {"fg-ins-window",
+       "foot-INS factor graph as a fixed-lag smoother (10 s lag, marginalization prior): lagged "
+       "estimates (foot IMU)",
+       OptionsFactory<InsGraphWindow>(parse("fg-ins-window", "lagged"))}));
+  return registry->Register(
+      {"fg-ins-window-online",
+       "fg-ins-window's online output: each state right after its own update",
+       OptionsFactory<InsGraphWindow>(parse("fg-ins-window-online", "online"))});
 }
 
 }  // namespace internal

@@ -1276,33 +1276,31 @@ StatusOr<EstimateResult> RunWindowNodes(const Walk& walk, const StepGraphOptions
 
 namespace internal {
 
-void RegisterStepGraphSmoothers(EstimatorRegistry* registry) {
-  auto make = [](const char* id, StepGraphOptions defaults, bool window) {
-    return
-        [id, defaults, window](const YAML::Node& config) -> StatusOr<std::unique_ptr<Estimator>> {
-          WG_ASSIGN_OR_RETURN(StepGraphOptions o, StepGraphOptions::FromYaml(config, id, defaults));
-          if (window) return std::unique_ptr<Estimator>(new StepGraphWindow(o));
-          return std::unique_ptr<Estimator>(new StepGraphBatch(o));
-        };
+Status RegisterStepGraphSmoothers(EstimatorRegistry* registry) {
+  auto parse = [](const char* id, StepGraphOptions defaults) {
+    return [id, defaults](const YAML::Node& config) {
+      return StepGraphOptions::FromYaml(config, id, defaults);
+    };
   };
   StepGraphOptions selfcal;
   selfcal.path_loss = "global";
   StepGraphOptions online;
   online.window_output = "online";
-  registry->Register({"fg-batch",
-                      "factor graph, full batch: steps/odometry + RSS (dB) / ranges (bias, "
-                      "robust), Ceres sparse Cholesky",
-                      make("fg-batch", StepGraphOptions(), false)});
-  registry->Register({"fg-batch-selfcal",
-                      "fg-batch with path-loss self-calibration (A, η estimated; weak prior)",
-                      make("fg-batch-selfcal", selfcal, false)});
-  registry->Register({"fg-window",
-                      "factor graph, fixed-lag smoother (10 s lag, marginalization prior): "
-                      "lagged estimates",
-                      make("fg-window", StepGraphOptions(), true)});
-  registry->Register({"fg-window-online",
-                      "fg-window's online output: each node right after its own update",
-                      make("fg-window-online", online, true)});
+  WG_RETURN_IF_ERROR(registry->Register(
+      {"fg-batch",
+       "factor graph, full batch: steps/odometry + RSS (dB) / ranges (bias, robust), Ceres "
+       "sparse Cholesky",
+       OptionsFactory<StepGraphBatch>(parse("fg-batch", StepGraphOptions()))}));
+  WG_RETURN_IF_ERROR(registry->Register(
+      {"fg-batch-selfcal", "fg-batch with path-loss self-calibration (A, η estimated; weak prior)",
+       OptionsFactory<StepGraphBatch>(parse("fg-batch-selfcal", selfcal))}));
+  WG_RETURN_IF_ERROR(registry->Register(
+      {"fg-window",
+       "factor graph, fixed-lag smoother (10 s lag, marginalization prior): lagged estimates",
+       OptionsFactory<StepGraphWindow>(parse("fg-window", StepGraphOptions()))}));
+  return registry->Register({"fg-window-online",
+                             "fg-window's online output: each node right after its own update",
+                             OptionsFactory<StepGraphWindow>(parse("fg-window-online", online))});
 }
 
 }  // namespace internal
