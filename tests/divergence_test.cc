@@ -72,7 +72,12 @@ TEST(CheckDivergence, LeavingTheSceneNonFiniteAndNonPdCovariances) {
   d = Check(w, t);
   ASSERT_TRUE(d);
   EXPECT_EQ(d->t_s, 20.0);
-  EXPECT_THAT(d->reason, HasSubstr("not positive definite"));
+  EXPECT_THAT(d->reason, HasSubstr("not positive semi-definite"));
+  // A zero covariance (a point held constant to fix the gauge, as the step graph's first node
+  // without a known start) is no divergence.
+  t = Offset(w, 0.0, 1.0);
+  *t.points[20].covariance = Eigen::Matrix3d::Zero();
+  EXPECT_FALSE(Check(w, t));
   // Before the scored part (score_from) nothing counts.
   t = Offset(w, 0.0, 1.0);
   t.points[5].position_m.y() = 2500.0;

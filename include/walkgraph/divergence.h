@@ -3,7 +3,8 @@
 //
 // An estimate diverges at the first scored time where
 //   - a position, heading or covariance is NaN or infinite;
-//   - a reported position covariance is not positive definite;
+//   - a reported position covariance is not positive semi-definite (a negative eigenvalue
+//     beyond rounding; zero is allowed: a point held constant to fix the gauge has none);
 //   - the position leaves the scene (the bounding box of the anchors, the truth and the initial
 //     pose) by more than max(min_margin_m, margin_fraction × the box's diagonal): no estimator
 //     of this walk has a reason to be there;

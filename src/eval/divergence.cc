@@ -5,7 +5,7 @@
 #include <limits>
 #include <vector>
 
-#include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
 
 #include "util/text.h"
 
@@ -65,10 +65,15 @@ std::optional<Divergence> FirstBadPoint(const Trajectory& trajectory, const Box&
       return Divergence{p.t_s, "a position, heading or covariance is NaN or infinite"};
     }
     if (p.covariance) {
+      // Positive semi-definite: a point held constant to fix the gauge (the step graph's
+      // first node without a known start) has a zero covariance by construction, which is no
+      // divergence; a negative eigenvalue beyond rounding is.
       const Eigen::Matrix2d P = p.covariance->topLeftCorner<2, 2>();
-      const Eigen::LLT<Eigen::Matrix2d> llt(0.5 * (P + P.transpose()));
-      if (llt.info() != Eigen::Success) {
-        return Divergence{p.t_s, "its position covariance is not positive definite"};
+      const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eig(0.5 * (P + P.transpose()),
+                                                               Eigen::EigenvaluesOnly);
+      const Eigen::Vector2d ev = eig.eigenvalues();
+      if (ev.minCoeff() < -1e-9 * std::max(1.0, ev.cwiseAbs().maxCoeff())) {
+        return Divergence{p.t_s, "its position covariance is not positive semi-definite"};
       }
     }
     const double out = box.Empty() ? 0.0 : box.Outside(p.position_m.x(), p.position_m.y());
