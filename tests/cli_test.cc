@@ -59,7 +59,12 @@ TEST(Cli, VersionListIdAndSpacedEstimatorList) {
   CliRun id = Cli("list fg-window");
   EXPECT_EQ(id.code, 0) << id.output;
   EXPECT_THAT(id.output, HasSubstr("fg-window  — "));
-  EXPECT_THAT(id.output, ::testing::ContainsRegex("\n  lag_s +10\n"));  // option, default
+  // option, default, unit from the key; a string option's values
+  EXPECT_THAT(id.output, ::testing::ContainsRegex("\n  lag_s +10 +s\n"));
+  EXPECT_THAT(id.output,
+              ::testing::ContainsRegex("\n  path_loss +'auto' +one of "
+                                       "auto\\|fixed\\|global\\|per-anchor\\|hierarchical\n"));
+  EXPECT_THAT(id.output, ::testing::ContainsRegex("\n  pdr\\.detector +'vertical-peak' +one of "));
   CliRun bad = Cli("list nope");
   EXPECT_EQ(bad.code, 1);
   EXPECT_THAT(bad.output, HasSubstr("unknown estimator 'nope'"));

@@ -33,6 +33,54 @@ TEST(ConfigReader, ReadsKnownKeysAndKeepsDefaults) {
   EXPECT_EQ(absent, 7.0);
 }
 
+// A string option with a fixed set of values refuses others with its line and the list, and
+// records the list for `walkgraph list ID`; an enum option reads its names from its table.
+TEST(ConfigReader, StringOptionsWithAllowedValues) {
+  std::string loss = "cauchy";
+  ConfigReader ok(YAML::Load("loss: huber\n"), "test");
+  ok.Read("loss", &loss, {"none", "huber", "cauchy"});
+  ASSERT_TRUE(ok.Finish().ok());
+  EXPECT_EQ(loss, "huber");
+  ConfigReader bad(YAML::Load("a: 1\nloss: hubr\n"), "test");
+  double a = 0.0;
+  bad.Read("a", &a);
+  bad.Read("loss", &loss, {"none", "huber", "cauchy"});
+  EXPECT_THAT(
+      bad.Finish().message(),
+      HasSubstr("test (line 2): option 'loss' must be one of none, huber, cauchy, found 'hubr'"));
+  enum class Mode { kA, kB };
+  const std::vector<std::pair<std::string, Mode>> names = {{"a", Mode::kA}, {"b", Mode::kB}};
+  Mode mode = Mode::kA;
+  ConfigReader e(YAML::Load("mode: b\n"), "test");
+  e.ReadEnum("mode", &mode, names);
+  ASSERT_TRUE(e.Finish().ok());
+  EXPECT_EQ(mode, Mode::kB);
+  auto recorded = RecordOptionDefaults([&] {
+    Mode m = Mode::kB;
+    std::string s = "x";
+    ConfigReader r(YAML::Node(), "test");
+    r.ReadEnum("mode", &m, names);
+    r.Read("s", &s, {"x", "y"});
+    return r.Finish();
+  });
+  ASSERT_TRUE(recorded.ok());
+  ASSERT_EQ(recorded->size(), 2u);
+  EXPECT_EQ(std::get<std::string>((*recorded)[0].value), "b");  // the default's name
+  EXPECT_EQ((*recorded)[0].allowed, (std::vector<std::string>{"a", "b"}));
+  EXPECT_EQ((*recorded)[1].allowed, (std::vector<std::string>{"x", "y"}));
+}
+
+TEST(OptionUnit, FromTheKeysSuffix) {
+  EXPECT_EQ(OptionUnit("lag_s"), "s");
+  EXPECT_EQ(OptionUnit("sigma_acc_mps2"), "m/s²");
+  EXPECT_EQ(OptionUnit("pdr.stride.gyro_noise_radps"), "rad/s");
+  EXPECT_EQ(OptionUnit("acc_bias_rw_mps2_sqrts"), "m/s²/√s");
+  EXPECT_EQ(OptionUnit("A_prior_sigma_db"), "dB");
+  EXPECT_EQ(OptionUnit("rss_alpha_dbm"), "dBm");
+  EXPECT_EQ(OptionUnit("max_iterations"), "");
+  EXPECT_EQ(OptionUnit("eta"), "");
+}
+
 TEST(ConfigReader, RejectsUnknownKeyWithLine) {
   const YAML::Node node = YAML::Load("sigma: 2.5\nsigmma: 3\n");
   double sigma = 0;

@@ -215,7 +215,9 @@ TEST(InsGraphBatch, SameInputSameOutputAndEveryNPlacement) {
 
 TEST(InsGraphBatch, OptionsAndApplicability) {
   EXPECT_FALSE(InsGraphOptions::FromYaml(YAML::Load("{placement: sometimes}")).ok());
-  EXPECT_FALSE(InsGraphOptions::FromYaml(YAML::Load("{rss_loss: tukey}")).ok());
+  EXPECT_FALSE(InsGraphOptions::FromYaml(YAML::Load("{rss_loss: Tukey}")).ok());
+  // The graphs share one list of losses.
+  EXPECT_TRUE(InsGraphOptions::FromYaml(YAML::Load("{rss_loss: tukey}")).ok());
   EXPECT_FALSE(InsGraphOptions::FromYaml(YAML::Load("{every_n_samples: 0}")).ok());
   EXPECT_FALSE(InsGraphOptions::FromYaml(YAML::Load("{zupt_sigma: 0.01}")).ok());
   EXPECT_FALSE(InsGraphOptions::FromYaml(YAML::Load("{initialization: truth}")).ok());

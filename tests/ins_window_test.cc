@@ -313,7 +313,7 @@ TEST(InsGraphWindow, OptionsAndRegistration) {
       InsWindowOptions::FromYaml(YAML::Load("{window_output: smoothed}"), "fg-ins-window").ok());
   EXPECT_FALSE(
       InsWindowOptions::FromYaml(YAML::Load("{preintegration_bias: x}"), "fg-ins-window").ok());
-  EXPECT_FALSE(InsWindowOptions::FromYaml(YAML::Load("{rss_loss: tukey}"), "fg-ins-window").ok());
+  EXPECT_FALSE(InsWindowOptions::FromYaml(YAML::Load("{rss_loss: Tukey}"), "fg-ins-window").ok());
   auto o = InsWindowOptions::FromYaml(
       YAML::Load("{lag_s: 4, window_update_s: 1, receiver_offset_z_m: 1.0, front_end: "
                  "{zupt_sigma_mps: 0.02}}"),

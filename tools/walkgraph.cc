@@ -542,12 +542,21 @@ int RunListEstimator(const std::string& id) {
     std::cout << "options: none\n";
     return 0;
   }
-  std::cout << "options (YAML keys of --config, with their defaults):\n";
-  size_t width = 0;
-  for (const auto& d : *defaults) width = std::max(width, d.key.size());
+  std::cout << "options (YAML keys of --config): default, unit (from the key's suffix), the "
+               "values a string option allows:\n";
+  size_t width = 0, value_width = 0;
   for (const auto& d : *defaults) {
-    std::cout << "  " << std::left << std::setw(static_cast<int>(width)) << d.key << "  "
-              << DefaultText(d) << "\n";
+    width = std::max(width, d.key.size());
+    value_width = std::max(value_width, DefaultText(d).size());
+  }
+  for (const auto& d : *defaults) {
+    std::string allowed;
+    for (const std::string& a : d.allowed) allowed += (allowed.empty() ? "" : "|") + a;
+    std::string line = "  " + d.key + std::string(width - d.key.size() + 2, ' ') + DefaultText(d);
+    const std::string unit = walkgraph::OptionUnit(d.key);
+    const std::string extra = !unit.empty() ? unit : allowed.empty() ? "" : "one of " + allowed;
+    if (!extra.empty()) line += std::string(value_width - DefaultText(d).size() + 2, ' ') + extra;
+    std::cout << line << "\n";
   }
   return 0;
 }

@@ -28,6 +28,25 @@ class ConfigReader {
   void Read(const std::string& key, int* value);
   void Read(const std::string& key, bool* value);
   void Read(const std::string& key, std::string* value);
+  // A string option with a fixed set of values: any other is an error naming them, and
+  // `walkgraph list ID` shows them (from this same list).
+  void Read(const std::string& key, std::string* value, const std::vector<std::string>& allowed);
+  // An enum option by name: `names` is the option's one table of (name, value), which its
+  // error message and `walkgraph list ID` show.
+  template <typename E>
+  void ReadEnum(const std::string& key, E* value,
+                const std::vector<std::pair<std::string, E>>& names) {
+    std::string text;
+    std::vector<std::string> allowed;
+    for (const auto& [name, v] : names) {
+      allowed.push_back(name);
+      if (v == *value) text = name;
+    }
+    Read(key, &text, allowed);
+    for (const auto& [name, v] : names) {
+      if (name == text) *value = v;
+    }
+  }
   // A sub-map, for nested options; returns an undefined node when absent.
   YAML::Node Child(const std::string& key);
 
@@ -49,7 +68,12 @@ class ConfigReader {
 struct OptionDefault {
   std::string key;  // nested options as "parent.key"
   std::variant<double, int, bool, std::string> value;
+  std::vector<std::string> allowed;  // a string option's values (empty: any string)
 };
+// An option's unit from its key: walkgraph's options carry their SI unit as the key's suffix
+// (_s, _m, _mps, _mps2, _rad, _radps, _radps2, _hz, _db, _dbm, _deg, …, and "_X_sqrts" for
+// X/√s); empty when the key names none (a count, a factor, a σ multiple).
+std::string OptionUnit(const std::string& key);
 // Runs `fn` (e.g. creating an estimator from an empty config) while every ConfigReader of this
 // thread records the keys it is asked for with the values they hold: the options `fn` reads and
 // their defaults, in reading order (each key once). Fails with `fn`'s Status.

@@ -19,6 +19,8 @@
 #ifndef WALKGRAPH_STRAPDOWN_H_
 #define WALKGRAPH_STRAPDOWN_H_
 
+#include <string>
+#include <utility>
 #include <vector>
 
 #include <limits>
@@ -38,6 +40,8 @@ struct NavState {
 };
 
 enum class ImuSampling { kIntervalAverage, kInstantaneous };
+// Its names in options ("interval-average", "instantaneous"): the one table readers use.
+const std::vector<std::pair<std::string, ImuSampling>>& ImuSamplingNames();
 
 struct StrapdownOptions {
   double gravity_mps2 = 9.81;

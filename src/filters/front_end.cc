@@ -13,25 +13,20 @@ StatusOr<RadioFrontEndOptions> RadioFrontEndOptions::FromYaml(const YAML::Node& 
   RadioFrontEndOptions o = defaults;
   const std::string ctx = context + " radio";
   ConfigReader r(node, ctx);
-  std::string method;
   r.Read("window_s", &o.epochs.window_s);
   r.Read("bias_corrected", &o.epochs.bias_corrected);
   r.Read("receiver_height_m", &o.epochs.receiver_height_m);
   r.Read("sensitivity", &o.epochs.sensitivity);
-  r.Read("method", &method);
+  r.ReadEnum("method", &o.method,
+             std::vector<std::pair<std::string, PositioningMethod>>{
+                 {"hyperbolic", PositioningMethod::kHyperbolic},
+                 {"nonlinear-ls", PositioningMethod::kNonlinearLs}});
   r.Read("weighted", &o.weighted);
   r.Read("collinear_ratio", &o.positioning.collinear_ratio);
   r.Read("max_iterations", &o.positioning.max_iterations);
   r.Read("tolerance_m", &o.positioning.tolerance_m);
   r.Read("min_sigma_m", &o.positioning.min_sigma_m);
   WG_RETURN_IF_ERROR(r.Finish());
-  if (method == "hyperbolic") {
-    o.method = PositioningMethod::kHyperbolic;
-  } else if (method == "nonlinear-ls") {
-    o.method = PositioningMethod::kNonlinearLs;
-  } else if (!method.empty()) {
-    return InvalidArgument(ctx + ": method must be hyperbolic|nonlinear-ls");
-  }
   if (!(o.epochs.window_s > 0) || !(o.positioning.collinear_ratio >= 0) ||
       o.positioning.max_iterations < 1 || !(o.positioning.tolerance_m > 0) ||
       !(o.positioning.min_sigma_m > 0)) {

@@ -87,8 +87,9 @@ TrajectoryPoint OutputPoint(const JimenezNominal& nominal, const Eigen::MatrixXd
 }
 
 StatusOr<ImuSampling> SamplingFromString(const std::string& s) {
-  if (s == "interval-average") return ImuSampling::kIntervalAverage;
-  if (s == "instantaneous") return ImuSampling::kInstantaneous;
+  for (const auto& [name, value] : ImuSamplingNames()) {
+    if (s == name) return value;
+  }
   return InvalidArgument("imu_sampling must be interval-average or instantaneous, not '" + s + "'");
 }
 
@@ -115,10 +116,12 @@ StatusOr<JimenezIezOptions> JimenezIezOptions::FromYaml(const YAML::Node& node,
   r.Read("init_yaw_sigma_rad", &o.init_yaw_sigma_rad);
   r.Read("leveling_window_s", &o.leveling_window_s);
   r.Read("initial_heading_from_pose", &o.initial_heading_from_pose);
-  r.Read("imu_sampling", &o.imu_sampling);
+  std::vector<std::string> samplings;
+  for (const auto& name : ImuSamplingNames()) samplings.push_back(name.first);
+  r.Read("imu_sampling", &o.imu_sampling, samplings);
   r.Read("imu_sampling_from_walk", &o.imu_sampling_from_walk);
   r.Read("gravity_mps2", &o.gravity_mps2);
-  r.Read("stance_source", &o.stance_source);
+  r.Read("stance_source", &o.stance_source, {"detector", "labels"});
   r.Read("zupt", &o.zupt);
   r.Read("zupt_sigma_mps", &o.zupt_sigma_mps);
   r.Read("zaru", &o.zaru);

@@ -67,8 +67,7 @@ StatusOr<PrietoOptions> PrietoOptions::FromYaml(const YAML::Node& node, const st
   r.Read("sigma_w0_radps", &o.sigma_w0_radps);
   r.Read("sigma_acc_mps2", &o.sigma_acc_mps2);
   r.Read("sigma_gyro_radps", &o.sigma_gyro_radps);
-  std::string sampling;
-  r.Read("imu_sampling", &sampling);
+  r.ReadEnum("imu_sampling", &o.imu_sampling, ImuSamplingNames());
   r.Read("gravity_mps2", &o.gravity_mps2);
   r.Read("use_rss", &o.use_rss);
   r.Read("use_toa", &o.use_toa);
@@ -102,13 +101,6 @@ StatusOr<PrietoOptions> PrietoOptions::FromYaml(const YAML::Node& node, const st
     auto s = StanceFromYaml(stance);
     if (!s.ok()) return InvalidArgument(context + ": " + s.status().message());
     o.stance = *s;
-  }
-  if (sampling == "interval-average") {
-    o.imu_sampling = ImuSampling::kIntervalAverage;
-  } else if (sampling == "instantaneous") {
-    o.imu_sampling = ImuSampling::kInstantaneous;
-  } else if (!sampling.empty()) {
-    return InvalidArgument(context + ": imu_sampling must be interval-average or instantaneous");
   }
   const double positive[] = {o.sigma_jerk_mps3,
                              o.sigma_omega_rate_radps2,

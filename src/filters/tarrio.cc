@@ -16,7 +16,7 @@ StatusOr<TarrioKfOptions> TarrioKfOptions::FromYaml(const YAML::Node& node,
   r.Read("sigma_a_mps2", &o.sigma_a_mps2);
   r.Read("sigma_v_mps", &o.sigma_v_mps);
   r.Read("sigma_p_m", &o.sigma_p_m);
-  r.Read("prediction", &o.prediction);
+  r.Read("prediction", &o.prediction, {"last-velocity", "pdr-displacement"});
   r.Read("gate_probability", &o.gate_probability);
   r.Read("smooth", &o.smooth);
   WG_RETURN_IF_ERROR(r.Finish());
@@ -283,7 +283,7 @@ StatusOr<TarrioEstimatorOptions> TarrioEstimatorOptions::FromYaml(const YAML::No
   o.filter.smooth = smooth;
   // The rest: pdr, radio and (pdr-only) start.
   ConfigReader r(node, id);
-  if (mode == TarrioMode::kPdrOnly) r.Read("start", &o.start);
+  if (mode == TarrioMode::kPdrOnly) r.Read("start", &o.start, {"first-fix", "initial-pose"});
   const YAML::Node radio = r.Child("radio");
   const YAML::Node pdr = mode == TarrioMode::kRssOnly ? YAML::Node() : r.Child("pdr");
   // The filter's keys were checked above; mark them known for Finish().

@@ -4,6 +4,13 @@
 
 namespace walkgraph {
 
+const std::vector<std::pair<std::string, ImuSampling>>& ImuSamplingNames() {
+  static const std::vector<std::pair<std::string, ImuSampling>> names = {
+      {"interval-average", ImuSampling::kIntervalAverage},
+      {"instantaneous", ImuSampling::kInstantaneous}};
+  return names;
+}
+
 Eigen::Quaterniond QuaternionExp(const Eigen::Vector3d& phi) {
   const double a = phi.norm();
   double c, k;  // q = (cos(a/2), k·φ) with k = sin(a/2)/a

@@ -276,8 +276,7 @@ StanceOptions StrideOptions::DefaultStance() {
 StatusOr<StrideOptions> StrideOptions::FromYaml(const YAML::Node& node) {
   StrideOptions o;
   ConfigReader r(node, "strides");
-  std::string sampling;
-  r.Read("sampling", &sampling);
+  r.ReadEnum("sampling", &o.sampling, ImuSamplingNames());
   const YAML::Node stance = r.Child("stance");
   r.Read("compensate_gyro_bias", &o.compensate_gyro_bias);
   r.Read("gravity_mps2", &o.gravity_mps2);
@@ -303,11 +302,6 @@ StatusOr<StrideOptions> StrideOptions::FromYaml(const YAML::Node& node) {
     if (merged.IsMap() && !merged["glrt_threshold"])
       merged["glrt_threshold"] = o.stance.glrt_threshold;
     WG_ASSIGN_OR_RETURN(o.stance, StanceOptions::FromYaml(merged));
-  }
-  if (sampling == "instantaneous") {
-    o.sampling = ImuSampling::kInstantaneous;
-  } else if (!sampling.empty() && sampling != "interval-average") {
-    return InvalidArgument("strides: sampling must be interval-average|instantaneous");
   }
   WG_RETURN_IF_ERROR(CheckOptions(o));
   return o;

@@ -1,5 +1,6 @@
 #include "walkgraph/config.h"
 
+#include <algorithm>
 #include <cerrno>
 #include <charconv>
 #include <set>
@@ -109,6 +110,50 @@ void ConfigReader::Read(const std::string& key, bool* value) {
 }
 void ConfigReader::Read(const std::string& key, std::string* value) {
   ReadScalar(key, value, "string");
+}
+
+void ConfigReader::Read(const std::string& key, std::string* value,
+                        const std::vector<std::string>& allowed) {
+  const bool had_error = !first_error_.ok();
+  ReadScalar(key, value, "string");
+  if (g_recording != nullptr) g_recording->back().allowed = allowed;
+  if (had_error || !first_error_.ok() || !node_.IsMap() || !node_[key]) return;
+  if (std::find(allowed.begin(), allowed.end(), *value) != allowed.end()) return;
+  std::string list;
+  for (const std::string& a : allowed) list += (list.empty() ? "" : ", ") + a;
+  first_error_ =
+      InvalidArgument(context_ + LineOf(node_[key]) + ": option '" + key + "' must be one of " +
+                      list + ", found " + internal::Quoted(*value));
+}
+
+std::string OptionUnit(const std::string& key) {
+  static const std::pair<const char*, const char*> kSuffixes[] = {
+      {"_s", "s"},         {"_m", "m"},         {"_mps", "m/s"},       {"_mps2", "m/s²"},
+      {"_rad", "rad"},     {"_radps", "rad/s"}, {"_radps2", "rad/s²"}, {"_hz", "Hz"},
+      {"_db", "dB"},       {"_dbm", "dBm"},     {"_deg", "°"},         {"_m2", "m²"},
+      {"_m2ps4", "m²/s⁴"}, {"_m_s", "m·s"},     {"_hpa", "hPa"},       {"_ms", "ms"}};
+  auto ends_with = [](const std::string& k, const std::string& suffix) {
+    return k.size() > suffix.size() &&
+           k.compare(k.size() - suffix.size(), suffix.size(), suffix) == 0;
+  };
+  auto unit_of = [&](const std::string& k) -> std::string {  // the longest suffix that fits
+    std::string unit;
+    size_t length = 0;
+    for (const auto& [suffix, u] : kSuffixes) {
+      const std::string sfx(suffix);
+      if (sfx.size() > length && ends_with(k, sfx)) {
+        unit = u;
+        length = sfx.size();
+      }
+    }
+    return unit;
+  };
+  const std::string leaf = key.substr(key.rfind('.') == std::string::npos ? 0 : key.rfind('.') + 1);
+  if (ends_with(leaf, "_sqrts")) {
+    const std::string base = unit_of(leaf.substr(0, leaf.size() - 6));
+    return base.empty() ? "" : base + "/√s";
+  }
+  return unit_of(leaf);
 }
 
 YAML::Node ConfigReader::Child(const std::string& key) {

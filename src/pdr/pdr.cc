@@ -13,25 +13,7 @@ namespace walkgraph {
 
 namespace {
 
-template <typename E>
-bool ParseEnum(const std::string& text, const std::vector<std::pair<std::string, E>>& names,
-               E* out) {
-  for (const auto& [name, value] : names) {
-    if (name == text) {
-      *out = value;
-      return true;
-    }
-  }
-  return false;
-}
-
-template <typename E>
-std::string EnumChoices(const std::vector<std::pair<std::string, E>>& names) {
-  std::string s;
-  for (const auto& n : names) s += (s.empty() ? "" : "|") + n.first;
-  return s;
-}
-
+const std::vector<std::string> kLockoutKeep = {"first", "strongest"};
 const std::vector<std::pair<std::string, StepDetector>> kDetectorNames = {
     {"vertical-peak", StepDetector::kVerticalPeak},
     {"fir-magnitude", StepDetector::kFirMagnitude},
@@ -230,11 +212,10 @@ double MagHeading(const ImuSample& m, const Eigen::Quaterniond& q, double declin
 StatusOr<PdrOptions> PdrOptions::FromYaml(const YAML::Node& node) {
   PdrOptions o;
   ConfigReader r(node, "pdr");
-  std::string detector, length, heading, forward;
-  r.Read("detector", &detector);
-  r.Read("length_model", &length);
-  r.Read("heading", &heading);
-  r.Read("forward_axis", &forward);
+  r.ReadEnum("detector", &o.detector, kDetectorNames);
+  r.ReadEnum("length_model", &o.length_model, kLengthNames);
+  r.ReadEnum("heading", &o.heading, kHeadingNames);
+  r.ReadEnum("forward_axis", &o.forward_axis, kForwardNames);
   r.Read("vertical_cutoff_hz", &o.vertical_cutoff_hz);
   r.Read("vertical_peak_mps2", &o.vertical_peak_mps2);
   r.Read("vertical_min_swing_mps2", &o.vertical_min_swing_mps2);
@@ -243,7 +224,7 @@ StatusOr<PdrOptions> PdrOptions::FromYaml(const YAML::Node& node) {
   r.Read("fir_peak_mps2", &o.fir_peak_mps2);
   r.Read("energy_threshold_m2ps4", &o.energy_threshold_m2ps4);
   r.Read("energy_lockout_s", &o.energy_lockout_s);
-  r.Read("energy_lockout_keep", &o.energy_lockout_keep);
+  r.Read("energy_lockout_keep", &o.energy_lockout_keep, kLockoutKeep);
   r.Read("min_step_interval_s", &o.min_step_interval_s);
   r.Read("weinberg_k", &o.weinberg_k);
   r.Read("constant_length_m", &o.constant_length_m);
@@ -264,18 +245,6 @@ StatusOr<PdrOptions> PdrOptions::FromYaml(const YAML::Node& node) {
   if (stride.IsDefined()) {
     WG_ASSIGN_OR_RETURN(o.stride, StrideOptions::FromYaml(stride));
   }
-  if (!detector.empty() && !ParseEnum(detector, kDetectorNames, &o.detector)) {
-    return InvalidArgument("pdr: detector must be " + EnumChoices(kDetectorNames));
-  }
-  if (!length.empty() && !ParseEnum(length, kLengthNames, &o.length_model)) {
-    return InvalidArgument("pdr: length_model must be " + EnumChoices(kLengthNames));
-  }
-  if (!heading.empty() && !ParseEnum(heading, kHeadingNames, &o.heading)) {
-    return InvalidArgument("pdr: heading must be " + EnumChoices(kHeadingNames));
-  }
-  if (!forward.empty() && !ParseEnum(forward, kForwardNames, &o.forward_axis)) {
-    return InvalidArgument("pdr: forward_axis must be " + EnumChoices(kForwardNames));
-  }
   if (o.fir_order < 2 || o.fir_cutoff_hz <= 0 || o.vertical_cutoff_hz <= 0 ||
       o.complementary_w < 0 || o.complementary_w > 1 || o.weinberg_k <= 0 ||
       o.min_step_interval_s < 0 || o.energy_lockout_s < 0 || o.gravity_mps2 <= 0) {
@@ -283,7 +252,8 @@ StatusOr<PdrOptions> PdrOptions::FromYaml(const YAML::Node& node) {
         "pdr: need fir_order >= 2, cut-offs > 0, 0 <= complementary_w <= 1, weinberg_k > 0, "
         "intervals >= 0, gravity_mps2 > 0");
   }
-  if (o.energy_lockout_keep != "first" && o.energy_lockout_keep != "strongest") {
+  if (std::find(kLockoutKeep.begin(), kLockoutKeep.end(), o.energy_lockout_keep) ==
+      kLockoutKeep.end()) {
     return InvalidArgument("pdr: energy_lockout_keep must be first|strongest");
   }
   return o;

@@ -48,6 +48,21 @@ double SolveSummary::normalized_cost() const {
 
 namespace internal {
 
+const std::vector<std::string>& LossNames() {
+  static const std::vector<std::string> names = {"none",    "huber",  "cauchy",
+                                                 "soft-l1", "arctan", "tukey"};
+  return names;
+}
+
+std::unique_ptr<ceres::LossFunction> MakeLoss(const std::string& name, double scale) {
+  if (name == "huber") return std::make_unique<ceres::HuberLoss>(scale);
+  if (name == "cauchy") return std::make_unique<ceres::CauchyLoss>(scale);
+  if (name == "soft-l1") return std::make_unique<ceres::SoftLOneLoss>(scale);
+  if (name == "arctan") return std::make_unique<ceres::ArctanLoss>(scale);
+  if (name == "tukey") return std::make_unique<ceres::TukeyLoss>(scale);
+  return nullptr;
+}
+
 namespace {
 
 // Every solve stops at the end of the iteration in which cancellation was requested

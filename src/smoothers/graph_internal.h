@@ -5,10 +5,13 @@
 
 #include <algorithm>
 #include <map>
+#include <memory>
 #include <optional>
+#include <string>
 #include <utility>
 #include <vector>
 
+#include <ceres/loss_function.h>
 #include <ceres/problem.h>
 #include <ceres/solver.h>
 #include <Eigen/Core>
@@ -18,6 +21,12 @@
 
 namespace walkgraph {
 namespace internal {
+
+// The robust losses the graphs' options name (Ceres' losses on whitened residuals, scale in σ):
+// the one list their option readers and MakeLoss use.
+const std::vector<std::string>& LossNames();  // none huber cauchy soft-l1 arctan tukey
+// The loss `name` at `scale`; nullptr for "none" or a name not in LossNames().
+std::unique_ptr<ceres::LossFunction> MakeLoss(const std::string& name, double scale);
 
 // A problem over blocks and costs its owner keeps (FactorGraph, FixedLagSmoother: they own
 // every cost function, loss and manifold); fast_removal for one that removes blocks.

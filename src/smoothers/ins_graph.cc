@@ -31,17 +31,45 @@
 namespace walkgraph {
 
 namespace {
-StatusOr<ceres::LossFunction*> MakeLoss(const std::string& name, double scale);
+
+// The string options and the values each allows: the one table FromYaml reads them with and
+// Validate checks them against.
+struct StringOption {
+  const char* key;
+  std::string InsGraphOptions::*field;
+  std::vector<std::string> allowed;
+};
+const std::vector<StringOption>& StringOptions() {
+  using O = InsGraphOptions;
+  static const std::vector<StringOption> table = {
+      {"initialization", &O::initialization, {"front-end", "window"}},
+      {"rss_loss", &O::rss_loss, internal::LossNames()},
+      {"range_loss", &O::range_loss, internal::LossNames()},
+      {"path_loss", &O::path_loss, {"auto", "fixed", "global", "hierarchical"}}};
+  return table;
+}
+const std::vector<std::string>& Allowed(const std::string& key) {
+  for (const StringOption& s : StringOptions()) {
+    if (key == s.key) return s.allowed;
+  }
+  static const std::vector<std::string> none;
+  return none;
+}
+const std::vector<std::pair<std::string, InsStatePlacement>> kPlacementNames = {
+    {"stance", InsStatePlacement::kStance}, {"every-n", InsStatePlacement::kEveryN}};
+
 }  // namespace
 
 Status InsGraphOptions::Validate() const {
   const InsGraphOptions& o = *this;
-  for (const std::string* loss : {&o.rss_loss, &o.range_loss}) {
-    WG_ASSIGN_OR_RETURN(ceres::LossFunction * l, MakeLoss(*loss, 1.0));
-    delete l;
-  }
-  if (o.initialization != "front-end" && o.initialization != "window") {
-    return InvalidArgument("fg-ins-batch: initialization must be front-end|window");
+  for (const StringOption& so : StringOptions()) {
+    const std::string& v = o.*so.field;
+    if (std::find(so.allowed.begin(), so.allowed.end(), v) == so.allowed.end()) {
+      std::string list;
+      for (const std::string& a : so.allowed) list += (list.empty() ? "" : ", ") + a;
+      return InvalidArgument("fg-ins-batch: " + std::string(so.key) + " must be one of " + list +
+                             ", not '" + v + "'");
+    }
   }
   if (!(o.init_lag_s > 0) || !(o.init_marginalize_batch_s >= 0) ||
       !(o.initial_trust_region_radius > 0)) {
@@ -63,10 +91,6 @@ Status InsGraphOptions::Validate() const {
         "0, and every sigma, rate, interval and threshold > 0 (bias sigmas and random walks "
         "of front_end included, and Ceres tolerances)");
   }
-  if (o.path_loss != "auto" && o.path_loss != "fixed" && o.path_loss != "global" &&
-      o.path_loss != "hierarchical") {
-    return InvalidArgument("fg-ins-batch: path_loss must be auto, fixed, global or hierarchical");
-  }
   if (!(o.A_prior_sigma_db > 0) || !(o.eta_prior_sigma > 0) || !(o.A_spread_prior_db > 0) ||
       !(o.eta_spread_prior > 0)) {
     return InvalidArgument(
@@ -77,13 +101,6 @@ Status InsGraphOptions::Validate() const {
 }
 
 namespace {
-
-StatusOr<ceres::LossFunction*> MakeLoss(const std::string& name, double scale) {
-  if (name == "none") return static_cast<ceres::LossFunction*>(nullptr);
-  if (name == "huber") return static_cast<ceres::LossFunction*>(new ceres::HuberLoss(scale));
-  if (name == "cauchy") return static_cast<ceres::LossFunction*>(new ceres::CauchyLoss(scale));
-  return InvalidArgument("fg-ins-batch: loss must be none|huber|cauchy, not '" + name + "'");
-}
 
 InsFactor MakeFactor(std::string kind, ceres::CostFunction* cost, std::vector<double*> blocks) {
   InsFactor f;
@@ -129,8 +146,7 @@ StatusOr<InsGraphOptions> InsGraphOptions::FromYaml(const YAML::Node& node) {
   InsGraphOptions o;
   ConfigReader r(node, "fg-ins-batch");
   const YAML::Node front = r.Child("front_end");
-  std::string placement;
-  r.Read("placement", &placement);
+  r.ReadEnum("placement", &o.placement, kPlacementNames);
   r.Read("every_n_samples", &o.every_n_samples);
   r.Read("max_state_interval_s", &o.max_state_interval_s);
   r.Read("zupt_sigma_mps", &o.zupt_sigma_mps);
@@ -143,7 +159,7 @@ StatusOr<InsGraphOptions> InsGraphOptions::FromYaml(const YAML::Node& node) {
   r.Read("output_rate_hz", &o.output_rate_hz);
   r.Read("compute_covariance", &o.compute_covariance);
   r.Read("max_iterations", &o.max_iterations);
-  r.Read("initialization", &o.initialization);
+  r.Read("initialization", &o.initialization, Allowed("initialization"));
   r.Read("init_lag_s", &o.init_lag_s);
   r.Read("init_marginalize_batch_s", &o.init_marginalize_batch_s);
   r.Read("initial_trust_region_radius", &o.initial_trust_region_radius);
@@ -156,12 +172,12 @@ StatusOr<InsGraphOptions> InsGraphOptions::FromYaml(const YAML::Node& node) {
   r.Read("use_rss", &o.use_rss);
   r.Read("use_ranges", &o.use_ranges);
   r.Read("receiver_offset_z_m", &o.receiver_offset_z_m);
-  r.Read("rss_loss", &o.rss_loss);
+  r.Read("rss_loss", &o.rss_loss, Allowed("rss_loss"));
   r.Read("rss_loss_scale", &o.rss_loss_scale);
-  r.Read("range_loss", &o.range_loss);
+  r.Read("range_loss", &o.range_loss, Allowed("range_loss"));
   r.Read("range_loss_scale", &o.range_loss_scale);
   r.Read("estimate_range_bias", &o.estimate_range_bias);
-  r.Read("path_loss", &o.path_loss);
+  r.Read("path_loss", &o.path_loss, Allowed("path_loss"));
   r.Read("A_prior_sigma_db", &o.A_prior_sigma_db);
   r.Read("eta_prior_sigma", &o.eta_prior_sigma);
   r.Read("A_spread_prior_db", &o.A_spread_prior_db);
@@ -170,11 +186,6 @@ StatusOr<InsGraphOptions> InsGraphOptions::FromYaml(const YAML::Node& node) {
   WG_RETURN_IF_ERROR(r.Finish());
   if (front.IsDefined()) {
     WG_ASSIGN_OR_RETURN(o.front_end, StrideOptions::FromYaml(front));
-  }
-  if (placement == "every-n") {
-    o.placement = InsStatePlacement::kEveryN;
-  } else if (!placement.empty() && placement != "stance") {
-    return InvalidArgument("fg-ins-batch: placement must be stance|every-n");
   }
   WG_RETURN_IF_ERROR(o.Validate());
   return o;
@@ -484,8 +495,7 @@ StatusOr<std::vector<InsFactor>> InsRadioFactors(const InsGraphContext& c,
         f = MakeFactor("rss", RssFactor<3>::CreateInterpolated(reading, at.alpha),
                        {at.a->p.data(), at.b->p.data(), path_loss});
       }
-      WG_ASSIGN_OR_RETURN(ceres::LossFunction * loss, MakeLoss(o.rss_loss, o.rss_loss_scale));
-      f.loss.reset(loss);
+      f.loss = internal::MakeLoss(o.rss_loss, o.rss_loss_scale);
       out.push_back(std::move(f));
     }
   }
@@ -514,8 +524,7 @@ StatusOr<std::vector<InsFactor>> InsRadioFactors(const InsGraphContext& c,
                        RangeFactor<3>::CreateInterpolated(r.range_m, anchor, sigma, at.alpha),
                        {at.a->p.data(), at.b->p.data(), bias});
       }
-      WG_ASSIGN_OR_RETURN(ceres::LossFunction * loss, MakeLoss(o.range_loss, o.range_loss_scale));
-      f.loss.reset(loss);
+      f.loss = internal::MakeLoss(o.range_loss, o.range_loss_scale);
       out.push_back(std::move(f));
     }
   }

@@ -99,6 +99,13 @@ std::optional<double> YawSigma(FixedLagSmoother* smoother, StateKey q_key) {
   return std::sqrt((*c)(2, 2));
 }
 
+// The window's string options' values (read and checked against these).
+const std::vector<std::string> kWindowOutputs = {"lagged", "online"};
+const std::vector<std::string> kPreintegrationBias = {"front-end", "estimate"};
+bool OneOf(const std::string& v, const std::vector<std::string>& allowed) {
+  return std::find(allowed.begin(), allowed.end(), v) != allowed.end();
+}
+
 }  // namespace
 
 StatusOr<InsWindowOptions> InsWindowOptions::FromYaml(const YAML::Node& node,
@@ -124,8 +131,8 @@ StatusOr<InsWindowOptions> InsWindowOptions::FromYaml(const YAML::Node& node,
   r.Read("lag_s", &o.lag_s);
   r.Read("window_update_s", &o.window_update_s);
   r.Read("window_max_iterations", &o.window_max_iterations);
-  r.Read("window_output", &o.window_output);
-  r.Read("preintegration_bias", &o.preintegration_bias);
+  r.Read("window_output", &o.window_output, kWindowOutputs);
+  r.Read("preintegration_bias", &o.preintegration_bias, kPreintegrationBias);
   r.Read("window_marginalize_batch_s", &o.window_marginalize_batch_s);
   r.Read("window_initial_trust_region_radius", &o.window_initial_trust_region_radius);
   r.Read("gap_hold_max_s", &o.gap_hold_max_s);
@@ -143,10 +150,10 @@ StatusOr<InsWindowOptions> InsWindowOptions::FromYaml(const YAML::Node& node,
                            "window_initial_trust_region_radius > 0, gap_hold_max_s >= 0, "
                            "gap_release_yaw_sigma_rad > 0");
   }
-  if (o.window_output != "lagged" && o.window_output != "online") {
+  if (!OneOf(o.window_output, kWindowOutputs)) {
     return InvalidArgument(context + ": window_output must be lagged|online");
   }
-  if (o.preintegration_bias != "front-end" && o.preintegration_bias != "estimate") {
+  if (!OneOf(o.preintegration_bias, kPreintegrationBias)) {
     return InvalidArgument(context + ": preintegration_bias must be front-end|estimate");
   }
   return o;

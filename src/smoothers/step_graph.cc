@@ -35,27 +35,39 @@ namespace walkgraph {
 
 namespace {
 
-bool OneOf(const std::string& v, std::initializer_list<const char*> allowed) {
-  for (const char* a : allowed) {
-    if (v == a) return true;
-  }
-  return false;
+// The string options and the values each allows: the one table FromYaml reads them with and
+// Validate checks them against.
+struct StringOption {
+  const char* key;
+  std::string StepGraphOptions::*field;
+  std::vector<std::string> allowed;
+};
+const std::vector<StringOption>& StringOptions() {
+  using O = StepGraphOptions;
+  static const std::vector<StringOption> table = {
+      {"mag_heading_loss", &O::mag_heading_loss, internal::LossNames()},
+      {"rss_residual", &O::rss_residual, {"db", "range"}},
+      {"rss_loss", &O::rss_loss, internal::LossNames()},
+      {"range_loss", &O::range_loss, internal::LossNames()},
+      {"path_loss", &O::path_loss, {"auto", "fixed", "global", "per-anchor", "hierarchical"}},
+      {"range_bias", &O::range_bias, {"none", "global", "per-anchor"}},
+      {"range_scale", &O::range_scale, {"none", "global", "per-anchor"}},
+      {"initialization", &O::initialization, {"dead-reckoning", "window", "auto"}},
+      {"window_output", &O::window_output, {"lagged", "online"}},
+      {"window_linear_solver", &O::window_linear_solver, {"dense", "sparse", "eigen-sparse"}}};
+  return table;
 }
-
-constexpr const char* kLosses = "none|huber|cauchy|soft-l1|arctan|tukey";
-
-bool IsLoss(const std::string& v) {
-  return OneOf(v, {"none", "huber", "cauchy", "soft-l1", "arctan", "tukey"});
+const std::vector<std::string>& Allowed(const std::string& key) {
+  for (const StringOption& s : StringOptions()) {
+    if (key == s.key) return s.allowed;
+  }
+  static const std::vector<std::string> none;
+  return none;
 }
 
 // A robust loss on whitened residuals (scale in σ); nullptr for "none".
 std::shared_ptr<const ceres::LossFunction> MakeLoss(const std::string& name, double scale) {
-  if (name == "huber") return std::make_shared<ceres::HuberLoss>(scale);
-  if (name == "cauchy") return std::make_shared<ceres::CauchyLoss>(scale);
-  if (name == "soft-l1") return std::make_shared<ceres::SoftLOneLoss>(scale);
-  if (name == "arctan") return std::make_shared<ceres::ArctanLoss>(scale);
-  if (name == "tukey") return std::make_shared<ceres::TukeyLoss>(scale);
-  return nullptr;
+  return internal::MakeLoss(name, scale);
 }
 
 // σ-whitened Gaussian prior r = diag(1/σ)(x − μ) (Ceres' NormalPrior).
@@ -89,36 +101,36 @@ StatusOr<StepGraphOptions> StepGraphOptions::FromYaml(const YAML::Node& node,
   r.Read("gyro_bias_prior_sigma_radps", &o.gyro_bias_prior_sigma_radps);
   r.Read("use_mag_heading", &o.use_mag_heading);
   r.Read("mag_heading_sigma_rad", &o.mag_heading_sigma_rad);
-  r.Read("mag_heading_loss", &o.mag_heading_loss);
+  r.Read("mag_heading_loss", &o.mag_heading_loss, Allowed("mag_heading_loss"));
   r.Read("mag_heading_loss_scale", &o.mag_heading_loss_scale);
   r.Read("odometry_sigma_dist_frac", &o.odometry_sigma_dist_frac);
   r.Read("odometry_sigma_dist_m", &o.odometry_sigma_dist_m);
   r.Read("odometry_sigma_cross_m", &o.odometry_sigma_cross_m);
   r.Read("odometry_sigma_dheading_rad", &o.odometry_sigma_dheading_rad);
-  r.Read("rss_residual", &o.rss_residual);
-  r.Read("rss_loss", &o.rss_loss);
+  r.Read("rss_residual", &o.rss_residual, Allowed("rss_residual"));
+  r.Read("rss_loss", &o.rss_loss, Allowed("rss_loss"));
   r.Read("rss_loss_scale", &o.rss_loss_scale);
-  r.Read("range_loss", &o.range_loss);
+  r.Read("range_loss", &o.range_loss, Allowed("range_loss"));
   r.Read("range_loss_scale", &o.range_loss_scale);
   r.Read("receiver_height_m", &o.receiver_height_m);
   r.Read("range_sigma_m", &o.range_sigma_m);
   r.Read("A_dbm", &o.A_dbm);
   r.Read("eta", &o.eta);
   r.Read("sigma_db", &o.sigma_db);
-  r.Read("path_loss", &o.path_loss);
+  r.Read("path_loss", &o.path_loss, Allowed("path_loss"));
   r.Read("A_prior_sigma_db", &o.A_prior_sigma_db);
   r.Read("eta_prior_sigma", &o.eta_prior_sigma);
   r.Read("A_spread_prior_db", &o.A_spread_prior_db);
   r.Read("eta_spread_prior", &o.eta_spread_prior);
-  r.Read("range_bias", &o.range_bias);
+  r.Read("range_bias", &o.range_bias, Allowed("range_bias"));
   r.Read("range_bias_prior_sigma_m", &o.range_bias_prior_sigma_m);
-  r.Read("range_scale", &o.range_scale);
+  r.Read("range_scale", &o.range_scale, Allowed("range_scale"));
   r.Read("range_scale_prior_sigma", &o.range_scale_prior_sigma);
   r.Read("align_window_s", &o.align_window_s);
   r.Read("start_check", &o.start_check);
   r.Read("start_check_rad", &o.start_check_rad);
   r.Read("start_check_sigmas", &o.start_check_sigmas);
-  r.Read("initialization", &o.initialization);
+  r.Read("initialization", &o.initialization, Allowed("initialization"));
   r.Read("max_iterations", &o.max_iterations);
   r.Read("initial_trust_region_radius", &o.initial_trust_region_radius);
   r.Read("function_tolerance", &o.function_tolerance);
@@ -127,8 +139,8 @@ StatusOr<StepGraphOptions> StepGraphOptions::FromYaml(const YAML::Node& node,
   r.Read("covariance", &o.covariance);
   r.Read("lag_s", &o.lag_s);
   r.Read("window_max_iterations", &o.window_max_iterations);
-  r.Read("window_output", &o.window_output);
-  r.Read("window_linear_solver", &o.window_linear_solver);
+  r.Read("window_output", &o.window_output, Allowed("window_output"));
+  r.Read("window_linear_solver", &o.window_linear_solver, Allowed("window_linear_solver"));
   r.Read("window_update_s", &o.window_update_s);
   r.Read("window_marginalize_batch_s", &o.window_marginalize_batch_s);
   r.Read("window_initial_trust_region_radius", &o.window_initial_trust_region_radius);
@@ -200,39 +212,23 @@ Status CheckStepGraphOptions(const StepGraphOptions& o, const std::string& conte
     return InvalidArgument(
         context + ": max_iterations, window_max_iterations, init_max_iterations, num_threads >= 1");
   }
-  if (!OneOf(o.rss_residual, {"db", "range"})) {
-    return InvalidArgument(context + ": rss_residual must be 'db' or 'range'");
-  }
-  for (const std::string* l : {&o.rss_loss, &o.range_loss, &o.mag_heading_loss}) {
-    if (!IsLoss(*l)) return InvalidArgument(context + ": loss '" + *l + "' is not " + kLosses);
-  }
-  if (!OneOf(o.path_loss, {"auto", "fixed", "global", "per-anchor", "hierarchical"})) {
-    return InvalidArgument(context +
-                           ": path_loss must be auto, fixed, global, per-anchor or hierarchical");
+  for (const StringOption& so : StringOptions()) {
+    const std::string& v = o.*so.field;
+    if (std::find(so.allowed.begin(), so.allowed.end(), v) == so.allowed.end()) {
+      std::string list;
+      for (const std::string& a : so.allowed) list += (list.empty() ? "" : ", ") + a;
+      return InvalidArgument(context + ": " + so.key + " must be one of " + list + ", not '" + v +
+                             "'");
+    }
   }
   if (o.path_loss != "auto" && o.path_loss != "fixed" && o.rss_residual != "db") {
     return InvalidArgument(context + ": path-loss self-calibration needs rss_residual 'db'");
-  }
-  if (!OneOf(o.range_bias, {"none", "global", "per-anchor"}) ||
-      !OneOf(o.range_scale, {"none", "global", "per-anchor"})) {
-    return InvalidArgument(context +
-                           ": range_bias and range_scale must be none, global or per-anchor");
-  }
-  if (!OneOf(o.initialization, {"dead-reckoning", "window", "auto"})) {
-    return InvalidArgument(context + ": initialization must be dead-reckoning, window or auto");
   }
   WG_RETURN_IF_ERROR(positive(o.init_lag_s, "init_lag_s"));
   if (o.window_update_s < 0 || o.init_update_s < 0 || o.window_marginalize_batch_s < 0) {
     return InvalidArgument(context +
                            ": window_update_s, init_update_s, window_marginalize_batch_s must "
                            "be >= 0");
-  }
-  if (!OneOf(o.window_linear_solver, {"dense", "sparse", "eigen-sparse"})) {
-    return InvalidArgument(context +
-                           ": window_linear_solver must be 'sparse', 'eigen-sparse' or 'dense'");
-  }
-  if (!OneOf(o.window_output, {"lagged", "online"})) {
-    return InvalidArgument(context + ": window_output must be 'lagged' or 'online'");
   }
   return Status::Ok();
 }

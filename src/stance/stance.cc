@@ -150,8 +150,7 @@ void StanceOptions::set_threshold(double value) {
 StatusOr<StanceOptions> StanceOptions::FromYaml(const YAML::Node& node) {
   StanceOptions o;
   ConfigReader r(node, "stance");
-  std::string detector;
-  r.Read("detector", &detector);
+  r.ReadEnum("detector", &o.detector, kNames);
   r.Read("window", &o.window);
   r.Read("sigma_acc_mps2", &o.sigma_acc_mps2);
   r.Read("sigma_gyro_radps", &o.sigma_gyro_radps);
@@ -170,9 +169,6 @@ StatusOr<StanceOptions> StanceOptions::FromYaml(const YAML::Node& node) {
   r.Read("still_gyro_radps", &o.still_gyro_radps);
   r.Read("still_acc_std_mps2", &o.still_acc_std_mps2);
   WG_RETURN_IF_ERROR(r.Finish());
-  if (!detector.empty()) {
-    WG_ASSIGN_OR_RETURN(o.detector, StanceDetectorFromString(detector));
-  }
   if (o.window < 1 || o.mc_std_window < 1 || o.mc_median_window < 1 || o.sigma_acc_mps2 <= 0 ||
       o.sigma_gyro_radps <= 0 || o.still_window_s < 0) {
     return InvalidArgument("stance: windows must be >= 1 and sigmas > 0");
