@@ -219,6 +219,8 @@ TEST(StudyShard, BytesKeepEveryDoubleExactly) {
     EXPECT_FALSE(ParseStudyPart(bytes.substr(0, cut), "cut").ok()) << cut;
   }
   EXPECT_FALSE(ParseStudyPart(bytes + "x", "tail").ok());
+  EXPECT_FALSE(ParseStudyPart("22:walkgraph-study-part 1 0 99999999999999999999 ", "big").ok());
+  EXPECT_FALSE(ParseStudyPart("22:walkgraph-study-part 1 -1 2 ", "negative").ok());
   EXPECT_THAT(ParseStudyPart("walkgraph-study-part 2", "old").status().message(),
               HasSubstr("old: not a walkgraph study part"));
 }

@@ -1,5 +1,6 @@
 // Studies in parts (study.h): which cells a part runs, a part's bytes, and merging parts.
 #include <algorithm>
+#include <charconv>
 #include <cinttypes>
 #include <cstdio>
 #include <cstring>
@@ -110,21 +111,19 @@ class PartReader {
     return b_.substr(start, pos_ - start);
   }
   long long Int(long long lo, long long hi) {
-    const std::string t = Token();
     long long v = 0;
-    if (std::sscanf(t.c_str(), "%lld", &v) != 1 || v < lo || v > hi) ok_ = false;
+    if (!Parse(Token(), 10, &v) || v < lo || v > hi) ok_ = false;
     return ok_ ? v : lo;
   }
   uint64_t Unsigned() {
-    const std::string t = Token();
     uint64_t v = 0;
-    if (t.empty() || t[0] == '-' || std::sscanf(t.c_str(), "%" SCNu64, &v) != 1) ok_ = false;
+    if (!Parse(Token(), 10, &v)) ok_ = false;
     return v;
   }
   double Double() {
     const std::string t = Token();
     uint64_t bits = 0;
-    if (t.size() != 16 || std::sscanf(t.c_str(), "%" SCNx64, &bits) != 1) ok_ = false;
+    if (t.size() != 16 || !Parse(t, 16, &bits)) ok_ = false;
     double v;
     std::memcpy(&v, &bits, sizeof(v));
     return v;
@@ -142,6 +141,13 @@ class PartReader {
     std::string s = b_.substr(pos_ + 1, n);
     pos_ += 1 + n;
     return s;
+  }
+  // The whole token as an integer in `base` (no sign for unsigned types, no overflow).
+  template <typename T>
+  static bool Parse(const std::string& t, int base, T* v) {
+    const char* end = t.data() + t.size();
+    const auto r = std::from_chars(t.data(), end, *v, base);
+    return !t.empty() && r.ec == std::errc() && r.ptr == end;
   }
   bool AtEnd() {
     while (pos_ < b_.size() && (b_[pos_] == ' ' || b_[pos_] == '\n')) ++pos_;
