@@ -6,6 +6,9 @@
 #   walkgraph compare --scenario tarrio-circle --runs N --estimators rss-only,tarrio-kf
 # for each N, and of `walkgraph compare` (every applicable estimator) on a 10-h tarrio-circle
 # walk simulated with seed 1. Set WALKGRAPH_BENCH_LONG=0 to leave the long walk out (~4 min).
+# WALKGRAPH_BENCH_MPI=1 adds, for each N, `mpirun -np 2 walkgraph study` of a study of two cells
+# (the same scenario and estimators, eta 2.5 and 3.0; one cell per rank) of N runs each, --threads
+# 1: the peak RSS of its largest process (a rank), i.e. memory per rank against N.
 set -euo pipefail
 build=${1:-build}
 out=${2:-out/bench-memory}
@@ -40,6 +43,16 @@ PY
       --estimators rss-only,tarrio-kf --out "$work/mc")
     echo "| compare --scenario tarrio-circle --runs $n --estimators rss-only,tarrio-kf | $mb | $s |"
   done
+  if [ "${WALKGRAPH_BENCH_MPI:-0}" != 0 ]; then
+    [ "$(id -u)" != 0 ] || export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
+    for n in "${runs[@]}"; do
+      printf 'name: memory\nestimators: [rss-only, tarrio-kf]\nruns: %d\nsweeps:\n  - name: eta\n    scenario: tarrio-circle\n    scenario_override: eta\n    values: [2.5, 3.0]\n' \
+        "$n" > "$work/study.yaml"
+      read -r mb s < <(peak mpirun --oversubscribe --bind-to none -np 2 "$cli" study \
+        "$work/study.yaml" --threads 1 --out "$work/study")
+      echo "| mpirun -np 2 study, 2 cells (one per rank) of $n runs, rss-only,tarrio-kf | $mb | $s |"
+    done
+  fi
   if [ "${WALKGRAPH_BENCH_LONG:-1}" != 0 ]; then
     echo "duration_s: 36000" > "$work/long.yaml"
     "$cli" simulate --scenario tarrio-circle --seed 1 --config "$work/long.yaml" \

@@ -15,6 +15,7 @@
 #include <iostream>
 #include <map>
 #include <new>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <type_traits>
@@ -37,6 +38,8 @@
 #include "walkgraph/stance.h"
 #include "walkgraph/study.h"
 
+#include "mpi_job.h"
+
 namespace {
 
 using walkgraph::Status;
@@ -44,6 +47,24 @@ using walkgraph::Status;
 // What every output of this run is written with: --force, the command line for the marker, and
 // the run's inputs (set by each command).
 walkgraph::OutputOptions g_output;
+
+// The processes of this run (mpi_job.h): one, or the ranks of an MPI job.
+const walkgraph_cli::MpiJob* g_job = nullptr;
+
+// Whether the command line runs a study (the one command whose work the ranks of an MPI job
+// share); other commands run on rank 0 alone.
+bool IsStudyRun(int argc, char** argv) {
+  for (int i = 1; i < argc; ++i) {
+    const std::string arg = argv[i];
+    if (arg == "-v" || arg == "--verbosity") {
+      ++i;
+      continue;
+    }
+    if (!arg.empty() && arg[0] == '-') continue;
+    return arg == "study" && !(i + 1 < argc && std::string(argv[i + 1]) == "merge");
+  }
+  return false;
+}
 
 int Fail(const Status& s) {
   std::cerr << "walkgraph: " << s.message() << "\n";
@@ -430,22 +451,122 @@ int RunPcrb(const std::string& scenario, const std::string& scenario_config,
   return 0;
 }
 
-int RunStudy(const std::string& manifest_path, int threads, const std::string& out) {
-  auto manifest = walkgraph::ReadStudyManifest(manifest_path);
-  if (!manifest.ok()) return Fail(manifest.status());
-  std::vector<std::string> inputs = {manifest_path};
-  for (const auto& sweep : manifest->sweeps) inputs.push_back(sweep.walk_dir);
-  if (Status s = Preflight(out, walkgraph::OutputKind::kFolder, inputs); !s.ok()) return Fail(s);
-  walkgraph::StudyOptions options;
-  options.threads = threads;
-  if (::isatty(STDERR_FILENO)) {
-    options.progress = [](int done, int total) {
-      std::fprintf(stderr, "\rstudy: %d/%d cells", done, total);
-      if (done == total) std::fprintf(stderr, "\n");
-      std::fflush(stderr);
-    };
+// walkgraph study: this process's part of the study (the whole study when it runs alone; part
+// rank of size under MPI; part i of n with --shard), gathered on rank 0, which merges the parts
+// with the library's MergeStudyParts and writes the output. Single process, MPI and --shard go
+// through the same bytes (SerializeStudyPart), so the outputs are the same.
+struct StudyArgs {
+  std::string manifest, out, shard;
+  int threads = 1;
+};
+
+// What a process sends to rank 0: 'P' + its part's bytes, 'E' + code + ' ' + message (it
+// failed), or 'A' (it stopped because another process failed).
+constexpr char kOtherFailed[] = "stopped: another process of the study failed";
+
+std::string RunOwnPart(const StudyArgs& a, const walkgraph_cli::MpiJob& job,
+                       const walkgraph::StudyShard& shard,
+                       std::optional<walkgraph::StudyManifest>* manifest_out) {
+  Status local;
+  auto manifest = walkgraph::ReadStudyManifest(a.manifest);
+  if (!manifest.ok()) local = manifest.status();
+  if (local.ok() && job.rank() == 0) {
+    std::vector<std::string> inputs = {a.manifest};
+    for (const auto& sweep : manifest->sweeps) inputs.push_back(sweep.walk_dir);
+    local = Preflight(a.out, walkgraph::OutputKind::kFolder, inputs);
   }
-  auto result = walkgraph::RunStudy(*manifest, options);
+  bool agreed = false;  // every process takes part in the agreement exactly once
+  walkgraph::StatusOr<walkgraph::StudyPart> part = walkgraph::InternalError("the part did not run");
+  if (!local.ok()) part = local;
+  if (local.ok()) {
+    walkgraph::StudyOptions options;
+    options.threads = a.threads;
+    options.validated = [&](const Status& v) {
+      agreed = true;
+      return job.AllOk(v.ok()) ? Status::Ok() : walkgraph::Cancelled(kOtherFailed);
+    };
+    if (job.rank() == 0 && ::isatty(STDERR_FILENO)) {
+      const std::string who =
+          job.size() > 1 ? " (rank 0 of " + std::to_string(job.size()) + ")" : "";
+      options.progress = [who](int done, int total) {
+        std::fprintf(stderr, "\rstudy: %d/%d cells%s", done, total, who.c_str());
+        if (done == total) std::fprintf(stderr, "\n");
+        std::fflush(stderr);
+      };
+    }
+    part = walkgraph::RunStudyPart(*manifest, shard, options);
+    *manifest_out = std::move(manifest).value();
+  }
+  if (!agreed) job.AllOk(false);
+  if (part.ok()) return "P" + walkgraph::SerializeStudyPart(*part);
+  if (part.status().message() == kOtherFailed) return "A";
+  return "E" + std::to_string(static_cast<int>(part.status().code())) + " " +
+         part.status().message();
+}
+
+// Rank 0: the processes' parts (in rank order) merged and written, or the first failure.
+int WriteGatheredStudy(const StudyArgs& a, const std::vector<std::string>& gathered,
+                       const walkgraph::StudyManifest* manifest) {
+  for (const std::string& g : gathered) {
+    if (g.empty() || g[0] != 'E') continue;
+    const size_t space = g.find(' ');
+    const int code = std::atoi(g.substr(1, space).c_str());
+    return Fail(Status(static_cast<walkgraph::StatusCode>(code), g.substr(space + 1)));
+  }
+  std::vector<walkgraph::StudyPart> parts;
+  for (size_t r = 0; r < gathered.size(); ++r) {
+    const std::string& g = gathered[r];
+    if (g.empty() || g[0] != 'P' || manifest == nullptr) {
+      return Fail(walkgraph::InternalError("rank " + std::to_string(r) + " sent no part"));
+    }
+    auto part = walkgraph::ParseStudyPart(g.substr(1), "rank " + std::to_string(r));
+    if (!part.ok()) return Fail(part.status());
+    parts.push_back(std::move(part).value());
+  }
+  if (!a.shard.empty()) {
+    const Status s = walkgraph::WriteStudyPart(parts.front(), a.out, g_output);
+    if (!s.ok()) return Fail(s);
+    std::cout << "wrote part " << a.shard << " to " << a.out << "/" << walkgraph::kStudyPartFile
+              << " (walkgraph study merge PARTS... --out DIR combines the parts)\n";
+    return 0;
+  }
+  auto result = walkgraph::MergeStudyParts(*manifest, parts);
+  if (!result.ok()) return Fail(result.status());
+  std::cout << walkgraph::FormatStudyTable(*result);
+  const Status s = walkgraph::WriteStudy(*result, a.out, g_output);
+  if (!s.ok()) return Fail(s);
+  std::cout << "wrote " << a.out << "/{study.csv,study.html,timing.csv}\n";
+  return 0;
+}
+
+int RunStudy(const StudyArgs& a, const walkgraph_cli::MpiJob& job) {
+  walkgraph::StudyShard shard{job.rank(), job.size()};
+  if (!a.shard.empty()) {
+    if (job.size() > 1) {
+      if (job.rank() != 0) return 1;
+      return Fail(
+          walkgraph::InvalidArgument("study: --shard is for runs without MPI; under "
+                                     "mpirun the ranks share the cells themselves"));
+    }
+    auto parsed = walkgraph::ParseStudyShard(a.shard);
+    if (!parsed.ok()) return Fail(parsed.status());
+    shard = *parsed;
+  }
+  std::optional<walkgraph::StudyManifest> manifest;
+  const std::string mine = RunOwnPart(a, job, shard, &manifest);
+  auto gathered = job.Gather(mine);
+  int rc = 0;
+  if (job.rank() == 0) {
+    rc = gathered.ok() ? WriteGatheredStudy(a, *gathered, manifest ? &*manifest : nullptr)
+                       : Fail(gathered.status());
+  }
+  return job.Broadcast(rc);
+}
+
+// walkgraph study merge PARTS... --out DIR
+int RunStudyMerge(const std::vector<std::string>& parts, const std::string& out) {
+  if (Status s = Preflight(out, walkgraph::OutputKind::kFolder, parts); !s.ok()) return Fail(s);
+  auto result = walkgraph::MergeStudyPartFiles(parts);
   if (!result.ok()) return Fail(result.status());
   std::cout << walkgraph::FormatStudyTable(*result);
   const Status s = walkgraph::WriteStudy(*result, out, g_output);
@@ -581,6 +702,11 @@ int RunList(const std::string& id) {
 
 int Main(int argc, char** argv) {
   walkgraph::InitLogging(argv[0]);
+  if (g_job->size() > 1 && !IsStudyRun(argc, argv)) {
+    if (g_job->rank() != 0) return 0;
+    std::cerr << "walkgraph: warning: under MPI only `study` shares its work among the ranks; "
+                 "this command runs on rank 0 alone\n";
+  }
   g_output.command = CommandLine(argc, argv);
   CLI::App app{
       "walkgraph: factor-graph smoothing and Kalman-filter comparison for pedestrian "
@@ -693,15 +819,33 @@ int Main(int argc, char** argv) {
                    : Fail(walkgraph::InvalidArgument(e));
   });
 
-  std::string manifest_path;
-  int study_threads = 1;
+  StudyArgs sargs;
   CLI::App* study = app.add_subcommand(
       "study", "parameter sweeps over walks/scenarios and estimators from a manifest");
-  study->add_option("MANIFEST", manifest_path, "study manifest (YAML, see study.h)")->required();
-  AddThreads(study, &study_threads, "worker threads per cell (0 = all cores)");
-  study->add_option("--out", out, "output folder (study.csv, study.html)")->required();
+  study->add_option("MANIFEST", sargs.manifest, "study manifest (YAML, see study.h)");
+  AddThreads(study, &sargs.threads, "worker threads per cell (0 = all cores)");
+  study->add_option("--out", sargs.out,
+                    "output folder (study.csv, study.html; with --shard: the part)");
+  study->add_option("--shard", sargs.shard,
+                    "i/n: run only part i (0-based) of n and write it for `study merge` (clusters "
+                    "without MPI, e.g. Slurm job arrays; docs/studies-on-clusters.md)");
   AddForce(study);
-  study->callback([&] { rc = RunStudy(manifest_path, study_threads, out); });
+  std::vector<std::string> merge_parts;
+  std::string merge_out;
+  CLI::App* merge = study->add_subcommand(
+      "merge", "combine the parts written by study --shard i/n into the study's output");
+  merge->add_option("PARTS", merge_parts, "part folders (or their study.part files)")->required();
+  merge->add_option("--out", merge_out, "output folder (study.csv, study.html)")->required();
+  AddForce(merge);
+  merge->callback([&] { rc = RunStudyMerge(merge_parts, merge_out); });
+  study->callback([&] {
+    if (study->got_subcommand(merge)) return;
+    if (sargs.manifest.empty() || sargs.out.empty()) {
+      rc = Fail(walkgraph::InvalidArgument("study: give MANIFEST and --out DIR (or: study merge)"));
+      return;
+    }
+    rc = RunStudy(sargs, *g_job);
+  });
 
   std::string detector = "glrt";
   std::vector<double> thresholds;
@@ -742,6 +886,8 @@ int Main(int argc, char** argv) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  walkgraph_cli::MpiJob job(&argc, &argv);
+  g_job = &job;
   InstallSignalHandlers();
   std::set_terminate(OnTerminate);
   google::InstallFailureFunction(&OnCheckFailure);

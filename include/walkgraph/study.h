@@ -90,6 +90,7 @@ struct StudySweep {
 
 struct StudyManifest {
   std::string path;  // as given (messages name it)
+  std::string text;  // the manifest's text (carried by study parts, see below)
   std::string name, description;
   std::map<std::string, YAML::Node> configs;  // base options per estimator id
   bool pcrb = true;
@@ -136,6 +137,10 @@ struct StudyOptions {
   int threads = 1;  // per cell's Monte Carlo; <= 0: all cores
   // Called after each finished cell with (cells done, cells); calls are serialized.
   std::function<void(int done, int total)> progress;
+  // Called once, after the validation pass over the part's cells and before any cell runs, with
+  // that pass's result; a failure it returns stops the part (e.g. when another process of the
+  // same study failed: the MPI glue agrees on it here so that every rank stops at once).
+  std::function<Status(const Status& validation)> validated;
 };
 
 StatusOr<StudyResult> RunStudy(const StudyManifest& manifest, const StudyOptions& options = {},
@@ -146,6 +151,57 @@ std::string StudyTimingCsv(const StudyResult& result);
 std::string RenderStudyHtml(const StudyResult& result);
 // A short aligned text summary (the plotted metric per sweep × value × estimator).
 std::string FormatStudyTable(const StudyResult& result);
+
+// ------------------------------------------------------------------ studies in parts
+// A study runs whole (RunStudy) or in parts, one per process of a cluster job: part i of n
+// (StudyShard) runs only the cells assigned to it, and MergeStudyParts puts the parts' cells
+// together into the StudyResult the whole run gives — the same bytes of study.csv, since every
+// cell is computed by exactly one part with the same code (RunStudy is part 0 of 1, merged).
+// Cells are assigned by their cost (runs × estimators): largest first, each to the part with the
+// least cost so far (ties: the earlier cell, the lower part), a deterministic function of the
+// manifest and n. The MPI build of the CLI runs part r of N on rank r and gathers the parts'
+// bytes (SerializeStudyPart) on rank 0; `walkgraph study --shard i/n` writes a part to a folder
+// and `walkgraph study merge` combines them (docs/studies-on-clusters.md).
+struct StudyShard {
+  int index = 0;  // i: 0 <= i < count
+  int count = 1;  // n
+  Status Validate() const;
+};
+// "i/n", e.g. "3/16".
+StatusOr<StudyShard> ParseStudyShard(const std::string& text);
+
+// The cells of part `shard`, as indices into the study's cells (sweep by sweep, value by value).
+std::vector<int> StudyShardCells(const StudyManifest& manifest, const StudyShard& shard);
+
+struct StudyPart {
+  StudyShard shard;
+  std::string manifest_path, manifest_text;  // the manifest the part ran (StudyManifest path/text)
+  std::vector<StudyCell> cells;              // the part's cells, in the study's order
+};
+
+// Validates and runs the cells of part `shard` (as RunStudy does for all of them).
+StatusOr<StudyPart> RunStudyPart(const StudyManifest& manifest, const StudyShard& shard,
+                                 const StudyOptions& options = {},
+                                 const EstimatorRegistry& registry = EstimatorRegistry::Builtin());
+
+// A part as bytes (exact: doubles by their bits) and back; `origin` names the bytes in errors.
+std::string SerializeStudyPart(const StudyPart& part);
+StatusOr<StudyPart> ParseStudyPart(const std::string& bytes, const std::string& origin);
+
+// The whole study from parts 0..n-1 of one manifest (each exactly once, in any order).
+StatusOr<StudyResult> MergeStudyParts(const StudyManifest& manifest,
+                                      const std::vector<StudyPart>& parts);
+
+// The part file inside a part folder.
+inline constexpr const char kStudyPartFile[] = "study.part";
+// Writes `part` as out_dir/study.part through the output writer.
+Status WriteStudyPart(const StudyPart& part, const std::string& out_dir,
+                      const OutputOptions& options = {});
+// Reads part folders (or study.part files), parses the manifest they carry (its walks must be
+// where they were) and merges them.
+StatusOr<StudyResult> MergeStudyPartFiles(
+    const std::vector<std::string>& paths,
+    const EstimatorRegistry& registry = EstimatorRegistry::Builtin());
 
 // Writes study.csv, study.html and timing.csv into `out_dir` through the output writer
 // (output.h: marker, whole or not at all, never over a folder walkgraph did not write).

@@ -12,6 +12,7 @@
 #include <set>
 #include <sstream>
 
+#include "io/input_file.h"
 #include "report/svg.h"
 #include "util/text.h"
 #include "walkgraph/config.h"
@@ -418,95 +419,138 @@ StatusOr<StudyManifest> ParseManifestRoot(const YAML::Node& root, const std::str
 StatusOr<StudyManifest> ParseStudyManifest(const std::string& text, const std::string& path,
                                            const EstimatorRegistry& registry) {
   WG_ASSIGN_OR_RETURN(const YAML::Node root, LoadYamlText(text, path));
-  return ParseManifestRoot(root, path, registry);
+  WG_ASSIGN_OR_RETURN(StudyManifest m, ParseManifestRoot(root, path, registry));
+  m.text = text;
+  return m;
 }
 
 StatusOr<StudyManifest> ReadStudyManifest(const std::string& path,
                                           const EstimatorRegistry& registry) {
-  WG_ASSIGN_OR_RETURN(const YAML::Node root, LoadYamlFile(path));
-  return ParseManifestRoot(root, path, registry);
+  WG_ASSIGN_OR_RETURN(const std::string text,
+                      internal::ReadInputFile(path, internal::kMaxYamlBytes));
+  return ParseStudyManifest(text, path, registry);
 }
 
 // ------------------------------------------------------------------ running
 
-StatusOr<StudyResult> RunStudy(const StudyManifest& m, const StudyOptions& options,
-                               const EstimatorRegistry& registry) {
-  StudyResult result;
-  result.manifest = m;
-  // Validation pass: every scenario cell simulates (run 0), every walk reads.
-  std::vector<std::optional<Walk>> walks(m.sweeps.size());
-  int total = 0;
+namespace {
+
+// (sweep, value) of every cell, in the study's order.
+std::vector<std::pair<int, int>> CellIndex(const StudyManifest& m) {
+  std::vector<std::pair<int, int>> cells;
   for (size_t k = 0; k < m.sweeps.size(); ++k) {
+    for (size_t i = 0; i < m.sweeps[k].values.size(); ++i) {
+      cells.emplace_back(static_cast<int>(k), static_cast<int>(i));
+    }
+  }
+  return cells;
+}
+
+// The validation pass over `cells`: every scenario cell simulates (run 0), every walk reads.
+Status ValidateCells(const StudyManifest& m, const std::vector<std::pair<int, int>>& cells,
+                     std::vector<std::optional<Walk>>* walks) {
+  walks->assign(m.sweeps.size(), std::nullopt);
+  for (const auto& [k, i] : cells) {
     const StudySweep& s = m.sweeps[k];
-    total += static_cast<int>(s.values.size());
     if (!s.walk_dir.empty()) {
+      if ((*walks)[k]) continue;
       StatusOr<Walk> w = ReadWalk(s.walk_dir);
       if (!w.ok()) {
         return InvalidArgument(m.path + ":" + std::to_string(s.line) + ": sweep '" + s.name +
                                "': " + w.status().message());
       }
-      walks[k] = std::move(w).value();
+      (*walks)[k] = std::move(w).value();
       continue;
     }
-    for (size_t i = 0; i < s.values.size(); ++i) {
-      StatusOr<Walk> w =
-          SimulateScenario(s.scenario, MonteCarloSeed(s.seed, 0), CellOverrides(s, i));
-      if (!w.ok()) return InvalidArgument(CellAt(m, s, i) + ": " + w.status().message());
-    }
+    StatusOr<Walk> w = SimulateScenario(s.scenario, MonteCarloSeed(s.seed, 0), CellOverrides(s, i));
+    if (!w.ok()) return InvalidArgument(CellAt(m, s, i) + ": " + w.status().message());
   }
+  return Status::Ok();
+}
+
+StudyRow RowOf(EstimatorOutcome& o) {
+  StudyRow r;
+  r.estimator = o.id;
+  // A diverged estimate is left out of the study's figures like a failed one, saying so.
+  r.status = o.status.ok() && !o.Ranked() ? Status(StatusCode::kNumerical, ToString(*o.divergence))
+                                          : o.status;
+  r.stats = o.stats;
+  r.stats_std = o.stats_std;
+  r.failed_runs = o.failed_runs;
+  r.diverged_runs = o.diverged_runs;
+  r.runtime_s = o.runtime_s;
+  r.runtime_std_s = o.runtime_std_s;
+  return r;
+}
+
+// Runs cell (k, i); `walk` is the sweep's recorded walk (nullptr for a scenario).
+StatusOr<StudyCell> RunCell(const StudyManifest& m, int k, int i, const Walk* walk,
+                            const StudyOptions& options, const EstimatorRegistry& registry) {
+  const StudySweep& s = m.sweeps[k];
+  CompareOptions co;
+  co.estimator_ids = s.estimators;
+  co.score_from_s = s.score_from_s;
+  for (const std::string& id : s.estimators) co.configs[id] = CellConfig(m, s, i, id);
+  StatusOr<Comparison> c = FailedPrecondition("no comparison");
+  if (walk != nullptr) {
+    c = CompareOnWalk(*walk, co, registry);
+  } else {
+    ScenarioCompareOptions sc;
+    sc.overrides = CellOverrides(s, i);
+    sc.pcrb = m.pcrb;
+    sc.pcrb_options = m.pcrb_options;
+    MonteCarloOptions mc;
+    mc.runs = s.runs;
+    mc.seed = s.seed;
+    mc.threads = options.threads;
+    c = CompareScenario(s.scenario, sc, co, mc, registry);
+  }
+  if (!c.ok()) return Status(c.status().code(), CellAt(m, s, i) + ": " + c.status().message());
+  StudyCell cell;
+  cell.sweep = k;
+  cell.value = i;
+  cell.runs = c->runs;
+  cell.seed = s.seed;
+  cell.pcrb_rmse_m = c->pcrb_rmse_m;
+  cell.pcrb_filter_rmse_m = c->pcrb_filter_rmse_m;
+  cell.pcrb_note = c->pcrb_note;
+  for (EstimatorOutcome& o : c->outcomes) cell.rows.push_back(RowOf(o));
+  return cell;
+}
+
+}  // namespace
+
+StatusOr<StudyPart> RunStudyPart(const StudyManifest& m, const StudyShard& shard,
+                                 const StudyOptions& options, const EstimatorRegistry& registry) {
+  WG_RETURN_IF_ERROR(shard.Validate());
+  const std::vector<std::pair<int, int>> all = CellIndex(m);
+  std::vector<std::pair<int, int>> mine;
+  for (int c : StudyShardCells(m, shard)) mine.push_back(all[c]);
+  std::vector<std::optional<Walk>> walks;
+  Status valid = ValidateCells(m, mine, &walks);
+  if (options.validated) {
+    const Status agreed = options.validated(valid);
+    if (valid.ok()) valid = agreed;
+  }
+  WG_RETURN_IF_ERROR(valid);
+  StudyPart part;
+  part.shard = shard;
+  part.manifest_path = m.path;
+  part.manifest_text = m.text;
   int done = 0;
-  for (size_t k = 0; k < m.sweeps.size(); ++k) {
-    const StudySweep& s = m.sweeps[k];
-    for (size_t i = 0; i < s.values.size(); ++i) {
-      CompareOptions co;
-      co.estimator_ids = s.estimators;
-      co.score_from_s = s.score_from_s;
-      for (const std::string& id : s.estimators) co.configs[id] = CellConfig(m, s, i, id);
-      StatusOr<Comparison> c = FailedPrecondition("no comparison");
-      if (walks[k]) {
-        c = CompareOnWalk(*walks[k], co, registry);
-      } else {
-        ScenarioCompareOptions sc;
-        sc.overrides = CellOverrides(s, i);
-        sc.pcrb = m.pcrb;
-        sc.pcrb_options = m.pcrb_options;
-        MonteCarloOptions mc;
-        mc.runs = s.runs;
-        mc.seed = s.seed;
-        mc.threads = options.threads;
-        c = CompareScenario(s.scenario, sc, co, mc, registry);
-      }
-      if (!c.ok()) {
-        return Status(c.status().code(), CellAt(m, s, i) + ": " + c.status().message());
-      }
-      StudyCell cell;
-      cell.sweep = static_cast<int>(k);
-      cell.value = static_cast<int>(i);
-      cell.runs = c->runs;
-      cell.seed = s.seed;
-      cell.pcrb_rmse_m = c->pcrb_rmse_m;
-      cell.pcrb_filter_rmse_m = c->pcrb_filter_rmse_m;
-      cell.pcrb_note = c->pcrb_note;
-      for (const EstimatorOutcome& o : c->outcomes) {
-        StudyRow r;
-        r.estimator = o.id;
-        // A diverged estimate is left out of the study's figures like a failed one, saying so.
-        r.status = o.status.ok() && !o.Ranked()
-                       ? Status(StatusCode::kNumerical, ToString(*o.divergence))
-                       : o.status;
-        r.stats = o.stats;
-        r.stats_std = o.stats_std;
-        r.failed_runs = o.failed_runs;
-        r.diverged_runs = o.diverged_runs;
-        r.runtime_s = o.runtime_s;
-        r.runtime_std_s = o.runtime_std_s;
-        cell.rows.push_back(std::move(r));
-      }
-      result.cells.push_back(std::move(cell));
-      if (options.progress) options.progress(++done, total);
-    }
+  for (const auto& [k, i] : mine) {
+    const Walk* walk = walks[k] ? &*walks[k] : nullptr;
+    WG_ASSIGN_OR_RETURN(StudyCell cell, RunCell(m, k, i, walk, options, registry));
+    part.cells.push_back(std::move(cell));
+    if (options.progress) options.progress(++done, static_cast<int>(mine.size()));
   }
-  return result;
+  return part;
+}
+
+StatusOr<StudyResult> RunStudy(const StudyManifest& m, const StudyOptions& options,
+                               const EstimatorRegistry& registry) {
+  WG_ASSIGN_OR_RETURN(StudyPart part, RunStudyPart(m, StudyShard{}, options, registry));
+  return MergeStudyParts(m, {std::move(part)});
 }
 
 // ------------------------------------------------------------------ output

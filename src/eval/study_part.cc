@@ -1,0 +1,344 @@
+// Studies in parts (study.h): which cells a part runs, a part's bytes, and merging parts.
+#include <algorithm>
+#include <charconv>
+#include <cinttypes>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <sstream>
+
+#include "io/input_file.h"
+#include "walkgraph/study.h"
+
+namespace walkgraph {
+
+namespace fs = std::filesystem;
+
+Status StudyShard::Validate() const {
+  if (count < 1 || index < 0 || index >= count) {
+    return InvalidArgument("study part " + std::to_string(index) + "/" + std::to_string(count) +
+                           ": need 0 <= i < n");
+  }
+  return Status::Ok();
+}
+
+StatusOr<StudyShard> ParseStudyShard(const std::string& text) {
+  StudyShard s;
+  const size_t slash = text.find('/');
+  const auto bad = [&] {
+    return InvalidArgument("--shard " + text + ": expected i/n with 0 <= i < n, e.g. 0/4");
+  };
+  if (slash == std::string::npos) return bad();
+  const std::string i = text.substr(0, slash), n = text.substr(slash + 1);
+  const auto digits = [](const std::string& d) {
+    return !d.empty() && d.size() <= 6 &&
+           std::all_of(d.begin(), d.end(), [](char c) { return c >= '0' && c <= '9'; });
+  };
+  if (!digits(i) || !digits(n)) return bad();
+  s.index = std::stoi(i);
+  s.count = std::stoi(n);
+  if (!s.Validate().ok()) return bad();
+  return s;
+}
+
+std::vector<int> StudyShardCells(const StudyManifest& m, const StudyShard& shard) {
+  // Cost of each cell: runs × estimators.
+  std::vector<long long> cost;
+  for (const StudySweep& s : m.sweeps) {
+    for (size_t i = 0; i < s.values.size(); ++i) {
+      cost.push_back(static_cast<long long>(s.runs) * static_cast<long long>(s.estimators.size()));
+    }
+  }
+  std::vector<int> order(cost.size());
+  for (size_t c = 0; c < order.size(); ++c) order[c] = static_cast<int>(c);
+  std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return cost[a] > cost[b]; });
+  const int n = std::max(shard.count, 1);
+  std::vector<long long> load(n, 0);
+  std::vector<int> mine;
+  for (int c : order) {
+    const int to = static_cast<int>(std::min_element(load.begin(), load.end()) - load.begin());
+    load[to] += cost[c];
+    if (to == shard.index) mine.push_back(c);
+  }
+  std::sort(mine.begin(), mine.end());
+  return mine;
+}
+
+// ------------------------------------------------------------------ bytes
+
+namespace {
+
+constexpr const char kMagic[] = "walkgraph-study-part 1";
+
+// Fields as whitespace-separated tokens; strings as <length>:<bytes>; doubles by their bits.
+class PartWriter {
+ public:
+  void Int(long long v) { out_ << v << ' '; }
+  void Unsigned(uint64_t v) { out_ << v << ' '; }
+  void Double(double v) {
+    uint64_t bits;
+    std::memcpy(&bits, &v, sizeof(bits));
+    char buf[24];
+    std::snprintf(buf, sizeof(buf), "%016" PRIx64 " ", bits);
+    out_ << buf;
+  }
+  void OptDouble(const std::optional<double>& v) {
+    Int(v ? 1 : 0);
+    if (v) Double(*v);
+  }
+  void String(const std::string& s) { out_ << s.size() << ':' << s << ' '; }
+  void Line() { out_ << '\n'; }
+  std::string str() const { return out_.str(); }
+
+ private:
+  std::ostringstream out_;
+};
+
+class PartReader {
+ public:
+  PartReader(const std::string& bytes, std::string origin)
+      : b_(bytes), origin_(std::move(origin)) {}
+  bool ok() const { return ok_; }
+  Status Error() const {
+    return InvalidArgument(origin_ + ": not a walkgraph study part, or damaged (at byte " +
+                           std::to_string(pos_) + ")");
+  }
+  std::string Token() {
+    while (pos_ < b_.size() && (b_[pos_] == ' ' || b_[pos_] == '\n')) ++pos_;
+    const size_t start = pos_;
+    while (pos_ < b_.size() && b_[pos_] != ' ' && b_[pos_] != '\n' && b_[pos_] != ':') ++pos_;
+    if (start == pos_) ok_ = false;
+    return b_.substr(start, pos_ - start);
+  }
+  long long Int(long long lo, long long hi) {
+    long long v = 0;
+    if (!Parse(Token(), 10, &v) || v < lo || v > hi) ok_ = false;
+    return ok_ ? v : lo;
+  }
+  uint64_t Unsigned() {
+    uint64_t v = 0;
+    if (!Parse(Token(), 10, &v)) ok_ = false;
+    return v;
+  }
+  double Double() {
+    const std::string t = Token();
+    uint64_t bits = 0;
+    if (t.size() != 16 || !Parse(t, 16, &bits)) ok_ = false;
+    double v;
+    std::memcpy(&v, &bits, sizeof(v));
+    return v;
+  }
+  std::optional<double> OptDouble() {
+    if (Int(0, 1) == 0) return std::nullopt;
+    return Double();
+  }
+  std::string String() {
+    const long long n = Int(0, static_cast<long long>(b_.size()));
+    if (!ok_ || pos_ >= b_.size() || b_[pos_] != ':' || b_.size() - pos_ - 1 < size_t(n)) {
+      ok_ = false;
+      return "";
+    }
+    std::string s = b_.substr(pos_ + 1, n);
+    pos_ += 1 + n;
+    return s;
+  }
+  // The whole token as an integer in `base` (no sign for unsigned types, no overflow).
+  template <typename T>
+  static bool Parse(const std::string& t, int base, T* v) {
+    const char* end = t.data() + t.size();
+    const auto r = std::from_chars(t.data(), end, *v, base);
+    return !t.empty() && r.ec == std::errc() && r.ptr == end;
+  }
+  bool AtEnd() {
+    while (pos_ < b_.size() && (b_[pos_] == ' ' || b_[pos_] == '\n')) ++pos_;
+    return pos_ == b_.size();
+  }
+
+ private:
+  const std::string& b_;
+  std::string origin_;
+  size_t pos_ = 0;
+  bool ok_ = true;
+};
+
+double ErrorStats::*const kStatFields[] = {&ErrorStats::rmse_m,   &ErrorStats::mean_m,
+                                           &ErrorStats::median_m, &ErrorStats::p75_m,
+                                           &ErrorStats::p90_m,    &ErrorStats::max_m,
+                                           &ErrorStats::final_m,  &ErrorStats::pct_distance,
+                                           &ErrorStats::anees,    &ErrorStats::mean_pct_distance};
+
+void PutStats(PartWriter& w, const ErrorStats& s) {
+  for (const auto f : kStatFields) w.Double(s.*f);
+  w.Int(s.n_points);
+}
+
+ErrorStats GetStats(PartReader& r) {
+  ErrorStats s;
+  for (const auto f : kStatFields) s.*f = r.Double();
+  s.n_points = static_cast<int>(r.Int(0, INT32_MAX));
+  return s;
+}
+
+void PutRow(PartWriter& w, const StudyRow& row) {
+  w.String(row.estimator);
+  w.Int(static_cast<int>(row.status.code()));
+  w.String(row.status.message());
+  PutStats(w, row.stats);
+  w.Int(row.stats_std ? 1 : 0);
+  if (row.stats_std) PutStats(w, *row.stats_std);
+  w.Int(row.failed_runs);
+  w.Int(row.diverged_runs);
+  w.Double(row.runtime_s);
+  w.Double(row.runtime_std_s);
+  w.Line();
+}
+
+StudyRow GetRow(PartReader& r) {
+  StudyRow row;
+  row.estimator = r.String();
+  const auto code = static_cast<StatusCode>(r.Int(0, static_cast<int>(StatusCode::kCancelled)));
+  std::string message = r.String();
+  row.status = code == StatusCode::kOk ? Status::Ok() : Status(code, std::move(message));
+  row.stats = GetStats(r);
+  if (r.Int(0, 1) == 1) row.stats_std = GetStats(r);
+  row.failed_runs = static_cast<int>(r.Int(0, INT32_MAX));
+  row.diverged_runs = static_cast<int>(r.Int(0, INT32_MAX));
+  row.runtime_s = r.Double();
+  row.runtime_std_s = r.Double();
+  return row;
+}
+
+}  // namespace
+
+std::string SerializeStudyPart(const StudyPart& part) {
+  PartWriter w;
+  w.String(kMagic);
+  w.Int(part.shard.index);
+  w.Int(part.shard.count);
+  w.String(part.manifest_path);
+  w.String(part.manifest_text);
+  w.Int(static_cast<long long>(part.cells.size()));
+  w.Line();
+  for (const StudyCell& c : part.cells) {
+    w.Int(c.sweep);
+    w.Int(c.value);
+    w.Int(c.runs);
+    w.Unsigned(c.seed);
+    w.OptDouble(c.pcrb_rmse_m);
+    w.OptDouble(c.pcrb_filter_rmse_m);
+    w.String(c.pcrb_note);
+    w.Int(static_cast<long long>(c.rows.size()));
+    w.Line();
+    for (const StudyRow& row : c.rows) PutRow(w, row);
+  }
+  w.String("end");
+  w.Line();
+  return w.str();
+}
+
+StatusOr<StudyPart> ParseStudyPart(const std::string& bytes, const std::string& origin) {
+  PartReader r(bytes, origin);
+  if (r.String() != kMagic || !r.ok()) return r.Error();
+  StudyPart part;
+  part.shard.index = static_cast<int>(r.Int(0, INT32_MAX));
+  part.shard.count = static_cast<int>(r.Int(1, INT32_MAX));
+  part.manifest_path = r.String();
+  part.manifest_text = r.String();
+  const long long cells = r.Int(0, INT32_MAX);
+  for (long long c = 0; r.ok() && c < cells; ++c) {
+    StudyCell cell;
+    cell.sweep = static_cast<int>(r.Int(0, INT32_MAX));
+    cell.value = static_cast<int>(r.Int(0, INT32_MAX));
+    cell.runs = static_cast<int>(r.Int(1, INT32_MAX));
+    cell.seed = r.Unsigned();
+    cell.pcrb_rmse_m = r.OptDouble();
+    cell.pcrb_filter_rmse_m = r.OptDouble();
+    cell.pcrb_note = r.String();
+    const long long rows = r.Int(0, INT32_MAX);
+    for (long long k = 0; r.ok() && k < rows; ++k) cell.rows.push_back(GetRow(r));
+    part.cells.push_back(std::move(cell));
+  }
+  if (r.String() != "end" || !r.ok() || !r.AtEnd()) return r.Error();
+  if (!part.shard.Validate().ok()) return r.Error();
+  return part;
+}
+
+// ------------------------------------------------------------------ merging
+
+StatusOr<StudyResult> MergeStudyParts(const StudyManifest& m, const std::vector<StudyPart>& parts) {
+  if (parts.empty()) return InvalidArgument("study merge: no parts");
+  const int n = parts.front().shard.count;
+  std::vector<const StudyPart*> by_index(n, nullptr);
+  for (const StudyPart& p : parts) {
+    const std::string which =
+        "study part " + std::to_string(p.shard.index) + "/" + std::to_string(p.shard.count);
+    if (p.shard.count != n || !p.shard.Validate().ok()) {
+      return InvalidArgument(which + ": the parts are of different splits (n = " +
+                             std::to_string(n) + " and " + std::to_string(p.shard.count) + ")");
+    }
+    if (p.manifest_text != m.text || p.manifest_path != m.path) {
+      return InvalidArgument(which + ": ran another manifest (" + p.manifest_path + ") than " +
+                             m.path);
+    }
+    if (by_index[p.shard.index] != nullptr) return InvalidArgument(which + ": given twice");
+    by_index[p.shard.index] = &p;
+  }
+  std::vector<int> flat_base;  // index of each sweep's first cell
+  int total = 0;
+  for (const StudySweep& s : m.sweeps) {
+    flat_base.push_back(total);
+    total += static_cast<int>(s.values.size());
+  }
+  std::vector<const StudyCell*> cells(total, nullptr);
+  for (int i = 0; i < n; ++i) {
+    const std::string which = "study part " + std::to_string(i) + "/" + std::to_string(n);
+    if (by_index[i] == nullptr) return InvalidArgument(which + " is missing");
+    const std::vector<int> expected = StudyShardCells(m, by_index[i]->shard);
+    std::vector<int> got;
+    for (const StudyCell& c : by_index[i]->cells) {
+      if (c.sweep < 0 || c.sweep >= static_cast<int>(m.sweeps.size()) || c.value < 0 ||
+          c.value >= static_cast<int>(m.sweeps[c.sweep].values.size())) {
+        return InvalidArgument(which + ": a cell outside the manifest");
+      }
+      got.push_back(flat_base[c.sweep] + c.value);
+      cells[got.back()] = &c;
+    }
+    if (got != expected) return InvalidArgument(which + ": not the cells of that part");
+  }
+  StudyResult result;
+  result.manifest = m;
+  for (const StudyCell* c : cells) result.cells.push_back(*c);
+  return result;
+}
+
+Status WriteStudyPart(const StudyPart& part, const std::string& out_dir,
+                      const OutputOptions& options) {
+  const std::string bytes = SerializeStudyPart(part);
+  return WriteOutputFolder(out_dir, options, [&](const std::string& tmp_dir) {
+    return WriteFileInOutput((fs::path(tmp_dir) / kStudyPartFile).string(), [&](std::ostream& out) {
+      out << bytes;
+      return true;
+    });
+  });
+}
+
+StatusOr<StudyResult> MergeStudyPartFiles(const std::vector<std::string>& paths,
+                                          const EstimatorRegistry& registry) {
+  if (paths.empty()) return InvalidArgument("study merge: no parts given");
+  constexpr size_t kMaxPartBytes = size_t{1} << 30;
+  std::vector<StudyPart> parts;
+  for (const std::string& path : paths) {
+    std::error_code ec;
+    const std::string file =
+        fs::is_directory(path, ec) ? (fs::path(path) / kStudyPartFile).string() : path;
+    WG_ASSIGN_OR_RETURN(const std::string bytes, internal::ReadInputFile(file, kMaxPartBytes));
+    WG_ASSIGN_OR_RETURN(StudyPart part, ParseStudyPart(bytes, file));
+    parts.push_back(std::move(part));
+  }
+  WG_ASSIGN_OR_RETURN(
+      const StudyManifest m,
+      ParseStudyManifest(parts.front().manifest_text, parts.front().manifest_path, registry));
+  return MergeStudyParts(m, parts);
+}
+
+}  // namespace walkgraph
