@@ -34,14 +34,9 @@ namespace {
 
 // The string options and the values each allows: the one table FromYaml reads them with and
 // Validate checks them against.
-struct StringOption {
-  const char* key;
-  std::string InsGraphOptions::*field;
-  std::vector<std::string> allowed;
-};
-const std::vector<StringOption>& StringOptions() {
+const std::vector<StringOption<InsGraphOptions>>& StringOptions() {
   using O = InsGraphOptions;
-  static const std::vector<StringOption> table = {
+  static const std::vector<StringOption<O>> table = {
       {"initialization", &O::initialization, {"front-end", "window"}},
       {"rss_loss", &O::rss_loss, internal::LossNames()},
       {"range_loss", &O::range_loss, internal::LossNames()},
@@ -49,11 +44,7 @@ const std::vector<StringOption>& StringOptions() {
   return table;
 }
 const std::vector<std::string>& Allowed(const std::string& key) {
-  for (const StringOption& s : StringOptions()) {
-    if (key == s.key) return s.allowed;
-  }
-  static const std::vector<std::string> none;
-  return none;
+  return AllowedValues(StringOptions(), key);
 }
 const std::vector<std::pair<std::string, InsStatePlacement>> kPlacementNames = {
     {"stance", InsStatePlacement::kStance}, {"every-n", InsStatePlacement::kEveryN}};
@@ -62,15 +53,7 @@ const std::vector<std::pair<std::string, InsStatePlacement>> kPlacementNames = {
 
 Status InsGraphOptions::Validate() const {
   const InsGraphOptions& o = *this;
-  for (const StringOption& so : StringOptions()) {
-    const std::string& v = o.*so.field;
-    if (std::find(so.allowed.begin(), so.allowed.end(), v) == so.allowed.end()) {
-      std::string list;
-      for (const std::string& a : so.allowed) list += (list.empty() ? "" : ", ") + a;
-      return InvalidArgument("fg-ins-batch: " + std::string(so.key) + " must be one of " + list +
-                             ", not '" + v + "'");
-    }
-  }
+  WG_RETURN_IF_ERROR(CheckStringOptions(StringOptions(), o, "fg-ins-batch"));
   if (!(o.init_lag_s > 0) || !(o.init_marginalize_batch_s >= 0) ||
       !(o.initial_trust_region_radius > 0)) {
     return InvalidArgument(

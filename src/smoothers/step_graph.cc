@@ -37,14 +37,9 @@ namespace {
 
 // The string options and the values each allows: the one table FromYaml reads them with and
 // Validate checks them against.
-struct StringOption {
-  const char* key;
-  std::string StepGraphOptions::*field;
-  std::vector<std::string> allowed;
-};
-const std::vector<StringOption>& StringOptions() {
+const std::vector<StringOption<StepGraphOptions>>& StringOptions() {
   using O = StepGraphOptions;
-  static const std::vector<StringOption> table = {
+  static const std::vector<StringOption<O>> table = {
       {"mag_heading_loss", &O::mag_heading_loss, internal::LossNames()},
       {"rss_residual", &O::rss_residual, {"db", "range"}},
       {"rss_loss", &O::rss_loss, internal::LossNames()},
@@ -58,11 +53,7 @@ const std::vector<StringOption>& StringOptions() {
   return table;
 }
 const std::vector<std::string>& Allowed(const std::string& key) {
-  for (const StringOption& s : StringOptions()) {
-    if (key == s.key) return s.allowed;
-  }
-  static const std::vector<std::string> none;
-  return none;
+  return AllowedValues(StringOptions(), key);
 }
 
 // A robust loss on whitened residuals (scale in σ); nullptr for "none".
@@ -212,15 +203,7 @@ Status CheckStepGraphOptions(const StepGraphOptions& o, const std::string& conte
     return InvalidArgument(
         context + ": max_iterations, window_max_iterations, init_max_iterations, num_threads >= 1");
   }
-  for (const StringOption& so : StringOptions()) {
-    const std::string& v = o.*so.field;
-    if (std::find(so.allowed.begin(), so.allowed.end(), v) == so.allowed.end()) {
-      std::string list;
-      for (const std::string& a : so.allowed) list += (list.empty() ? "" : ", ") + a;
-      return InvalidArgument(context + ": " + so.key + " must be one of " + list + ", not '" + v +
-                             "'");
-    }
-  }
+  WG_RETURN_IF_ERROR(CheckStringOptions(StringOptions(), o, context));
   if (o.path_loss != "auto" && o.path_loss != "fixed" && o.rss_residual != "db") {
     return InvalidArgument(context + ": path-loss self-calibration needs rss_residual 'db'");
   }
