@@ -684,7 +684,8 @@ int RunListEstimator(const std::string& id) {
 
 int RunList(const std::string& id) {
   if (!id.empty()) return RunListEstimator(id);
-  std::cout << "estimators (walkgraph list ID: an estimator's options and defaults):\n";
+  std::cout
+      << "estimators (walkgraph list ID: its options with defaults, units and allowed values):\n";
   const auto& registry = walkgraph::EstimatorRegistry::Builtin();
   for (const std::string& e : registry.Ids()) {
     std::cout << "  " << e << "  — " << registry.Find(e)->description << "\n";
