@@ -70,6 +70,39 @@ TEST(ConfigReader, StringOptionsWithAllowedValues) {
   EXPECT_EQ((*recorded)[1].allowed, (std::vector<std::string>{"x", "y"}));
 }
 
+// One table serves the reader and Validate: a value set in C++ is checked against the same list.
+struct TwoStrings {
+  std::string mode = "a";
+  std::string other = "x";
+};
+TEST(StringOptionTable, ChecksEveryFieldAgainstItsList) {
+  const std::vector<StringOption<TwoStrings>> table = {{"mode", &TwoStrings::mode, {"a", "b"}},
+                                                       {"other", &TwoStrings::other, {"x"}}};
+  EXPECT_EQ(AllowedValues(table, "mode"), (std::vector<std::string>{"a", "b"}));
+  EXPECT_TRUE(AllowedValues(table, "absent").empty());
+  TwoStrings o;
+  EXPECT_TRUE(CheckStringOptions(table, o, "t").ok());
+  o.other = "y";
+  EXPECT_EQ(CheckStringOptions(table, o, "t").message(), "t: other must be one of x, not 'y'");
+}
+
+// The estimators' string options refuse an unknown value from YAML, naming the allowed ones.
+TEST(StringOptionTable, EstimatorsRefuseUnknownValuesNamingTheAllowedOnes) {
+  const auto& reg = EstimatorRegistry::Builtin();
+  for (const auto& [id, yaml] : std::vector<std::pair<const char*, const char*>>{
+           {"tarrio-kf", "{prediction: magic}"},
+           {"pdr-only", "{start: middle}"},
+           {"pdr-only", "{pdr: {energy_lockout_keep: last}}"},
+           {"jimenez-iez", "{stance_source: oracle}"},
+           {"fg-ins-window", "{preintegration_bias: x}"},
+           {"fg-batch", "{path_loss: magic}"},
+           {"fg-ins-batch", "{rss_loss: magic}"}}) {
+    auto est = reg.Create(id, YAML::Load(yaml));
+    ASSERT_FALSE(est.ok()) << id << " " << yaml;
+    EXPECT_THAT(est.status().message(), HasSubstr("must be one of")) << id << " " << yaml;
+  }
+}
+
 TEST(OptionUnit, FromTheKeysSuffix) {
   EXPECT_EQ(OptionUnit("lag_s"), "s");
   EXPECT_EQ(OptionUnit("sigma_acc_mps2"), "m/s²");

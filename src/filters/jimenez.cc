@@ -93,6 +93,9 @@ StatusOr<ImuSampling> SamplingFromString(const std::string& s) {
   return InvalidArgument("imu_sampling must be interval-average or instantaneous, not '" + s + "'");
 }
 
+const std::vector<StringOption<JimenezIezOptions>> kStringOptions = {
+    {"stance_source", &JimenezIezOptions::stance_source, {"detector", "labels"}}};
+
 }  // namespace
 
 StatusOr<JimenezIezOptions> JimenezIezOptions::FromYaml(const YAML::Node& node,
@@ -121,7 +124,7 @@ StatusOr<JimenezIezOptions> JimenezIezOptions::FromYaml(const YAML::Node& node,
   r.Read("imu_sampling", &o.imu_sampling, samplings);
   r.Read("imu_sampling_from_walk", &o.imu_sampling_from_walk);
   r.Read("gravity_mps2", &o.gravity_mps2);
-  r.Read("stance_source", &o.stance_source, {"detector", "labels"});
+  r.Read("stance_source", &o.stance_source, AllowedValues(kStringOptions, "stance_source"));
   r.Read("zupt", &o.zupt);
   r.Read("zupt_sigma_mps", &o.zupt_sigma_mps);
   r.Read("zaru", &o.zaru);
@@ -158,9 +161,7 @@ StatusOr<JimenezIezOptions> JimenezIezOptions::FromYaml(const YAML::Node& node,
   }
   auto sampling = SamplingFromString(o.imu_sampling);
   if (!sampling.ok()) return InvalidArgument(context + ": " + sampling.status().message());
-  if (o.stance_source != "detector" && o.stance_source != "labels") {
-    return InvalidArgument(context + ": stance_source must be detector or labels");
-  }
+  WG_RETURN_IF_ERROR(CheckStringOptions(kStringOptions, o, context));
   auto positive = [](double v) { return v > 0.0 && std::isfinite(v); };
   for (double v : {o.acc_noise_density, o.gyro_noise_density, o.init_acc_bias_sigma_mps2,
                    o.init_gyro_bias_sigma_radps, o.init_tilt_sigma_rad, o.init_velocity_sigma_mps,

@@ -9,6 +9,15 @@
 
 namespace walkgraph {
 
+namespace {
+
+const std::vector<StringOption<TarrioKfOptions>> kKfStrings = {
+    {"prediction", &TarrioKfOptions::prediction, {"last-velocity", "pdr-displacement"}}};
+const std::vector<StringOption<TarrioEstimatorOptions>> kEstimatorStrings = {
+    {"start", &TarrioEstimatorOptions::start, {"first-fix", "initial-pose"}}};
+
+}  // namespace
+
 StatusOr<TarrioKfOptions> TarrioKfOptions::FromYaml(const YAML::Node& node,
                                                     const std::string& context) {
   TarrioKfOptions o;
@@ -16,16 +25,14 @@ StatusOr<TarrioKfOptions> TarrioKfOptions::FromYaml(const YAML::Node& node,
   r.Read("sigma_a_mps2", &o.sigma_a_mps2);
   r.Read("sigma_v_mps", &o.sigma_v_mps);
   r.Read("sigma_p_m", &o.sigma_p_m);
-  r.Read("prediction", &o.prediction, {"last-velocity", "pdr-displacement"});
+  r.Read("prediction", &o.prediction, AllowedValues(kKfStrings, "prediction"));
   r.Read("gate_probability", &o.gate_probability);
   r.Read("smooth", &o.smooth);
   WG_RETURN_IF_ERROR(r.Finish());
   if (o.sigma_a_mps2 < 0 || o.sigma_v_mps < 0 || !(o.sigma_p_m > 0)) {
     return InvalidArgument(context + ": sigma_a_mps2, sigma_v_mps must be >= 0, sigma_p_m > 0");
   }
-  if (o.prediction != "last-velocity" && o.prediction != "pdr-displacement") {
-    return InvalidArgument(context + ": prediction must be 'last-velocity' or 'pdr-displacement'");
-  }
+  WG_RETURN_IF_ERROR(CheckStringOptions(kKfStrings, o, context));
   if (o.gate_probability < 0 || o.gate_probability >= 1) {
     return InvalidArgument(context + ": gate_probability must be in [0, 1)");
   }
@@ -283,15 +290,15 @@ StatusOr<TarrioEstimatorOptions> TarrioEstimatorOptions::FromYaml(const YAML::No
   o.filter.smooth = smooth;
   // The rest: pdr, radio and (pdr-only) start.
   ConfigReader r(node, id);
-  if (mode == TarrioMode::kPdrOnly) r.Read("start", &o.start, {"first-fix", "initial-pose"});
+  if (mode == TarrioMode::kPdrOnly) {
+    r.Read("start", &o.start, AllowedValues(kEstimatorStrings, "start"));
+  }
   const YAML::Node radio = r.Child("radio");
   const YAML::Node pdr = mode == TarrioMode::kRssOnly ? YAML::Node() : r.Child("pdr");
   // The filter's keys were checked above; mark them known for Finish().
   for (const auto& kv : own) r.Child(kv.first.Scalar());
   WG_RETURN_IF_ERROR(r.Finish());
-  if (o.start != "first-fix" && o.start != "initial-pose") {
-    return InvalidArgument(id + ": start must be 'first-fix' or 'initial-pose'");
-  }
+  WG_RETURN_IF_ERROR(CheckStringOptions(kEstimatorStrings, o, id));
   WG_ASSIGN_OR_RETURN(o.radio, RadioFrontEndOptions::FromYaml(radio, o.radio, id));
   WG_ASSIGN_OR_RETURN(o.pdr, PdrOptionsFromYaml(pdr,
                                                 {{"detector", "vertical-peak"},

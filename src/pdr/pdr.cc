@@ -13,7 +13,8 @@ namespace walkgraph {
 
 namespace {
 
-const std::vector<std::string> kLockoutKeep = {"first", "strongest"};
+const std::vector<StringOption<PdrOptions>> kStringOptions = {
+    {"energy_lockout_keep", &PdrOptions::energy_lockout_keep, {"first", "strongest"}}};
 const std::vector<std::pair<std::string, StepDetector>> kDetectorNames = {
     {"vertical-peak", StepDetector::kVerticalPeak},
     {"fir-magnitude", StepDetector::kFirMagnitude},
@@ -224,7 +225,8 @@ StatusOr<PdrOptions> PdrOptions::FromYaml(const YAML::Node& node) {
   r.Read("fir_peak_mps2", &o.fir_peak_mps2);
   r.Read("energy_threshold_m2ps4", &o.energy_threshold_m2ps4);
   r.Read("energy_lockout_s", &o.energy_lockout_s);
-  r.Read("energy_lockout_keep", &o.energy_lockout_keep, kLockoutKeep);
+  r.Read("energy_lockout_keep", &o.energy_lockout_keep,
+         AllowedValues(kStringOptions, "energy_lockout_keep"));
   r.Read("min_step_interval_s", &o.min_step_interval_s);
   r.Read("weinberg_k", &o.weinberg_k);
   r.Read("constant_length_m", &o.constant_length_m);
@@ -252,10 +254,7 @@ StatusOr<PdrOptions> PdrOptions::FromYaml(const YAML::Node& node) {
         "pdr: need fir_order >= 2, cut-offs > 0, 0 <= complementary_w <= 1, weinberg_k > 0, "
         "intervals >= 0, gravity_mps2 > 0");
   }
-  if (std::find(kLockoutKeep.begin(), kLockoutKeep.end(), o.energy_lockout_keep) ==
-      kLockoutKeep.end()) {
-    return InvalidArgument("pdr: energy_lockout_keep must be first|strongest");
-  }
+  WG_RETURN_IF_ERROR(CheckStringOptions(kStringOptions, o, "pdr"));
   return o;
 }
 

@@ -99,12 +99,10 @@ std::optional<double> YawSigma(FixedLagSmoother* smoother, StateKey q_key) {
   return std::sqrt((*c)(2, 2));
 }
 
-// The window's string options' values (read and checked against these).
-const std::vector<std::string> kWindowOutputs = {"lagged", "online"};
-const std::vector<std::string> kPreintegrationBias = {"front-end", "estimate"};
-bool OneOf(const std::string& v, const std::vector<std::string>& allowed) {
-  return std::find(allowed.begin(), allowed.end(), v) != allowed.end();
-}
+// The window's string options and their values (read and checked against these).
+const std::vector<StringOption<InsWindowOptions>> kStringOptions = {
+    {"window_output", &InsWindowOptions::window_output, {"lagged", "online"}},
+    {"preintegration_bias", &InsWindowOptions::preintegration_bias, {"front-end", "estimate"}}};
 
 }  // namespace
 
@@ -131,8 +129,9 @@ StatusOr<InsWindowOptions> InsWindowOptions::FromYaml(const YAML::Node& node,
   r.Read("lag_s", &o.lag_s);
   r.Read("window_update_s", &o.window_update_s);
   r.Read("window_max_iterations", &o.window_max_iterations);
-  r.Read("window_output", &o.window_output, kWindowOutputs);
-  r.Read("preintegration_bias", &o.preintegration_bias, kPreintegrationBias);
+  r.Read("window_output", &o.window_output, AllowedValues(kStringOptions, "window_output"));
+  r.Read("preintegration_bias", &o.preintegration_bias,
+         AllowedValues(kStringOptions, "preintegration_bias"));
   r.Read("window_marginalize_batch_s", &o.window_marginalize_batch_s);
   r.Read("window_initial_trust_region_radius", &o.window_initial_trust_region_radius);
   r.Read("gap_hold_max_s", &o.gap_hold_max_s);
@@ -150,12 +149,7 @@ StatusOr<InsWindowOptions> InsWindowOptions::FromYaml(const YAML::Node& node,
                            "window_initial_trust_region_radius > 0, gap_hold_max_s >= 0, "
                            "gap_release_yaw_sigma_rad > 0");
   }
-  if (!OneOf(o.window_output, kWindowOutputs)) {
-    return InvalidArgument(context + ": window_output must be lagged|online");
-  }
-  if (!OneOf(o.preintegration_bias, kPreintegrationBias)) {
-    return InvalidArgument(context + ": preintegration_bias must be front-end|estimate");
-  }
+  WG_RETURN_IF_ERROR(CheckStringOptions(kStringOptions, o, context));
   return o;
 }
 

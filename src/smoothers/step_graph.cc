@@ -56,11 +56,6 @@ const std::vector<std::string>& Allowed(const std::string& key) {
   return AllowedValues(StringOptions(), key);
 }
 
-// A robust loss on whitened residuals (scale in σ); nullptr for "none".
-std::shared_ptr<const ceres::LossFunction> MakeLoss(const std::string& name, double scale) {
-  return internal::MakeLoss(name, scale);
-}
-
 // σ-whitened Gaussian prior r = diag(1/σ)(x − μ) (Ceres' NormalPrior).
 std::unique_ptr<ceres::CostFunction> DiagonalPrior(const Eigen::VectorXd& mean,
                                                    const Eigen::VectorXd& sigma) {
@@ -637,9 +632,9 @@ StatusOr<std::unique_ptr<StepGraph>> StepGraph::Build(const Walk& walk, const St
   m.start = walk.meta.initial_pose;
   m.odometry = walk.has_odometry();
   m.o.path_loss = ResolvePathLoss(walk, o, &g->path_loss_held_radio_only_);
-  m.rss_loss = MakeLoss(o.rss_loss, o.rss_loss_scale);
-  m.range_loss = MakeLoss(o.range_loss, o.range_loss_scale);
-  m.mag_loss = MakeLoss(o.mag_heading_loss, o.mag_heading_loss_scale);
+  m.rss_loss = internal::MakeLoss(o.rss_loss, o.rss_loss_scale);
+  m.range_loss = internal::MakeLoss(o.range_loss, o.range_loss_scale);
+  m.mag_loss = internal::MakeLoss(o.mag_heading_loss, o.mag_heading_loss_scale);
 
   WG_RETURN_IF_ERROR(m.MakeNodes(walk, g.get()));
   m.DeadReckon(walk, g.get());
