@@ -135,12 +135,13 @@ TEST(Robustness, FootInsGraphBridgesAnImuGap) {
   for (const auto& [id, rmse] : gap) {
     std::printf("%-22s 10 s IMU gap: RMSE %.3f m, nominal %.3f m (%.2fx)\n", id.c_str(), rmse,
                 nominal[id], rmse / nominal[id]);
-    // The target is 2x. fg-ins-batch 1.12x and fg-ins-window 1.70x on these seeds (2.82x
-    // before the window was held open across the gap: InsWindowOptions::gap_hold_max_s). The
-    // online output is not held to it (4.19x): a causal estimate cannot know where the walker
-    // went during the 10 s nor, for the next ~15 s, which way they face; it is held at what it
-    // reaches so that it cannot get worse.
-    const double bound = id == "fg-ins-window-online" ? 5.0 : 2.0;
+    // The target is 2x. fg-ins-batch 0.99x and fg-ins-window 1.22x on these seeds (1.12x and
+    // 1.70x while the readings of the gap sat on the state before it; 2.82x for the window
+    // before it was held open across the gap: InsWindowOptions::gap_hold_max_s). The online
+    // output is not held to it (2.25x; 4.19x before the readings were fixed): a causal estimate
+    // knows where the walker is after the gap from the radio alone, and which way they face
+    // only some 15 s later.
+    const double bound = id == "fg-ins-window-online" ? 3.0 : 2.0;
     if (!testing::kSanitized) EXPECT_LE(rmse, bound * nominal[id]) << id;
   }
 }

@@ -387,7 +387,13 @@ Where ReceiverAt(const InsGraphContext& c, std::vector<InsState>* states, size_t
   InsState* a = &(*states)[j - 1];
   InsState* b = &(*states)[j];
   double alpha = (t - a->t_s) / (b->t_s - a->t_s);
-  if (c.path != nullptr && c.path->size() == w.imu.size()) {
+  // Across an IMU gap the front end's path stands still: it says nothing of the progress there,
+  // so a segment that spans a gap interpolates by time (the bridge's own assumption).
+  bool spans_gap = false;
+  for (size_t m = a->imu_index + 1; m <= b->imu_index && !spans_gap; ++m) {
+    spans_gap = w.imu[m].t_s - w.imu[m - 1].t_s > c.imu_gap_s;
+  }
+  if (!spans_gap && c.path != nullptr && c.path->size() == w.imu.size()) {
     const Eigen::Vector3d pa = (*c.path)[a->imu_index].p_n, pb = (*c.path)[b->imu_index].p_n;
     const Eigen::Vector3d d = pb - pa;
     if (d.squaredNorm() > 1e-4) {
