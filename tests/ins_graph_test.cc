@@ -304,6 +304,9 @@ TEST(InsGraphBatch, AnUncalibratedWrongExponentIsEstimated) {
     auto r = RunEstimator("fg-ins-batch", v);
     ASSERT_TRUE(r.ok()) << r.status().message();
     EXPECT_EQ(r->diagnostics.at("path_loss_estimated"), 1.0);
+    // Identical anchors: auto's χ² test keeps one model for the walk (measured T = 49 for 66
+    // anchors, critical 107).
+    EXPECT_EQ(r->diagnostics.at("path_loss_per_anchor"), 0.0) << f;
     EXPECT_NEAR(r->diagnostics.at("path_loss_eta"), 2.3, 0.4) << f;  // the simulator's η
     std::printf("eta x%.1f: RMSE %.3f m (nominal %.3f m), estimated eta %.2f\n", f, Rmse(v, *r),
                 Rmse(*w, *nominal), r->diagnostics.at("path_loss_eta"));
@@ -317,7 +320,7 @@ TEST(InsGraphBatch, AnUncalibratedWrongExponentIsEstimated) {
 // ±4 dB / ±0.4 around the declared model, a path loss per anchor tied to the walk's mean beats
 // one model for the walk, in the batch and in the window (which keys the anchors' blocks l(a)
 // and the mean m(0)); each anchor's estimate is in the diagnostics. Measured on seed 1:
-// fg-ins-batch 0.724 → 0.385 m, fg-ins-window 0.662 → 0.337 m.
+// fg-ins-batch 0.724 → 0.385 m, fg-ins-window 0.662 → 0.337 m; fg-ins-batch's auto 0.314 m.
 TEST(InsGraphBatch, HierarchicalPathLossFitsAnchorsThatDiffer) {
   auto w = SimulateScenario("jimenez-building", 1,
                             YAML::Load("{laps: 1, A_spread_db: 4, eta_spread: 0.4}"));
@@ -334,6 +337,20 @@ TEST(InsGraphBatch, HierarchicalPathLossFitsAnchorsThatDiffer) {
                 Rmse(*w, *per_anchor));
     EXPECT_LE(Rmse(*w, *per_anchor), 0.9 * Rmse(*w, *global)) << id;
   }
+  // fg-ins-batch's auto sees the anchors disagree with one model (measured T = 9,880 against a
+  // critical 107) and solves per anchor.
+  auto chosen = RunEstimator("fg-ins-batch", *w);
+  ASSERT_TRUE(chosen.ok()) << chosen.status().message();
+  EXPECT_EQ(chosen->diagnostics.at("path_loss_per_anchor"), 1.0);
+  EXPECT_GT(chosen->diagnostics.at("path_loss_anchor_chi2"),
+            chosen->diagnostics.at("path_loss_anchor_chi2_critical"));
+  auto global = RunEstimator("fg-ins-batch", *w, "{path_loss: global}");
+  ASSERT_TRUE(global.ok());
+  std::printf("fg-ins-batch auto: RMSE %.3f m\n", Rmse(*w, *chosen));
+  EXPECT_LE(Rmse(*w, *chosen), 0.9 * Rmse(*w, *global));
+  EXPECT_FALSE(EstimatorRegistry::Builtin()
+                   .Create("fg-ins-batch", YAML::Load("{path_loss_anchor_test_z: -1}"))
+                   .ok());
 }
 
 // Waypoints reach the foot-INS graph too (batch and window share InsRadioFactors): five truth

@@ -130,7 +130,7 @@ void InstallSignalHandlers() {
   std::fputs("walkgraph: internal error: unexpected exception; no output was written\n", stderr);
   ::_exit(1);
 }
-void OnCheckFailure() {
+[[noreturn]] void OnCheckFailure() {
   std::fputs("walkgraph: internal error: a check inside a dependency failed (see above)\n", stderr);
   ::_exit(1);
 }

@@ -2,6 +2,9 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
+#include <map>
+#include <numeric>
 #include <string>
 #include <unordered_map>
 #include <utility>
@@ -403,5 +406,37 @@ StatusOr<std::vector<Eigen::MatrixXd>> MarginalCovariances(
   for (auto& [key, st] : graph->states_) blocks[key] = {st.spec.value.data(), st.spec.t_s};
   return internal::KeyedMarginalCovariances(graph->problem_.get(), blocks, groups, "factor graph");
 }
+
+namespace internal {
+
+AnchorOffsetTest TestAnchorOffsets(const std::vector<std::pair<int, double>>& residuals,
+                                   double z_level) {
+  std::map<int, std::vector<double>> by_anchor;
+  for (const auto& [id, r] : residuals) by_anchor[id].push_back(std::clamp(r, -3.0, 3.0));
+  AnchorOffsetTest t;
+  for (const auto& [id, e] : by_anchor) {
+    const double n = static_cast<double>(e.size());
+    if (e.size() < 5) continue;
+    const double mean = std::accumulate(e.begin(), e.end(), 0.0) / n;
+    double ss = 0.0, lag1 = 0.0;
+    for (size_t k = 0; k < e.size(); ++k) {
+      ss += (e[k] - mean) * (e[k] - mean);
+      if (k > 0) lag1 += (e[k] - mean) * (e[k - 1] - mean);
+    }
+    const double rho = ss > 0.0 ? std::max(0.0, lag1 / ss) : 0.0;
+    const double n_eff = std::max(1.0, n * (1.0 - rho) / (1.0 + rho));
+    const double s = std::max(std::sqrt(ss / (n - 1.0)), 1e-3);
+    const double z = mean / (s / std::sqrt(n_eff));
+    t.statistic += z * z;
+    ++t.anchors;
+  }
+  if (t.anchors == 0) return t;
+  const double k = t.anchors, c = 2.0 / (9.0 * k);
+  t.critical = k * std::pow(1.0 - c + z_level * std::sqrt(c), 3);
+  t.disagree = t.statistic > t.critical;
+  return t;
+}
+
+}  // namespace internal
 
 }  // namespace walkgraph

@@ -73,6 +73,22 @@ StatusOr<Eigen::MatrixXd> CeresMarginalCovariance(ceres::Problem* problem,
                                                   const std::map<Key, KeyedBlock>& blocks,
                                                   const std::vector<Key>& keys, const char* who);
 
+// Do the anchors disagree with one walk-wide path loss? `residuals` holds each RSS reading's
+// anchor and whitened residual (measured − model) / σ in time order. Per anchor with at least
+// 5 readings, z = mean / (s / √n_eff), s the residuals' standard deviation and
+// n_eff = n (1 − ρ) / (1 + ρ) with ρ > 0 their lag-1 autocorrelation (shadowing along a walk is
+// correlated: n readings are worth fewer); residuals are clipped at ±3 (NLOS). Under one shared
+// model T = Σ z² ~ χ²(anchors); the anchors disagree when T exceeds its quantile at the normal
+// quantile z_level (Wilson–Hilferty: k (1 − 2/(9k) + z √(2/(9k)))³).
+struct AnchorOffsetTest {
+  double statistic = 0.0;  // T
+  int anchors = 0;         // degrees of freedom
+  double critical = 0.0;   // χ²(anchors) quantile
+  bool disagree = false;
+};
+AnchorOffsetTest TestAnchorOffsets(const std::vector<std::pair<int, double>>& residuals,
+                                   double z_level);
+
 }  // namespace internal
 }  // namespace walkgraph
 

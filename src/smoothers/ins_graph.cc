@@ -75,10 +75,10 @@ Status InsGraphOptions::Validate() const {
         "of front_end included, and Ceres tolerances)");
   }
   if (!(o.A_prior_sigma_db > 0) || !(o.eta_prior_sigma > 0) || !(o.A_spread_prior_db > 0) ||
-      !(o.eta_spread_prior > 0)) {
+      !(o.eta_spread_prior > 0) || !(o.path_loss_anchor_test_z >= 0)) {
     return InvalidArgument(
         "fg-ins-batch: A_prior_sigma_db, eta_prior_sigma, A_spread_prior_db and "
-        "eta_spread_prior must be > 0");
+        "eta_spread_prior must be > 0, path_loss_anchor_test_z >= 0");
   }
   return Status::Ok();
 }
@@ -165,6 +165,7 @@ StatusOr<InsGraphOptions> InsGraphOptions::FromYaml(const YAML::Node& node) {
   r.Read("eta_prior_sigma", &o.eta_prior_sigma);
   r.Read("A_spread_prior_db", &o.A_spread_prior_db);
   r.Read("eta_spread_prior", &o.eta_spread_prior);
+  r.Read("path_loss_anchor_test_z", &o.path_loss_anchor_test_z);
   r.Read("range_bias_sigma_m", &o.range_bias_sigma_m);
   WG_RETURN_IF_ERROR(r.Finish());
   if (front.IsDefined()) {
@@ -484,6 +485,7 @@ StatusOr<std::vector<InsFactor>> InsRadioFactors(const InsGraphContext& c,
         f = MakeFactor("rss", RssFactor<3>::CreateInterpolated(reading, at.alpha),
                        {at.a->p.data(), at.b->p.data(), path_loss});
       }
+      f.anchor_id = r.anchor_id;
       f.loss = internal::MakeLoss(o.rss_loss, o.rss_loss_scale);
       out.push_back(std::move(f));
     }
@@ -775,6 +777,103 @@ bool InsPoseCovariances(ceres::Problem* problem, std::vector<InsState>* states,
 
 }  // namespace
 
+namespace {
+
+// One batch solve of the foot-INS graph, relinearized while the biases move
+// (max_relinearizations), and its figures. rss: each RSS factor's anchor and residual block.
+struct InsBatchSolve {
+  std::unique_ptr<ceres::Problem> problem;
+  int iterations = 0, relinearizations = 0;
+  size_t num_radio = 0;
+  double initial_cost = 0.0, final_cost = 0.0;
+  bool converged = false;
+  std::vector<std::pair<int, ceres::ResidualBlockId>> rss;
+};
+
+// The graph of `states` (from their current values) with the walk's factors and the user's.
+StatusOr<std::unique_ptr<ceres::Problem>> BuildInsBatch(
+    const InsGraphContext& context, std::vector<InsState>* states, InsRadioBlocks* radio,
+    const std::vector<std::vector<GraphFactor>>& user, InsBatchSolve* out) {
+  auto problem = std::make_unique<ceres::Problem>();
+  ceres::Manifold* manifold = new NavQuaternionManifold;  // owned by the problem
+  for (InsState& s : *states) AddInsStateBlocks(problem.get(), &s, manifold);
+  WG_ASSIGN_OR_RETURN(std::vector<InsFactor> factors,
+                      InsSegmentFactors(context, states, 0, states->size() - 1));
+  AddInsFactors(problem.get(), &factors);
+  radio->bias_prior_added.clear();  // a new problem: priors again, bias values kept
+  radio->path_loss_prior_added = false;
+  radio->anchor_path_loss_prior_added.clear();
+  WG_ASSIGN_OR_RETURN(std::vector<InsFactor> radio_factors,
+                      InsRadioFactors(context, states, 0, states->size() - 1, radio));
+  out->num_radio = radio_factors.size();
+  out->rss.clear();
+  for (InsFactor& f : radio_factors) {
+    const ceres::ResidualBlockId id =
+        problem->AddResidualBlock(f.cost.release(), f.loss.release(), f.blocks);
+    if (f.kind == "rss") out->rss.emplace_back(f.anchor_id, id);
+  }
+  WG_RETURN_IF_ERROR(AddInsUserFactors(problem.get(), states, user));
+  HoldInsRadioBlocks(problem.get(), radio, context.options);
+  return problem;
+}
+
+StatusOr<InsBatchSolve> SolveInsBatch(const InsGraphContext& context, std::vector<InsState>* states,
+                                      InsRadioBlocks* radio,
+                                      const std::vector<std::vector<GraphFactor>>& user,
+                                      const ceres::Solver::Options& solver) {
+  const InsGraphOptions& o = context.options;
+  InsBatchSolve out;
+  for (int round = 0; round <= o.max_relinearizations; ++round) {
+    WG_ASSIGN_OR_RETURN(out.problem, BuildInsBatch(context, states, radio, user, &out));
+    std::vector<std::array<double, 6>> linearization(states->size());
+    for (size_t i = 0; i < states->size(); ++i) {
+      for (int k = 0; k < 3; ++k) {
+        linearization[i][k] = (*states)[i].bg[k];
+        linearization[i][3 + k] = (*states)[i].ba[k];
+      }
+    }
+    ceres::Solver::Summary summary;
+    ceres::Solve(solver, out.problem.get(), &summary);
+    WG_RETURN_IF_ERROR(internal::CheckSummary(summary, "fg-ins-batch").status());
+    if (round == 0) out.initial_cost = summary.initial_cost;
+    out.final_cost = summary.final_cost;
+    out.iterations += static_cast<int>(summary.iterations.size());
+    out.converged = summary.termination_type == ceres::CONVERGENCE;
+    double dg = 0.0, da = 0.0;
+    for (size_t i = 0; i < states->size(); ++i) {
+      for (int k = 0; k < 3; ++k) {
+        dg = std::max(dg, std::fabs((*states)[i].bg[k] - linearization[i][k]));
+        da = std::max(da, std::fabs((*states)[i].ba[k] - linearization[i][3 + k]));
+      }
+    }
+    if (dg <= o.relinearize_gyro_bias_radps && da <= o.relinearize_acc_bias_mps2) break;
+    if (round < o.max_relinearizations) ++out.relinearizations;
+  }
+  return out;
+}
+
+// auto's choice after a global solve (InsGraphOptions::path_loss): do the anchors' mean
+// residuals disagree with the one path loss?
+std::optional<internal::AnchorOffsetTest> TestInsAnchors(const InsGraphOptions& o,
+                                                         const InsRadioBlocks& radio,
+                                                         const InsBatchSolve& solve) {
+  if (o.path_loss != "auto" || !radio.estimate_path_loss || radio.per_anchor_path_loss ||
+      !(o.path_loss_anchor_test_z > 0) || solve.rss.empty()) {
+    return std::nullopt;
+  }
+  std::vector<std::pair<int, double>> residuals;
+  for (const auto& [anchor, id] : solve.rss) {
+    double r = 0.0;
+    if (solve.problem->EvaluateResidualBlock(id, /*apply_loss_function=*/false, nullptr, &r,
+                                             nullptr)) {
+      residuals.emplace_back(anchor, r);
+    }
+  }
+  return internal::TestAnchorOffsets(residuals, o.path_loss_anchor_test_z);
+}
+
+}  // namespace
+
 StatusOr<EstimateResult> InsGraphBatch::Run(const Walk& walk) const {
   WG_RETURN_IF_ERROR(CheckApplicable(walk));
   const InsGraphOptions& o = options_;
@@ -802,7 +901,6 @@ StatusOr<EstimateResult> InsGraphBatch::Run(const Walk& walk) const {
   WG_ASSIGN_OR_RETURN(const std::vector<std::vector<GraphFactor>> user,
                       InsUserFactors(context, &states));
 
-  EstimateResult result;
   SolverOptions so;  // single-threaded SPARSE_NORMAL_CHOLESKY: the same output for the same input
   so.max_iterations = o.max_iterations;
   so.function_tolerance = o.function_tolerance;
@@ -812,69 +910,39 @@ StatusOr<EstimateResult> InsGraphBatch::Run(const Walk& walk) const {
   WG_RETURN_IF_ERROR(so.Validate());
   const ceres::Solver::Options solver = internal::ToCeres(so);
 
-  std::unique_ptr<ceres::Problem> problem;
-  int iterations = 0, relinearizations = 0;
-  size_t num_radio = 0;
   InsRadioBlocks radio;
-  double initial_cost = 0.0, final_cost = 0.0;
-  bool converged = false;
-  for (int round = 0; round <= o.max_relinearizations; ++round) {
-    problem = std::make_unique<ceres::Problem>();
-    ceres::Manifold* manifold = new NavQuaternionManifold;  // owned by the problem
-    for (InsState& s : states) AddInsStateBlocks(problem.get(), &s, manifold);
-    WG_ASSIGN_OR_RETURN(std::vector<InsFactor> factors,
-                        InsSegmentFactors(context, &states, 0, states.size() - 1));
-    AddInsFactors(problem.get(), &factors);
-    radio.bias_prior_added.clear();  // a new problem: priors again, bias values kept
-    radio.path_loss_prior_added = false;
-    radio.anchor_path_loss_prior_added.clear();
-    WG_ASSIGN_OR_RETURN(std::vector<InsFactor> radio_factors,
-                        InsRadioFactors(context, &states, 0, states.size() - 1, &radio));
-    num_radio = radio_factors.size();
-    AddInsFactors(problem.get(), &radio_factors);
-    WG_RETURN_IF_ERROR(AddInsUserFactors(problem.get(), &states, user));
-    HoldInsRadioBlocks(problem.get(), &radio, o);
-    std::vector<std::array<double, 6>> linearization(states.size());
-    for (size_t i = 0; i < states.size(); ++i) {
-      for (int k = 0; k < 3; ++k) {
-        linearization[i][k] = states[i].bg[k];
-        linearization[i][3 + k] = states[i].ba[k];
-      }
-    }
-    ceres::Solver::Summary summary;
-    ceres::Solve(solver, problem.get(), &summary);
-    WG_RETURN_IF_ERROR(internal::CheckSummary(summary, "fg-ins-batch").status());
-    if (round == 0) initial_cost = summary.initial_cost;
-    final_cost = summary.final_cost;
-    iterations += static_cast<int>(summary.iterations.size());
-    converged = summary.termination_type == ceres::CONVERGENCE;
-    double dg = 0.0, da = 0.0;
-    for (size_t i = 0; i < states.size(); ++i) {
-      for (int k = 0; k < 3; ++k) {
-        dg = std::max(dg, std::fabs(states[i].bg[k] - linearization[i][k]));
-        da = std::max(da, std::fabs(states[i].ba[k] - linearization[i][3 + k]));
-      }
-    }
-    if (dg <= o.relinearize_gyro_bias_radps && da <= o.relinearize_acc_bias_mps2) break;
-    if (round < o.max_relinearizations) ++relinearizations;
+  WG_ASSIGN_OR_RETURN(InsBatchSolve solve, SolveInsBatch(context, &states, &radio, user, solver));
+  const std::optional<internal::AnchorOffsetTest> test = TestInsAnchors(o, radio, solve);
+  if (test && test->disagree) {  // per anchor, from the global solution
+    context.options.path_loss = "hierarchical";
+    const int iterations = solve.iterations;
+    WG_ASSIGN_OR_RETURN(solve, SolveInsBatch(context, &states, &radio, user, solver));
+    solve.iterations += iterations;
   }
 
-  // Marginal covariances of (x, y, yaw) per state.
+  EstimateResult result;
   std::vector<std::optional<Eigen::Matrix3d>> state_cov(states.size());
   bool cov_ok = false;
-  if (o.compute_covariance) cov_ok = InsPoseCovariances(problem.get(), &states, &radio, &state_cov);
+  if (o.compute_covariance) {
+    cov_ok = InsPoseCovariances(solve.problem.get(), &states, &radio, &state_cov);
+  }
   result.trajectory = InsStatesTrajectory(walk, states, state_cov, o, /*close_segments=*/true);
-
-  result.diagnostics["num_states"] = static_cast<double>(states.size());
-  result.diagnostics["num_strides"] = static_cast<double>(front.strides.steps.size());
-  result.diagnostics["num_radio_factors"] = static_cast<double>(num_radio);
-  AddInsPathLossDiagnostics(walk, radio, &result.diagnostics);
-  result.diagnostics["ceres_iterations"] = iterations;
-  result.diagnostics["ceres_initial_cost"] = initial_cost;
-  result.diagnostics["ceres_final_cost"] = final_cost;
-  result.diagnostics["ceres_converged"] = converged ? 1.0 : 0.0;
-  result.diagnostics["relinearizations"] = relinearizations;
-  result.diagnostics["covariance_ok"] = cov_ok ? 1.0 : 0.0;
+  auto& d = result.diagnostics;
+  d["num_states"] = static_cast<double>(states.size());
+  d["num_strides"] = static_cast<double>(front.strides.steps.size());
+  d["num_radio_factors"] = static_cast<double>(solve.num_radio);
+  AddInsPathLossDiagnostics(walk, radio, &d);
+  if (test) {
+    d["path_loss_anchor_chi2"] = test->statistic;
+    d["path_loss_anchor_chi2_critical"] = test->critical;
+    d["path_loss_per_anchor"] = test->disagree ? 1.0 : 0.0;
+  }
+  d["ceres_iterations"] = solve.iterations;
+  d["ceres_initial_cost"] = solve.initial_cost;
+  d["ceres_final_cost"] = solve.final_cost;
+  d["ceres_converged"] = solve.converged ? 1.0 : 0.0;
+  d["relinearizations"] = solve.relinearizations;
+  d["covariance_ok"] = cov_ok ? 1.0 : 0.0;
   return result;
 }
 
