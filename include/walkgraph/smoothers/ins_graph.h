@@ -54,7 +54,9 @@
 // Radio readings between states a and b are received at (1 − α)·p_a + α·p_b
 // (receiver_position.h) with α the progress along the front end's path at the reading's time,
 // α = clamp((p̃(t) − p̃_a)·(p̃_b − p̃_a)/‖p̃_b − p̃_a‖²), not the time fraction: between mid-stance
-// states the foot stands still for half the time. A reading at α < 1e-3 (> 1 − 1e-3) is tied
+// states the foot stands still for half the time. Across an IMU gap the front end's path
+// stands still, so there α is the time fraction (the bridge's own assumption: walking on at
+// constant pace). A reading at α < 1e-3 (> 1 − 1e-3) is tied
 // to state a (b) alone. Anchors are lowered by receiver_offset_z_m (distance from p + offset·ẑ
 // to a = distance from p to a − offset·ẑ). Without initial_pose but with radio, the gauge comes
 // from the anchors and the first state gets no position/yaw prior (the initial guess is then

@@ -84,8 +84,9 @@ struct InsWindowOptions {
   // held open from the state before the gap (FixedLagSmoother::HoldFrom) until the newest
   // state's yaw σ is back to that of the last state before the gap (gap_release_yaw_sigma_rad
   // when that one is not known), for at most gap_hold_max_s after the gap (0: no hold).
-  // Measured (jimenez-building, 3 laps, seed 5, gap at 40 %): released at 2σ_before after 26 s,
-  // RMSE 0.645 m; at σ_before after 48 s, 0.296 m; no hold 1.48 m; no gap 0.235 m.
+  // Measured (jimenez-building, 3 laps, seed 5, a 10 s gap at 40 %): released at σ_before
+  // after 54 s, RMSE 0.204 m; no hold 0.236 m; no gap 0.235 m. (Before the readings inside a
+  // gap were interpolated across it, ins_graph.h: held 0.296 m, no hold 1.48 m.)
   double gap_hold_max_s = 60.0;
   double gap_release_yaw_sigma_rad = 0.05;
 
