@@ -5,7 +5,7 @@
 
 #include "walkgraph/angle.h"
 #include "walkgraph/config.h"
-#include "walkgraph/filters/kalman.h"
+#include "walkgraph/kalman.h"
 
 namespace walkgraph {
 
