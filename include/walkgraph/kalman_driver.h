@@ -5,9 +5,10 @@
 // smooths with the one RTS (kalman.h RtsSmooth) and produces the trajectory.
 //
 // Two shapes:
-// - RunKalmanFilter: a state-space filter with one epoch per event time (tarrio's fix epochs,
-//   correa, gadeke): Initialize at the first time, then Predict and Update at each later one;
-//   RTS over every epoch when smoothing.
+// - RunKalmanFilter: a state-space filter with one epoch per event time (correa, gadeke):
+//   Initialize at the first time, Predict from each time to the next, Update at every time;
+//   RTS over every epoch when smoothing. (tarrio takes EventTimes only: its KF epochs are its
+//   fixes, its outputs between them PDR-propagated, and its baselines are not Kalman filters.)
 // - ClonedErrorSmoother: an error-state filter at IMU rate whose output epochs are decimated
 //   (jimenez, prieto): the filter carries a clone of its error at the last output epoch
 //   (stochastic cloning) and records each output epoch here; the RTS runs over those epochs
