@@ -13,7 +13,7 @@
 #include "walkgraph/angle.h"
 #include "walkgraph/convert.h"
 #include "walkgraph/estimator.h"
-#include "walkgraph/filters/kalman.h"
+#include "walkgraph/kalman.h"
 #include "walkgraph/metrics.h"
 #include "walkgraph/simulate.h"
 

@@ -1,4 +1,4 @@
-#include "walkgraph/filters/kalman.h"
+#include "walkgraph/kalman.h"
 
 #include <cmath>
 #include <map>

@@ -9,7 +9,8 @@
 #include "estimators/builtin.h"
 #include "walkgraph/angle.h"
 #include "walkgraph/config.h"
-#include "walkgraph/filters/kalman.h"
+#include "walkgraph/kalman.h"
+#include "walkgraph/kalman_driver.h"
 
 namespace walkgraph {
 
@@ -102,9 +103,64 @@ StatusOr<double> ScmtThreshold(const CorreaInputs& in, const CorreaEkfOptions& o
   return CorreaPowerThreshold(in.model, o.p_fa, d_max);
 }
 
-// (x, y, θ) and its covariance of each state (filtered or smoothed).
-void AppendTrajectory(const std::vector<SmoothedState>& states, Trajectory* trajectory) {
-  for (const SmoothedState& st : states) {
+// The EKF of 001 on [x y V θ] (eq. 3–12, 21), one epoch per LS fix, as kalman_driver.h runs it.
+class CorreaModel : public KalmanModel {
+ public:
+  CorreaModel(const CorreaInputs& in, const CorreaEkfOptions& o, double p_th)
+      : in_(in), o_(o), p_th_(p_th), s_(in.model.sign()) {}
+
+  int scmt_epochs() const { return scmt_epochs_; }
+
+  // The first fix (or, near an anchor, the anchor) with the epoch's position noise.
+  Status Initialize(double t, Eigen::VectorXd* x, Eigen::MatrixXd* P) override {
+    const Epoch z = Gather(t, true);
+    *x = Eigen::Vector4d(z.position.x(), z.position.y(), 0.0, 0.0);
+    *P = Eigen::Vector4d(z.r_pos, z.r_pos, 1.0, M_PI * M_PI).asDiagonal();
+    t_prev_ = t;
+    return Status::Ok();
+  }
+
+  // eq. 3, 8 and the covariance of eq. 9.
+  Status Predict(double t_prev, double t, Eigen::VectorXd* x, Eigen::MatrixXd* P,
+                 Eigen::MatrixXd* F) override {
+    t_prev_ = t_prev;
+    const double T = t - t_prev;
+    Eigen::Matrix4d M;
+    *x = CorreaPredict(Eigen::Vector4d(*x), T, &M);
+    const Eigen::Vector4d q(o_.q_position_m, o_.q_position_m, o_.q_speed_mps, o_.q_heading_rad);
+    *P = M * (*P) * M.transpose() + Eigen::MatrixXd(q.cwiseAbs2().asDiagonal());  // eq. 9
+    Symmetrize(P);
+    *F = M;
+    return Status::Ok();
+  }
+
+  // z = [x̂ ŷ V̂ θ̂] (eq. 4); without a step in the epoch V̂ = 0 and θ̂ is absent (eq. 10–12).
+  Status Update(size_t k, double t, KalmanRun* run) override {
+    if (k == 0) return Status::Ok();  // the first fix started the state
+    const Epoch z = Gather(t, false);
+    const double T = t - t_prev_;
+    const bool has_heading = z.n_steps > 0;
+    const int m = has_heading ? 4 : 3;
+    const double v_hat =
+        (o_.step_length_m > 0 ? z.n_steps * o_.step_length_m : z.length_sum) / T;  // eq. 6
+    const Eigen::VectorXd& x = run->x;
+    Eigen::VectorXd nu(m);
+    nu[0] = z.position.x() - x[0];
+    nu[1] = z.position.y() - x[1];
+    nu[2] = v_hat - x[2];
+    Eigen::VectorXd r_diag(m);
+    r_diag[0] = r_diag[1] = z.r_pos;
+    r_diag[2] = o_.sigma_v_mps * o_.sigma_v_mps;
+    if (has_heading) {
+      nu[3] = NormalizeAngle(z.heading - x[3]);
+      r_diag[3] = o_.sigma_theta_rad * o_.sigma_theta_rad;
+    }
+    const Eigen::MatrixXd H = Eigen::MatrixXd::Identity(m, 4);
+    return run->Update(nu, H, Eigen::MatrixXd(r_diag.asDiagonal()), o_.gate_probability).status();
+  }
+
+  // (x, y, θ) and its covariance.
+  TrajectoryPoint Output(size_t, const SmoothedState& st) const override {
     TrajectoryPoint pt;
     pt.t_s = st.t_s;
     pt.position_m = Eigen::Vector3d(st.x[0], st.x[1], 0.0);
@@ -115,110 +171,71 @@ void AppendTrajectory(const std::vector<SmoothedState>& states, Trajectory* traj
       for (int j = 0; j < 3; ++j) C(i, j) = st.P(idx[i], idx[j]);
     }
     pt.covariance = C;
-    trajectory->points.push_back(pt);
+    return pt;
   }
-}
 
-}  // namespace
-
-StatusOr<EstimateResult> RunCorreaEkf(const CorreaInputs& in, const CorreaEkfOptions& o) {
-  using Vec4 = Eigen::Matrix<double, 4, 1>;
-  using Mat4 = Eigen::Matrix<double, 4, 4>;
-  if (in.fixes.empty()) return FailedPrecondition("correa: no LS position fixes");
-  WG_ASSIGN_OR_RETURN(const double p_th, ScmtThreshold(in, o));
-  const double s = in.model.sign();
-  EstimateResult result;
-  result.diagnostics["p_th"] = o.scmt ? p_th : 0.0;
-  std::vector<FilterEpoch> epochs;
-  const std::vector<Step>& steps = in.steps.steps;
-  size_t si = 0, ri = 0;
-  Eigen::VectorXd x;
-  Eigen::MatrixXd P;
-  double t_prev = 0.0;
-  int scmt_epochs = 0;
-  for (size_t k = 0; k < in.fixes.size(); ++k) {
-    const PositionFix& fix = in.fixes[k];
-    const double t = fix.t_s;
-    // Speed (eq. 6) and heading (eq. 7) measurements of the steps in (t_prev, t].
+ private:
+  // One epoch's measurements: the steps and the strongest reading since the last fix.
+  struct Epoch {
     int n_steps = 0;
     double length_sum = 0.0, heading = 0.0;
-    for (; si < steps.size() && steps[si].t_s <= t; ++si) {
-      if (k == 0) continue;
-      ++n_steps;
-      length_sum += steps[si].length_m;
-      heading = steps[si].heading_rad;
+    Eigen::Vector2d position;  // the fix, or the strongest anchor near one (SCMT)
+    double r_pos = 0.0;        // eq. 21
+  };
+
+  Epoch Gather(double t, bool first) {
+    Epoch z;
+    // Speed (eq. 6) and heading (eq. 7) measurements of the steps in (t_prev, t].
+    const std::vector<Step>& steps = in_.steps.steps;
+    for (; si_ < steps.size() && steps[si_].t_s <= t; ++si_) {
+      if (first) continue;
+      ++z.n_steps;
+      z.length_sum += steps[si_].length_m;
+      z.heading = steps[si_].heading_rad;
     }
     // Strongest reading of the epoch (SCMT detector).
     double p_max = -std::numeric_limits<double>::infinity();
     Eigen::Vector2d strongest = Eigen::Vector2d::Zero();
-    for (; ri < in.rss.size() && in.rss[ri].t_s <= t; ++ri) {
-      const RangeMeasurement& m = in.rss[ri];
-      if (!m.from_rss || (k > 0 && m.t_s <= t_prev)) continue;
-      if (s * m.rss > p_max) {
-        p_max = s * m.rss;
+    for (; ri_ < in_.rss.size() && in_.rss[ri_].t_s <= t; ++ri_) {
+      const RangeMeasurement& m = in_.rss[ri_];
+      if (!m.from_rss || (!first && m.t_s <= t_prev_)) continue;
+      if (s_ * m.rss > p_max) {
+        p_max = s_ * m.rss;
         strongest = m.anchor_m.head<2>();
       }
     }
-    const bool near_anchor = o.scmt && p_max >= s * p_th;
-    const Eigen::Vector2d z_pos = near_anchor ? strongest : fix.position_m;
-    const double r_pos = near_anchor ? o.epsilon_m2 : o.sigma_p_m * o.sigma_p_m;  // eq. 21
-    scmt_epochs += near_anchor;
-    FilterEpoch e;
-    e.t_s = t;
-    if (k == 0) {
-      x = Vec4(z_pos.x(), z_pos.y(), 0.0, 0.0);
-      P = Vec4(r_pos, r_pos, 1.0, M_PI * M_PI).asDiagonal();
-      e.x_prior = e.x_post = x;
-      e.P_prior = e.P_post = P;
-      epochs.push_back(e);
-      t_prev = t;
-      continue;
-    }
-    const double T = t - t_prev;
-    Mat4 M;
-    x = CorreaPredict(Vec4(x), T, &M);
-    const Vec4 q(o.q_position_m, o.q_position_m, o.q_speed_mps, o.q_heading_rad);
-    P = M * P * M.transpose() + Eigen::MatrixXd(q.cwiseAbs2().asDiagonal());  // eq. 9
-    Symmetrize(&P);
-    e.F = M;
-    e.x_prior = x;
-    e.P_prior = P;
-    // z = [x̂ ŷ V̂ θ̂] (eq. 4); without a step in the epoch V̂ = 0 and θ̂ is absent.
-    const bool has_heading = n_steps > 0;
-    const int m = has_heading ? 4 : 3;
-    const double v_hat =
-        (o.step_length_m > 0 ? n_steps * o.step_length_m : length_sum) / T;  // eq. 6
-    Eigen::VectorXd nu(m);
-    nu[0] = z_pos.x() - x[0];
-    nu[1] = z_pos.y() - x[1];
-    nu[2] = v_hat - x[2];
-    Eigen::VectorXd r_diag(m);
-    r_diag[0] = r_diag[1] = r_pos;
-    r_diag[2] = o.sigma_v_mps * o.sigma_v_mps;
-    if (has_heading) {
-      nu[3] = NormalizeAngle(heading - x[3]);
-      r_diag[3] = o.sigma_theta_rad * o.sigma_theta_rad;
-    }
-    const Eigen::MatrixXd H = Eigen::MatrixXd::Identity(m, 4);
-    WG_ASSIGN_OR_RETURN(
-        UpdateOutcome out,  // eq. 10–12
-        KalmanUpdate(nu, H, Eigen::MatrixXd(r_diag.asDiagonal()), o.gate_probability, &x, &P));
-    x[3] = NormalizeAngle(x[3]);
-    RecordOutcome(out, &result.nis, &result.diagnostics);
-    e.x_post = x;
-    e.P_post = P;
-    epochs.push_back(e);
-    t_prev = t;
+    const bool near_anchor = o_.scmt && p_max >= s_ * p_th_;
+    z.position = near_anchor ? strongest : in_.fixes[fi_].position_m;
+    z.r_pos = near_anchor ? o_.epsilon_m2 : o_.sigma_p_m * o_.sigma_p_m;  // eq. 21
+    scmt_epochs_ += near_anchor;
+    ++fi_;
+    return z;
   }
-  result.diagnostics["scmt_epochs"] = scmt_epochs;
 
-  std::vector<SmoothedState> states;
-  if (o.smooth) {
-    WG_ASSIGN_OR_RETURN(states, RtsSmooth(epochs, {3}));
-  } else {
-    for (const FilterEpoch& e : epochs) states.push_back({e.t_s, e.x_post, e.P_post});
-  }
-  AppendTrajectory(states, &result.trajectory);
+  const CorreaInputs& in_;
+  const CorreaEkfOptions& o_;
+  const double p_th_, s_;
+  size_t si_ = 0, ri_ = 0, fi_ = 0;
+  double t_prev_ = 0.0;
+  int scmt_epochs_ = 0;
+};
+
+}  // namespace
+
+StatusOr<EstimateResult> RunCorreaEkf(const CorreaInputs& in, const CorreaEkfOptions& o) {
+  if (in.fixes.empty()) return FailedPrecondition("correa: no LS position fixes");
+  WG_ASSIGN_OR_RETURN(const double p_th, ScmtThreshold(in, o));
+  EstimateResult result;
+  result.diagnostics["p_th"] = o.scmt ? p_th : 0.0;
+  std::vector<double> times;
+  times.reserve(in.fixes.size());
+  for (const PositionFix& fix : in.fixes) times.push_back(fix.t_s);
+  CorreaModel model(in, o, p_th);
+  KalmanRunOptions run;
+  run.smooth = o.smooth;
+  run.angle_indices = {3};
+  WG_RETURN_IF_ERROR(RunKalmanFilter(times, &model, run, &result));
+  result.diagnostics["scmt_epochs"] = model.scmt_epochs();
   return result;
 }
 
@@ -247,13 +264,8 @@ StatusOr<CorreaEstimatorOptions> CorreaEstimatorOptions::FromYaml(const YAML::No
                                                                   const std::string& id) {
   CorreaEstimatorOptions o = PaperDefaults();
   WG_ASSIGN_OR_RETURN(const YAML::Node own, WithoutKeys(node, {"pdr", "radio"}, id));
-  for (const char* key : {"scmt", "smooth"}) {
-    if (own[key]) {
-      return InvalidArgument(id + ": option '" + key +
-                             "' is chosen by the estimator id (correa-ekf, correa-scmt-ekf, "
-                             "-rts), not by the config");
-    }
-  }
+  WG_RETURN_IF_ERROR(
+      RefuseKeysChosenById(own, {"scmt", "smooth"}, "correa-ekf, correa-scmt-ekf, -rts", id));
   ConfigReader r(node, id);
   const YAML::Node radio = r.Child("radio");
   YAML::Node pdr;

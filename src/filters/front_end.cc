@@ -68,6 +68,17 @@ StatusOr<YAML::Node> WithoutKeys(const YAML::Node& node, const std::vector<std::
   return out;
 }
 
+Status RefuseKeysChosenById(const YAML::Node& own, const std::vector<std::string>& keys,
+                            const std::string& ids, const std::string& id) {
+  for (const std::string& key : keys) {
+    if (own[key]) {
+      return InvalidArgument(id + ": option '" + key + "' is chosen by the estimator id (" + ids +
+                             "), not by the config");
+    }
+  }
+  return Status::Ok();
+}
+
 Status CheckStepInput(const Walk& walk, const PdrOptions& pdr, bool need_absolute_heading,
                       const std::string& id) {
   if (!walk.has_odometry()) {

@@ -5,7 +5,8 @@
 
 #include "estimators/builtin.h"
 #include "walkgraph/config.h"
-#include "walkgraph/filters/kalman.h"
+#include "walkgraph/kalman.h"
+#include "walkgraph/kalman_driver.h"
 
 namespace walkgraph {
 
@@ -44,97 +45,105 @@ StatusOr<GadekeKfOptions> GadekeKfOptions::FromYaml(const YAML::Node& node,
   return o;
 }
 
-StatusOr<EstimateResult> RunGadekeKf(const StepSequence& steps,
-                                     const std::vector<RangeMeasurement>& ranges,
-                                     const GadekeStart& start, const GadekeKfOptions& o) {
-  using Vec4 = Eigen::Matrix<double, 4, 1>;
-  using Mat4 = Eigen::Matrix<double, 4, 4>;
-  std::vector<double> times{start.t_s};
-  for (const Step& s : steps.steps) {
-    if (s.t_s > start.t_s) times.push_back(s.t_s);
-  }
-  for (const RangeMeasurement& m : ranges) {
-    if (m.t_s > start.t_s) times.push_back(m.t_s);
-  }
-  std::sort(times.begin(), times.end());
-  times.erase(std::unique(times.begin(), times.end()), times.end());
+namespace {
 
-  EstimateResult result;
-  std::vector<FilterEpoch> epochs;
-  std::vector<double> headings;
-  Eigen::VectorXd x = Vec4(start.position_m.x(), start.position_m.y(), 0.0, 0.0);
-  Eigen::MatrixXd P =
-      Vec4(start.sigma_m * start.sigma_m, start.sigma_m * start.sigma_m,
-           o.init_sigma_v_mps * o.init_sigma_v_mps, o.init_sigma_v_mps * o.init_sigma_v_mps)
-          .asDiagonal();
-  size_t si = 0, ri = 0;
-  while (si < steps.steps.size() && steps.steps[si].t_s <= start.t_s) ++si;
-  while (ri < ranges.size() && ranges[ri].t_s < start.t_s) ++ri;
-  double heading = 0.0;
-  for (size_t k = 0; k < times.size(); ++k) {
-    const double t = times[k];
-    FilterEpoch e;
-    e.t_s = t;
-    if (k > 0) {
-      const double dt = t - times[k - 1];
-      Eigen::Vector2d u = Eigen::Vector2d::Zero();  // B·u_k: PDR displacement (eq. 6)
-      for (; si < steps.steps.size() && steps.steps[si].t_s <= t; ++si) {
-        const Step& s = steps.steps[si];
-        if (o.pdr_input)
-          u += s.length_m * Eigen::Vector2d(std::cos(s.heading_rad), std::sin(s.heading_rad));
-        heading = s.heading_rad;
-      }
-      Mat4 A = Mat4::Identity();  // eq. 6 system matrix
-      A(0, 2) = A(1, 3) = dt;
-      A(2, 2) = A(3, 3) = std::pow(o.velocity_factor, dt * o.processing_rate_hz);
-      Mat4 Q = Mat4::Zero();
-      const double su = o.pdr_sigma_frac * u.norm();
-      Q(0, 0) = Q(1, 1) = su * su + o.q_position_m2ps * dt;
-      Q(2, 2) = Q(3, 3) = o.q_velocity_m2ps3 * dt;
-      x = A * x;
-      x.head<2>() += u;
-      P = A * P * A.transpose() + Q;
-      Symmetrize(&P);
-      e.F = A;
+// The KF of 003 on [p v] (eq. 6) with the PDR displacement as control input and the range EKF
+// update, one epoch per step or reading, as kalman_driver.h runs it.
+class GadekeModel : public KalmanModel {
+ public:
+  GadekeModel(const StepSequence& steps, const std::vector<RangeMeasurement>& ranges,
+              const GadekeStart& start, const GadekeKfOptions& o)
+      : steps_(steps.steps), ranges_(ranges), start_(start), o_(o) {
+    while (si_ < steps_.size() && steps_[si_].t_s <= start.t_s) ++si_;
+    while (ri_ < ranges_.size() && ranges_[ri_].t_s < start.t_s) ++ri_;
+  }
+
+  Status Initialize(double, Eigen::VectorXd* x, Eigen::MatrixXd* P) override {
+    const double s2 = start_.sigma_m * start_.sigma_m,
+                 v2 = o_.init_sigma_v_mps * o_.init_sigma_v_mps;
+    *x = Eigen::Vector4d(start_.position_m.x(), start_.position_m.y(), 0.0, 0.0);
+    *P = Eigen::Vector4d(s2, s2, v2, v2).asDiagonal();
+    return Status::Ok();
+  }
+
+  Status Predict(double t_prev, double t, Eigen::VectorXd* x, Eigen::MatrixXd* P,
+                 Eigen::MatrixXd* F) override {
+    const double dt = t - t_prev;
+    Eigen::Vector2d u = Eigen::Vector2d::Zero();  // B·u_k: PDR displacement (eq. 6)
+    for (; si_ < steps_.size() && steps_[si_].t_s <= t; ++si_) {
+      const Step& s = steps_[si_];
+      if (o_.pdr_input)
+        u += s.length_m * Eigen::Vector2d(std::cos(s.heading_rad), std::sin(s.heading_rad));
+      heading_ = s.heading_rad;
     }
-    e.x_prior = x;
-    e.P_prior = P;
-    for (; ri < ranges.size() && ranges[ri].t_s <= t; ++ri) {
-      const RangeMeasurement& m = ranges[ri];
+    Eigen::Matrix4d A = Eigen::Matrix4d::Identity();  // eq. 6 system matrix
+    A(0, 2) = A(1, 3) = dt;
+    A(2, 2) = A(3, 3) = std::pow(o_.velocity_factor, dt * o_.processing_rate_hz);
+    Eigen::Matrix4d Q = Eigen::Matrix4d::Zero();
+    const double su = o_.pdr_sigma_frac * u.norm();
+    Q(0, 0) = Q(1, 1) = su * su + o_.q_position_m2ps * dt;
+    Q(2, 2) = Q(3, 3) = o_.q_velocity_m2ps3 * dt;
+    *x = A * (*x);
+    x->head<2>() += u;
+    *P = A * (*P) * A.transpose() + Q;
+    Symmetrize(P);
+    *F = A;
+    return Status::Ok();
+  }
+
+  // The range readings up to t (EKF range Jacobian).
+  Status Update(size_t, double t, KalmanRun* run) override {
+    headings_.push_back(heading_);
+    for (; ri_ < ranges_.size() && ranges_[ri_].t_s <= t; ++ri_) {
+      const RangeMeasurement& m = ranges_[ri_];
+      const Eigen::VectorXd& x = run->x;
       const Eigen::Vector3d d(x[0] - m.anchor_m.x(), x[1] - m.anchor_m.y(),
-                              o.tag_height_m - m.anchor_m.z());
+                              o_.tag_height_m - m.anchor_m.z());
       const double h = std::max(d.norm(), 1e-3);
-      Eigen::MatrixXd H = Eigen::MatrixXd::Zero(1, 4);  // EKF range Jacobian
+      Eigen::MatrixXd H = Eigen::MatrixXd::Zero(1, 4);
       H(0, 0) = d.x() / h;
       H(0, 1) = d.y() / h;
       const Eigen::VectorXd nu = Eigen::VectorXd::Constant(1, m.range_m - h);
       const Eigen::MatrixXd R = Eigen::MatrixXd::Constant(1, 1, m.sigma_m * m.sigma_m);
-      WG_ASSIGN_OR_RETURN(UpdateOutcome out, KalmanUpdate(nu, H, R, o.gate_probability, &x, &P));
-      RecordOutcome(out, &result.nis, &result.diagnostics);
+      WG_RETURN_IF_ERROR(run->Update(nu, H, R, o_.gate_probability).status());
     }
-    e.x_post = x;
-    e.P_post = P;
-    epochs.push_back(e);
-    headings.push_back(heading);
+    return Status::Ok();
   }
 
-  std::vector<SmoothedState> states;
-  if (o.smooth) {
-    WG_ASSIGN_OR_RETURN(states, RtsSmooth(epochs));
-  } else {
-    for (const FilterEpoch& e : epochs) states.push_back({e.t_s, e.x_post, e.P_post});
-  }
-  for (size_t k = 0; k < states.size(); ++k) {
+  // Position and its covariance; the heading is the PDR's (the filter does not estimate it).
+  TrajectoryPoint Output(size_t k, const SmoothedState& st) const override {
     TrajectoryPoint pt;
-    pt.t_s = states[k].t_s;
-    pt.position_m = Eigen::Vector3d(states[k].x[0], states[k].x[1], 0.0);
-    pt.heading_rad = headings[k];
+    pt.t_s = st.t_s;
+    pt.position_m = Eigen::Vector3d(st.x[0], st.x[1], 0.0);
+    pt.heading_rad = headings_[k];
     Eigen::Matrix3d C = Eigen::Matrix3d::Zero();
-    C.topLeftCorner<2, 2>() = states[k].P.topLeftCorner(2, 2);
-    C(2, 2) = M_PI * M_PI;  // the filter does not estimate heading
+    C.topLeftCorner<2, 2>() = st.P.topLeftCorner(2, 2);
+    C(2, 2) = M_PI * M_PI;
     pt.covariance = C;
-    result.trajectory.points.push_back(pt);
+    return pt;
   }
+
+ private:
+  const std::vector<Step>& steps_;
+  const std::vector<RangeMeasurement>& ranges_;
+  const GadekeStart start_;
+  const GadekeKfOptions& o_;
+  size_t si_ = 0, ri_ = 0;
+  double heading_ = 0.0;
+  std::vector<double> headings_;  // the PDR heading at each epoch
+};
+
+}  // namespace
+
+StatusOr<EstimateResult> RunGadekeKf(const StepSequence& steps,
+                                     const std::vector<RangeMeasurement>& ranges,
+                                     const GadekeStart& start, const GadekeKfOptions& o) {
+  EstimateResult result;
+  GadekeModel model(steps, ranges, start, o);
+  KalmanRunOptions run;
+  run.smooth = o.smooth;
+  WG_RETURN_IF_ERROR(
+      RunKalmanFilter(EventTimes(start.t_s, steps.steps, ranges), &model, run, &result));
   return result;
 }
 
@@ -157,11 +166,7 @@ StatusOr<GadekeEstimatorOptions> GadekeEstimatorOptions::FromYaml(const YAML::No
                                                                   const std::string& id) {
   GadekeEstimatorOptions o = PaperDefaults();
   WG_ASSIGN_OR_RETURN(const YAML::Node own, WithoutKeys(node, {"pdr", "radio"}, id));
-  if (own["smooth"]) {
-    return InvalidArgument(id +
-                           ": option 'smooth' is chosen by the estimator id (gadeke-kf or "
-                           "gadeke-kf-rts), not by the config");
-  }
+  WG_RETURN_IF_ERROR(RefuseKeysChosenById(own, {"smooth"}, "gadeke-kf or gadeke-kf-rts", id));
   WG_ASSIGN_OR_RETURN(o.filter, GadekeKfOptions::FromYaml(own, id));
   o.filter.smooth = smooth;
   ConfigReader r(node, id);

@@ -13,8 +13,9 @@
 #include "estimators/builtin.h"
 #include "walkgraph/angle.h"
 #include "walkgraph/config.h"
-#include "walkgraph/filters/kalman.h"
 #include "walkgraph/filters/ranges.h"
+#include "walkgraph/kalman.h"
+#include "walkgraph/kalman_driver.h"
 
 namespace walkgraph {
 
@@ -425,56 +426,29 @@ void JimenezPredict(const ImuSample& prev, const ImuSample& cur, ImuSampling sam
   f->corrected = false;
 }
 
-// The error-state RTS with stochastic cloning (kalman.h's RtsSmooth): at each output epoch the
-// filter holds a clone of the error at the previous epoch; the epoch's error is 0 after the
-// reset (the chart origin), the clone's correction δx_{k|k+1} and covariance P_{k|k+1} and the
-// cross-covariance Cov(δx_{k+1}, δx_k) give C_k = Cov(δx_k, δx_{k+1}) P_{k+1}⁻¹ and
-//   δx_{k|N} = δx_{k|k+1} + C_k δx_{k+1|N},   P_{k|N} = P_{k|k+1} + C_k (P_{k+1|N} − P_{k+1}) C_kᵀ.
-class ClonedErrorRts {
- public:
-  void Reserve(size_t n) {
-    epochs_.reserve(n);
-    nominal_.reserve(n);
-  }
-  size_t size() const { return epochs_.size(); }
+using ClonedRts = ClonedErrorSmoother<JimenezNominal>;
 
-  // Closes the previous epoch from the clone and starts a new one at f's (reset) state.
-  void Record(FilterState* f) {
-    FilterEpoch e;
-    e.t_s = f->nominal.nav.t_s;
-    e.x_prior = e.x_post = Eigen::VectorXd::Zero(N);
-    e.P_prior = e.P_post = f->P.topLeftCorner(N, N);  // P_post: until the clone closes it
-    if (!epochs_.empty()) {
-      epochs_.back().x_post = f->dx.tail(N);
-      epochs_.back().P_post = f->P.bottomRightCorner(N, N);
-      e.P_cross = f->P.topRightCorner(N, N);  // Cov(δx_now, δx_k)
-    }
-    epochs_.push_back(std::move(e));
-    nominal_.push_back(f->nominal);
-    // New clone of the current error (which is 0 after the reset).
-    f->dx.tail(N).setZero();
-    f->P.bottomRightCorner(N, N) = f->P.topLeftCorner(N, N);
-    f->P.topRightCorner(N, N) = f->P.topLeftCorner(N, N);
-    f->P.bottomLeftCorner(N, N) = f->P.topLeftCorner(N, N);
-  }
+// An output epoch for the error-state RTS with stochastic cloning (kalman_driver.h): the clone
+// of the error at the previous epoch closes that epoch; then a new clone of the current error
+// (0 after the reset) starts.
+void RecordEpoch(FilterState* f, ClonedRts* rts) {
+  const ErrorClone clone{f->dx.tail(N), f->P.bottomRightCorner(N, N),
+                         f->P.topRightCorner(N, N)};  // Cov(δx_now, δx_k)
+  rts->Record(f->nominal.nav.t_s, f->nominal, f->P.topLeftCorner(N, N),
+              rts->size() > 0 ? &clone : nullptr);
+  f->dx.tail(N).setZero();
+  f->P.bottomRightCorner(N, N) = f->P.topLeftCorner(N, N);
+  f->P.topRightCorner(N, N) = f->P.topLeftCorner(N, N);
+  f->P.bottomLeftCorner(N, N) = f->P.topLeftCorner(N, N);
+}
 
-  // The backward pass, each smoothed error injected into its epoch's nominal state.
-  StatusOr<std::vector<TrajectoryPoint>> Smooth() const {
-    WG_ASSIGN_OR_RETURN(const std::vector<SmoothedState> smoothed, RtsSmooth(epochs_));
-    std::vector<TrajectoryPoint> out(epochs_.size());
-    for (size_t k = 0; k < epochs_.size(); ++k) {
-      JimenezNominal nominal = nominal_[k];
-      Eigen::MatrixXd P = smoothed[k].P;
-      JimenezInjectError(smoothed[k].x, &nominal, &P);
-      out[k] = OutputPoint(nominal, P);
-    }
-    return out;
-  }
-
- private:
-  std::vector<FilterEpoch> epochs_;
-  std::vector<JimenezNominal> nominal_;
-};
+// Each smoothed error injected into its epoch's nominal state.
+TrajectoryPoint SmoothedPoint(const JimenezNominal& nominal, const SmoothedState& smoothed) {
+  JimenezNominal y = nominal;
+  Eigen::MatrixXd P = smoothed.P;
+  JimenezInjectError(smoothed.x, &y, &P);
+  return OutputPoint(y, P);
+}
 
 // The measurement models of 004 at one IMU sample (Algorithm 1), on the running filter.
 class IezUpdates {
@@ -546,12 +520,7 @@ class IezUpdates {
     const Eigen::MatrixXd R =
         Eigen::MatrixXd::Constant(1, 1, o_.compass_sigma_rad * o_.compass_sigma_rad);
     WG_ASSIGN_OR_RETURN(UpdateOutcome out, Update(z, H, R, o_.compass_gate_probability, f));
-    if (out.accepted) {
-      d_->nis_compass.push_back(out.nis);
-      diag_["compass_updates"] += 1;
-    } else {
-      diag_["compass_gated"] += 1;
-    }
+    Count(out, &d_->nis_compass, "compass");
     return Status::Ok();
   }
 
@@ -567,14 +536,20 @@ class IezUpdates {
       const Eigen::VectorXd z = Eigen::VectorXd::Constant(1, m.range_m - predicted);  // eq. 2
       const Eigen::MatrixXd R = Eigen::MatrixXd::Constant(1, 1, m.sigma_m * m.sigma_m);
       WG_ASSIGN_OR_RETURN(UpdateOutcome out, Update(z, H, R, o_.range_gate_probability, f));
-      if (out.accepted) {
-        d_->nis_range.push_back(out.nis);
-        diag_["range_updates"] += 1;
-      } else {
-        diag_["range_gated"] += 1;
-      }
+      Count(out, &d_->nis_range, "range");
     }
     return Status::Ok();
+  }
+
+  // A gated update's bookkeeping: an accepted one's NIS in `nis` and a count in
+  // <name>_updates, a gated one counted in <name>_gated.
+  void Count(const UpdateOutcome& out, std::vector<double>* nis, const std::string& name) {
+    if (out.accepted) {
+      nis->push_back(out.nis);
+      diag_[name + "_updates"] += 1;
+    } else {
+      diag_[name + "_gated"] += 1;
+    }
   }
 
   const std::vector<ImuSample>& imu_;
@@ -632,11 +607,11 @@ StatusOr<EstimateResult> RunJimenezIez(const Walk& walk, const JimenezIezOptions
                           "compass_gated", "range_updates", "range_gated"}) {
     diag[key] = 0.0;
   }
-  ClonedErrorRts rts;
+  ClonedRts rts;
   if (o.smooth) rts.Reserve((n_imu - 1) / static_cast<size_t>(decimation) + 2);
   auto epoch = [&]() {
     if (o.smooth) {
-      rts.Record(&f);
+      RecordEpoch(&f, &rts);
     } else {
       result.trajectory.points.push_back(OutputPoint(f.nominal, f.P));
     }
@@ -659,7 +634,7 @@ StatusOr<EstimateResult> RunJimenezIez(const Walk& walk, const JimenezIezOptions
     if (k % static_cast<size_t>(decimation) == 0 || k + 1 == n_imu) epoch();
   }
   if (o.smooth) {
-    StatusOr<std::vector<TrajectoryPoint>> smoothed = rts.Smooth();
+    StatusOr<std::vector<TrajectoryPoint>> smoothed = rts.Smooth(SmoothedPoint);
     if (!smoothed.ok()) {
       return Status(smoothed.status().code(), "jimenez-iez-rts: " + smoothed.status().message());
     }

@@ -14,8 +14,9 @@
 #include "estimators/builtin.h"
 #include "walkgraph/angle.h"
 #include "walkgraph/config.h"
-#include "walkgraph/filters/kalman.h"
 #include "walkgraph/filters/ranges.h"
+#include "walkgraph/kalman.h"
+#include "walkgraph/kalman_driver.h"
 #include "walkgraph/path_loss.h"
 
 namespace walkgraph {
@@ -434,11 +435,7 @@ bool MakePositiveDefinite(Eigen::MatrixXd* P, Eigen::LLT<Eigen::MatrixXd>* llt) 
 }
 
 // The state at the last stored (RTS) epoch j, carried along with the filter (see prieto.h).
-struct Clone {
-  Eigen::VectorXd delta;  // δ_j: correction of x_{j|j} in its chart
-  Eigen::MatrixXd P_jj;   // P_{j|k}
-  Eigen::MatrixXd P_cj;   // P_{kj|k}: current error × clone error
-};
+using Clone = ErrorClone;
 
 class PrietoCore {
  public:
@@ -984,20 +981,6 @@ struct StateHealth {
   }
 };
 
-// An RTS epoch at t: in the chart of the filter state x_{m|m}, x_prior = 0 and x_post = δ (the
-// clone's correction, set when the next epoch closes the clone), F from the previous epoch (see
-// prieto.h).
-FilterEpoch CloneEpoch(double t, int dim, const Eigen::MatrixXd& P) {
-  FilterEpoch e;
-  e.t_s = t;
-  e.x_prior = Eigen::VectorXd::Zero(dim);
-  e.P_prior = P;
-  e.x_post = e.x_prior;
-  e.P_post = e.P_prior;  // until the next epoch closes the clone (the last one keeps it)
-  e.F = Eigen::MatrixXd::Identity(dim, dim);
-  return e;
-}
-
 }  // namespace
 
 Status CheckPrietoApplicable(const Walk& walk, const PrietoOptions& options) {
@@ -1064,9 +1047,8 @@ StatusOr<EstimateResult> RunPrietoFilter(const Walk& walk, const PrietoOptions& 
   };
 
   // RTS epochs: the filter state x_{m|m} (chart origin) and, in that chart, x_prior = 0,
-  // x_post = δ (the clone's correction), F from the previous epoch (see prieto.h).
-  std::vector<NominalState> stored;
-  std::vector<FilterEpoch> epochs;
+  // x_post = δ (the clone's correction), the clone's cross-covariance (see prieto.h).
+  ClonedErrorSmoother<NominalState> rts;
   const double period = 1.0 / o.output_rate_hz;
   double next_out = times.front();
   size_t ri = 0;
@@ -1099,25 +1081,17 @@ StatusOr<EstimateResult> RunPrietoFilter(const Walk& walk, const PrietoOptions& 
       result.trajectory.points.push_back(ToPoint(t, core.y(), core.P()));
       continue;
     }
-    FilterEpoch e = CloneEpoch(t, dim, core.P());
-    if (core.cloning()) {
-      const Clone& c = core.clone();
-      epochs.back().x_post = c.delta;
-      epochs.back().P_post = c.P_jj;
-      e.P_cross = c.P_cj;  // P_{mj|m}: RtsSmooth's C = P_{mj|m}ᵀ P_{m|m}⁻¹
-    }
-    stored.push_back(core.y());
-    epochs.push_back(std::move(e));
+    // The clone's P_{mj|m} closes the last epoch: RtsSmooth's C = P_{mj|m}ᵀ P_{m|m}⁻¹.
+    rts.Record(t, core.y(), core.P(), core.cloning() ? &core.clone() : nullptr);
     core.StartClone();
   }
 
   if (o.smooth) {
-    WG_ASSIGN_OR_RETURN(const std::vector<SmoothedState> smoothed, RtsSmooth(epochs));
-    for (size_t i = 0; i < stored.size(); ++i) {
-      const NominalState ys = prieto::Retract(stored[i], smoothed[i].x);
-      result.trajectory.points.push_back(ToPoint(smoothed[i].t_s, ys, smoothed[i].P));
-    }
-    result.diagnostics["rts_epochs"] = static_cast<double>(stored.size());
+    WG_ASSIGN_OR_RETURN(result.trajectory.points,
+                        rts.Smooth([](const NominalState& y, const SmoothedState& s) {
+                          return ToPoint(s.t_s, prieto::Retract(y, s.x), s.P);
+                        }));
+    result.diagnostics["rts_epochs"] = static_cast<double>(rts.size());
   }
 
   book.Report(&result.diagnostics);

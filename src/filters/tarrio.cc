@@ -5,7 +5,8 @@
 
 #include "estimators/builtin.h"
 #include "walkgraph/config.h"
-#include "walkgraph/filters/kalman.h"
+#include "walkgraph/kalman.h"
+#include "walkgraph/kalman_driver.h"
 
 namespace walkgraph {
 
@@ -95,21 +96,6 @@ Status CheckTarrioInputs(const StepSequence& steps, const std::vector<PositionFi
   return Status::Ok();
 }
 
-// Event times: every step and every fix from t0 on, sorted, each once.
-std::vector<double> EventTimes(const StepSequence& steps, const std::vector<PositionFix>& fixes,
-                               double t0) {
-  std::vector<double> times;
-  for (const PositionFix& f : fixes) {
-    if (f.t_s >= t0) times.push_back(f.t_s);
-  }
-  for (const Step& s : steps.steps) {
-    if (s.t_s >= t0) times.push_back(s.t_s);
-  }
-  std::sort(times.begin(), times.end());
-  times.erase(std::unique(times.begin(), times.end()), times.end());
-  return times;
-}
-
 // The KF epoch of a fix at t (eq. 8–12): prior from the last epoch, Joseph-form update.
 StatusOr<FilterEpoch> KalmanFixEpoch(const PositionFix& f, double t, double t_epoch,
                                      const Eigen::Vector2d& p_epoch, const Eigen::Matrix2d& P_epoch,
@@ -181,7 +167,7 @@ StatusOr<EstimateResult> RunTarrio(const StepSequence& steps, const std::vector<
       mode == TarrioMode::kPdrOnly && (fixes.empty() || steps.steps.front().t_s < fixes.front().t_s)
           ? steps.steps.front().t_s
           : fixes.front().t_s;
-  const std::vector<double> times = EventTimes(steps, fixes, t0);
+  const std::vector<double> times = EventTimes(t0, fixes, steps.steps);  // kalman_driver.h
 
   EstimateResult result;
   std::vector<FilterEpoch> epochs;
@@ -281,11 +267,7 @@ StatusOr<TarrioEstimatorOptions> TarrioEstimatorOptions::FromYaml(const YAML::No
                                                                   const std::string& id) {
   TarrioEstimatorOptions o = PaperDefaults();
   WG_ASSIGN_OR_RETURN(const YAML::Node own, WithoutKeys(node, {"pdr", "radio", "start"}, id));
-  if (own["smooth"]) {
-    return InvalidArgument(id +
-                           ": option 'smooth' is chosen by the estimator id (tarrio-kf or "
-                           "tarrio-kf-rts), not by the config");
-  }
+  WG_RETURN_IF_ERROR(RefuseKeysChosenById(own, {"smooth"}, "tarrio-kf or tarrio-kf-rts", id));
   WG_ASSIGN_OR_RETURN(o.filter, TarrioKfOptions::FromYaml(own, id));
   o.filter.smooth = smooth;
   // The rest: pdr, radio and (pdr-only) start.

@@ -5,7 +5,7 @@
 
 #include "walkgraph/angle.h"
 #include "walkgraph/config.h"
-#include "walkgraph/filters/kalman.h"
+#include "walkgraph/kalman.h"
 
 namespace walkgraph {
 
@@ -307,6 +307,87 @@ StatusOr<StrideOptions> StrideOptions::FromYaml(const YAML::Node& node) {
   return o;
 }
 
+namespace {
+
+// The running filter: nominal state, biases and the error covariance. Each update of the error
+// state is injected into the nominal state at once (the error resets).
+struct ZuptInsFilter {
+  NavState x;
+  Eigen::Vector3d ba = Eigen::Vector3d::Zero(), bg = Eigen::Vector3d::Zero();
+  Eigen::MatrixXd P;
+  Eigen::MatrixXd F = Eigen::MatrixXd::Identity(kN, kN), Q = Eigen::MatrixXd::Zero(kN, kN);
+
+  Status Update(const Eigen::VectorXd& innovation, const Eigen::MatrixXd& H, double sigma) {
+    Eigen::VectorXd dx = Eigen::VectorXd::Zero(kN);
+    const Eigen::MatrixXd R =
+        Eigen::MatrixXd::Identity(innovation.size(), innovation.size()) * (sigma * sigma);
+    WG_RETURN_IF_ERROR(KalmanUpdate(innovation, H, R, 0.0, &dx, &P).status());
+    x.p_n += dx.segment<3>(kP);
+    x.v_n += dx.segment<3>(kV);
+    x.q_nb = (QuaternionExp(dx.segment<3>(kTh)) * x.q_nb).normalized();
+    ba += dx.segment<3>(kBa);
+    bg += dx.segment<3>(kBg);
+    return Status::Ok();
+  }
+
+  // Strapdown mechanization over [prev, cur] and the error covariance with it.
+  void Predict(const ImuSample& prev, const ImuSample& cur, const StrideOptions& o,
+               StrapdownOptions* sd) {
+    const double dt = cur.t_s - prev.t_s;
+    const Eigen::Matrix3d R = x.q_nb.toRotationMatrix();
+    const Eigen::Vector3d f_b = o.sampling == ImuSampling::kIntervalAverage
+                                    ? Eigen::Vector3d(cur.acc_mps2 - ba)
+                                    : Eigen::Vector3d(0.5 * (prev.acc_mps2 + cur.acc_mps2) - ba);
+    ErrorTransition(R, f_b, dt, sd->max_dt_s, o, &F, &Q);
+    sd->acc_bias_mps2 = ba;
+    sd->gyro_bias_radps = bg;
+    x = StrapdownStep(x, prev, cur, *sd);
+    P = F * P * F.transpose() + Q;
+    Symmetrize(&P);
+  }
+};
+
+// The strides: at the reference sample the stride origin (position, yaw) is set, at the end of
+// each later stance phase a stride is emitted; either way position and yaw restart (their rows
+// of P are reset).
+class StrideEmitter {
+ public:
+  StrideEmitter(const std::vector<ImuSample>& imu, const StrideOptions& o, size_t first_phase,
+                const InitialPose* pose0, const NavState& x0)
+      : imu_(imu),
+        o_(o),
+        next_phase_(first_phase),
+        p_ref_(x0.p_n),
+        yaw_ref_(Yaw(x0.q_nb)),
+        t_ref_(imu[0].t_s),
+        heading_var_(pose0 ? pose0->sigma_heading_rad * pose0->sigma_heading_rad : 0.0) {}
+
+  void At(size_t k, ZuptInsFilter* f, ZuptInsSolution* out) {
+    if (k != out->reference_index) {
+      if (next_phase_ >= out->phases.size() || out->phases[next_phase_].end != k) return;
+      ++next_phase_;
+      const Eigen::Matrix3d& c = out->stride_covariance[k];
+      out->strides.steps.push_back(MakeStride(imu_[k].t_s, t_ref_, (f->x.p_n - p_ref_).head<2>(),
+                                              Yaw(f->x.q_nb), yaw_ref_, c, o_, &heading_var_));
+      out->stride_end.push_back(k);
+      out->stride_increment_covariance.push_back(c);
+    }
+    p_ref_ = f->x.p_n;
+    yaw_ref_ = Yaw(f->x.q_nb);
+    t_ref_ = imu_[k].t_s;
+    ResetStrideRows(&f->P);
+  }
+
+ private:
+  const std::vector<ImuSample>& imu_;
+  const StrideOptions& o_;
+  size_t next_phase_;
+  Eigen::Vector3d p_ref_;
+  double yaw_ref_, t_ref_, heading_var_;
+};
+
+}  // namespace
+
 StatusOr<ZuptInsSolution> RunZuptIns(const Walk& walk, const StrideOptions& o) {
   WG_RETURN_IF_ERROR(CheckOptions(o));
   WG_RETURN_IF_ERROR(CheckImu(walk));
@@ -328,12 +409,12 @@ StatusOr<ZuptInsSolution> RunZuptIns(const Walk& walk, const StrideOptions& o) {
 
   WG_ASSIGN_OR_RETURN(const Eigen::Vector3d f_mean, LevellingForce(imu, out.phases));
   const InitialPose* pose0 = walk.meta.initial_pose ? &*walk.meta.initial_pose : nullptr;
-  NavState x;
-  x.t_s = imu[0].t_s;
-  x.q_nb = LevelledAttitude(f_mean, pose0 ? pose0->heading_rad : 0.0);
-  if (pose0) x.p_n = Eigen::Vector3d(pose0->x_m, pose0->y_m, 0.0);
-  Eigen::Vector3d ba = Eigen::Vector3d::Zero(), bg = bg0;
-  Eigen::MatrixXd P = InitialCovariance(o);
+  ZuptInsFilter f;
+  f.x.t_s = imu[0].t_s;
+  f.x.q_nb = LevelledAttitude(f_mean, pose0 ? pose0->heading_rad : 0.0);
+  if (pose0) f.x.p_n = Eigen::Vector3d(pose0->x_m, pose0->y_m, 0.0);
+  f.bg = bg0;
+  f.P = InitialCovariance(o);
 
   StrapdownOptions sd;
   sd.gravity_mps2 = o.gravity_mps2;
@@ -346,83 +427,24 @@ StatusOr<ZuptInsSolution> RunZuptIns(const Walk& walk, const StrideOptions& o) {
   out.stride_covariance.resize(n);
   out.strides.absolute_heading = pose0 != nullptr;
 
-  // An update of the error state, injected into the nominal state at once (the error resets).
-  auto update = [&](const Eigen::VectorXd& innovation, const Eigen::MatrixXd& H,
-                    double sigma) -> Status {
-    Eigen::VectorXd dx = Eigen::VectorXd::Zero(kN);
-    const Eigen::MatrixXd R =
-        Eigen::MatrixXd::Identity(innovation.size(), innovation.size()) * (sigma * sigma);
-    WG_RETURN_IF_ERROR(KalmanUpdate(innovation, H, R, 0.0, &dx, &P).status());
-    x.p_n += dx.segment<3>(kP);
-    x.v_n += dx.segment<3>(kV);
-    x.q_nb = (QuaternionExp(dx.segment<3>(kTh)) * x.q_nb).normalized();
-    ba += dx.segment<3>(kBa);
-    bg += dx.segment<3>(kBg);
-    return Status::Ok();
-  };
   Eigen::MatrixXd H_zupt = Eigen::MatrixXd::Zero(3, kN);
   H_zupt.block<3, 3>(0, kV).setIdentity();
   Eigen::MatrixXd H_zaru = Eigen::MatrixXd::Zero(3, kN);
   H_zaru.block<3, 3>(0, kBg).setIdentity();
-  // ZUPT and ZARU at sample k, then the sample's record.
-  auto measure_and_record = [&](size_t k) -> Status {
-    if (out.zupt[k]) WG_RETURN_IF_ERROR(update(-x.v_n, H_zupt, o.zupt_sigma_mps));
+  StrideEmitter strides(imu, o, first_phase, pose0, f.x);
+  // At each sample (the first without a prediction): ZUPT and ZARU, the sample's record, then
+  // the stride reset or emission.
+  for (size_t k = 0; k < n; ++k) {
+    if (k > 0) f.Predict(imu[k - 1], imu[k], o, &sd);
+    if (out.zupt[k]) WG_RETURN_IF_ERROR(f.Update(-f.x.v_n, H_zupt, o.zupt_sigma_mps));
     if (zaru && out.stance.still[k]) {
-      WG_RETURN_IF_ERROR(update(imu[k].gyro_radps - bg, H_zaru, o.zaru_sigma_radps));
+      WG_RETURN_IF_ERROR(f.Update(imu[k].gyro_radps - f.bg, H_zaru, o.zaru_sigma_radps));
     }
-    out.states[k] = x;
-    out.acc_bias_mps2[k] = ba;
-    out.gyro_bias_radps[k] = bg;
-    out.stride_covariance[k] = StrideBlock(P);
-    return Status::Ok();
-  };
-
-  Eigen::Vector3d p_ref = x.p_n;
-  double yaw_ref = Yaw(x.q_nb), t_ref = imu[0].t_s;
-  double heading_var = pose0 ? pose0->sigma_heading_rad * pose0->sigma_heading_rad : 0.0;
-  size_t next_phase = first_phase;
-  auto emit_or_reset = [&](size_t k) {
-    if (k == out.reference_index) {
-      p_ref = x.p_n;
-      yaw_ref = Yaw(x.q_nb);
-      t_ref = imu[k].t_s;
-      ResetStrideRows(&P);
-      return;
-    }
-    if (next_phase >= out.phases.size() || out.phases[next_phase].end != k) return;
-    ++next_phase;
-    const double yaw = Yaw(x.q_nb);
-    const Eigen::Matrix3d& c = out.stride_covariance[k];
-    out.strides.steps.push_back(
-        MakeStride(imu[k].t_s, t_ref, (x.p_n - p_ref).head<2>(), yaw, yaw_ref, c, o, &heading_var));
-    out.stride_end.push_back(k);
-    out.stride_increment_covariance.push_back(c);
-    p_ref = x.p_n;
-    yaw_ref = yaw;
-    t_ref = imu[k].t_s;
-    ResetStrideRows(&P);
-  };
-
-  // Sample 0: updates at the first sample, then the per-interval loop.
-  WG_RETURN_IF_ERROR(measure_and_record(0));
-  emit_or_reset(0);
-  Eigen::MatrixXd F = Eigen::MatrixXd::Identity(kN, kN);
-  Eigen::MatrixXd Q = Eigen::MatrixXd::Zero(kN, kN);
-  for (size_t k = 1; k < n; ++k) {
-    const double dt = imu[k].t_s - imu[k - 1].t_s;
-    const Eigen::Matrix3d R = x.q_nb.toRotationMatrix();
-    const Eigen::Vector3d f_b =
-        o.sampling == ImuSampling::kIntervalAverage
-            ? Eigen::Vector3d(imu[k].acc_mps2 - ba)
-            : Eigen::Vector3d(0.5 * (imu[k - 1].acc_mps2 + imu[k].acc_mps2) - ba);
-    ErrorTransition(R, f_b, dt, sd.max_dt_s, o, &F, &Q);
-    sd.acc_bias_mps2 = ba;
-    sd.gyro_bias_radps = bg;
-    x = StrapdownStep(x, imu[k - 1], imu[k], sd);
-    P = F * P * F.transpose() + Q;
-    Symmetrize(&P);
-    WG_RETURN_IF_ERROR(measure_and_record(k));
-    emit_or_reset(k);
+    out.states[k] = f.x;
+    out.acc_bias_mps2[k] = f.ba;
+    out.gyro_bias_radps[k] = f.bg;
+    out.stride_covariance[k] = StrideBlock(f.P);
+    strides.At(k, &f, &out);
   }
   return out;
 }

@@ -58,6 +58,10 @@ StatusOr<PdrOptions> PdrOptionsFromYaml(const YAML::Node& node,
 // Fails when `node` is neither absent, null nor a map.
 StatusOr<YAML::Node> WithoutKeys(const YAML::Node& node, const std::vector<std::string>& keys,
                                  const std::string& context);
+// Fails when a filter's own options `own` name one of `keys`, options its estimator id chooses
+// (e.g. smooth: the "-rts" ids); `ids` names those ids in the message.
+Status RefuseKeysChosenById(const YAML::Node& own, const std::vector<std::string>& keys,
+                            const std::string& ids, const std::string& id);
 
 // Applicability checks, with messages naming the estimator and the missing input.
 // Steps: odometry.csv, or imu.csv from a waist/hip/handheld IMU; with `need_absolute_heading`,

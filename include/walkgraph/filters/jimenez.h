@@ -13,7 +13,7 @@
 //   δω_b⁺ = δω_b + w_ω,  δa_b⁺ = δa_b + w_a                  (bias random walks)
 //   Q = diag(σ_g² dt I, 0, 0, σ_a² dt I, 0) + diag(0, q_ω² dt I, 0, 0, q_a² dt I),
 // σ_g, σ_a white-noise densities, q_ω, q_a bias random-walk densities.
-// Measurements (004 Algorithm 1; every update is filters/kalman.h's Joseph KalmanUpdate):
+// Measurements (004 Algorithm 1; every update is kalman.h's Joseph KalmanUpdate):
 //   ZUPT at stance:      z = 0 − v̂,                   H = [0 0 0 I 0],   R = σ_zupt² I
 //   ZARU when still:     z = ω_meas − b̂_ω,            H = [0 I 0 0 0],   R = σ_zaru² I
 //   compass at stance:   z = NormalizeAngle(α_N − α(R̂ m_b)), H = [h_ψ 0 0 0 0], R = σ_ψ²,

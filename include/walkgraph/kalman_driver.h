@@ -1,0 +1,152 @@
+// The one driver of the papers' filters (FilterPy's shape: a model's predict/update run by
+// batch_filter, then rts_smoother). A paper's file holds its model: state, process model,
+// measurement models, equations cited. The driver merges the sensor events by time, runs the
+// model over them, records the epochs and each update's NIS or gating (kalman.h RecordOutcome),
+// smooths with the one RTS (kalman.h RtsSmooth) and produces the trajectory.
+//
+// Two shapes:
+// - RunKalmanFilter: a state-space filter with one epoch per event time (correa, gadeke):
+//   Initialize at the first time, Predict from each time to the next, Update at every time;
+//   RTS over every epoch when smoothing. (tarrio takes EventTimes only: its KF epochs are its
+//   fixes, its outputs between them PDR-propagated, and its baselines are not Kalman filters.)
+// - ClonedErrorSmoother: an error-state filter at IMU rate whose output epochs are decimated
+//   (jimenez, prieto): the filter carries a clone of its error at the last output epoch
+//   (stochastic cloning) and records each output epoch here; the RTS runs over those epochs
+//   (kalman.h: FilterEpoch::P_cross) and each smoothed error is retracted into its epoch's
+//   nominal state.
+#ifndef WALKGRAPH_KALMAN_DRIVER_H_
+#define WALKGRAPH_KALMAN_DRIVER_H_
+
+#include <algorithm>
+#include <utility>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "walkgraph/estimator.h"
+#include "walkgraph/kalman.h"
+#include "walkgraph/status.h"
+#include "walkgraph/trajectory.h"
+
+namespace walkgraph {
+
+// Event times of a filter: t0 and every event of the streams (vectors of anything with a t_s)
+// at or after t0, sorted, each time once.
+template <typename... Streams>
+std::vector<double> EventTimes(double t0, const Streams&... streams) {
+  std::vector<double> times{t0};
+  auto append = [&times, t0](const auto& events) {
+    for (const auto& e : events) {
+      if (e.t_s >= t0) times.push_back(e.t_s);
+    }
+  };
+  (append(streams), ...);
+  std::sort(times.begin(), times.end());
+  times.erase(std::unique(times.begin(), times.end()), times.end());
+  return times;
+}
+
+// The running filter as a model's Update sees it: the state and its measurement updates (Joseph
+// form, gating, kalman.h), each recorded in the result (NIS of an accepted update, gated count)
+// and the angle components wrapped after it.
+class KalmanRun {
+ public:
+  KalmanRun(std::vector<int> angle_indices, EstimateResult* result)
+      : angle_indices_(std::move(angle_indices)), result_(*result) {}
+
+  Eigen::VectorXd x;
+  Eigen::MatrixXd P;
+
+  // ν = z − h(x) (angle components wrapped), Jacobian H, noise R; gate_probability ≤ 0: no gate.
+  StatusOr<UpdateOutcome> Update(const Eigen::VectorXd& innovation, const Eigen::MatrixXd& H,
+                                 const Eigen::MatrixXd& R, double gate_probability);
+
+ private:
+  const std::vector<int> angle_indices_;
+  EstimateResult& result_;
+};
+
+// A filter model with one epoch per event time.
+class KalmanModel {
+ public:
+  virtual ~KalmanModel() = default;
+  // x and P at the first event time t.
+  virtual Status Initialize(double t, Eigen::VectorXd* x, Eigen::MatrixXd* P) = 0;
+  // The process model from t_prev to t: x ← f(x), P ← F P Fᵀ + Q, and F = ∂f/∂x (for the RTS).
+  virtual Status Predict(double t_prev, double t, Eigen::VectorXd* x, Eigen::MatrixXd* P,
+                         Eigen::MatrixXd* F) = 0;
+  // The measurement updates due at epoch k (time t), each through run->Update.
+  virtual Status Update(size_t k, double t, KalmanRun* run) = 0;
+  // The trajectory point of epoch k from its (filtered or smoothed) state.
+  virtual TrajectoryPoint Output(size_t k, const SmoothedState& state) const = 0;
+};
+
+struct KalmanRunOptions {
+  bool smooth = false;             // RTS over the epochs (offline)
+  std::vector<int> angle_indices;  // state components that are angles
+};
+
+// Runs `model` over `times` (increasing; the first is the start), appends one trajectory point
+// per epoch (filtered, or smoothed with the RTS) to result->trajectory, NIS and gated updates to
+// result->nis / result->diagnostics.
+Status RunKalmanFilter(const std::vector<double>& times, KalmanModel* model,
+                       const KalmanRunOptions& options, EstimateResult* result);
+
+// The stochastic-cloning RTS of an error-state filter over its output epochs. At each output
+// epoch the filter's error is 0 after the reset (the chart origin of the nominal state); the
+// clone it carries since the previous output epoch holds that epoch's correction δx_{k|k+1}, its
+// covariance P_{k|k+1} and the cross-covariance Cov(δx_{k+1}, δx_k); kalman.h's RtsSmooth gives
+// C_k = Cov(δx_k, δx_{k+1}) P_{k+1}⁻¹ and
+//   δx_{k|N} = δx_{k|k+1} + C_k δx_{k+1|N},   P_{k|N} = P_{k|k+1} + C_k (P_{k+1|N} − P_{k+1}) C_kᵀ.
+//
+// The clone of the error at output epoch j, as the filter carries it to the next output epoch k.
+struct ErrorClone {
+  Eigen::VectorXd delta;  // δ_j: the correction of epoch j's state in its chart
+  Eigen::MatrixXd P_jj;   // its covariance P_{j|k}
+  Eigen::MatrixXd P_cj;   // P_{kj|k}: Cov(current error, clone error)
+};
+
+template <typename Nominal>
+class ClonedErrorSmoother {
+ public:
+  void Reserve(size_t n) {
+    epochs_.reserve(n);
+    nominal_.reserve(n);
+  }
+  size_t size() const { return epochs_.size(); }
+
+  // Records an output epoch at t with the nominal state and its error covariance P; `clone`
+  // (null at the first epoch) closes the previous epoch. The filter then restarts its clone.
+  void Record(double t, const Nominal& nominal, const Eigen::MatrixXd& P, const ErrorClone* clone) {
+    FilterEpoch e;
+    e.t_s = t;
+    e.x_prior = e.x_post = Eigen::VectorXd::Zero(P.rows());
+    e.P_prior = e.P_post = P;  // P_post: until the next epoch's clone closes it
+    if (clone != nullptr && !epochs_.empty()) {
+      epochs_.back().x_post = clone->delta;
+      epochs_.back().P_post = clone->P_jj;
+      e.P_cross = clone->P_cj;
+    }
+    epochs_.push_back(std::move(e));
+    nominal_.push_back(nominal);
+  }
+
+  // The backward pass; `output(nominal, smoothed)` retracts each epoch's smoothed error into its
+  // nominal state and makes the trajectory point.
+  template <typename Output>
+  StatusOr<std::vector<TrajectoryPoint>> Smooth(Output output) const {
+    WG_ASSIGN_OR_RETURN(const std::vector<SmoothedState> smoothed, RtsSmooth(epochs_));
+    std::vector<TrajectoryPoint> points;
+    points.reserve(smoothed.size());
+    for (size_t k = 0; k < smoothed.size(); ++k) points.push_back(output(nominal_[k], smoothed[k]));
+    return points;
+  }
+
+ private:
+  std::vector<FilterEpoch> epochs_;
+  std::vector<Nominal> nominal_;
+};
+
+}  // namespace walkgraph
+
+#endif  // WALKGRAPH_KALMAN_DRIVER_H_
