@@ -13,6 +13,7 @@
 
 #include "estimators/builtin.h"
 #include "factors/angle_manifold.h"
+#include "factors/barometric_height_factor.h"
 #include "factors/difference_prior_factor.h"
 #include "factors/heading_factor.h"
 #include "factors/heading_increment_factor.h"
@@ -75,6 +76,11 @@ StatusOr<StepGraphOptions> StepGraphOptions::FromYaml(const YAML::Node& node,
   ConfigReader r(node, context);
   const YAML::Node pdr = r.Child("pdr");
   r.Read("sigma_cross_m", &o.sigma_cross_m);
+  r.Read("floors", &o.floors);
+  r.Read("baro_sigma_m", &o.baro_sigma_m);
+  r.Read("baro_drift_m2ps", &o.baro_drift_m2ps);
+  r.Read("baro_window_s", &o.baro_window_s);
+  r.Read("start_height_sigma_m", &o.start_height_sigma_m);
   r.Read("step_sigma_scale", &o.step_sigma_scale);
   r.Read("dheading_sigma_scale", &o.dheading_sigma_scale);
   r.Read("min_sigma_length_m", &o.min_sigma_length_m);
@@ -153,6 +159,10 @@ Status CheckStepGraphOptions(const StepGraphOptions& o, const std::string& conte
     return Status::Ok();
   };
   WG_RETURN_IF_ERROR(positive(o.sigma_cross_m, "sigma_cross_m"));
+  WG_RETURN_IF_ERROR(positive(o.baro_sigma_m, "baro_sigma_m"));
+  WG_RETURN_IF_ERROR(positive(o.baro_window_s, "baro_window_s"));
+  WG_RETURN_IF_ERROR(positive(o.start_height_sigma_m, "start_height_sigma_m"));
+  if (!(o.baro_drift_m2ps >= 0)) return InvalidArgument(context + ": baro_drift_m2ps must be >= 0");
   WG_RETURN_IF_ERROR(positive(o.step_sigma_scale, "step_sigma_scale"));
   WG_RETURN_IF_ERROR(positive(o.dheading_sigma_scale, "dheading_sigma_scale"));
   WG_RETURN_IF_ERROR(positive(o.min_sigma_length_m, "min_sigma_length_m"));
@@ -350,6 +360,11 @@ struct StepGraph::Impl {
   std::optional<InitialPose> start;
   std::vector<std::vector<Reading>> readings_at;  // by newest node
   bool any_rss = false, any_range = false;
+  // Floors: the barometric height of each node above node 0's, the start height, the storey.
+  bool floors = false;
+  std::vector<double> baro_z;
+  double start_z = 0.0, storey_m = kDefaultStoreyHeightM;
+  void MakeHeights(const Walk& walk, const std::vector<double>& node_t);
   std::vector<bool> anchor_has_rss, anchor_has_range;
   std::shared_ptr<const ceres::Manifold> angle = std::make_shared<AngleManifold>();
   std::shared_ptr<const ceres::LossFunction> rss_loss, range_loss, mag_loss;
@@ -638,6 +653,7 @@ StatusOr<std::unique_ptr<StepGraph>> StepGraph::Build(const Walk& walk, const St
 
   WG_RETURN_IF_ERROR(m.MakeNodes(walk, g.get()));
   m.DeadReckon(walk, g.get());
+  m.MakeHeights(walk, g->node_t_);
   WG_RETURN_IF_ERROR(m.AttachReadings(walk, g.get()));
   m.PlaceStart(walk, g.get());
   WG_RETURN_IF_ERROR(m.AddUserFactors(walk, g->node_t_));
@@ -645,6 +661,41 @@ StatusOr<std::unique_ptr<StepGraph>> StepGraph::Build(const Walk& walk, const St
 }
 
 bool StepGraph::path_loss_per_anchor() const { return impl_->PathLossPerAnchor(); }
+
+bool StepGraph::has_floors() const { return impl_->floors; }
+
+int StepGraph::FloorOfHeight(double z_m) const {
+  return static_cast<int>(std::lround(z_m / impl_->storey_m));
+}
+
+// Each node's pressure: the mean of the readings within ±baro_window_s/2 of it, else the
+// reading nearest in time; heights above node 0's by the standard atmosphere.
+void StepGraph::Impl::MakeHeights(const Walk& walk, const std::vector<double>& node_t) {
+  floors = o.floors && !walk.pressure.empty();
+  if (!floors) return;
+  storey_m = walk.meta.storey_height_m;
+  const int start_floor =
+      start && start->floor ? *start->floor : 0;  // the truth's floors are not an input
+  start_z = start_floor * storey_m;
+  const std::vector<PressureSample>& p = walk.pressure;
+  auto by_time = [](const PressureSample& s, double t) { return s.t_s < t; };
+  std::vector<double> hpa;
+  for (double t : node_t) {
+    auto lo = std::lower_bound(p.begin(), p.end(), t - 0.5 * o.baro_window_s, by_time);
+    auto hi = std::lower_bound(p.begin(), p.end(), t + 0.5 * o.baro_window_s, by_time);
+    if (lo == hi) {  // none in the window: the nearest reading
+      auto it = std::lower_bound(p.begin(), p.end(), t, by_time);
+      if (it == p.end() || (it != p.begin() && t - (it - 1)->t_s < it->t_s - t)) --it;
+      hpa.push_back(it->hpa);
+      continue;
+    }
+    double sum = 0.0;
+    for (auto it = lo; it != hi; ++it) sum += it->hpa;
+    hpa.push_back(sum / static_cast<double>(hi - lo));
+  }
+  baro_z.clear();
+  for (double v : hpa) baro_z.push_back(BarometricHeightM(v, hpa.front()));
+}
 
 bool StepGraph::path_loss_estimated() const {
   return impl_->any_rss && impl_->o.rss_residual == "db" && impl_->o.path_loss != "fixed";
@@ -721,7 +772,12 @@ std::vector<SmootherState> StepGraph::NodeStates(int k, const Eigen::Vector2d& p
   th.manifold = m.angle;
   if (k == 0 && fix_first_node_) p.constant = th.constant = true;
   if (m.radio_only) th.constant = true;  // no heading information without steps
-  return {p, th};
+  if (!m.floors) return {p, th};
+  SmootherState z;
+  z.key = HeightKey(k);
+  z.t_s = node_t_[k];
+  z.value = {m.start_z + m.baro_z[k]};
+  return {p, th, z};
 }
 
 namespace {
@@ -880,6 +936,17 @@ std::vector<SmootherFactor> StepGraph::FactorsAt(int k) const {
     }
   }
 
+  if (m.floors && k == 0) {
+    add_owned(DiagonalPrior(Eigen::VectorXd::Constant(1, m.start_z),
+                            Eigen::VectorXd::Constant(1, o.start_height_sigma_m)),
+              {HeightKey(0)});
+  } else if (m.floors) {
+    const double dt = node_t_[k] - node_t_[k - 1];
+    const double sigma =
+        std::sqrt(2.0 * o.baro_sigma_m * o.baro_sigma_m + o.baro_drift_m2ps * std::max(dt, 0.0));
+    add(BarometricHeightFactor::Create(m.baro_z[k] - m.baro_z[k - 1], sigma),
+        {HeightKey(k - 1), HeightKey(k)});
+  }
   m.AddReadingFactors(k, &out);
   for (const GraphFactor& f : m.user_at[k]) out.push_back(f);  // shared cost functions
   return out;
@@ -934,6 +1001,12 @@ void AddGraphDiagnostics(const StepGraph& graph, const Walk& walk,
   if (graph.start_heading_contradicted_rad() > 0.0) {
     (*d)["start_heading_contradicted_rad"] = graph.start_heading_contradicted_rad();
   }
+}
+
+// A node's height and the floor it is on.
+void SetHeight(const StepGraph& graph, double z_m, TrajectoryPoint* point) {
+  point->position_m.z() = z_m;
+  point->floor = graph.FloorOfHeight(z_m);
 }
 
 TrajectoryPoint MakePoint(double t, const double* p, double theta) {
@@ -1000,9 +1073,8 @@ Status StepGraph::AddTo(FactorGraph* fg) const {
   for (int k = 0; k < num_nodes(); ++k) {
     const Eigen::Vector3d& x = init_[k];
     for (SmootherState& s : NodeStates(k, x.head<2>(), x[2])) {
-      if (k > 0)
-        s.value =
-            s.key == PositionKey(k) ? std::vector<double>{x[0], x[1]} : std::vector<double>{x[2]};
+      if (k > 0 && s.key == PositionKey(k)) s.value = {x[0], x[1]};
+      if (k > 0 && s.key == HeadingKey(k)) s.value = {x[2]};
       WG_RETURN_IF_ERROR(fg->AddState(std::move(s)));
     }
   }
@@ -1072,6 +1144,8 @@ StatusOr<EstimateResult> StepGraphBatch::Run(const Walk& walk) const {
     result.trajectory.points.push_back(MakePoint(graph->node_time(k),
                                                  value(StepGraph::PositionKey(k)).data(),
                                                  value(StepGraph::HeadingKey(k))[0]));
+    if (graph->has_floors())
+      SetHeight(*graph, value(StepGraph::HeightKey(k))[0], &result.trajectory.points.back());
   }
   if (options_.covariance) {
     std::vector<std::vector<StateKey>> groups;
@@ -1166,8 +1240,10 @@ StatusOr<EstimateResult> RunWindowNodes(const Walk& walk, const StepGraphOptions
     const int k = node_of(key);
     points[k].t_s = t;
     if (SymbolLetter(key) == 'x') {
-      points[k].position_m = Eigen::Vector3d(v[0], v[1], 0.0);
+      points[k].position_m.head<2>() = Eigen::Vector2d(v[0], v[1]);
       have[k] = true;
+    } else if (SymbolLetter(key) == 'z') {
+      SetHeight(*graph, v[0], &points[k]);
     } else {
       points[k].heading_rad = NormalizeAngle(v[0]);
     }
@@ -1215,6 +1291,10 @@ StatusOr<EstimateResult> RunWindowNodes(const Walk& walk, const StepGraphOptions
         WG_ASSIGN_OR_RETURN(std::vector<double> pj, smoother.Estimate(StepGraph::PositionKey(j)));
         WG_ASSIGN_OR_RETURN(std::vector<double> hj, smoother.Estimate(StepGraph::HeadingKey(j)));
         points[j] = MakePoint(graph->node_time(j), pj.data(), hj[0]);
+        if (graph->has_floors()) {
+          WG_ASSIGN_OR_RETURN(std::vector<double> zj, smoother.Estimate(StepGraph::HeightKey(j)));
+          SetHeight(*graph, zj[0], &points[j]);
+        }
         have[j] = true;
       }
       store_covariances(pending);
