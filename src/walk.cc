@@ -59,6 +59,10 @@ bool Walk::has_truth_floors() const {
   return false;
 }
 
+double Walk::AnchorHeightM(const Anchor& a) const {
+  return a.floor ? *a.floor * meta.storey_height_m + a.position_m.z() : a.position_m.z();
+}
+
 int Walk::AnchorIndex(int id) const {
   for (size_t i = 0; i < anchors.size(); ++i) {
     if (anchors[i].id == id) return static_cast<int>(i);

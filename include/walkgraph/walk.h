@@ -33,6 +33,10 @@ struct PathLossParams {
   double eta = 2.5;       // path-loss exponent (> 0)
   double d0_m = 1.0;      // reference distance
   double sigma_db = 5.0;  // shadowing standard deviation
+  // Multi-floor walks: the RSS lost per floor between anchor and receiver (dB, >= 0), the
+  // floor attenuation factor of Seidel & Rappaport's multi-floor model; estimators that model
+  // floors subtract floor_loss_db × |floors crossed| from the expected RSS.
+  double floor_loss_db = 0.0;
 };
 
 struct RadioDefaults {
@@ -188,6 +192,9 @@ struct Walk {
   bool has_odometry() const { return !odometry.empty(); }
   bool has_truth() const { return !truth.empty(); }
 
+  // An anchor's height above floor 0: with a floor, floor × storey_height_m + z_m (z_m is then
+  // the mounting height above its floor); without, z_m.
+  double AnchorHeightM(const Anchor& a) const;
   // Index into `anchors` of the anchor with this id, or -1.
   int AnchorIndex(int id) const;
   // First and last timestamp over every stream (0, 0 for an empty walk).

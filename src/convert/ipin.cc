@@ -24,6 +24,7 @@
 #include "convert/line_fields.h"
 #include "io/input_file.h"
 #include "io/plausibility.h"
+#include "util/geodesy.h"
 #include "util/text.h"
 #include "walkgraph/convert.h"
 
@@ -52,33 +53,7 @@ int IpinMinorToBleId(int minor) {
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-
-// WGS84 latitude/longitude (height 0) → east/north metres in the tangent plane at `origin`.
-class LocalTangentPlane {
- public:
-  LocalTangentPlane(double lat0_deg, double lon0_deg) {
-    const double lat = lat0_deg * kPi / 180.0, lon = lon0_deg * kPi / 180.0;
-    origin_ = Ecef(lat0_deg, lon0_deg);
-    east_ = Eigen::Vector3d(-std::sin(lon), std::cos(lon), 0.0);
-    north_ = Eigen::Vector3d(-std::sin(lat) * std::cos(lon), -std::sin(lat) * std::sin(lon),
-                             std::cos(lat));
-  }
-  Eigen::Vector2d EastNorth(double lat_deg, double lon_deg) const {
-    const Eigen::Vector3d d = Ecef(lat_deg, lon_deg) - origin_;
-    return {east_.dot(d), north_.dot(d)};
-  }
-
- private:
-  static Eigen::Vector3d Ecef(double lat_deg, double lon_deg) {
-    constexpr double a = 6378137.0, f = 1.0 / 298.257223563, e2 = f * (2.0 - f);
-    const double lat = lat_deg * kPi / 180.0, lon = lon_deg * kPi / 180.0;
-    const double n = a / std::sqrt(1.0 - e2 * std::sin(lat) * std::sin(lat));
-    return {n * std::cos(lat) * std::cos(lon), n * std::cos(lat) * std::sin(lon),
-            n * (1.0 - e2) * std::sin(lat)};
-  }
-  Eigen::Vector3d origin_, east_, north_;
-};
+using internal::LocalTangentPlane;
 
 struct Beacon {
   int id = 0;

@@ -1,5 +1,6 @@
 #include <unistd.h>
 
+#include <algorithm>
 #include <charconv>
 #include <cmath>
 #include <cstdio>
@@ -14,6 +15,7 @@
 #include "io/csv_reader.h"
 #include "io/input_file.h"
 #include "io/plausibility.h"
+#include "util/geodesy.h"
 #include "util/text.h"
 #include "walkgraph/angle.h"
 #include "walkgraph/config.h"
@@ -179,6 +181,7 @@ Status ReadMeta(const std::string& path, WalkMeta* meta) {
     rr.Read("eta", &meta->radio.path_loss.eta);
     rr.Read("d0_m", &meta->radio.path_loss.d0_m);
     rr.Read("sigma_db", &meta->radio.path_loss.sigma_db);
+    rr.Read("floor_loss_db", &meta->radio.path_loss.floor_loss_db);
     rr.Read("range_sigma_m", &meta->radio.range_sigma_m);
     rr.Read("calibrated", &meta->radio.calibrated);
     WG_RETURN_IF_ERROR(rr.Finish());
@@ -192,6 +195,10 @@ Status ReadMeta(const std::string& path, WalkMeta* meta) {
     if (!(pl.eta > 0.0) || !(pl.d0_m > 0.0) || !(pl.sigma_db > 0.0) ||
         !(meta->radio.range_sigma_m > 0.0) || !std::isfinite(pl.A_dbm)) {
       return InvalidArgument(path + ": radio: eta, d0_m, sigma_db and range_sigma_m must be > 0");
+    }
+    if (!(pl.floor_loss_db >= 0.0 && pl.floor_loss_db <= 100.0)) {
+      return InvalidArgument(path + ": radio: floor_loss_db " + G(pl.floor_loss_db) +
+                             " outside [0, 100] dB");
     }
   }
   if (initial.IsDefined() && !initial.IsNull()) {
@@ -740,6 +747,10 @@ Status WriteWalkFiles(const Walk& walk, const fs::path& root) {
     e << YAML::Key << "eta" << YAML::Value << Num(m.radio.path_loss.eta);
     e << YAML::Key << "d0_m" << YAML::Value << Num(m.radio.path_loss.d0_m);
     e << YAML::Key << "sigma_db" << YAML::Value << Num(m.radio.path_loss.sigma_db);
+    if (m.radio.path_loss.floor_loss_db != 0.0 ||
+        (!walk.anchors.empty() && walk.anchors[0].floor)) {
+      e << YAML::Key << "floor_loss_db" << YAML::Value << Num(m.radio.path_loss.floor_loss_db);
+    }
     e << YAML::Key << "range_sigma_m" << YAML::Value << Num(m.radio.range_sigma_m);
     e << YAML::Key << "calibrated" << YAML::Value << m.radio.calibrated;
     e << YAML::EndMap;
@@ -910,6 +921,44 @@ Status WriteTumTrajectory(const Trajectory& trajectory, const std::string& path,
     FormatTumTrajectory(trajectory, o);
     return true;
   });
+}
+
+Status FormatIpinSubmission(const Walk& walk, const Trajectory& trajectory, std::ostream& o) {
+  const auto lat = walk.meta.extra.find("ipin.origin_lat_deg");
+  const auto lon = walk.meta.extra.find("ipin.origin_lon_deg");
+  if (lat == walk.meta.extra.end() || lon == walk.meta.extra.end()) {
+    return FailedPrecondition("IPIN submission: walk '" + walk.meta.name +
+                              "' has no ipin.origin_lat_deg/_lon_deg (not from convert ipin)");
+  }
+  if (trajectory.empty()) return FailedPrecondition("IPIN submission: empty trajectory");
+  const internal::LocalTangentPlane plane(lat->second, lon->second);
+  const int start_floor = walk.StartFloor();
+  double end = walk.EndTime();  // the last record, the barometer's included
+  if (!walk.pressure.empty()) end = std::max(end, walk.pressure.back().t_s);
+  char line[96];
+  for (long k = 0; 0.5 * static_cast<double>(k) <= end; ++k) {
+    const double t = 0.5 * static_cast<double>(k);
+    if (t < trajectory.points.front().t_s) {
+      o << "0,0,0\n";
+      continue;
+    }
+    const Eigen::Vector3d p = trajectory.PositionAt(t);
+    const Eigen::Vector2d ll = plane.LatLon(p.x(), p.y());
+    std::snprintf(line, sizeof(line), "%.12f,%.12f,%d\n", ll.y(), ll.x(),
+                  trajectory.FloorAt(t).value_or(start_floor));
+    o << line;
+  }
+  return Status::Ok();
+}
+
+Status WriteIpinSubmission(const Walk& walk, const Trajectory& trajectory, const std::string& path,
+                           const OutputOptions& options) {
+  Status format = Status::Ok();
+  WG_RETURN_IF_ERROR(WriteOutputFile(path, options, [&](std::ostream& o) {
+    format = FormatIpinSubmission(walk, trajectory, o);
+    return format.ok();
+  }));
+  return format;
 }
 
 StatusOr<Trajectory> ReadTumTrajectory(const std::string& path) {

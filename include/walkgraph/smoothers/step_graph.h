@@ -94,6 +94,23 @@ struct StepGraphOptions {
   double baro_drift_m2ps = 0.0025;
   double baro_window_s = 1.0;
   double start_height_sigma_m = 0.5;
+  // Stairs: a step during which the barometric height changes faster than stair_rate_mps
+  // (over stair_window_s around it) is a stair step, and moves the walker one tread,
+  // stair_tread_m (σ stair_tread_sigma_m), horizontally instead of the PDR step length (a
+  // walking step is ~0.7 m, a stair's tread ~0.28 m: Blondel's 2·rise + tread ≈ 0.63 m with
+  // a 0.17 m rise). Climbing or descending stairs takes ~0.3 m/s of height (one 0.17 m rise
+  // per ~0.6 s step); 0.1 m/s keeps the barometer's noise (0.25 m over 3 s) out. Lifts and
+  // escalators give no steps. Only runs of such steps one way that change the height by
+  // stair_min_rise_storeys × storey_height_m (a floor transition; half a storey also takes
+  // a mezzanine) count: a phone lifted or lowered in the hand moves it ~0.5 m at that rate
+  // (IPIN trials 01/05/21, flat: runs of ≤ 2.5 s at 0.1–0.18 m/s). stairs: false keeps the PDR
+  // lengths.
+  bool stairs = true;
+  double stair_rate_mps = 0.1;
+  double stair_window_s = 3.0;
+  double stair_tread_m = 0.28;
+  double stair_tread_sigma_m = 0.1;
+  double stair_min_rise_storeys = 0.5;
 
   // Radio.
   std::string rss_residual = "db";  // db (RssFactor) | range (RssRangeFactor, 004 eq. 7)
@@ -229,6 +246,8 @@ class StepGraph {
   bool has_floors() const;
   // The floor of a height (walk.yaml storey_height_m).
   int FloorOfHeight(double z_m) const;
+  // How many steps were taken for stair steps (StepGraphOptions::stairs).
+  int stair_steps() const;
 
   // Static (untimed) states: path loss, range bias, gyro bias blocks.
   std::vector<SmootherState> StaticStates() const;
