@@ -46,6 +46,23 @@ const char* ToString(RadioKind k) {
 }
 const char* ToString(RssUnits u) { return u == RssUnits::kDbm ? "dbm" : "rfcode"; }
 
+int Walk::StartFloor() const {
+  if (meta.initial_pose && meta.initial_pose->floor) return *meta.initial_pose->floor;
+  if (!truth.empty() && truth.front().floor) return *truth.front().floor;
+  return 0;
+}
+
+bool Walk::has_truth_floors() const {
+  for (const TruthSample& s : truth) {
+    if (s.floor) return true;
+  }
+  return false;
+}
+
+double Walk::AnchorHeightM(const Anchor& a) const {
+  return a.floor ? *a.floor * meta.storey_height_m + a.position_m.z() : a.position_m.z();
+}
+
 int Walk::AnchorIndex(int id) const {
   for (size_t i = 0; i < anchors.size(); ++i) {
     if (anchors[i].id == id) return static_cast<int>(i);
@@ -124,6 +141,11 @@ Trajectory::Bracket Trajectory::BracketAt(double t_s) const {
 Eigen::Vector3d Trajectory::PositionAt(double t_s) const {
   const Bracket k = BracketAt(t_s);
   return (1.0 - k.w) * points[k.a].position_m + k.w * points[k.b].position_m;
+}
+
+std::optional<int> Trajectory::FloorAt(double t_s) const {
+  const Bracket k = BracketAt(t_s);
+  return points[k.w < 0.5 ? k.a : k.b].floor;
 }
 
 std::optional<Eigen::Matrix2d> Trajectory::PositionCovarianceAt(double t_s) const {

@@ -112,9 +112,14 @@ TEST(ConvertIpin, ConvertsEveryLogCompletely) {
           Equirectangular(c.posi_lat_lon[k].first, c.posi_lat_lon[k].second, o.first, o.second);
       EXPECT_NEAR(walk->truth[k].position_m.x(), en.x(), 0.01);
       EXPECT_NEAR(walk->truth[k].position_m.y(), en.y(), 0.01);
-      EXPECT_TRUE(walk->meta.extra.count("ipin.checkpoint_floor." + std::to_string(k)));
+      EXPECT_TRUE(walk->truth[k].floor.has_value());
     }
-    EXPECT_EQ(walk->meta.extra.at("ipin.anchor_floor.3"), -2.0);
+    ASSERT_GE(walk->AnchorIndex(3), 0);
+    EXPECT_EQ(walk->anchors[walk->AnchorIndex(3)].floor, std::optional<int>(-2));
+    EXPECT_EQ(walk->anchors[walk->AnchorIndex(1)].floor, std::optional<int>(0));
+    // ~10 Hz barometer over the walk.
+    ASSERT_GE(walk->pressure.size(), 100u);
+    EXPECT_NEAR(walk->pressure.front().hpa, 980.0, 30.0);
   }
 }
 

@@ -10,6 +10,7 @@
 #include <gtest/gtest.h>
 
 #include "factors/angle_manifold.h"
+#include "factors/barometric_height_factor.h"
 #include "factors/difference_prior_factor.h"
 #include "factors/heading_factor.h"
 #include "factors/heading_increment_factor.h"
@@ -122,6 +123,23 @@ TEST(PositionRandomWalkFactorTest, WhitensByTheDiffusion) {
   EXPECT_NEAR(r[0], 0.6, 1e-12);
   EXPECT_NEAR(r[1], -0.8, 1e-12);
   ExpectGradientsMatch(*f, {a, b});
+}
+
+TEST(BarometricHeightFactorTest, WhitensTheHeightChangeError) {
+  std::unique_ptr<ceres::CostFunction> f(BarometricHeightFactor::Create(-3.0, 0.5));
+  const double a[1] = {1.0}, b[1] = {-1.6};  // moved −2.6 m, the barometer says −3 m
+  const auto r = Residuals(*f, {a, b});
+  EXPECT_NEAR(r[0], 0.4 / 0.5, 1e-12);
+  ExpectGradientsMatch(*f, {a, b});
+}
+
+TEST(BarometricHeightFactorTest, HeightFromPressureFollowsTheStandardAtmosphere) {
+  EXPECT_NEAR(BarometricHeightM(1013.25, 1013.25), 0.0, 1e-12);
+  // ICAO standard atmosphere: 898.76 hPa at 1000 m, 795.01 hPa at 2000 m (tabulated).
+  EXPECT_NEAR(BarometricHeightM(898.76, 1013.25), 1000.0, 2.0);
+  EXPECT_NEAR(BarometricHeightM(795.01, 1013.25), 2000.0, 4.0);
+  // Near the ground: about 8.3 m per hPa; lower pressure is higher.
+  EXPECT_NEAR(BarometricHeightM(979.3, 980.0), 0.7 * 8.4, 0.2);
 }
 
 TEST(PositionPriorFactorTest, OneNodeIsTheWhitenedOffset) {

@@ -252,6 +252,95 @@ TEST(WriteWalk, PositionOnlyStartRoundTrips) {
   fs::remove_all(out);
 }
 
+// Issue 22: floors of anchors, truth and start, the storey height, the barometer, the floor
+// loss: written, read back equal; each reader refuses a bad value naming file and line.
+TEST(WriteWalk, FloorsAndPressureRoundTrip) {
+  auto walk = ReadWalk(kData + "/walks/valid_small");
+  ASSERT_TRUE(walk.ok());
+  for (size_t i = 0; i < walk->anchors.size(); ++i) walk->anchors[i].floor = -2 + int(i % 3);
+  for (size_t i = 0; i < walk->truth.size(); ++i) walk->truth[i].floor = i % 2 ? -1 : 0;
+  walk->meta.initial_pose->floor = 0;
+  walk->meta.storey_height_m = 4.5;
+  walk->meta.radio.path_loss.floor_loss_db = 7.25;
+  walk->pressure = {{0.0, 1013.25}, {0.1, 1013.2}, {0.25, 1012.9}};
+  const fs::path out = TempDir("floors");
+  ASSERT_TRUE(WriteWalk(*walk, out.string()).ok());
+  auto back = ReadWalk(out.string());
+  ASSERT_TRUE(back.ok()) << back.status().message();
+  for (size_t i = 0; i < walk->anchors.size(); ++i) {
+    EXPECT_EQ(back->anchors[i].floor, walk->anchors[i].floor);
+  }
+  for (size_t i = 0; i < walk->truth.size(); ++i) {
+    EXPECT_EQ(back->truth[i].floor, walk->truth[i].floor);
+  }
+  EXPECT_EQ(back->meta.initial_pose->floor, std::optional<int>(0));
+  EXPECT_EQ(back->meta.storey_height_m, 4.5);
+  EXPECT_EQ(back->meta.radio.path_loss.floor_loss_db, 7.25);
+  ASSERT_EQ(back->pressure.size(), 3u);
+  EXPECT_EQ(back->pressure[2].hpa, 1012.9);
+  EXPECT_EQ(back->StartFloor(), 0);
+  EXPECT_TRUE(back->has_truth_floors());
+  EXPECT_EQ(back->AnchorHeightM(back->anchors[0]), -2 * 4.5 + back->anchors[0].position_m.z());
+  auto refused = [&](const char* file, const std::string& text, const char* where,
+                     const char* what) {
+    ASSERT_TRUE(WriteWalk(*walk, out.string()).ok());
+    std::ofstream(out / file) << text;
+    auto r = ReadWalk(out.string());
+    ASSERT_FALSE(r.ok()) << file;
+    EXPECT_THAT(r.status().message(), HasSubstr(where));
+    EXPECT_THAT(r.status().message(), HasSubstr(what));
+  };
+  refused("pressure.csv", "t_s,hpa\n0,1013\n1,13.2\n", "pressure.csv:3:", "hectopascal");
+  refused("pressure.csv", "t_s,hpa\n1,1013\n0.5,1013\n", "pressure.csv:3:", "goes backwards");
+  refused("truth.csv", "t_s,x_m,y_m,floor\n0,0,0,0\n1,0,0,0.5\n",
+          "truth.csv:3:", "not an integer level");
+  refused("truth.csv", "t_s,x_m,y_m,storey\n0,0,0,0\n", "truth.csv:1:", "t_s,x_m,y_m,z_m,floor");
+  // In code: a floor on some anchors only is refused.
+  Walk mixed = *walk;
+  mixed.anchors[1].floor.reset();
+  EXPECT_THAT(ValidateWalk(mixed).message(), HasSubstr("anchors[1]"));
+  fs::remove_all(out);
+}
+
+// IPIN's submission: 2 Hz from t = 0 to the walk's end, "0,0,0" before the estimate, WGS84 at
+// 12 decimals; the origin maps back to itself and 100 m north to +0.000899° latitude.
+TEST(IpinSubmission, TwoHertzFromZeroBackToWgs84) {
+  Walk w;
+  w.meta.name = "sub";
+  w.meta.extra["ipin.origin_lat_deg"] = 49.460948188642;
+  w.meta.extra["ipin.origin_lon_deg"] = 11.110539036217;
+  w.pressure = {{0.0, 980.0}, {3.2, 980.0}};  // the walk ends at 3.2 s
+  w.truth = {{1.0, Eigen::Vector3d::Zero(), false, -2}};
+  Trajectory t;
+  TrajectoryPoint a, b;
+  a.t_s = 1.0;
+  b.t_s = 2.0;
+  b.position_m = Eigen::Vector3d(0.0, 100.0, 0.0);
+  b.floor = 0;
+  t.points = {a, b};
+  std::ostringstream out;
+  ASSERT_TRUE(FormatIpinSubmission(w, t, out).ok());
+  std::vector<std::string> lines;
+  std::istringstream in(out.str());
+  for (std::string l; std::getline(in, l);) lines.push_back(l);
+  ASSERT_EQ(lines.size(), 7u);  // t = 0, 0.5, ..., 3.0
+  EXPECT_EQ(lines[0], "0,0,0");
+  EXPECT_EQ(lines[1], "0,0,0");
+  EXPECT_EQ(lines[2], "11.110539036217,49.460948188642,-2");  // t = 1: the origin, start floor
+  double lon = 0, lat = 0;
+  int floor = 9;
+  ASSERT_EQ(std::sscanf(lines[4].c_str(), "%lf,%lf,%d", &lon, &lat, &floor), 3);  // t = 2
+  // 111219.6 m per degree of latitude at 49.46° (WGS84 meridian arc).
+  EXPECT_NEAR(lat - 49.460948188642, 100.0 / 111219.6, 3e-7);
+  EXPECT_NEAR(lon, 11.110539036217, 1e-9);
+  EXPECT_EQ(floor, 0);
+  EXPECT_EQ(lines[6], lines[4]);  // held after the estimate ends
+  Walk no_origin = w;
+  no_origin.meta.extra.clear();
+  std::ostringstream ignored;
+  EXPECT_FALSE(FormatIpinSubmission(no_origin, t, ignored).ok());
+}
+
 TEST(WriteWalk, InvalidWalkWritesNothing) {
   auto walk = ReadWalk(kData + "/walks/valid_small");
   ASSERT_TRUE(walk.ok());

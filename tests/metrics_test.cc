@@ -79,6 +79,35 @@ TEST(ComputeErrors, ConstantOffsetAndInterpolation) {
   EXPECT_EQ(s.n_points, 11);
 }
 
+// IPIN's score (technical annex 2023): the third quartile of error + 15 m × floors missed, and
+// the floor hit rate; an estimate without floors is scored on the walk's start floor.
+TEST(ComputeErrors, IpinScoreAddsFifteenMetresPerFloorMissed) {
+  Walk w = LineWalk();  // 11 points, 1 m apart, t = 0..10 s
+  for (size_t i = 0; i < w.truth.size(); ++i) w.truth[i].floor = i < 4 ? 0 : -2;
+  Trajectory t = LineTrajectory({0, 2, 4, 6, 8, 10}, 1.0);             // 1 m error everywhere
+  for (TrajectoryPoint& p : t.points) p.floor = p.t_s < 5.0 ? 0 : -1;  // nearest point's floor
+  auto e = ComputeErrors(w, t);
+  ASSERT_TRUE(e.ok());
+  // Estimate on floor 0 up to t = 4 (t = 5 is nearer the point at 6), -1 after; truth 0 up to
+  // t = 3, -2 after: right at t = 0..3, two floors off at t = 4, one at t = 5..10.
+  const std::vector<int> missed = {0, 0, 0, 0, 2, 1, 1, 1, 1, 1, 1};
+  ASSERT_EQ(e->floors_missed, missed);
+  const ErrorStats s = SummarizeErrors(*e, w.TruthDistance());
+  // Sample errors: 1 ×4, 31, 16 ×6 → sorted 1,1,1,1,16,16,16,16,16,16,31; p75 at rank 7.5 = 16.
+  EXPECT_NEAR(s.ipin_score_m, 16.0, 1e-12);
+  EXPECT_NEAR(s.floor_hit_rate, 4.0 / 11.0, 1e-12);
+  // Without floors in the estimate: the start floor (the first truth floor, 0) throughout.
+  for (TrajectoryPoint& p : t.points) p.floor.reset();
+  const ErrorStats flat = SummarizeErrors(*ComputeErrors(w, t), w.TruthDistance());
+  EXPECT_NEAR(flat.floor_hit_rate, 4.0 / 11.0, 1e-12);
+  EXPECT_NEAR(flat.ipin_score_m, 31.0, 1e-12);
+  // No truth floors: no floor figures.
+  Walk plain = LineWalk();
+  const ErrorStats none = SummarizeErrors(*ComputeErrors(plain, t), plain.TruthDistance());
+  EXPECT_TRUE(std::isnan(none.ipin_score_m));
+  EXPECT_TRUE(std::isnan(none.floor_hit_rate));
+}
+
 // 003's relative error: a constant 1-m offset on a 1 m/s line is 100/d % at d = 1..10 m
 // (the start, d = 0, left out): the mean is 10·H_10 % (H_10 = 7381/2520).
 TEST(ComputeErrors, RelativeErrorIsTheMeanOfErrorOverDistanceWalked) {

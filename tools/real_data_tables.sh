@@ -18,6 +18,9 @@
 #              No known start: the recording before the first landmark dropped (trial 01 has
 #              61 s of phone handling before it), no initial_pose; 21 -> 01 and 05, 01 -> 21;
 #              pdr-only from the first RSS fix.
+#              TrainingTrial52 (Level 0 <-> Level -2 by stairs, issue 22): known start, path
+#              loss from 01; scored also by IPIN's rule (third quartile of error + 15 m per
+#              floor missed) and the floor hit rate (every known-start trial).
 #   BLE tracks A/eta/sigma fitted on straight_01, used on the other five tracks.
 set -euo pipefail
 if [[ $# -ne 2 ]]; then
@@ -48,10 +51,11 @@ trim_to_first_truth() {
   done
 }
 
-# set_radio DIR FIT_OUTPUT: A_dbm, eta, sigma_db of walk.yaml's radio block from a fit.
+# set_radio DIR FIT_OUTPUT: A_dbm, eta, sigma_db (and floor_loss_db, on walks with floors) of
+# walk.yaml's radio block from a fit.
 set_radio() {
   local dir=$1 fit=$2 k v
-  for k in A_dbm eta sigma_db; do
+  for k in A_dbm eta sigma_db floor_loss_db; do
     v=$(grep "^$k:" "$fit" | awk '{print $2}')
     sed -i "s/^\(  $k:\) .*/\1 $v/" "$dir/walk.yaml"
   done
@@ -135,6 +139,7 @@ echo
 # ---------------------------------------------------------------- IPIN 2023 Track 3
 ip() { echo "$SHARED/ipin2023_t3/IPIN2023_T3_TrainingTrial$1_repetition01.txt"; }
 ble="$SHARED/ipin2023_t3/BLE_Locations.csv"
+"$W" convert ipin "$(ip 52)" "$ble" --known-start --out "$TMP/ks52" >/dev/null
 for n in 01 05 21; do
   "$W" convert ipin "$(ip "$n")" "$ble" --known-start --out "$TMP/ks$n" >/dev/null
   "$W" convert ipin "$(ip "$n")" "$ble" --out "$TMP/ip$n" >/dev/null
@@ -146,6 +151,7 @@ done
 set_radio "$TMP/ks01" "$TMP/fit05.txt"
 set_radio "$TMP/ks05" "$TMP/fit01.txt"
 set_radio "$TMP/ks21" "$TMP/fit01.txt"
+set_radio "$TMP/ks52" "$TMP/fit01.txt"
 set_radio "$TMP/ip01" "$TMP/fit21.txt"
 set_radio "$TMP/ip05" "$TMP/fit21.txt"
 set_radio "$TMP/ip21" "$TMP/fit01.txt"
@@ -155,6 +161,7 @@ for n in 01 05 21; do
   compare "$TMP/ks$n" "$TMP/rk$n" --config "$ROOT/datasets/configs/ipin.yaml"
   compare "$TMP/ip$n" "$TMP/ri$n" --config "$TMP/ipin-no-start.yaml"
 done
+compare "$TMP/ks52" "$TMP/rk52" --config "$ROOT/datasets/configs/ipin.yaml"
 ipin_table() { # PREFIX: results in $TMP/PREFIX{01,05,21}
   echo "| estimator | 01 mean | 01 p75 | 05 mean | 05 p75 | 21 mean | 21 p75 |"
   echo "|---|---|---|---|---|---|---|"
@@ -178,6 +185,22 @@ echo
 echo "### Known start (convert --known-start; path loss 05 -> 01, 01 -> 05, 01 -> 21)"
 echo
 ipin_table rk
+echo
+echo "### IPIN score and floors, known start (trial 52: Level 0 <-> -2 by stairs, path loss 01 -> 52)"
+echo
+echo "IPIN score: third quartile of horizontal error + 15 m per floor missed; an estimator without"
+echo "a floor estimate is scored on the start floor. 01/05/21 are single-floor."
+echo
+echo "| estimator | 01 IPIN | 05 IPIN | 21 IPIN | 52 mean | 52 p75 | 52 IPIN | 52 floor hit |"
+echo "|---|---|---|---|---|---|---|---|"
+for id in $(ids "$TMP/rk01/results.json"); do
+  row="| $id |"
+  for n in 01 05 21; do row+=" $(cell "$TMP/rk$n/results.json" "$id" ipin_score_m) |"; done
+  r="$TMP/rk52/results.json"
+  row+=" $(cell "$r" "$id" mean_m) | $(cell "$r" "$id" p75_m) | $(cell "$r" "$id" ipin_score_m) |"
+  row+=" $(cell "$r" "$id" floor_hit_rate) |"
+  echo "$row"
+done
 echo
 echo "### No known start (path loss 21 -> 01, 21 -> 05, 01 -> 21; pdr-only from the first fix)"
 echo

@@ -221,9 +221,13 @@ int RunConvert(const std::string& format, const std::vector<std::string>& source
 // Fits RSS = A − 10·η·log10(d/d0) to a walk's RSS readings against its truth (positions
 // linearly interpolated between truth samples; readings outside the truth's span are skipped;
 // the distance is 3-D when the truth has a height, else horizontal to the anchor's x-y with the
-// anchor's height against 0). Prints a `radio:` block for walk.yaml (global fit) and the fit per
-// anchor as comments. Meant to calibrate one walk's path loss for use on a different walk.
-int RunFitPathLoss(const std::string& walk_dir) {
+// anchor's height against 0). With `floors` (--floors; truth and anchors with floors): the
+// receiver at its truth floor's height, the anchor at Walk::AnchorHeightM, and the floor loss
+// per floor crossed fitted with A and η (FitPathLoss) — the model of the step-graph estimators
+// when floor_loss_db > 0, not of the planar filters (their A, η come from the plain fit). Prints a
+// `radio:` block for walk.yaml (global fit) and the fit per anchor as comments. Meant to calibrate
+// one walk's path loss for use on a different walk.
+int RunFitPathLoss(const std::string& walk_dir, bool floors) {
   auto walk = ReadWalk(walk_dir);
   if (!walk.ok()) return Fail(walk.status());
   const auto& truth = walk->truth;
@@ -244,7 +248,15 @@ int RunFitPathLoss(const std::string& walk_dir) {
       if (an.id == r.anchor_id) anchor = &an;
     }
     if (anchor == nullptr) continue;
-    obs.push_back({r.anchor_id, (anchor->position_m - p).norm(), r.rss});
+    Eigen::Vector3d anchor_m = anchor->position_m;
+    const std::optional<int> floor = w < 0.5 ? a.floor : b.floor;  // floors do not interpolate
+    int crossed = 0;
+    if (floors && floor && anchor->floor) {
+      p.z() = *floor * walk->meta.storey_height_m;
+      anchor_m.z() = walk->AnchorHeightM(*anchor);
+      crossed = std::abs(*floor - *anchor->floor);
+    }
+    obs.push_back({r.anchor_id, (anchor_m - p).norm(), r.rss, crossed});
   }
   const auto units = walk->meta.radio.units;
   const double d0 = walk->meta.radio.path_loss.d0_m;
@@ -259,8 +271,8 @@ int RunFitPathLoss(const std::string& walk_dir) {
                   f.params.eta, f.params.sigma_db, f.num_observations);
     }
   }
-  std::printf("A_dbm: %.3f\neta: %.4f\nsigma_db: %.3f\ncalibrated: true\n", fit->params.A_dbm,
-              fit->params.eta, fit->params.sigma_db);
+  std::printf("A_dbm: %.3f\neta: %.4f\nsigma_db: %.3f\nfloor_loss_db: %.3f\ncalibrated: true\n",
+              fit->params.A_dbm, fit->params.eta, fit->params.sigma_db, fit->params.floor_loss_db);
   return 0;
 }
 
@@ -284,7 +296,7 @@ walkgraph::StatusOr<YAML::Node> SmoothOptions(const YAML::Node& config, const st
 }
 
 int RunSmooth(const std::string& walk_dir, const std::string& id, const std::string& config_path,
-              const std::string& out) {
+              const std::string& out, const std::string& ipin_out) {
   if (Status s = Preflight(out, walkgraph::OutputKind::kFile, {walk_dir, config_path}); !s.ok()) {
     return Fail(s);
   }
@@ -303,6 +315,11 @@ int RunSmooth(const std::string& walk_dir, const std::string& id, const std::str
   const Status s = walkgraph::WriteTumTrajectory(result->trajectory, out, g_output);
   if (!s.ok()) return Fail(s);
   std::cout << "wrote " << out << " (" << result->trajectory.size() << " poses)\n";
+  if (!ipin_out.empty()) {
+    const Status si = walkgraph::WriteIpinSubmission(*walk, result->trajectory, ipin_out, g_output);
+    if (!si.ok()) return Fail(si);
+    std::cout << "wrote " << ipin_out << " (IPIN submission, 2 Hz from t = 0)\n";
+  }
   return 0;
 }
 
@@ -746,14 +763,22 @@ int Main(int argc, char** argv) {
   CLI::App* fit = app.add_subcommand(
       "fit-path-loss", "fit A, eta, sigma of the log-distance path loss to a walk's RSS vs truth");
   fit->add_option("WALK", walk_dir, "walk directory")->required();
-  fit->callback([&] { rc = RunFitPathLoss(walk_dir); });
+  bool fit_floors = false;
+  fit->add_flag("--floors", fit_floors,
+                "multi-floor walk: anchors at their floors' heights, and the floor loss per floor "
+                "crossed (floor_loss_db) fitted with A and eta");
+  fit->callback([&] { rc = RunFitPathLoss(walk_dir, fit_floors); });
 
   CLI::App* smooth = app.add_subcommand("smooth", "run one estimator, write a TUM trajectory");
   smooth->add_option("WALK", walk_dir, "walk directory")->required();
   smooth->add_option("--estimator", id, "estimator id (see walkgraph list)")->required();
   smooth->add_option("--config", config_path, "YAML file with the estimator's options");
   smooth->add_option("--out", out, "output trajectory (TUM format)")->required();
-  smooth->callback([&] { rc = RunSmooth(walk_dir, id, config_path, out); });
+  std::string ipin_out;
+  smooth->add_option("--ipin-out", ipin_out,
+                     "also write IPIN's submission (lon,lat,floor at 2 Hz from t = 0; walks from "
+                     "convert ipin)");
+  smooth->callback([&] { rc = RunSmooth(walk_dir, id, config_path, out, ipin_out); });
 
   CompareArgs cargs;
   CLI::App* compare = app.add_subcommand(

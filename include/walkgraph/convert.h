@@ -72,9 +72,10 @@ StatusOr<Walk> ConvertPyshoe(const std::string& csv_path, const ConvertOptions& 
 //   the GYRO (and MAGN) span are dropped (counted in "convert.imu_samples_outside_span").
 // - RSS: BLE4 iBeacon lines, t = AppTimestamp, anchor id = the BLE number of BLE_Locations.csv
 //   found for the iBeacon Minor by IpinMinorToBleId (see there: NOT Minor N = BLE N).
-// - Floors: 2D positions; the floor of checkpoint k is kept in meta.extra
-//   "ipin.checkpoint_floor.<k>" (k = 0, 1, ... in time order) and the floor of beacon N in
-//   "ipin.anchor_floor.<N>".
+// - Floors: 2D positions; the POSI floor of each checkpoint is truth.csv's `floor`, the
+//   floor of each beacon anchors.csv's `floor` (z_m 0: mounting height unknown); PRES lines
+//   (t = AppTimestamp, hPa) → pressure.csv (a repeated AppTimestamp keeps the first reading).
+//   The IPIN building's storey height is not published: walk.yaml keeps the default.
 // - Start: see ConvertOptions::known_start (off: the whole log, no initial_pose).
 StatusOr<Walk> ConvertIpin(const std::string& log_path, const std::string& ble_locations_csv,
                            const ConvertOptions& options = ConvertOptions(),

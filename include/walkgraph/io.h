@@ -54,6 +54,18 @@ Status WriteTumTrajectory(const Trajectory& trajectory, const std::string& path,
                           const OutputOptions& options = {});
 StatusOr<Trajectory> ReadTumTrajectory(const std::string& path);
 
+// IPIN Track 3's submission format (technical annex 2023, "Description of the Output"): one
+// line "longitude,latitude,floor" (WGS84 degrees, 12 decimals; integer floor) every 0.5 s
+// from app time 0 to the walk's last record (Walk::EndTime or pressure.csv's last), no header. The
+// local frame goes back to WGS84 through the origin `convert ipin` keeps (meta.extra
+// ipin.origin_lat_deg / ipin.origin_lon_deg; refused without it). Position: the estimate
+// interpolated at each time, held at its last point after it ends, "0,0,0" before it begins (the
+// annex's "cannot estimate"); floor: the estimate's (Trajectory::FloorAt), else the walk's start
+// floor.
+Status FormatIpinSubmission(const Walk& walk, const Trajectory& trajectory, std::ostream& out);
+Status WriteIpinSubmission(const Walk& walk, const Trajectory& trajectory, const std::string& path,
+                           const OutputOptions& options = {});
+
 }  // namespace walkgraph
 
 #endif  // WALKGRAPH_IO_H_

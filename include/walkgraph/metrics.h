@@ -29,8 +29,14 @@ struct ErrorSeries {
   std::vector<double> nees;
   // Truth path length (2D) from the walk's first truth sample to each point.
   std::vector<double> distance_m;
+  // Floors missed at each point, |estimated floor − truth floor| (IPIN's floorfail); empty when
+  // the truth has no floors. An estimate without floors is on Walk::StartFloor() throughout.
+  std::vector<int> floors_missed;
   int n_skipped = 0;
 };
+
+// IPIN's penalty per floor missed (technical annex 2023, "Evaluation criterion").
+inline constexpr double kIpinFloorPenaltyM = 15.0;
 
 // Points closer than this to the start (along the truth) are left out of the relative error:
 // 003 averages over the whole run, but e/d is 0/0 at the start and huge over the first step.
@@ -52,6 +58,11 @@ struct ErrorStats {
   double mean_pct_distance = std::numeric_limits<double>::quiet_NaN();
   // Mean position NEES over the points (2 = consistent); NaN when the series has no NEES.
   double anees = std::numeric_limits<double>::quiet_NaN();
+  // Multi-floor truth (NaN without floors): IPIN's score, the third quartile over the points
+  // of horizontal error + kIpinFloorPenaltyM × floors missed; the fraction of points on the
+  // right floor.
+  double ipin_score_m = std::numeric_limits<double>::quiet_NaN();
+  double floor_hit_rate = std::numeric_limits<double>::quiet_NaN();
   int n_points = 0;
 };
 
@@ -64,7 +75,8 @@ StatusOr<ErrorSeries> ComputeErrors(const Walk& walk, const Trajectory& trajecto
 
 // Statistics of an error series; `distance_m` is the path length for pct_distance.
 ErrorStats SummarizeErrors(const std::vector<double>& errors_m, double distance_m);
-// The same, with anees from the series' NEES and mean_pct_distance from its distances.
+// The same, with anees from the series' NEES, mean_pct_distance from its distances and the
+// floor figures from its floors_missed.
 ErrorStats SummarizeErrors(const ErrorSeries& series, double distance_m);
 
 // Linear-interpolation percentile (q in [0, 100]) of unsorted values; 0 for an empty vector.

@@ -96,6 +96,7 @@ struct PathLossObservation {
   int anchor_id = 0;
   double distance_m = 0.0;
   double rss = 0.0;
+  int floors_crossed = 0;  // floors between anchor and receiver (multi-floor walks)
 };
 
 struct PathLossFit {
@@ -104,7 +105,9 @@ struct PathLossFit {
   int num_observations = 0;
 };
 
-// Global fit over all observations (d0 as given, distances clamped at ≥ 0.1 m).
+// Global fit over all observations (d0 as given, distances clamped at ≥ 0.1 m). When the
+// observations cross different numbers of floors, the floor loss L is fitted with A and η
+// (RSS = A − s·10·η·log10(d/d0) − s·L·floors_crossed, least squares), else L = 0.
 StatusOr<PathLossFit> FitPathLoss(const std::vector<PathLossObservation>& obs, RssUnits units,
                                   double d0_m = 1.0);
 // One fit per anchor (anchors with fewer than min_observations readings are skipped).

@@ -15,6 +15,9 @@ struct TrajectoryPoint {
   double heading_rad = 0.0;
   // Covariance of (x, y, heading); absent when the estimator has none (e.g. a raw fix).
   std::optional<Eigen::Matrix3d> covariance;
+  // The floor the estimator puts the walker on (multi-floor estimators; see Walk::StartFloor
+  // for how an estimate without one is scored).
+  std::optional<int> floor;
 };
 
 struct Trajectory {
@@ -28,6 +31,9 @@ struct Trajectory {
   // The (x, y) block of the covariance at time t, interpolated and clamped like PositionAt;
   // nullopt when a bracketing point has no covariance. Requires a non-empty trajectory.
   std::optional<Eigen::Matrix2d> PositionCovarianceAt(double t_s) const;
+  // The floor of the point nearest in time to t (floors do not interpolate); nullopt when that
+  // point has none. Requires a non-empty trajectory.
+  std::optional<int> FloorAt(double t_s) const;
 
  private:
   struct Bracket {

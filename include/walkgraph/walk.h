@@ -33,6 +33,10 @@ struct PathLossParams {
   double eta = 2.5;       // path-loss exponent (> 0)
   double d0_m = 1.0;      // reference distance
   double sigma_db = 5.0;  // shadowing standard deviation
+  // Multi-floor walks: the RSS lost per floor between anchor and receiver (dB, >= 0), the
+  // floor attenuation factor of Seidel & Rappaport's multi-floor model; estimators that model
+  // floors subtract floor_loss_db × |floors crossed| from the expected RSS.
+  double floor_loss_db = 0.0;
 };
 
 struct RadioDefaults {
@@ -61,7 +65,11 @@ struct InitialPose {
   double sigma_xy_m = 0.5;
   double sigma_heading_rad = 0.1;
   bool heading_known = true;
+  // The start's floor (walk.yaml initial_pose.floor; multi-floor walks, see Walk::StartFloor).
+  std::optional<int> floor;
 };
+
+inline constexpr double kDefaultStoreyHeightM = 3.0;
 
 struct WalkMeta {
   int format_version = 1;
@@ -72,6 +80,10 @@ struct WalkMeta {
   TruthKind truth_kind = TruthKind::kNone;
   RadioDefaults radio;
   std::optional<InitialPose> initial_pose;
+  // Multi-floor walks: floor f (an integer level, 0 the ground floor, negative below) lies at
+  // height f × storey_height_m above floor 0 (walk.yaml `storey_height_m`; 3 m, a common
+  // storey, when the walk does not say). Estimators map their height to a floor with it.
+  double storey_height_m = kDefaultStoreyHeightM;
   // Free-form numeric facts a simulator or converter wants to keep (e.g. "sim.seed").
   std::map<std::string, double> extra;
 };
@@ -79,6 +91,7 @@ struct WalkMeta {
 struct Anchor {
   int id = 0;
   Eigen::Vector3d position_m = Eigen::Vector3d::Zero();
+  std::optional<int> floor;  // anchors.csv `floor` column (multi-floor walks)
 };
 
 struct ImuSample {
@@ -112,6 +125,13 @@ struct TruthSample {
   double t_s = 0.0;
   Eigen::Vector3d position_m = Eigen::Vector3d::Zero();
   bool has_z = false;
+  std::optional<int> floor;  // truth.csv `floor` column (multi-floor walks)
+};
+
+// A barometer reading (pressure.csv: t_s,hpa), hectopascal.
+struct PressureSample {
+  double t_s = 0.0;
+  double hpa = 0.0;
 };
 
 // A known position at a known time (waypoints.csv: t_s,x_m,y_m,sigma_m), e.g. a surveyed
@@ -157,6 +177,14 @@ struct Walk {
   std::vector<TruthSample> truth;
   std::vector<StanceSample> stance_truth;  // optional labels (e.g. PyShoe's zv_vicon)
   std::vector<Waypoint> waypoints;         // optional known positions (not truth: an input)
+  std::vector<PressureSample> pressure;    // optional barometer
+
+  // The floor the walk starts on: initial_pose.floor, else the first truth sample's floor
+  // (IPIN gives the first landmark, floor included), else 0. An estimator without a floor
+  // estimate is scored on this floor throughout.
+  int StartFloor() const;
+  // Whether the walk has floors to score (a truth sample with a floor).
+  bool has_truth_floors() const;
 
   bool has_imu() const { return !imu.empty(); }
   bool has_rss() const { return !rss.empty(); }
@@ -164,6 +192,9 @@ struct Walk {
   bool has_odometry() const { return !odometry.empty(); }
   bool has_truth() const { return !truth.empty(); }
 
+  // An anchor's height above floor 0: with a floor, floor × storey_height_m + z_m (z_m is then
+  // the mounting height above its floor); without, z_m.
+  double AnchorHeightM(const Anchor& a) const;
   // Index into `anchors` of the anchor with this id, or -1.
   int AnchorIndex(int id) const;
   // First and last timestamp over every stream (0, 0 for an empty walk).

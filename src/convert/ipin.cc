@@ -24,6 +24,7 @@
 #include "convert/line_fields.h"
 #include "io/input_file.h"
 #include "io/plausibility.h"
+#include "util/geodesy.h"
 #include "util/text.h"
 #include "walkgraph/convert.h"
 
@@ -52,33 +53,7 @@ int IpinMinorToBleId(int minor) {
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-
-// WGS84 latitude/longitude (height 0) → east/north metres in the tangent plane at `origin`.
-class LocalTangentPlane {
- public:
-  LocalTangentPlane(double lat0_deg, double lon0_deg) {
-    const double lat = lat0_deg * kPi / 180.0, lon = lon0_deg * kPi / 180.0;
-    origin_ = Ecef(lat0_deg, lon0_deg);
-    east_ = Eigen::Vector3d(-std::sin(lon), std::cos(lon), 0.0);
-    north_ = Eigen::Vector3d(-std::sin(lat) * std::cos(lon), -std::sin(lat) * std::sin(lon),
-                             std::cos(lat));
-  }
-  Eigen::Vector2d EastNorth(double lat_deg, double lon_deg) const {
-    const Eigen::Vector3d d = Ecef(lat_deg, lon_deg) - origin_;
-    return {east_.dot(d), north_.dot(d)};
-  }
-
- private:
-  static Eigen::Vector3d Ecef(double lat_deg, double lon_deg) {
-    constexpr double a = 6378137.0, f = 1.0 / 298.257223563, e2 = f * (2.0 - f);
-    const double lat = lat_deg * kPi / 180.0, lon = lon_deg * kPi / 180.0;
-    const double n = a / std::sqrt(1.0 - e2 * std::sin(lat) * std::sin(lat));
-    return {n * std::cos(lat) * std::cos(lon), n * std::cos(lat) * std::sin(lon),
-            n * (1.0 - e2) * std::sin(lat)};
-  }
-  Eigen::Vector3d origin_, east_, north_;
-};
+using internal::LocalTangentPlane;
 
 struct Beacon {
   int id = 0;
@@ -176,8 +151,9 @@ StatusOr<Walk> ConvertIpin(const std::string& log_path, const std::string& ble_l
   std::vector<Vec3Stamped> acc, gyro, mag;
   std::vector<double> acc_app_t;
   std::vector<RssSample> rss;
+  std::vector<PressureSample> pressure;
   std::set<std::pair<double, int>> rss_seen;
-  int rss_duplicates = 0, non_ibeacon = 0;
+  int rss_duplicates = 0, non_ibeacon = 0, pressure_repeats = 0;
   std::string line;
   int n = 0;
   while (true) {
@@ -263,8 +239,22 @@ StatusOr<Walk> ConvertIpin(const std::string& log_path, const std::string& ble_l
         continue;
       }
       rss.push_back({t, id, value});
+    } else if (type == "PRES") {
+      // PRES;AppTimestamp;SensorTimestamp;pressure(hPa);accuracy — on the app clock.
+      WG_RETURN_IF_ERROR(f.ExpectCount(5));
+      PressureSample p;
+      WG_ASSIGN_OR_RETURN(p.t_s, f.Number(1));
+      WG_ASSIGN_OR_RETURN(p.hpa, f.Number(3));
+      if (!(p.hpa >= 300.0 && p.hpa <= 1100.0)) {
+        return f.Error("pressure outside [300, 1100] hPa");
+      }
+      if (!pressure.empty() && !(p.t_s > pressure.back().t_s)) {
+        ++pressure_repeats;  // a repeated AppTimestamp: the first reading kept
+        continue;
+      }
+      pressure.push_back(p);
     }
-    // Other record types (AHRS, WIFI, PRES, GNSS, LIGH, SOUN, PROX, ...) are not used.
+    // Other record types (AHRS, WIFI, GNSS, LIGH, SOUN, PROX, ...) are not used.
   }
   if (posi.empty()) return InvalidArgument(log_path + ": no POSI lines (no ground truth)");
   if (acc.size() < 2 || gyro.size() < 2) {
@@ -288,16 +278,15 @@ StatusOr<Walk> ConvertIpin(const std::string& log_path, const std::string& ble_l
   walk.meta.extra["ipin.origin_lon_deg"] = posi.front().lon_deg;
   for (const Beacon& b : beacons) {
     const Eigen::Vector2d en = plane.EastNorth(b.lat_deg, b.lon_deg);
-    walk.anchors.push_back({b.id, Eigen::Vector3d(en.x(), en.y(), 0.0)});
-    walk.meta.extra["ipin.anchor_floor." + std::to_string(b.id)] = b.floor;
+    walk.anchors.push_back({b.id, Eigen::Vector3d(en.x(), en.y(), 0.0), b.floor});
   }
   for (size_t k = 0; k < posi.size(); ++k) {
     TruthSample s;
     s.t_s = posi[k].t_s;
     const Eigen::Vector2d en = plane.EastNorth(posi[k].lat_deg, posi[k].lon_deg);
     s.position_m = Eigen::Vector3d(en.x(), en.y(), 0.0);
+    s.floor = posi[k].floor;
     walk.truth.push_back(s);
-    walk.meta.extra["ipin.checkpoint_floor." + std::to_string(k)] = posi[k].floor;
   }
 
   // Sensor clock → app clock (see convert.h).
@@ -336,6 +325,8 @@ StatusOr<Walk> ConvertIpin(const std::string& log_path, const std::string& ble_l
   walk.meta.extra["convert.ble_duplicates_dropped"] = rss_duplicates;
   walk.meta.extra["convert.ble_non_ibeacon_skipped"] = non_ibeacon;
   walk.rss = std::move(rss);
+  walk.pressure = std::move(pressure);
+  walk.meta.extra["convert.pres_repeated_timestamps_dropped"] = pressure_repeats;
   if (options.known_start) {
     if (!(options.known_start_sigma_m > 0.0) || !std::isfinite(options.known_start_sigma_m)) {
       return InvalidArgument("ipin: the known start's sigma must be finite and > 0");
@@ -350,8 +341,11 @@ StatusOr<Walk> ConvertIpin(const std::string& log_path, const std::string& ble_l
         static_cast<double>(imu_end - walk.imu.begin());
     walk.meta.extra["convert.ble_before_start_dropped"] =
         static_cast<double>(rss_end - walk.rss.begin());
+    const auto pressure_end = std::find_if(walk.pressure.begin(), walk.pressure.end(),
+                                           [t0](const PressureSample& s) { return s.t_s >= t0; });
     walk.imu.erase(walk.imu.begin(), imu_end);
     walk.rss.erase(walk.rss.begin(), rss_end);
+    walk.pressure.erase(walk.pressure.begin(), pressure_end);
     if (walk.imu.size() < 2) {
       return InvalidArgument(log_path + ": fewer than two IMU samples after the first POSI");
     }
@@ -362,6 +356,7 @@ StatusOr<Walk> ConvertIpin(const std::string& log_path, const std::string& ble_l
     start.heading_known = false;
     start.heading_rad = 0.0;
     start.sigma_heading_rad = kUnknownHeadingSigmaRad;
+    start.floor = walk.truth.front().floor;
     walk.meta.initial_pose = start;
   }
   dropped.Report(&walk.meta, warnings);

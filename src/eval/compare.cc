@@ -27,6 +27,7 @@ namespace {
 void DropBefore(double t_s, ErrorSeries* e) {
   const bool with_nees = !e->nees.empty();
   const bool with_distance = !e->distance_m.empty();
+  const bool with_floors = !e->floors_missed.empty();
   size_t kept = 0;
   for (size_t i = 0; i < e->t_s.size(); ++i) {
     if (e->t_s[i] < t_s) continue;
@@ -34,6 +35,7 @@ void DropBefore(double t_s, ErrorSeries* e) {
     e->error_m[kept] = e->error_m[i];
     if (with_nees) e->nees[kept] = e->nees[i];
     if (with_distance) e->distance_m[kept] = e->distance_m[i];
+    if (with_floors) e->floors_missed[kept] = e->floors_missed[i];
     ++kept;
   }
   e->n_skipped += static_cast<int>(e->t_s.size() - kept);
@@ -41,6 +43,7 @@ void DropBefore(double t_s, ErrorSeries* e) {
   e->error_m.resize(kept);
   if (with_nees) e->nees.resize(kept);
   if (with_distance) e->distance_m.resize(kept);
+  if (with_floors) e->floors_missed.resize(kept);
 }
 
 // Every k-th element (and the last) of a series of n, k chosen to keep at most `max`.
@@ -84,6 +87,7 @@ void Compact(EstimatorOutcome* o, internal::TextSpill* rows) {
   Thin(keep, &o->errors.error_m);
   Thin(keep, &o->errors.nees);
   Thin(keep, &o->errors.distance_m);
+  Thin(keep, &o->errors.floors_missed);
   Thin(ThinnedIndices(o->result.trajectory.size(), kCompactPoints), &o->result.trajectory.points);
   o->result.nis.clear();
   o->result.nis.shrink_to_fit();
@@ -207,6 +211,8 @@ struct Column {
   const char* key;   // in results.json
   double ErrorStats::*field;
   int precision;
+  bool larger_is_better = false;
+  bool floors = false;  // a multi-floor figure: in the table only when some estimator has it
 };
 
 const Column kColumns[] = {
@@ -219,7 +225,22 @@ const Column kColumns[] = {
     {"final_m", "final_m", &ErrorStats::final_m, 3},
     {"pct_dist", "pct_distance", &ErrorStats::pct_distance, 2},
     {"mean_pct", "mean_pct_distance", &ErrorStats::mean_pct_distance, 2},
+    {"ipin_m", "ipin_score_m", &ErrorStats::ipin_score_m, 3, false, true},
+    {"floor_hit", "floor_hit_rate", &ErrorStats::floor_hit_rate, 3, true, true},
 };
+
+// The columns of a comparison's table: the floor figures only on a multi-floor walk.
+std::vector<const Column*> TableColumns(const Comparison& c) {
+  std::vector<const Column*> out;
+  for (const Column& col : kColumns) {
+    bool any = !col.floors;
+    for (const EstimatorOutcome& o : c.outcomes) {
+      any = any || (o.Ranked() && !std::isnan(o.stats.*(col.field)));
+    }
+    if (any) out.push_back(&col);
+  }
+  return out;
+}
 
 std::string Fixed(double v, int precision) {
   std::ostringstream s;
@@ -259,20 +280,28 @@ void WarnAboutFewRunsBelowTheBound(const Comparison& c, std::ostream& out) {
 }
 
 std::string FormatComparisonTable(const Comparison& c) {
-  const size_t ncol = std::size(kColumns);
+  const std::vector<const Column*> cols = TableColumns(c);
+  const size_t ncol = cols.size();
   const bool with_pcrb = c.pcrb_rmse_m.has_value();
   std::vector<std::vector<std::string>> rows;
   std::vector<std::string> header = {"estimator"};
-  for (const Column& col : kColumns) header.push_back(col.name);
+  for (const Column* col : cols) header.push_back(col->name);
   header.push_back("anees");  // not marked best: 2 is consistent, not the smallest
   header.push_back("runtime_s");
   header.push_back("n");
   if (with_pcrb) header.push_back("rmse/pcrb");
-  // Best (smallest) per column among successful outcomes.
+  // Best (smallest, or largest where larger is better) per column among successful outcomes.
   std::vector<double> best(ncol + 1, std::numeric_limits<double>::infinity());
+  for (size_t j = 0; j < ncol; ++j) {
+    if (cols[j]->larger_is_better) best[j] = -std::numeric_limits<double>::infinity();
+  }
   for (const EstimatorOutcome& o : c.outcomes) {
     if (!o.Ranked()) continue;
-    for (size_t j = 0; j < ncol; ++j) best[j] = std::min(best[j], o.stats.*(kColumns[j].field));
+    for (size_t j = 0; j < ncol; ++j) {
+      const double v = o.stats.*(cols[j]->field);
+      if (std::isnan(v)) continue;
+      best[j] = cols[j]->larger_is_better ? std::max(best[j], v) : std::min(best[j], v);
+    }
     best[ncol] = std::min(best[ncol], o.runtime_s);
   }
   for (const EstimatorOutcome& o : c.outcomes) {
@@ -283,14 +312,13 @@ std::string FormatComparisonTable(const Comparison& c) {
       continue;
     }
     for (size_t j = 0; j < ncol; ++j) {
-      const double v = o.stats.*(kColumns[j].field);
+      const double v = o.stats.*(cols[j]->field);
       if (std::isnan(v)) {  // mean_pct on a walk whose truth never leaves the start
         row.push_back("- ");
         continue;
       }
-      std::string cell = Fixed(v, kColumns[j].precision);
-      if (o.stats_std)
-        cell += "+-" + Fixed((*o.stats_std).*(kColumns[j].field), kColumns[j].precision);
+      std::string cell = Fixed(v, cols[j]->precision);
+      if (o.stats_std) cell += "+-" + Fixed((*o.stats_std).*(cols[j]->field), cols[j]->precision);
       row.push_back(cell + (v == best[j] ? "*" : " "));
     }
     if (std::isfinite(o.stats.anees)) {

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <optional>
 
 #include <Eigen/Cholesky>
@@ -98,6 +99,17 @@ StatusOr<ErrorSeries> ComputeErrors(const Walk& walk, const Trajectory& trajecto
     ref.push_back(s.position_m.head<2>());
   }
   if (t.empty()) return FailedPrecondition("no truth sample inside the trajectory's time span");
+  std::vector<int> floors_missed;
+  if (walk.has_truth_floors()) {
+    const int start_floor = walk.StartFloor();
+    for (size_t i = 0; i < walk.truth.size(); ++i) {
+      const TruthSample& s = walk.truth[i];
+      if (s.t_s < t0 || s.t_s > t1) continue;
+      const int truth_floor = s.floor.value_or(start_floor);
+      const int est_floor = trajectory.FloorAt(s.t_s).value_or(start_floor);
+      floors_missed.push_back(std::abs(est_floor - truth_floor));
+    }
+  }
   Eigen::Matrix2d rotation = Eigen::Matrix2d::Identity();
   if (alignment == Alignment::kSE2 && t.size() >= 2) {
     Eigen::Matrix2Xd src(2, est.size()), dst(2, ref.size());
@@ -113,6 +125,7 @@ StatusOr<ErrorSeries> ComputeErrors(const Walk& walk, const Trajectory& trajecto
   out.t_s = std::move(t);
   out.distance_m = std::move(walked);
   out.n_skipped = skipped;
+  out.floors_missed = std::move(floors_missed);
   out.error_m.reserve(est.size());
   for (size_t i = 0; i < est.size(); ++i) out.error_m.push_back((est[i] - ref[i]).norm());
   if (trajectory.points.front().covariance) {
@@ -168,6 +181,16 @@ ErrorStats SummarizeErrors(const ErrorSeries& series, double distance_m) {
       ++n;
     }
     if (n > 0) s.mean_pct_distance = sum / n;
+  }
+  if (!series.floors_missed.empty() && series.floors_missed.size() == series.error_m.size()) {
+    std::vector<double> score;
+    int hits = 0;
+    for (size_t i = 0; i < series.error_m.size(); ++i) {
+      score.push_back(series.error_m[i] + kIpinFloorPenaltyM * series.floors_missed[i]);
+      hits += series.floors_missed[i] == 0 ? 1 : 0;
+    }
+    s.ipin_score_m = Percentile(score, 75.0);
+    s.floor_hit_rate = static_cast<double>(hits) / static_cast<double>(score.size());
   }
   return s;
 }

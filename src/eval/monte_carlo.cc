@@ -44,11 +44,12 @@ struct RunningStat {
 };
 
 using Field = double ErrorStats::*;
-// anees, mean_pct_distance: NaN (none) as soon as one run has none.
-const Field kMeanFields[] = {&ErrorStats::rmse_m,       &ErrorStats::mean_m,
-                             &ErrorStats::max_m,        &ErrorStats::final_m,
-                             &ErrorStats::pct_distance, &ErrorStats::mean_pct_distance,
-                             &ErrorStats::anees};
+// anees, mean_pct_distance, the floor figures: NaN (none) as soon as one run has none. The
+// IPIN score is the mean of the runs' scores (each a third quartile of its own run).
+const Field kMeanFields[] = {
+    &ErrorStats::rmse_m,  &ErrorStats::mean_m,       &ErrorStats::max_m,
+    &ErrorStats::final_m, &ErrorStats::pct_distance, &ErrorStats::mean_pct_distance,
+    &ErrorStats::anees,   &ErrorStats::ipin_score_m, &ErrorStats::floor_hit_rate};
 const Field kPooledFields[] = {&ErrorStats::median_m, &ErrorStats::p75_m, &ErrorStats::p90_m};
 const double kPooledQ[] = {50.0, 75.0, 90.0};
 

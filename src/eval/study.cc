@@ -25,14 +25,17 @@ namespace fs = std::filesystem;
 
 namespace {
 
-const char* const kMetrics[] = {"rmse_m", "mean_m",  "median_m",     "p75_m", "p90_m",
-                                "max_m",  "final_m", "pct_distance", "anees", "mean_pct_distance"};
+const char* const kMetrics[] = {
+    "rmse_m",       "mean_m",        "median_m",     "p75_m", "p90_m",
+    "max_m",        "final_m",       "pct_distance", "anees", "mean_pct_distance",
+    "ipin_score_m", "floor_hit_rate"};
 const double ErrorStats::*const kMetricFields[] = {
-    &ErrorStats::rmse_m,   &ErrorStats::mean_m,
-    &ErrorStats::median_m, &ErrorStats::p75_m,
-    &ErrorStats::p90_m,    &ErrorStats::max_m,
-    &ErrorStats::final_m,  &ErrorStats::pct_distance,
-    &ErrorStats::anees,    &ErrorStats::mean_pct_distance};
+    &ErrorStats::rmse_m,       &ErrorStats::mean_m,
+    &ErrorStats::median_m,     &ErrorStats::p75_m,
+    &ErrorStats::p90_m,        &ErrorStats::max_m,
+    &ErrorStats::final_m,      &ErrorStats::pct_distance,
+    &ErrorStats::anees,        &ErrorStats::mean_pct_distance,
+    &ErrorStats::ipin_score_m, &ErrorStats::floor_hit_rate};
 
 bool KnownMetric(const std::string& m) {
   if (m == "rmse_over_pcrb") return true;

@@ -68,7 +68,8 @@ std::vector<int> StudyShardCells(const StudyManifest& m, const StudyShard& shard
 
 namespace {
 
-constexpr const char kMagic[] = "walkgraph-study-part 1";
+// 2: the floor figures (ipin_score_m, floor_hit_rate) in every row's stats.
+constexpr const char kMagic[] = "walkgraph-study-part 2";
 
 // Fields as whitespace-separated tokens; strings as <length>:<bytes>; doubles by their bits.
 class PartWriter {
@@ -161,11 +162,13 @@ class PartReader {
   bool ok_ = true;
 };
 
-double ErrorStats::*const kStatFields[] = {&ErrorStats::rmse_m,   &ErrorStats::mean_m,
-                                           &ErrorStats::median_m, &ErrorStats::p75_m,
-                                           &ErrorStats::p90_m,    &ErrorStats::max_m,
-                                           &ErrorStats::final_m,  &ErrorStats::pct_distance,
-                                           &ErrorStats::anees,    &ErrorStats::mean_pct_distance};
+double ErrorStats::*const kStatFields[] = {
+    &ErrorStats::rmse_m,       &ErrorStats::mean_m,
+    &ErrorStats::median_m,     &ErrorStats::p75_m,
+    &ErrorStats::p90_m,        &ErrorStats::max_m,
+    &ErrorStats::final_m,      &ErrorStats::pct_distance,
+    &ErrorStats::anees,        &ErrorStats::mean_pct_distance,
+    &ErrorStats::ipin_score_m, &ErrorStats::floor_hit_rate};
 
 void PutStats(PartWriter& w, const ErrorStats& s) {
   for (const auto f : kStatFields) w.Double(s.*f);

@@ -80,6 +80,18 @@ CsvReader::CsvReader(std::string path, std::vector<std::string> required,
                      std::vector<std::string> optional)
     : lines_(std::move(path)), required_(std::move(required)), optional_(std::move(optional)) {}
 
+CsvReader::CsvReader(std::string path, CsvHeaders headers)
+    : lines_(std::move(path)), accepted_(std::move(headers.accepted)) {
+  if (!accepted_.empty()) required_ = accepted_.front();
+}
+
+int CsvReader::Column(const std::string& name) const {
+  for (size_t i = 0; i < header_.size(); ++i) {
+    if (header_[i] == name) return static_cast<int>(i);
+  }
+  return -1;
+}
+
 Status CsvReader::Open() {
   WG_RETURN_IF_ERROR(lines_.Open());
   WG_ASSIGN_OR_RETURN(const bool any, lines_.Next(&buffer_));
@@ -88,12 +100,26 @@ Status CsvReader::Open() {
                            "'");
   }
   const std::vector<std::string> header = SplitCsvLine(buffer_);
+  if (!accepted_.empty()) {
+    std::string expected;
+    for (const std::vector<std::string>& h : accepted_) {
+      if (header == h) {
+        header_ = h;
+        num_columns_ = h.size();
+        return Status::Ok();
+      }
+      expected += (expected.empty() ? "'" : " or '") + Join(h) + "'";
+    }
+    return InvalidArgument(Where() + "header is " + Quoted(buffer_) + "; expected " + expected);
+  }
   std::vector<std::string> with_optional = required_;
   with_optional.insert(with_optional.end(), optional_.begin(), optional_.end());
   if (header == required_) {
     num_columns_ = required_.size();
+    header_ = required_;
   } else if (!optional_.empty() && header == with_optional) {
     num_columns_ = with_optional.size();
+    header_ = with_optional;
   } else {
     std::string expected = "'" + Join(required_) + "'";
     if (!optional_.empty()) expected += " or '" + Join(with_optional) + "'";
@@ -123,8 +149,7 @@ StatusOr<bool> CsvReader::Next(std::vector<double>* fields) {
   fields->resize(num_columns_);
   for (size_t i = 0; i < parts.size(); ++i) {
     if (!ParseFiniteDouble(parts[i], &(*fields)[i])) {
-      const std::string name =
-          i < required_.size() ? required_[i] : optional_[i - required_.size()];
+      const std::string& name = header_[i];
       return InvalidArgument(Where() + "column '" + name +
                              "': expected a finite decimal number, found " +
                              QuotedNumber(parts[i]));

@@ -15,12 +15,19 @@
 
 namespace walkgraph::internal {
 
+// Headers a file may have, any one of them (a stream with independent optional columns).
+struct CsvHeaders {
+  std::vector<std::vector<std::string>> accepted;
+};
+
 class CsvReader {
  public:
   // `required` columns must come first and in this order; `optional` may follow (all or none
   // of them, in order). The header is checked by Open().
   CsvReader(std::string path, std::vector<std::string> required,
             std::vector<std::string> optional = {});
+  // Any one of `headers` (the first is named in the message of an empty file).
+  CsvReader(std::string path, CsvHeaders headers);
 
   Status Open();
   // Reads the next data row into `fields` (size = number of header columns). Returns false at
@@ -29,6 +36,8 @@ class CsvReader {
 
   int line() const { return lines_.line(); }
   size_t num_columns() const { return num_columns_; }
+  // Index of a column in the header that was read, -1 when it is not there.
+  int Column(const std::string& name) const;
   const std::string& path() const { return lines_.path(); }
   // "path:line: " for messages about the current row.
   std::string Where() const { return lines_.Where(); }
@@ -37,6 +46,8 @@ class CsvReader {
   LineReader lines_;
   std::vector<std::string> required_;
   std::vector<std::string> optional_;
+  std::vector<std::vector<std::string>> accepted_;  // the CsvHeaders form
+  std::vector<std::string> header_;                 // as read
   std::string buffer_;
   size_t num_columns_ = 0;
 };

@@ -1,5 +1,6 @@
 #include <unistd.h>
 
+#include <algorithm>
 #include <charconv>
 #include <cmath>
 #include <cstdio>
@@ -14,6 +15,7 @@
 #include "io/csv_reader.h"
 #include "io/input_file.h"
 #include "io/plausibility.h"
+#include "util/geodesy.h"
 #include "util/text.h"
 #include "walkgraph/angle.h"
 #include "walkgraph/config.h"
@@ -88,6 +90,33 @@ std::string CheckRadioTime(double t, int anchor_id, double* last_t,
 
 bool IsIntegral(double v) { return std::floor(v) == v && std::fabs(v) < 2.0e9; }
 
+// A floor number: an integer level, 0 the ground floor, negative below ("" when it is one).
+constexpr int kMaxAbsFloor = 200;
+std::string CheckFloor(double v) {
+  if (IsIntegral(v) && std::fabs(v) <= kMaxAbsFloor) return "";
+  return "floor " + G(v) + " is not an integer level in [-" + std::to_string(kMaxAbsFloor) + ", " +
+         std::to_string(kMaxAbsFloor) + "]";
+}
+
+// Barometer readings: sea-level pressure is ~1013 hPa; 300 hPa is above Everest's summit,
+// 1100 hPa below the Dead Sea's shore.
+constexpr double kMinPressureHpa = 300.0, kMaxPressureHpa = 1100.0;
+std::string CheckPressure(const PressureSample& s, const PressureSample* previous) {
+  if (!std::isfinite(s.t_s) || !std::isfinite(s.hpa)) return "non-finite value";
+  std::string e = CheckTimeStrictlyIncreasing(s.t_s, previous ? &previous->t_s : nullptr);
+  if (e.empty() && !(s.hpa >= kMinPressureHpa && s.hpa <= kMaxPressureHpa)) {
+    e = "hpa " + G(s.hpa) + " outside [" + G(kMinPressureHpa) + ", " + G(kMaxPressureHpa) +
+        "] hPa; expected a barometer reading in hectopascal";
+  }
+  return e;
+}
+
+// The storey height of walk.yaml (metres between consecutive floors).
+std::string CheckStoreyHeight(double h) {
+  if (std::isfinite(h) && h >= 1.0 && h <= 20.0) return "";
+  return "storey_height_m " + G(h) + " outside [1, 20] m";
+}
+
 // ----------------------------------------------------------------- walk.yaml
 
 template <typename E>
@@ -112,6 +141,7 @@ Status ReadMeta(const std::string& path, WalkMeta* meta) {
   r.Read("name", &meta->name);
   r.Read("source", &meta->source);
   r.Read("licence", &meta->licence);
+  r.Read("storey_height_m", &meta->storey_height_m);
   std::string placement = "none", truth = "none", frame = "enu";
   r.Read("imu_placement", &placement);
   r.Read("truth", &truth);
@@ -123,6 +153,9 @@ Status ReadMeta(const std::string& path, WalkMeta* meta) {
   if (meta->format_version != 1) {
     return InvalidArgument(path + ": format_version " + std::to_string(meta->format_version) +
                            " is not supported; expected 1");
+  }
+  if (const std::string e = CheckStoreyHeight(meta->storey_height_m); !e.empty()) {
+    return InvalidArgument(path + ": " + e);
   }
   if (frame != "enu") {
     return InvalidArgument(path + ": frame '" + frame + "'; expected 'enu' (x east, y north, m)");
@@ -148,6 +181,7 @@ Status ReadMeta(const std::string& path, WalkMeta* meta) {
     rr.Read("eta", &meta->radio.path_loss.eta);
     rr.Read("d0_m", &meta->radio.path_loss.d0_m);
     rr.Read("sigma_db", &meta->radio.path_loss.sigma_db);
+    rr.Read("floor_loss_db", &meta->radio.path_loss.floor_loss_db);
     rr.Read("range_sigma_m", &meta->radio.range_sigma_m);
     rr.Read("calibrated", &meta->radio.calibrated);
     WG_RETURN_IF_ERROR(rr.Finish());
@@ -162,6 +196,10 @@ Status ReadMeta(const std::string& path, WalkMeta* meta) {
         !(meta->radio.range_sigma_m > 0.0) || !std::isfinite(pl.A_dbm)) {
       return InvalidArgument(path + ": radio: eta, d0_m, sigma_db and range_sigma_m must be > 0");
     }
+    if (!(pl.floor_loss_db >= 0.0 && pl.floor_loss_db <= 100.0)) {
+      return InvalidArgument(path + ": radio: floor_loss_db " + G(pl.floor_loss_db) +
+                             " outside [0, 100] dB");
+    }
   }
   if (initial.IsDefined() && !initial.IsNull()) {
     InitialPose p;
@@ -171,7 +209,15 @@ Status ReadMeta(const std::string& path, WalkMeta* meta) {
     ri.Read("heading_rad", &p.heading_rad);
     ri.Read("sigma_xy_m", &p.sigma_xy_m);
     ri.Read("sigma_heading_rad", &p.sigma_heading_rad);
+    double floor = 0.0;
+    ri.Read("floor", &floor);
     WG_RETURN_IF_ERROR(ri.Finish());
+    if (initial["floor"]) {
+      if (const std::string e = CheckFloor(floor); !e.empty()) {
+        return InvalidArgument(path + ": initial_pose: " + e);
+      }
+      p.floor = static_cast<int>(floor);
+    }
     // A position-only start: heading_rad left out (and then sigma_heading_rad too).
     const bool has_heading = static_cast<bool>(initial["heading_rad"]);
     if (!has_heading && initial["sigma_heading_rad"]) {
@@ -212,7 +258,7 @@ Status ReadMeta(const std::string& path, WalkMeta* meta) {
 
 Status ReadAnchors(const std::string& path, const ValidationLimits& lim,
                    std::vector<Anchor>* anchors) {
-  CsvReader r(path, {"id", "x_m", "y_m", "z_m"});
+  CsvReader r(path, {"id", "x_m", "y_m", "z_m"}, {"floor"});
   WG_RETURN_IF_ERROR(r.Open());
   std::vector<double> f;
   std::set<int> ids;
@@ -225,6 +271,12 @@ Status ReadAnchors(const std::string& path, const ValidationLimits& lim,
     Anchor a;
     a.id = static_cast<int>(f[0]);
     a.position_m = Eigen::Vector3d(f[1], f[2], f[3]);
+    if (r.num_columns() == 5) {
+      if (const std::string e = CheckFloor(f[4]); !e.empty()) {
+        return InvalidArgument(r.Where() + e);
+      }
+      a.floor = static_cast<int>(f[4]);
+    }
     if (a.position_m.cwiseAbs().maxCoeff() > lim.max_abs_coordinate_m) {
       return InvalidArgument(r.Where() + "coordinate beyond " + G(lim.max_abs_coordinate_m) + " m");
     }
@@ -345,20 +397,44 @@ Status ReadWaypoints(const std::string& path, const ValidationLimits& lim,
 
 Status ReadTruth(const std::string& path, const ValidationLimits& lim,
                  std::vector<TruthSample>* out) {
-  CsvReader r(path, {"t_s", "x_m", "y_m"}, {"z_m"});
+  CsvReader r(path, internal::CsvHeaders{{{"t_s", "x_m", "y_m"},
+                                          {"t_s", "x_m", "y_m", "z_m"},
+                                          {"t_s", "x_m", "y_m", "floor"},
+                                          {"t_s", "x_m", "y_m", "z_m", "floor"}}});
   WG_RETURN_IF_ERROR(r.Open());
+  const int z_column = r.Column("z_m"), floor_column = r.Column("floor");
   std::vector<double> f;
   while (true) {
     WG_ASSIGN_OR_RETURN(bool more, r.Next(&f));
     if (!more) break;
     TruthSample s;
     s.t_s = f[0];
-    s.has_z = r.num_columns() == 4;
-    s.position_m = Eigen::Vector3d(f[1], f[2], s.has_z ? f[3] : 0.0);
+    s.has_z = z_column >= 0;
+    s.position_m = Eigen::Vector3d(f[1], f[2], s.has_z ? f[z_column] : 0.0);
     std::string e = CheckTimeStrictlyIncreasing(s.t_s, out->empty() ? nullptr : &out->back().t_s);
+    if (e.empty() && floor_column >= 0) {
+      e = CheckFloor(f[floor_column]);
+      if (e.empty()) s.floor = static_cast<int>(f[floor_column]);
+    }
     if (e.empty() && s.position_m.cwiseAbs().maxCoeff() > lim.max_abs_coordinate_m) {
       e = "coordinate beyond " + G(lim.max_abs_coordinate_m) + " m";
     }
+    if (!e.empty()) return InvalidArgument(r.Where() + e);
+    out->push_back(s);
+  }
+  if (out->empty()) return InvalidArgument(path + ":2: no samples; expected at least one row");
+  return Status::Ok();
+}
+
+Status ReadPressure(const std::string& path, std::vector<PressureSample>* out) {
+  CsvReader r(path, {"t_s", "hpa"});
+  WG_RETURN_IF_ERROR(r.Open());
+  std::vector<double> f;
+  while (true) {
+    WG_ASSIGN_OR_RETURN(bool more, r.Next(&f));
+    if (!more) break;
+    const PressureSample s{f[0], f[1]};
+    const std::string e = CheckPressure(s, out->empty() ? nullptr : &out->back());
     if (!e.empty()) return InvalidArgument(r.Where() + e);
     out->push_back(s);
   }
@@ -459,7 +535,7 @@ StatusOr<Walk> ReadWalk(const std::string& dir, const ValidationLimits& limits) 
   // Which streams are there: each must be a regular file or absent.
   std::map<std::string, bool> present;
   for (const char* name : {"anchors.csv", "imu.csv", "rss.csv", "range.csv", "odometry.csv",
-                           "truth.csv", "stance_truth.csv", "waypoints.csv"}) {
+                           "truth.csv", "stance_truth.csv", "waypoints.csv", "pressure.csv"}) {
     WG_ASSIGN_OR_RETURN(present[name], internal::OptionalInputFile((root / name).string()));
   }
   const auto path = [&](const char* name) { return (root / name).string(); };
@@ -502,6 +578,9 @@ StatusOr<Walk> ReadWalk(const std::string& dir, const ValidationLimits& limits) 
   if (present["waypoints.csv"]) {
     WG_RETURN_IF_ERROR(ReadWaypoints(path("waypoints.csv"), limits, &walk.waypoints));
   }
+  if (present["pressure.csv"]) {
+    WG_RETURN_IF_ERROR(ReadPressure(path("pressure.csv"), &walk.pressure));
+  }
   if (walk.meta.truth_kind != TruthKind::kNone && walk.truth.empty()) {
     return InvalidArgument(yaml.string() + ": truth is '" + ToString(walk.meta.truth_kind) +
                            "' but truth.csv is missing");
@@ -523,6 +602,14 @@ StatusOr<Walk> ReadWalk(const std::string& dir, const ValidationLimits& limits) 
 Status ValidateWalk(const Walk& walk, const ValidationLimits& limits) {
   WG_RETURN_IF_ERROR(CheckMetaText(walk.meta, "walk meta"));
   WG_RETURN_IF_ERROR(CheckDeclaredStreams(walk, "walk meta"));
+  if (const std::string e = CheckStoreyHeight(walk.meta.storey_height_m); !e.empty()) {
+    return InvalidArgument("walk meta: " + e);
+  }
+  if (walk.meta.initial_pose && walk.meta.initial_pose->floor) {
+    if (const std::string e = CheckFloor(*walk.meta.initial_pose->floor); !e.empty()) {
+      return InvalidArgument("walk meta: initial_pose: " + e);
+    }
+  }
   std::set<int> ids;
   for (size_t i = 0; i < walk.anchors.size(); ++i) {
     if (walk.anchors[i].id < 0)
@@ -532,6 +619,15 @@ Status ValidateWalk(const Walk& walk, const ValidationLimits& limits) {
     }
     if (!ids.insert(walk.anchors[i].id).second) {
       return InvalidArgument("anchors: duplicate id " + std::to_string(walk.anchors[i].id));
+    }
+    if (walk.anchors[i].floor.has_value() != walk.anchors[0].floor.has_value()) {
+      return InvalidArgument("anchors[" + std::to_string(i) +
+                             "]: a floor on some anchors only; expected every anchor or none");
+    }
+    if (walk.anchors[i].floor) {
+      if (const std::string e = CheckFloor(*walk.anchors[i].floor); !e.empty()) {
+        return InvalidArgument("anchors[" + std::to_string(i) + "]: " + e);
+      }
     }
   }
   auto where = [](const char* stream, size_t i) {
@@ -600,10 +696,23 @@ Status ValidateWalk(const Walk& walk, const ValidationLimits& limits) {
         CheckWaypoint(walk.waypoints[i], i ? &walk.waypoints[i - 1] : nullptr, limits);
     if (!e.empty()) return InvalidArgument(where("waypoints", i) + e);
   }
+  for (size_t i = 0; i < walk.pressure.size(); ++i) {
+    const std::string e = CheckPressure(walk.pressure[i], i ? &walk.pressure[i - 1] : nullptr);
+    if (!e.empty()) return InvalidArgument(where("pressure", i) + e);
+  }
   for (size_t i = 0; i < walk.truth.size(); ++i) {
     const TruthSample& s = walk.truth[i];
     if (!std::isfinite(s.t_s) || !s.position_m.allFinite()) {
       return InvalidArgument(where("truth", i) + "non-finite value");
+    }
+    if (s.floor.has_value() != walk.truth[0].floor.has_value()) {
+      return InvalidArgument(where("truth", i) +
+                             "a floor on some samples only; expected every sample or none");
+    }
+    if (s.floor) {
+      if (const std::string e = CheckFloor(*s.floor); !e.empty()) {
+        return InvalidArgument(where("truth", i) + e);
+      }
     }
     const std::string e = CheckTimeStrictlyIncreasing(s.t_s, i ? &walk.truth[i - 1].t_s : nullptr);
     if (!e.empty()) return InvalidArgument(where("truth", i) + e);
@@ -625,6 +734,9 @@ Status WriteWalkFiles(const Walk& walk, const fs::path& root) {
     e << YAML::Key << "name" << YAML::Value << m.name;
     e << YAML::Key << "source" << YAML::Value << m.source;
     e << YAML::Key << "licence" << YAML::Value << m.licence;
+    if (m.storey_height_m != kDefaultStoreyHeightM) {
+      e << YAML::Key << "storey_height_m" << YAML::Value << Num(m.storey_height_m);
+    }
     e << YAML::Key << "imu_placement" << YAML::Value << ToString(m.imu_placement);
     e << YAML::Key << "frame" << YAML::Value << "enu";
     e << YAML::Key << "truth" << YAML::Value << ToString(m.truth_kind);
@@ -635,6 +747,10 @@ Status WriteWalkFiles(const Walk& walk, const fs::path& root) {
     e << YAML::Key << "eta" << YAML::Value << Num(m.radio.path_loss.eta);
     e << YAML::Key << "d0_m" << YAML::Value << Num(m.radio.path_loss.d0_m);
     e << YAML::Key << "sigma_db" << YAML::Value << Num(m.radio.path_loss.sigma_db);
+    if (m.radio.path_loss.floor_loss_db != 0.0 ||
+        (!walk.anchors.empty() && walk.anchors[0].floor)) {
+      e << YAML::Key << "floor_loss_db" << YAML::Value << Num(m.radio.path_loss.floor_loss_db);
+    }
     e << YAML::Key << "range_sigma_m" << YAML::Value << Num(m.radio.range_sigma_m);
     e << YAML::Key << "calibrated" << YAML::Value << m.radio.calibrated;
     e << YAML::EndMap;
@@ -648,6 +764,7 @@ Status WriteWalkFiles(const Walk& walk, const fs::path& root) {
       if (p.heading_known) {
         e << YAML::Key << "sigma_heading_rad" << YAML::Value << Num(p.sigma_heading_rad);
       }
+      if (p.floor) e << YAML::Key << "floor" << YAML::Value << *p.floor;
       e << YAML::EndMap;
     }
     if (!m.extra.empty()) {
@@ -661,10 +778,13 @@ Status WriteWalkFiles(const Walk& walk, const fs::path& root) {
   }));
   if (!walk.anchors.empty()) {
     WG_RETURN_IF_ERROR(WriteFileInOutput((root / "anchors.csv").string(), [&](std::ostream& o) {
-      o << "id,x_m,y_m,z_m\n";
+      const bool floor = walk.anchors[0].floor.has_value();
+      o << "id,x_m,y_m,z_m" << (floor ? ",floor" : "") << '\n';
       for (const Anchor& a : walk.anchors) {
         o << a.id << ',' << Num(a.position_m.x()) << ',' << Num(a.position_m.y()) << ','
-          << Num(a.position_m.z()) << '\n';
+          << Num(a.position_m.z());
+        if (floor) o << ',' << *a.floor;
+        o << '\n';
       }
       return true;
     }));
@@ -712,12 +832,13 @@ Status WriteWalkFiles(const Walk& walk, const fs::path& root) {
     }));
   }
   if (!walk.truth.empty()) {
-    const bool z = walk.truth[0].has_z;
+    const bool z = walk.truth[0].has_z, floor = walk.truth[0].floor.has_value();
     WG_RETURN_IF_ERROR(WriteFileInOutput((root / "truth.csv").string(), [&](std::ostream& o) {
-      o << "t_s,x_m,y_m" << (z ? ",z_m" : "") << '\n';
+      o << "t_s,x_m,y_m" << (z ? ",z_m" : "") << (floor ? ",floor" : "") << '\n';
       for (const TruthSample& s : walk.truth) {
         o << Num(s.t_s) << ',' << Num(s.position_m.x()) << ',' << Num(s.position_m.y());
         if (z) o << ',' << Num(s.position_m.z());
+        if (floor) o << ',' << *s.floor;
         o << '\n';
       }
       return true;
@@ -732,6 +853,13 @@ Status WriteWalkFiles(const Walk& walk, const fs::path& root) {
           }
           return true;
         }));
+  }
+  if (!walk.pressure.empty()) {
+    WG_RETURN_IF_ERROR(WriteFileInOutput((root / "pressure.csv").string(), [&](std::ostream& o) {
+      o << "t_s,hpa\n";
+      for (const PressureSample& s : walk.pressure) o << Num(s.t_s) << ',' << Num(s.hpa) << '\n';
+      return true;
+    }));
   }
   if (!walk.waypoints.empty()) {
     WG_RETURN_IF_ERROR(WriteFileInOutput((root / "waypoints.csv").string(), [&](std::ostream& o) {
@@ -793,6 +921,44 @@ Status WriteTumTrajectory(const Trajectory& trajectory, const std::string& path,
     FormatTumTrajectory(trajectory, o);
     return true;
   });
+}
+
+Status FormatIpinSubmission(const Walk& walk, const Trajectory& trajectory, std::ostream& o) {
+  const auto lat = walk.meta.extra.find("ipin.origin_lat_deg");
+  const auto lon = walk.meta.extra.find("ipin.origin_lon_deg");
+  if (lat == walk.meta.extra.end() || lon == walk.meta.extra.end()) {
+    return FailedPrecondition("IPIN submission: walk '" + walk.meta.name +
+                              "' has no ipin.origin_lat_deg/_lon_deg (not from convert ipin)");
+  }
+  if (trajectory.empty()) return FailedPrecondition("IPIN submission: empty trajectory");
+  const internal::LocalTangentPlane plane(lat->second, lon->second);
+  const int start_floor = walk.StartFloor();
+  double end = walk.EndTime();  // the last record, the barometer's included
+  if (!walk.pressure.empty()) end = std::max(end, walk.pressure.back().t_s);
+  char line[96];
+  for (long k = 0; 0.5 * static_cast<double>(k) <= end; ++k) {
+    const double t = 0.5 * static_cast<double>(k);
+    if (t < trajectory.points.front().t_s) {
+      o << "0,0,0\n";
+      continue;
+    }
+    const Eigen::Vector3d p = trajectory.PositionAt(t);
+    const Eigen::Vector2d ll = plane.LatLon(p.x(), p.y());
+    std::snprintf(line, sizeof(line), "%.12f,%.12f,%d\n", ll.y(), ll.x(),
+                  trajectory.FloorAt(t).value_or(start_floor));
+    o << line;
+  }
+  return Status::Ok();
+}
+
+Status WriteIpinSubmission(const Walk& walk, const Trajectory& trajectory, const std::string& path,
+                           const OutputOptions& options) {
+  Status format = Status::Ok();
+  WG_RETURN_IF_ERROR(WriteOutputFile(path, options, [&](std::ostream& o) {
+    format = FormatIpinSubmission(walk, trajectory, o);
+    return format.ok();
+  }));
+  return format;
 }
 
 StatusOr<Trajectory> ReadTumTrajectory(const std::string& path) {

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <set>
 
 #include <Eigen/Dense>
 
@@ -279,24 +280,33 @@ StatusOr<PathLossFit> FitPathLoss(const std::vector<PathLossObservation>& obs, R
   }
   if (use.size() < 3) return FailedPrecondition("path-loss fit: need at least 3 observations");
   const double s = units == RssUnits::kDbm ? 1.0 : -1.0;
-  Eigen::MatrixXd a(use.size(), 2);
+  std::set<int> crossings;
+  for (const PathLossObservation* o : use) crossings.insert(o->floors_crossed);
+  const int n = crossings.size() > 1 ? 3 : 2;  // the floor loss only where floors differ
+  Eigen::MatrixXd a(use.size(), n);
   Eigen::VectorXd y(use.size());
   for (size_t i = 0; i < use.size(); ++i) {
     a(i, 0) = 1.0;
     a(i, 1) = -s * 10.0 * std::log10(std::max(use[i]->distance_m, 0.1) / d0_m);
+    if (n == 3) a(i, 2) = -s * use[i]->floors_crossed;
     y(i) = use[i]->rss;
   }
   const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(a);
-  if (qr.rank() < 2) {
-    return FailedPrecondition("path-loss fit: all distances equal, η is not observable");
+  if (qr.rank() < n) {
+    return FailedPrecondition(
+        "path-loss fit: all distances equal (or tied to the floors), η is not observable");
   }
-  const Eigen::Vector2d x = qr.solve(y);
+  const Eigen::VectorXd x = qr.solve(y);
   const double ssr = (a * x - y).squaredNorm();
+  if (static_cast<int>(use.size()) <= n) {
+    return FailedPrecondition("path-loss fit: too few observations for the model");
+  }
   PathLossFit fit;
   fit.params.A_dbm = x(0);
   fit.params.eta = x(1);
+  fit.params.floor_loss_db = n == 3 ? std::max(x(2), 0.0) : 0.0;
   fit.params.d0_m = d0_m;
-  fit.params.sigma_db = std::sqrt(ssr / static_cast<double>(use.size() - 2));
+  fit.params.sigma_db = std::sqrt(ssr / static_cast<double>(static_cast<int>(use.size()) - n));
   fit.num_observations = static_cast<int>(use.size());
   return fit;
 }

@@ -13,7 +13,7 @@ namespace walkgraph::report {
 namespace {
 
 // A column: its value (NaN = none), its Monte Carlo spread, and what "best" means.
-enum class Best { kSmallest, kClosestToTwo, kNone };
+enum class Best { kSmallest, kLargest, kClosestToTwo, kNone };
 struct Column {
   const char* header;
   const char* title;  // the header's tooltip
@@ -55,6 +55,16 @@ std::vector<Column> Columns(const Comparison& c) {
        [](const Comparison&, const EstimatorOutcome& o) { return double(o.stats.n_points); },
        nullptr, 0, Best::kNone},
   };
+  bool floors = false;  // a multi-floor walk: IPIN's score and the floor hit rate
+  for (const EstimatorOutcome& o : c.outcomes) floors = floors || !std::isnan(o.stats.ipin_score_m);
+  if (floors) {
+    cols.insert(cols.begin() + 4,
+                {"IPIN [m]", "IPIN score: 3rd quartile of error + 15 m per floor missed",
+                 stat(&ErrorStats::ipin_score_m), &ErrorStats::ipin_score_m, 3, Best::kSmallest});
+    cols.insert(cols.begin() + 5, {"floor hit", "fraction of points on the right floor",
+                                   stat(&ErrorStats::floor_hit_rate), &ErrorStats::floor_hit_rate,
+                                   3, Best::kLargest});
+  }
   if (c.pcrb_rmse_m) {
     cols.push_back({"RMSE / PCRB", "RMSE over the smoother's posterior Cramér-Rao bound",
                     [](const Comparison& cc, const EstimatorOutcome& o) {
@@ -66,7 +76,10 @@ std::vector<Column> Columns(const Comparison& c) {
   return cols;
 }
 
-double Badness(Best best, double v) { return best == Best::kClosestToTwo ? std::abs(v - 2.0) : v; }
+double Badness(Best best, double v) {
+  if (best == Best::kLargest) return -v;
+  return best == Best::kClosestToTwo ? std::abs(v - 2.0) : v;
+}
 
 std::string Fixed(double v, int precision) {
   std::ostringstream s;

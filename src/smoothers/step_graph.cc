@@ -13,6 +13,7 @@
 
 #include "estimators/builtin.h"
 #include "factors/angle_manifold.h"
+#include "factors/barometric_height_factor.h"
 #include "factors/difference_prior_factor.h"
 #include "factors/heading_factor.h"
 #include "factors/heading_increment_factor.h"
@@ -75,6 +76,17 @@ StatusOr<StepGraphOptions> StepGraphOptions::FromYaml(const YAML::Node& node,
   ConfigReader r(node, context);
   const YAML::Node pdr = r.Child("pdr");
   r.Read("sigma_cross_m", &o.sigma_cross_m);
+  r.Read("floors", &o.floors);
+  r.Read("baro_sigma_m", &o.baro_sigma_m);
+  r.Read("baro_drift_m2ps", &o.baro_drift_m2ps);
+  r.Read("baro_window_s", &o.baro_window_s);
+  r.Read("start_height_sigma_m", &o.start_height_sigma_m);
+  r.Read("stairs", &o.stairs);
+  r.Read("stair_rate_mps", &o.stair_rate_mps);
+  r.Read("stair_window_s", &o.stair_window_s);
+  r.Read("stair_tread_m", &o.stair_tread_m);
+  r.Read("stair_tread_sigma_m", &o.stair_tread_sigma_m);
+  r.Read("stair_min_rise_storeys", &o.stair_min_rise_storeys);
   r.Read("step_sigma_scale", &o.step_sigma_scale);
   r.Read("dheading_sigma_scale", &o.dheading_sigma_scale);
   r.Read("min_sigma_length_m", &o.min_sigma_length_m);
@@ -153,6 +165,15 @@ Status CheckStepGraphOptions(const StepGraphOptions& o, const std::string& conte
     return Status::Ok();
   };
   WG_RETURN_IF_ERROR(positive(o.sigma_cross_m, "sigma_cross_m"));
+  WG_RETURN_IF_ERROR(positive(o.baro_sigma_m, "baro_sigma_m"));
+  WG_RETURN_IF_ERROR(positive(o.baro_window_s, "baro_window_s"));
+  WG_RETURN_IF_ERROR(positive(o.start_height_sigma_m, "start_height_sigma_m"));
+  WG_RETURN_IF_ERROR(positive(o.stair_rate_mps, "stair_rate_mps"));
+  WG_RETURN_IF_ERROR(positive(o.stair_window_s, "stair_window_s"));
+  WG_RETURN_IF_ERROR(positive(o.stair_tread_m, "stair_tread_m"));
+  WG_RETURN_IF_ERROR(positive(o.stair_tread_sigma_m, "stair_tread_sigma_m"));
+  WG_RETURN_IF_ERROR(positive(o.stair_min_rise_storeys, "stair_min_rise_storeys"));
+  if (!(o.baro_drift_m2ps >= 0)) return InvalidArgument(context + ": baro_drift_m2ps must be >= 0");
   WG_RETURN_IF_ERROR(positive(o.step_sigma_scale, "step_sigma_scale"));
   WG_RETURN_IF_ERROR(positive(o.dheading_sigma_scale, "dheading_sigma_scale"));
   WG_RETURN_IF_ERROR(positive(o.min_sigma_length_m, "min_sigma_length_m"));
@@ -350,6 +371,40 @@ struct StepGraph::Impl {
   std::optional<InitialPose> start;
   std::vector<std::vector<Reading>> readings_at;  // by newest node
   bool any_rss = false, any_range = false;
+  // Floors: the barometric height of each node above node 0's, the start height, the storey.
+  bool floors = false;
+  std::vector<double> baro_z;
+  double start_z = 0.0, storey_m = kDefaultStoreyHeightM;
+  void MakeHeights(const Walk& walk, const std::vector<double>& node_t);
+  // Stair steps (StepGraphOptions::stairs): their horizontal length is a tread. Returns how
+  // many steps were taken for stair steps.
+  int MarkStairs(const Walk& walk, const std::vector<double>& node_t);
+  int stair_steps = 0;
+  // Anchors with floors: each anchor's height (Walk::AnchorHeightM) and floor.
+  std::vector<double> anchor_z;
+  std::vector<std::optional<int>> anchor_floor;
+  int Floor(double z_m) const { return static_cast<int>(std::lround(z_m / storey_m)); }
+  // A reading's receiver height: its nodes' barometric heights (the start floor's height
+  // without a barometer).
+  double ReceiverHeight(int node_a, int node_b, double alpha) const {
+    if (!floors) return start_z;
+    const double za = start_z + baro_z[node_a];
+    return node_b < 0 ? za : (1.0 - alpha) * za + alpha * (start_z + baro_z[node_b]);
+  }
+  // An RSS reading of anchor a from a multi-floor walk: the anchor at its height, the receiver
+  // receiver_height_m above its nodes' barometric height, and the reading raised by the floor loss
+  // of the floors in between (the expected RSS lowered by it). Leaves `rss`, `anchor_m`,
+  // `receiver_m` as they are for an anchor without a floor, and for every anchor while the
+  // walk's radio has no floor loss (floor_loss_db 0: the planar model, which its A and η were
+  // fitted for: `fit-path-loss` without --floors).
+  void FloorAware(int a, int node_a, int node_b, double alpha, double sign, double* rss,
+                  Eigen::Vector3d* anchor_m, double* receiver_m) const {
+    if (!anchor_floor[a] || !(radio.path_loss.floor_loss_db > 0.0)) return;
+    const double z = ReceiverHeight(node_a, node_b, alpha);
+    anchor_m->z() = anchor_z[a];
+    *receiver_m += z;  // receiver_height_m above the floor
+    *rss += sign * radio.path_loss.floor_loss_db * std::abs(Floor(z) - *anchor_floor[a]);
+  }
   std::vector<bool> anchor_has_rss, anchor_has_range;
   std::shared_ptr<const ceres::Manifold> angle = std::make_shared<AngleManifold>();
   std::shared_ptr<const ceres::LossFunction> rss_loss, range_loss, mag_loss;
@@ -637,7 +692,13 @@ StatusOr<std::unique_ptr<StepGraph>> StepGraph::Build(const Walk& walk, const St
   m.mag_loss = internal::MakeLoss(o.mag_heading_loss, o.mag_heading_loss_scale);
 
   WG_RETURN_IF_ERROR(m.MakeNodes(walk, g.get()));
+  m.MakeHeights(walk, g->node_t_);
+  m.stair_steps = m.MarkStairs(walk, g->node_t_);
   m.DeadReckon(walk, g.get());
+  for (const Anchor& a : walk.anchors) {
+    m.anchor_z.push_back(walk.AnchorHeightM(a));
+    m.anchor_floor.push_back(a.floor);
+  }
   WG_RETURN_IF_ERROR(m.AttachReadings(walk, g.get()));
   m.PlaceStart(walk, g.get());
   WG_RETURN_IF_ERROR(m.AddUserFactors(walk, g->node_t_));
@@ -645,6 +706,84 @@ StatusOr<std::unique_ptr<StepGraph>> StepGraph::Build(const Walk& walk, const St
 }
 
 bool StepGraph::path_loss_per_anchor() const { return impl_->PathLossPerAnchor(); }
+
+bool StepGraph::has_floors() const { return impl_->floors; }
+
+int StepGraph::FloorOfHeight(double z_m) const { return impl_->Floor(z_m); }
+
+int StepGraph::stair_steps() const { return impl_->stair_steps; }
+
+namespace {
+
+// The mean pressure of the readings within ±window/2 of t, else the reading nearest in time.
+double PressureAt(const std::vector<PressureSample>& p, double t, double window_s) {
+  auto by_time = [](const PressureSample& s, double x) { return s.t_s < x; };
+  auto lo = std::lower_bound(p.begin(), p.end(), t - 0.5 * window_s, by_time);
+  auto hi = std::lower_bound(p.begin(), p.end(), t + 0.5 * window_s, by_time);
+  if (lo == hi) {
+    auto it = std::lower_bound(p.begin(), p.end(), t, by_time);
+    if (it == p.end() || (it != p.begin() && t - (it - 1)->t_s < it->t_s - t)) --it;
+    return it->hpa;
+  }
+  double sum = 0.0;
+  for (auto it = lo; it != hi; ++it) sum += it->hpa;
+  return sum / static_cast<double>(hi - lo);
+}
+
+}  // namespace
+
+int StepGraph::Impl::MarkStairs(const Walk& walk, const std::vector<double>& node_t) {
+  if (!floors || !o.stairs || odometry || radio_only) return 0;
+  const std::vector<bool> gap = BridgedNodes(walk, true, node_t);
+  auto height = [&](double t) {  // above node 0
+    return BarometricHeightM(PressureAt(walk.pressure, t, o.baro_window_s),
+                             PressureAt(walk.pressure, node_t[0], o.baro_window_s));
+  };
+  // Candidates: steps whose height changes at the rate of stairs, one way.
+  std::vector<int> dir(node_t.size(), 0);
+  for (size_t k = 1; k < node_t.size(); ++k) {
+    if (gap[k]) continue;
+    const double t = 0.5 * (node_t[k - 1] + node_t[k]), h = 0.5 * o.stair_window_s;
+    const double rate = (height(t + h) - height(t - h)) / o.stair_window_s;
+    if (std::fabs(rate) >= o.stair_rate_mps) dir[k] = rate > 0 ? 1 : -1;
+  }
+  // A staircase: a run of candidates one way that changes the height by a floor transition's
+  // worth (stair_min_rise_storeys × storey); shorter runs are the phone lifted or lowered.
+  int n = 0;
+  for (size_t a = 1; a < node_t.size();) {
+    size_t b = a;
+    while (b < node_t.size() && dir[b] != 0 && dir[b] == dir[a]) ++b;
+    if (b == a) {
+      ++a;
+      continue;
+    }
+    const double rise = height(node_t[b - 1]) - height(node_t[a - 1]);
+    if (std::fabs(rise) >= o.stair_min_rise_storeys * storey_m) {
+      for (size_t k = a; k < b; ++k) {
+        steps[k - 1].length_m = o.stair_tread_m;
+        steps[k - 1].sigma_length_m = o.stair_tread_sigma_m;
+        ++n;
+      }
+    }
+    a = b;
+  }
+  return n;
+}
+
+// Each node's pressure: PressureAt (±baro_window_s/2); heights above node 0's by the standard
+// atmosphere.
+void StepGraph::Impl::MakeHeights(const Walk& walk, const std::vector<double>& node_t) {
+  storey_m = walk.meta.storey_height_m;
+  const int start_floor =
+      start && start->floor ? *start->floor : 0;  // the truth's floors are not an input
+  start_z = start_floor * storey_m;
+  floors = o.floors && !walk.pressure.empty();
+  if (!floors) return;
+  std::vector<double> hpa;
+  for (double t : node_t) hpa.push_back(PressureAt(walk.pressure, t, o.baro_window_s));
+  baro_z.clear();
+  for (double v : hpa) baro_z.push_back(BarometricHeightM(v, hpa.front()));
+}
 
 bool StepGraph::path_loss_estimated() const {
   return impl_->any_rss && impl_->o.rss_residual == "db" && impl_->o.path_loss != "fixed";
@@ -721,7 +860,12 @@ std::vector<SmootherState> StepGraph::NodeStates(int k, const Eigen::Vector2d& p
   th.manifold = m.angle;
   if (k == 0 && fix_first_node_) p.constant = th.constant = true;
   if (m.radio_only) th.constant = true;  // no heading information without steps
-  return {p, th};
+  if (!m.floors) return {p, th};
+  SmootherState z;
+  z.key = HeightKey(k);
+  z.t_s = node_t_[k];
+  z.value = {m.start_z + m.baro_z[k]};
+  return {p, th, z};
 }
 
 namespace {
@@ -768,6 +912,8 @@ void StepGraph::Impl::AddReadingFactors(int k, std::vector<SmootherFactor>* out)
       rd.sign = sign;
       rd.d0_m = pl.d0_m;
       rd.receiver_height_m = o.receiver_height_m;
+      FloorAware(r.index, r.node_a, r.node_b, r.alpha, sign, &rd.rss, &rd.anchor_m,
+                 &rd.receiver_height_m);
       keys.push_back(PathLossKey(PathLossGroup(r.index)));
       add(two ? RssFactor<2>::CreateInterpolated(rd, r.alpha) : RssFactor<2>::Create(rd), keys,
           rss_loss);
@@ -781,6 +927,8 @@ void StepGraph::Impl::AddReadingFactors(int k, std::vector<SmootherFactor>* out)
       rd.sigma_db = pl.sigma_db;
       rd.sign = sign;
       rd.receiver_height_m = o.receiver_height_m;
+      FloorAware(r.index, r.node_a, r.node_b, r.alpha, sign, &rd.rss, &rd.anchor_m,
+                 &rd.receiver_height_m);
       add(two ? RssRangeFactor<2>::CreateInterpolated(rd, r.alpha) : RssRangeFactor<2>::Create(rd),
           keys, rss_loss);
     } else {
@@ -880,6 +1028,17 @@ std::vector<SmootherFactor> StepGraph::FactorsAt(int k) const {
     }
   }
 
+  if (m.floors && k == 0) {
+    add_owned(DiagonalPrior(Eigen::VectorXd::Constant(1, m.start_z),
+                            Eigen::VectorXd::Constant(1, o.start_height_sigma_m)),
+              {HeightKey(0)});
+  } else if (m.floors) {
+    const double dt = node_t_[k] - node_t_[k - 1];
+    const double sigma =
+        std::sqrt(2.0 * o.baro_sigma_m * o.baro_sigma_m + o.baro_drift_m2ps * std::max(dt, 0.0));
+    add(BarometricHeightFactor::Create(m.baro_z[k] - m.baro_z[k - 1], sigma),
+        {HeightKey(k - 1), HeightKey(k)});
+  }
   m.AddReadingFactors(k, &out);
   for (const GraphFactor& f : m.user_at[k]) out.push_back(f);  // shared cost functions
   return out;
@@ -934,6 +1093,13 @@ void AddGraphDiagnostics(const StepGraph& graph, const Walk& walk,
   if (graph.start_heading_contradicted_rad() > 0.0) {
     (*d)["start_heading_contradicted_rad"] = graph.start_heading_contradicted_rad();
   }
+  if (graph.has_floors()) (*d)["stair_steps"] = graph.stair_steps();
+}
+
+// A node's height and the floor it is on.
+void SetHeight(const StepGraph& graph, double z_m, TrajectoryPoint* point) {
+  point->position_m.z() = z_m;
+  point->floor = graph.FloorOfHeight(z_m);
 }
 
 TrajectoryPoint MakePoint(double t, const double* p, double theta) {
@@ -1000,9 +1166,8 @@ Status StepGraph::AddTo(FactorGraph* fg) const {
   for (int k = 0; k < num_nodes(); ++k) {
     const Eigen::Vector3d& x = init_[k];
     for (SmootherState& s : NodeStates(k, x.head<2>(), x[2])) {
-      if (k > 0)
-        s.value =
-            s.key == PositionKey(k) ? std::vector<double>{x[0], x[1]} : std::vector<double>{x[2]};
+      if (k > 0 && s.key == PositionKey(k)) s.value = {x[0], x[1]};
+      if (k > 0 && s.key == HeadingKey(k)) s.value = {x[2]};
       WG_RETURN_IF_ERROR(fg->AddState(std::move(s)));
     }
   }
@@ -1072,6 +1237,8 @@ StatusOr<EstimateResult> StepGraphBatch::Run(const Walk& walk) const {
     result.trajectory.points.push_back(MakePoint(graph->node_time(k),
                                                  value(StepGraph::PositionKey(k)).data(),
                                                  value(StepGraph::HeadingKey(k))[0]));
+    if (graph->has_floors())
+      SetHeight(*graph, value(StepGraph::HeightKey(k))[0], &result.trajectory.points.back());
   }
   if (options_.covariance) {
     std::vector<std::vector<StateKey>> groups;
@@ -1166,8 +1333,10 @@ StatusOr<EstimateResult> RunWindowNodes(const Walk& walk, const StepGraphOptions
     const int k = node_of(key);
     points[k].t_s = t;
     if (SymbolLetter(key) == 'x') {
-      points[k].position_m = Eigen::Vector3d(v[0], v[1], 0.0);
+      points[k].position_m.head<2>() = Eigen::Vector2d(v[0], v[1]);
       have[k] = true;
+    } else if (SymbolLetter(key) == 'z') {
+      SetHeight(*graph, v[0], &points[k]);
     } else {
       points[k].heading_rad = NormalizeAngle(v[0]);
     }
@@ -1215,6 +1384,10 @@ StatusOr<EstimateResult> RunWindowNodes(const Walk& walk, const StepGraphOptions
         WG_ASSIGN_OR_RETURN(std::vector<double> pj, smoother.Estimate(StepGraph::PositionKey(j)));
         WG_ASSIGN_OR_RETURN(std::vector<double> hj, smoother.Estimate(StepGraph::HeadingKey(j)));
         points[j] = MakePoint(graph->node_time(j), pj.data(), hj[0]);
+        if (graph->has_floors()) {
+          WG_ASSIGN_OR_RETURN(std::vector<double> zj, smoother.Estimate(StepGraph::HeightKey(j)));
+          SetHeight(*graph, zj[0], &points[j]);
+        }
         have[j] = true;
       }
       store_covariances(pending);

@@ -81,6 +81,37 @@ struct StepGraphOptions {
   double odometry_sigma_cross_m = 0.01;
   double odometry_sigma_dheading_rad = 0.01;
 
+  // Floors (walks with pressure.csv): a height z_k per node, barometric height changes
+  // between consecutive nodes (BarometricHeightFactor, σ² = 2·baro_sigma_m² + baro_drift_m2ps·Δt,
+  // each node's pressure the mean of the readings within ±baro_window_s/2), the start height
+  // at the start floor (initial_pose.floor; floor 0 when the walk does not give it) with σ
+  // start_height_sigma_m; each node's floor is its height over walk.yaml storey_height_m,
+  // rounded. A phone barometer's noise is ~0.02–0.03 hPa (≈ 0.2 m); indoor drift (weather, air
+  // conditioning) ~1 hPa per hour (≈ 2 mm/s, as a random walk 0.5 m over 100 s). Datasheet
+  // and textbook figures, not fitted on a walk.
+  bool floors = true;
+  double baro_sigma_m = 0.25;
+  double baro_drift_m2ps = 0.0025;
+  double baro_window_s = 1.0;
+  double start_height_sigma_m = 0.5;
+  // Stairs: a step during which the barometric height changes faster than stair_rate_mps
+  // (over stair_window_s around it) is a stair step, and moves the walker one tread,
+  // stair_tread_m (σ stair_tread_sigma_m), horizontally instead of the PDR step length (a
+  // walking step is ~0.7 m, a stair's tread ~0.28 m: Blondel's 2·rise + tread ≈ 0.63 m with
+  // a 0.17 m rise). Climbing or descending stairs takes ~0.3 m/s of height (one 0.17 m rise
+  // per ~0.6 s step); 0.1 m/s keeps the barometer's noise (0.25 m over 3 s) out. Lifts and
+  // escalators give no steps. Only runs of such steps one way that change the height by
+  // stair_min_rise_storeys × storey_height_m (a floor transition; half a storey also takes
+  // a mezzanine) count: a phone lifted or lowered in the hand moves it ~0.5 m at that rate
+  // (IPIN trials 01/05/21, flat: runs of ≤ 2.5 s at 0.1–0.18 m/s). stairs: false keeps the PDR
+  // lengths.
+  bool stairs = true;
+  double stair_rate_mps = 0.1;
+  double stair_window_s = 3.0;
+  double stair_tread_m = 0.28;
+  double stair_tread_sigma_m = 0.1;
+  double stair_min_rise_storeys = 0.5;
+
   // Radio.
   std::string rss_residual = "db";  // db (RssFactor) | range (RssRangeFactor, 004 eq. 7)
   // Cauchy at 0.5σ: with 20 % NLOS readings 15 dB low (tarrio-circle) the RMSE rises 1.16×
@@ -209,11 +240,19 @@ class StepGraph {
   // Node k's keys (graph.h): x(k) its position, h(k) its heading.
   static StateKey PositionKey(int k) { return Symbol('x', static_cast<uint64_t>(k)); }
   static StateKey HeadingKey(int k) { return Symbol('h', static_cast<uint64_t>(k)); }
+  // z(k): node k's height (m above floor 0), a state when has_floors().
+  static StateKey HeightKey(int k) { return Symbol('z', static_cast<uint64_t>(k)); }
+  // Whether the graph estimates a height per node (StepGraphOptions::floors, pressure.csv).
+  bool has_floors() const;
+  // The floor of a height (walk.yaml storey_height_m).
+  int FloorOfHeight(double z_m) const;
+  // How many steps were taken for stair steps (StepGraphOptions::stairs).
+  int stair_steps() const;
 
   // Static (untimed) states: path loss, range bias, gyro bias blocks.
   std::vector<SmootherState> StaticStates() const;
-  // Node k's two states, initialized from node k−1's (p, θ) by its step (dead reckoning);
-  // node 0 from the start.
+  // Node k's two states (three with has_floors(): the height last), initialized from node k−1's (p,
+  // θ) by its step (dead reckoning); node 0 from the start.
   std::vector<SmootherState> NodeStates(int k, const Eigen::Vector2d& prev_p,
                                         double prev_theta) const;
   // The initial (p, θ) of every node (dead reckoning from the start).
