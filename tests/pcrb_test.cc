@@ -11,7 +11,7 @@
 
 #include "test_util.h"
 #include "walkgraph/compare.h"
-#include "walkgraph/filters/kalman.h"
+#include "walkgraph/kalman.h"
 #include "walkgraph/path_loss.h"
 
 namespace walkgraph {

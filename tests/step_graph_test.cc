@@ -16,8 +16,8 @@
 #include "test_util.h"
 #include "walkgraph/angle.h"
 #include "walkgraph/compare.h"
-#include "walkgraph/filters/kalman.h"
 #include "walkgraph/io.h"
+#include "walkgraph/kalman.h"
 #include "walkgraph/metrics.h"
 #include "walkgraph/simulate.h"
 

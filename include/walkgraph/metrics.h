@@ -66,6 +66,14 @@ struct ErrorStats {
   int n_points = 0;
 };
 
+// Every figure of ErrorStats but n_points, with its name (the key of results.json and of the
+// studies' CSV and parts), in one order: the one list that writers and readers iterate.
+struct ErrorStatField {
+  const char* name;
+  double ErrorStats::*field;
+};
+const std::vector<ErrorStatField>& ErrorStatFields();
+
 enum class Alignment { kNone, kSE2 };
 
 // Errors of `trajectory` at the truth of `walk`. kSE2 first fits the rotation and translation

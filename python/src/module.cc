@@ -141,16 +141,7 @@ struct Estimate {
 
 py::dict StatsDict(const ErrorStats& s) {
   py::dict d;
-  d["rmse_m"] = s.rmse_m;
-  d["mean_m"] = s.mean_m;
-  d["median_m"] = s.median_m;
-  d["p75_m"] = s.p75_m;
-  d["p90_m"] = s.p90_m;
-  d["max_m"] = s.max_m;
-  d["final_m"] = s.final_m;
-  d["pct_distance"] = s.pct_distance;
-  d["mean_pct_distance"] = s.mean_pct_distance;
-  d["anees"] = s.anees;
+  for (const ErrorStatField& f : ErrorStatFields()) d[f.name] = s.*f.field;
   d["n_points"] = s.n_points;
   return d;
 }

@@ -103,7 +103,8 @@ StatusOr<Walk> ConvertPlaza(const std::string& dir_name, const ConvertOptions& o
       return InvalidArgument(anchors_path + ":" + std::to_string(anchors.line_numbers[i]) +
                              ": anchor id must be a unique non-negative integer");
     }
-    walk.anchors.push_back({static_cast<int>(r[0]), Eigen::Vector3d(r[1], r[2], 0.0)});
+    walk.anchors.push_back(
+        {static_cast<int>(r[0]), Eigen::Vector3d(r[1], r[2], 0.0), std::nullopt});
   }
 
   WG_ASSIGN_OR_RETURN(internal::TextTable dr, internal::ReadTextTable(dr_path, 3, false));

@@ -144,6 +144,23 @@ StatusOr<ErrorSeries> ComputeErrors(const Walk& walk, const Trajectory& trajecto
   return out;
 }
 
+const std::vector<ErrorStatField>& ErrorStatFields() {
+  using S = ErrorStats;
+  static const std::vector<ErrorStatField> fields = {{"rmse_m", &S::rmse_m},
+                                                     {"mean_m", &S::mean_m},
+                                                     {"median_m", &S::median_m},
+                                                     {"p75_m", &S::p75_m},
+                                                     {"p90_m", &S::p90_m},
+                                                     {"max_m", &S::max_m},
+                                                     {"final_m", &S::final_m},
+                                                     {"pct_distance", &S::pct_distance},
+                                                     {"anees", &S::anees},
+                                                     {"mean_pct_distance", &S::mean_pct_distance},
+                                                     {"ipin_score_m", &S::ipin_score_m},
+                                                     {"floor_hit_rate", &S::floor_hit_rate}};
+  return fields;
+}
+
 ErrorStats SummarizeErrors(const std::vector<double>& e, double distance_m) {
   ErrorStats s;
   s.n_points = static_cast<int>(e.size());

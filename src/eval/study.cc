@@ -25,22 +25,15 @@ namespace fs = std::filesystem;
 
 namespace {
 
-const char* const kMetrics[] = {
-    "rmse_m",       "mean_m",        "median_m",     "p75_m", "p90_m",
-    "max_m",        "final_m",       "pct_distance", "anees", "mean_pct_distance",
-    "ipin_score_m", "floor_hit_rate"};
-const double ErrorStats::*const kMetricFields[] = {
-    &ErrorStats::rmse_m,       &ErrorStats::mean_m,
-    &ErrorStats::median_m,     &ErrorStats::p75_m,
-    &ErrorStats::p90_m,        &ErrorStats::max_m,
-    &ErrorStats::final_m,      &ErrorStats::pct_distance,
-    &ErrorStats::anees,        &ErrorStats::mean_pct_distance,
-    &ErrorStats::ipin_score_m, &ErrorStats::floor_hit_rate};
-
-bool KnownMetric(const std::string& m) {
-  if (m == "rmse_over_pcrb") return true;
-  return std::find(std::begin(kMetrics), std::end(kMetrics), m) != std::end(kMetrics);
+// The figure of `m` (ErrorStatFields), or null.
+double ErrorStats::*FieldOf(const std::string& m) {
+  for (const ErrorStatField& f : ErrorStatFields()) {
+    if (m == f.name) return f.field;
+  }
+  return nullptr;
 }
+
+bool KnownMetric(const std::string& m) { return FieldOf(m) != nullptr || m == "rmse_over_pcrb"; }
 
 std::string Join(const std::vector<std::string>& v) {
   std::string out;
@@ -110,7 +103,8 @@ class Parser {
   StatusOr<std::string> Metric(const YAML::Node& n) const {
     WG_ASSIGN_OR_RETURN(std::string m, String(n, "metric"));
     if (!KnownMetric(m)) {
-      std::vector<std::string> all(std::begin(kMetrics), std::end(kMetrics));
+      std::vector<std::string> all;
+      for (const ErrorStatField& f : ErrorStatFields()) all.push_back(f.name);
       all.push_back("rmse_over_pcrb");
       return Error(n, "unknown metric " + internal::Quoted(m) + "; known: " + Join(all));
     }
@@ -591,18 +585,14 @@ std::optional<double> Finite(double v) {
 std::optional<double> MetricOf(const StudyCell& c, const StudyRow& r, const std::string& metric) {
   if (!r.status.ok()) return std::nullopt;
   if (metric == "rmse_over_pcrb") return RatioOf(c, r);
-  for (size_t j = 0; j < std::size(kMetrics); ++j) {
-    if (metric == kMetrics[j]) return Finite(r.stats.*kMetricFields[j]);
-  }
+  if (double ErrorStats::*f = FieldOf(metric)) return Finite(r.stats.*f);
   return std::nullopt;
 }
 
 std::optional<double> MetricStdOf(const StudyCell& c, const StudyRow& r,
                                   const std::string& metric) {
   if (!r.status.ok() || !r.stats_std || c.runs < 2) return std::nullopt;
-  for (size_t j = 0; j < std::size(kMetrics); ++j) {
-    if (metric == kMetrics[j]) return Finite((*r.stats_std).*kMetricFields[j]);
-  }
+  if (double ErrorStats::*f = FieldOf(metric)) return Finite((*r.stats_std).*f);
   return std::nullopt;
 }
 
@@ -622,7 +612,7 @@ std::vector<const StudyCell*> CellsOf(const StudyResult& r, int sweep) {
 std::string StudyCsv(const StudyResult& r) {
   std::ostringstream out;
   out << "sweep,parameter,value,estimator,runs,seed,failed_runs,diverged_runs";
-  for (const char* m : kMetrics) out << ',' << m << ',' << m << "_std";
+  for (const ErrorStatField& f : ErrorStatFields()) out << ',' << f.name << ',' << f.name << "_std";
   out << ",n_points,pcrb_rmse_m,pcrb_filter_rmse_m,rmse_over_pcrb,error\n";
   for (const StudyCell& c : r.cells) {
     const StudySweep& s = r.manifest.sweeps[c.sweep];
@@ -630,11 +620,10 @@ std::string StudyCsv(const StudyResult& r) {
       out << CsvField(s.name) << ',' << CsvField(s.label) << ',' << CsvField(s.values[c.value])
           << ',' << CsvField(row.estimator) << ',' << c.runs << ',' << c.seed << ','
           << row.failed_runs << ',' << row.diverged_runs;
-      for (size_t j = 0; j < std::size(kMetrics); ++j) {
+      for (const ErrorStatField& f : ErrorStatFields()) {
         if (row.status.ok()) {
-          out << ',' << Opt(Finite(row.stats.*kMetricFields[j])) << ','
-              << (row.stats_std && c.runs > 1 ? Opt(Finite((*row.stats_std).*kMetricFields[j]))
-                                              : "");
+          out << ',' << Opt(Finite(row.stats.*f.field)) << ','
+              << (row.stats_std && c.runs > 1 ? Opt(Finite((*row.stats_std).*f.field)) : "");
         } else {
           out << ",,";
         }

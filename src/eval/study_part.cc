@@ -162,22 +162,14 @@ class PartReader {
   bool ok_ = true;
 };
 
-double ErrorStats::*const kStatFields[] = {
-    &ErrorStats::rmse_m,       &ErrorStats::mean_m,
-    &ErrorStats::median_m,     &ErrorStats::p75_m,
-    &ErrorStats::p90_m,        &ErrorStats::max_m,
-    &ErrorStats::final_m,      &ErrorStats::pct_distance,
-    &ErrorStats::anees,        &ErrorStats::mean_pct_distance,
-    &ErrorStats::ipin_score_m, &ErrorStats::floor_hit_rate};
-
 void PutStats(PartWriter& w, const ErrorStats& s) {
-  for (const auto f : kStatFields) w.Double(s.*f);
+  for (const ErrorStatField& f : ErrorStatFields()) w.Double(s.*f.field);
   w.Int(s.n_points);
 }
 
 ErrorStats GetStats(PartReader& r) {
   ErrorStats s;
-  for (const auto f : kStatFields) s.*f = r.Double();
+  for (const ErrorStatField& f : ErrorStatFields()) s.*f.field = r.Double();
   s.n_points = static_cast<int>(r.Int(0, INT32_MAX));
   return s;
 }

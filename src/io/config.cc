@@ -88,7 +88,7 @@ ConfigReader::ConfigReader(YAML::Node node, std::string context)
 template <typename T>
 void ConfigReader::ReadScalar(const std::string& key, T* value, const char* type_name) {
   known_.insert(key);
-  if (g_recording != nullptr) g_recording->push_back({record_path_ + key, *value});
+  if (g_recording != nullptr) g_recording->push_back({record_path_ + key, *value, {}});
   if (!first_error_.ok() || !node_.IsMap()) return;
   const YAML::Node child = node_[key];
   if (!child.IsDefined() || child.IsNull()) return;

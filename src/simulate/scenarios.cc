@@ -203,7 +203,8 @@ const std::vector<Preset>& Presets() {
              {0, 0}, {W, 0}, {W, H}, {0, H}, {W / 2, 0}, {W, H / 2}, {W / 2, H}, {0, H / 2}};
          for (size_t i = 0; i < spots.size(); ++i) {
            all.push_back({static_cast<int>(i) + 1,
-                          Eigen::Vector3d(Q(spots[i].x(), 1e-3), Q(spots[i].y(), 1e-3), 0.0)});
+                          Eigen::Vector3d(Q(spots[i].x(), 1e-3), Q(spots[i].y(), 1e-3), 0.0),
+                          std::nullopt});
          }
          *anchors = PickAnchors(*p, all);
          const auto rect = sim::RectangleLoop(0.5, 0.5, W - 1.0, H - 1.0);
@@ -239,7 +240,8 @@ const std::vector<Preset>& Presets() {
          const std::vector<Eigen::Vector2d> spots = {
              {0, 2}, {0, 16}, {0, 30}, {0, 45.6}, {11.2, 9}, {11.2, 23}, {11.2, 37}, {5.6, 47.6}};
          for (size_t i = 0; i < spots.size(); ++i) {
-           all.push_back({static_cast<int>(i) + 1, Eigen::Vector3d(spots[i].x(), spots[i].y(), 0)});
+           all.push_back({static_cast<int>(i) + 1, Eigen::Vector3d(spots[i].x(), spots[i].y(), 0),
+                          std::nullopt});
          }
          *anchors = PickAnchors(*p, all);
          const Eigen::Vector2d A(1.0, 2.0), B(1.0, 45.6);
@@ -315,8 +317,10 @@ const std::vector<Preset>& Presets() {
          p->radio.toa_sigma_m = 1.5;
        },
        [](Params* p, std::vector<Anchor>* anchors, sim::MotionPlan* plan) {
-         *anchors = PickAnchors(
-             *p, {{1, {-3, -3, 0}}, {2, {43, -3, 0}}, {3, {43, 20.2, 0}}, {4, {-3, 20.2, 0}}});
+         *anchors = PickAnchors(*p, {{1, {-3, -3, 0}, std::nullopt},
+                                     {2, {43, -3, 0}, std::nullopt},
+                                     {3, {43, 20.2, 0}, std::nullopt},
+                                     {4, {-3, 20.2, 0}, std::nullopt}});
          const auto rect = sim::RectangleLoop(0, 0, 40, 17.2);
          const int laps = LapsFor(*p, 114.4);
          *plan = sim::MotionPlan(rect[0], 0.0);
@@ -559,13 +563,18 @@ StatusOr<Simulation> SimulateLinearGaussian(uint64_t seed, const YAML::Node& ove
     w.odometry.push_back({k / rate, d, 0.0});
   }
   const double behind = 10.0, beyond = along + 10.0;
-  w.anchors = {{1, Eigen::Vector3d(Q(start.x() - behind * u.x(), 1e-9),
-                                   Q(start.y() - behind * u.y(), 1e-9), 0.0)},
-               {2, Eigen::Vector3d(Q(start.x() + beyond * u.x(), 1e-9),
-                                   Q(start.y() + beyond * u.y(), 1e-9), 0.0)}};
+  w.anchors = {{1,
+                Eigen::Vector3d(Q(start.x() - behind * u.x(), 1e-9),
+                                Q(start.y() - behind * u.y(), 1e-9), 0.0),
+                std::nullopt},
+               {2,
+                Eigen::Vector3d(Q(start.x() + beyond * u.x(), 1e-9),
+                                Q(start.y() + beyond * u.y(), 1e-9), 0.0),
+                std::nullopt}};
   for (int k = 0; k <= n; ++k) {
     const Eigen::Vector2d p = start + along_at[k] * u;
-    w.truth.push_back({k / rate, Eigen::Vector3d(Q(p.x(), 1e-9), Q(p.y(), 1e-9), 0.0), false});
+    w.truth.push_back(
+        {k / rate, Eigen::Vector3d(Q(p.x(), 1e-9), Q(p.y(), 1e-9), 0.0), false, std::nullopt});
     if (k > 0 && k % range_every == 0) {
       // Ranges measured along the line: affine in the along-track coordinate.
       const double r1 = behind + along_at[k] + range_rng.Gaussian(0.0, range_sigma_m);
@@ -582,7 +591,7 @@ StatusOr<Simulation> SimulateLinearGaussian(uint64_t seed, const YAML::Node& ove
   m.radio.kind = RadioKind::kRange;
   m.radio.calibrated = true;
   m.radio.range_sigma_m = range_sigma_m;
-  m.initial_pose = InitialPose{start.x(), start.y(), h, 0.5, 1e-6};
+  m.initial_pose = InitialPose{start.x(), start.y(), h, 0.5, 1e-6, true, std::nullopt};
   m.extra["sim.seed"] = static_cast<double>(seed);
   m.extra["sim.step_sigma_m"] = step_sigma_m;
   m.extra["sim.range_sigma_m"] = range_sigma_m;
@@ -733,9 +742,13 @@ StatusOr<Simulation> SimulateScenarioDetailed(const std::string& name, uint64_t 
   m.radio.calibrated = p.radio.A_spread_db == 0.0 && p.radio.eta_spread == 0.0;
   m.radio.range_sigma_m = p.radio.toa_sigma_m;
   const sim::BodyState b0 = plan.At(0.0);
-  m.initial_pose = InitialPose{
-      Q(s.imu_truth.front().position_n.x(), 1e-6), Q(s.imu_truth.front().position_n.y(), 1e-6),
-      NormalizeAngle(b0.heading_rad), p.sigma_xy_m, DegToRad(p.sigma_heading_deg)};
+  m.initial_pose = InitialPose{Q(s.imu_truth.front().position_n.x(), 1e-6),
+                               Q(s.imu_truth.front().position_n.y(), 1e-6),
+                               NormalizeAngle(b0.heading_rad),
+                               p.sigma_xy_m,
+                               DegToRad(p.sigma_heading_deg),
+                               true,
+                               std::nullopt};
   auto& x = m.extra;
   x = p.extra;
   x["sim.seed"] = static_cast<double>(seed);

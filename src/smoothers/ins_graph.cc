@@ -26,7 +26,7 @@
 #include "smoothers/graph_internal.h"
 #include "walkgraph/angle.h"
 #include "walkgraph/config.h"
-#include "walkgraph/filters/kalman.h"
+#include "walkgraph/kalman.h"
 
 namespace walkgraph {
 

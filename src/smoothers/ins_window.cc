@@ -15,7 +15,7 @@
 #include "factors/nav_quaternion_manifold.h"
 #include "walkgraph/angle.h"
 #include "walkgraph/config.h"
-#include "walkgraph/filters/kalman.h"
+#include "walkgraph/kalman.h"
 #include "walkgraph/smoothers/fixed_lag_smoother.h"
 #include "walkgraph/strides.h"
 
