@@ -64,15 +64,20 @@ TEST(AnchorOffsetTest, AnchorsThatDifferAreFound) {
 }
 
 TEST(AnchorOffsetTest, FewReadingsAndOutliers) {
-  // Anchors heard fewer than 5 times are not tested; a wild reading is clipped at ±3.
+  // Anchors heard fewer than 5 times are not tested.
   std::vector<std::pair<int, double>> r = {{1, 0.1}, {1, -0.2}, {1, 0.3}, {1, 0.0}};
   EXPECT_EQ(internal::TestAnchorOffsets(r, 3.09).anchors, 0);
   EXPECT_FALSE(internal::TestAnchorOffsets(r, 3.09).disagree);
-  auto big = Residuals(10, 50, 0.0, std::vector<double>(10, 0.0), 3u);
-  big[5].second = 1e6;
-  const internal::AnchorOffsetTest test = internal::TestAnchorOffsets(big, 3.09);
-  EXPECT_EQ(test.anchors, 10);
-  EXPECT_FALSE(test.disagree);
+  // A wild reading counts as one at +3 σ (clipped), not with its own size.
+  auto wild = Residuals(10, 50, 0.0, std::vector<double>(10, 0.0), 3u);
+  auto clipped = wild;
+  wild[5].second = 1e6;
+  clipped[5].second = 3.0;
+  const internal::AnchorOffsetTest a = internal::TestAnchorOffsets(wild, 3.09);
+  const internal::AnchorOffsetTest b = internal::TestAnchorOffsets(clipped, 3.09);
+  EXPECT_EQ(a.anchors, 10);
+  EXPECT_DOUBLE_EQ(a.statistic, b.statistic);
+  EXPECT_FALSE(a.disagree);
 }
 
 }  // namespace

@@ -735,9 +735,9 @@ double PressureAt(const std::vector<PressureSample>& p, double t, double window_
 int StepGraph::Impl::MarkStairs(const Walk& walk, const std::vector<double>& node_t) {
   if (!floors || !o.stairs || odometry || radio_only) return 0;
   const std::vector<bool> gap = BridgedNodes(walk, true, node_t);
-  auto height = [&](double t) {  // above node 0
-    return BarometricHeightM(PressureAt(walk.pressure, t, o.baro_window_s),
-                             PressureAt(walk.pressure, node_t[0], o.baro_window_s));
+  const double p0 = PressureAt(walk.pressure, node_t[0], o.baro_window_s);
+  auto height = [&](double t) {  // above node 0, as baro_z
+    return BarometricHeightM(PressureAt(walk.pressure, t, o.baro_window_s), p0);
   };
   // Candidates: steps whose height changes at the rate of stairs, one way.
   std::vector<int> dir(node_t.size(), 0);
@@ -757,7 +757,7 @@ int StepGraph::Impl::MarkStairs(const Walk& walk, const std::vector<double>& nod
       ++a;
       continue;
     }
-    const double rise = height(node_t[b - 1]) - height(node_t[a - 1]);
+    const double rise = baro_z[b - 1] - baro_z[a - 1];
     if (std::fabs(rise) >= o.stair_min_rise_storeys * storey_m) {
       for (size_t k = a; k < b; ++k) {
         steps[k - 1].length_m = o.stair_tread_m;
