@@ -6,6 +6,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <set>
 #include <sstream>
 
 #include <gmock/gmock.h>
@@ -264,6 +265,44 @@ TEST(Study, DeterministicForThreadsAndWrittenAtomically) {
   // An unwritable destination leaves nothing behind.
   EXPECT_FALSE(WriteStudy(*a, "/proc/walkgraph-no/such/dir").ok());
   fs::remove_all(out);
+}
+
+// study.html: each estimator of a sweep in its own colour (the report's styles), and every
+// legend entry right of the plot area, not over the data.
+TEST(Study, PageStylesEstimatorsApartWithTheLegendOutsideThePlot) {
+  auto m = ParseStudyManifest(kManifest, "unit.yaml", TestRegistry());
+  ASSERT_TRUE(m.ok());
+  auto r = RunStudy(*m, StudyOptions(), TestRegistry());
+  ASSERT_TRUE(r.ok());
+  const std::string html = RenderStudyHtml(*r);
+  auto attr = [](const std::string& s, size_t from, const std::string& name) {
+    const size_t at = s.find(" " + name + "=\"", from) + name.size() + 3;
+    return s.substr(at, s.find('"', at) - at);
+  };
+  int plots = 0;
+  for (size_t svg = html.find("<svg"); svg != std::string::npos; svg = html.find("<svg", svg + 1)) {
+    const size_t end = html.find("</svg>", svg);
+    const size_t area = html.find("class=\"plot-area\"", svg);
+    ASSERT_LT(area, end);
+    const double right = std::stod(attr(html, area, "x")) + std::stod(attr(html, area, "width"));
+    std::set<std::string> colours;
+    int curves = 0, legends = 0;
+    for (size_t c = html.find("class=\"estimator-curve\"", svg); c < end;
+         c = html.find("class=\"estimator-curve\"", c + 1)) {
+      colours.insert(attr(html, c, "stroke"));
+      ++curves;
+    }
+    for (size_t g = html.find("<g class=\"legend\">", svg); g < end;
+         g = html.find("<g class=\"legend\">", g + 1)) {
+      EXPECT_GT(std::stod(attr(html, g, "x1")), right);
+      ++legends;
+    }
+    EXPECT_EQ(static_cast<int>(colours.size()), curves);
+    EXPECT_GE(legends, curves);
+    EXPECT_GE(curves, 2);
+    ++plots;
+  }
+  EXPECT_EQ(plots, 2);
 }
 
 TEST(Study, WalkSweepsRunOnceOnTheRecordedWalk) {

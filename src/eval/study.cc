@@ -13,6 +13,7 @@
 #include <sstream>
 
 #include "io/input_file.h"
+#include "report/estimator_style.h"
 #include "report/svg.h"
 #include "util/text.h"
 #include "walkgraph/config.h"
@@ -740,7 +741,14 @@ std::string SweepPlot(const StudyResult& r, int k) {
   a.x0 -= pad;
   a.x1 += pad;
   a.y1 *= 1.1;
+  // The legend column: a line sample and the longest label (about 6.5 px per character at 11 px).
+  size_t longest = std::string("PCRB (smoother)").size();
+  for (const std::string& id : s.estimators) longest = std::max(longest, id.size());
+  a.legend_w = 44 + 6.5 * static_cast<double>(longest);
+  a.w += a.legend_w;
+  a.h = std::max(a.h, 2 * a.m + 16 + 15.0 * static_cast<double>(s.estimators.size() + 1));
   a.Fix();
+  const std::vector<report::LineStyle> styles = report::AssignStyles(s.estimators);
   std::ostringstream out;
   out << std::fixed << std::setprecision(1);
   out << report::Open(a, "sweep-" + s.name, s.title.empty() ? s.name : s.title, s.label, s.metric);
@@ -757,17 +765,16 @@ std::string SweepPlot(const StudyResult& r, int k) {
         if (sd) {
           out << "<line class=\"std-bar\" x1=\"" << a.X(s.x[c->value]) << "\" x2=\""
               << a.X(s.x[c->value]) << "\" y1=\"" << a.Y(*v - *sd) << "\" y2=\"" << a.Y(*v + *sd)
-              << "\" stroke=\"" << report::Color(e) << "\"/>\n";
+              << "\" stroke=\"" << styles[e].color << "\"/>\n";
         }
         out << "<circle class=\"point\" cx=\"" << a.X(s.x[c->value]) << "\" cy=\"" << a.Y(*v)
-            << "\" r=\"3.5\" fill=\"" << report::Color(e) << "\"/>\n";
+            << "\" r=\"3.5\" fill=\"" << styles[e].color << "\"/>\n";
       }
     }
     out << report::Polyline(
-        pts.size(), [&](size_t i) { return pts[i]; }, a, report::Color(e), "estimator-curve", 2.0);
-    out << "<text class=\"legend\" x=\"" << a.w - a.m - 4 << "\" y=\"" << a.m + 14 + 13.0 * e
-        << "\" text-anchor=\"end\" font-size=\"11\" fill=\"" << report::Color(e) << "\">"
-        << report::Escape(id) << "</text>\n";
+        pts.size(), [&](size_t i) { return pts[i]; }, a, styles[e].color, "estimator-curve", 2.0,
+        styles[e].dash);
+    out << report::LegendEntry(a, e, id, styles[e].color, styles[e].dash);
   }
   std::vector<std::pair<double, double>> bound;
   for (const StudyCell* c : sorted) {
@@ -777,9 +784,7 @@ std::string SweepPlot(const StudyResult& r, int k) {
   if (!bound.empty()) {
     out << report::Polyline(
         bound.size(), [&](size_t i) { return bound[i]; }, a, "#000", "pcrb-curve", 1.5, "6,3");
-    out << "<text class=\"legend\" x=\"" << a.w - a.m - 4 << "\" y=\""
-        << a.m + 14 + 13.0 * s.estimators.size()
-        << "\" text-anchor=\"end\" font-size=\"11\">PCRB (smoother)</text>\n";
+    out << report::LegendEntry(a, s.estimators.size(), "PCRB (smoother)", "#000", "6,3");
   }
   out << "</svg>\n";
   return out.str();
