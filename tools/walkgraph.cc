@@ -680,20 +680,27 @@ int RunListEstimator(const std::string& id) {
     std::cout << "options: none\n";
     return 0;
   }
-  std::cout << "options (YAML keys of --config): default, unit (from the key's suffix), the "
-               "values a string option allows:\n";
-  size_t width = 0, value_width = 0;
+  std::cout << "options (YAML keys of --config): default, unit (from the key's suffix) or the "
+               "values a string option allows, what it does:\n";
+  auto extra_of = [](const walkgraph::OptionDefault& d) {
+    std::string allowed;
+    for (const std::string& a : d.allowed) allowed += (allowed.empty() ? "" : "|") + a;
+    const std::string unit = walkgraph::OptionUnit(d.key);
+    return !unit.empty() ? unit : allowed.empty() ? "" : "one of " + allowed;
+  };
+  size_t width = 0, value_width = 0, extra_width = 0;
   for (const auto& d : *defaults) {
     width = std::max(width, d.key.size());
     value_width = std::max(value_width, DefaultText(d).size());
+    if (extra_of(d).size() <= 12) extra_width = std::max(extra_width, extra_of(d).size());
   }
+  auto pad = [](const std::string& s, size_t w) {
+    return s + std::string(std::max(w, s.size()) - s.size() + 2, ' ');
+  };
   for (const auto& d : *defaults) {
-    std::string allowed;
-    for (const std::string& a : d.allowed) allowed += (allowed.empty() ? "" : "|") + a;
-    std::string line = "  " + d.key + std::string(width - d.key.size() + 2, ' ') + DefaultText(d);
-    const std::string unit = walkgraph::OptionUnit(d.key);
-    const std::string extra = !unit.empty() ? unit : allowed.empty() ? "" : "one of " + allowed;
-    if (!extra.empty()) line += std::string(value_width - DefaultText(d).size() + 2, ' ') + extra;
+    std::string line = "  " + pad(d.key, width) + pad(DefaultText(d), value_width) +
+                       pad(extra_of(d), extra_width) + d.doc;
+    while (!line.empty() && line.back() == ' ') line.pop_back();
     std::cout << line << "\n";
   }
   return 0;

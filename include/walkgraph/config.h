@@ -1,7 +1,7 @@
 // Reading an estimator's Options from YAML: every key must be known, every value well typed.
 //
 //   ConfigReader r(node, "tarrio-kf");
-//   r.Read("sigma_p_m", &opts.sigma_p_m);
+//   r.Read("sigma_p_m", &opts.sigma_p_m, "process noise of the position random walk (eq. 9)");
 //   WG_RETURN_IF_ERROR(r.Finish());   // reports unknown keys and type errors with line numbers
 #ifndef WALKGRAPH_CONFIG_H_
 #define WALKGRAPH_CONFIG_H_
@@ -24,25 +24,28 @@ class ConfigReader {
   ConfigReader(YAML::Node node, std::string context);
 
   // Reads `key` into `value` if present; the first failure is kept and reported by Finish().
-  void Read(const std::string& key, double* value);
-  void Read(const std::string& key, int* value);
-  void Read(const std::string& key, bool* value);
-  void Read(const std::string& key, std::string* value);
+  // `doc`: what the option does, in one line, shown by `walkgraph list ID` (from this call, so
+  // the list cannot drift from what the reader accepts).
+  void Read(const std::string& key, double* value, const char* doc = nullptr);
+  void Read(const std::string& key, int* value, const char* doc = nullptr);
+  void Read(const std::string& key, bool* value, const char* doc = nullptr);
+  void Read(const std::string& key, std::string* value, const char* doc = nullptr);
   // A string option with a fixed set of values: any other is an error naming them, and
   // `walkgraph list ID` shows them (from this same list).
-  void Read(const std::string& key, std::string* value, const std::vector<std::string>& allowed);
+  void Read(const std::string& key, std::string* value, const std::vector<std::string>& allowed,
+            const char* doc = nullptr);
   // An enum option by name: `names` is the option's one table of (name, value), which its
   // error message and `walkgraph list ID` show.
   template <typename E>
   void ReadEnum(const std::string& key, E* value,
-                const std::vector<std::pair<std::string, E>>& names) {
+                const std::vector<std::pair<std::string, E>>& names, const char* doc = nullptr) {
     std::string text;
     std::vector<std::string> allowed;
     for (const auto& [name, v] : names) {
       allowed.push_back(name);
       if (v == *value) text = name;
     }
-    Read(key, &text, allowed);
+    Read(key, &text, allowed, doc);
     for (const auto& [name, v] : names) {
       if (name == text) *value = v;
     }
@@ -55,7 +58,7 @@ class ConfigReader {
 
  private:
   template <typename T>
-  void ReadScalar(const std::string& key, T* value, const char* type_name);
+  void ReadScalar(const std::string& key, T* value, const char* type_name, const char* doc);
 
   YAML::Node node_;
   std::string context_;
@@ -105,6 +108,7 @@ struct OptionDefault {
   std::string key;  // nested options as "parent.key"
   std::variant<double, int, bool, std::string> value;
   std::vector<std::string> allowed;  // a string option's values (empty: any string)
+  std::string doc;                   // one line: what it does (empty when its Read gave none)
 };
 // An option's unit from its key: walkgraph's options carry their SI unit as the key's suffix
 // (_s, _m, _mps, _mps2, _rad, _radps, _radps2, _hz, _db, _dbm, _deg, …, and "_X_sqrts" for

@@ -86,9 +86,12 @@ ConfigReader::ConfigReader(YAML::Node node, std::string context)
 }
 
 template <typename T>
-void ConfigReader::ReadScalar(const std::string& key, T* value, const char* type_name) {
+void ConfigReader::ReadScalar(const std::string& key, T* value, const char* type_name,
+                              const char* doc) {
   known_.insert(key);
-  if (g_recording != nullptr) g_recording->push_back({record_path_ + key, *value, {}});
+  if (g_recording != nullptr) {
+    g_recording->push_back({record_path_ + key, *value, {}, doc == nullptr ? "" : doc});
+  }
   if (!first_error_.ok() || !node_.IsMap()) return;
   const YAML::Node child = node_[key];
   if (!child.IsDefined() || child.IsNull()) return;
@@ -99,23 +102,23 @@ void ConfigReader::ReadScalar(const std::string& key, T* value, const char* type
   }
 }
 
-void ConfigReader::Read(const std::string& key, double* value) {
-  ReadScalar(key, value, "finite decimal number");
+void ConfigReader::Read(const std::string& key, double* value, const char* doc) {
+  ReadScalar(key, value, "finite decimal number", doc);
 }
-void ConfigReader::Read(const std::string& key, int* value) {
-  ReadScalar(key, value, "decimal integer in [-2147483648, 2147483647]");
+void ConfigReader::Read(const std::string& key, int* value, const char* doc) {
+  ReadScalar(key, value, "decimal integer in [-2147483648, 2147483647]", doc);
 }
-void ConfigReader::Read(const std::string& key, bool* value) {
-  ReadScalar(key, value, "boolean (true/false)");
+void ConfigReader::Read(const std::string& key, bool* value, const char* doc) {
+  ReadScalar(key, value, "boolean (true/false)", doc);
 }
-void ConfigReader::Read(const std::string& key, std::string* value) {
-  ReadScalar(key, value, "string");
+void ConfigReader::Read(const std::string& key, std::string* value, const char* doc) {
+  ReadScalar(key, value, "string", doc);
 }
 
 void ConfigReader::Read(const std::string& key, std::string* value,
-                        const std::vector<std::string>& allowed) {
+                        const std::vector<std::string>& allowed, const char* doc) {
   const bool had_error = !first_error_.ok();
-  ReadScalar(key, value, "string");
+  ReadScalar(key, value, "string", doc);
   if (g_recording != nullptr) g_recording->back().allowed = allowed;
   if (had_error || !first_error_.ok() || !node_.IsMap() || !node_[key]) return;
   if (std::find(allowed.begin(), allowed.end(), *value) != allowed.end()) return;
