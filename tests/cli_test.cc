@@ -59,11 +59,13 @@ TEST(Cli, VersionListIdAndSpacedEstimatorList) {
   CliRun id = Cli("list fg-window");
   EXPECT_EQ(id.code, 0) << id.output;
   EXPECT_THAT(id.output, HasSubstr("fg-window  — "));
-  // option, default, unit from the key; a string option's values
-  EXPECT_THAT(id.output, ::testing::ContainsRegex("\n  lag_s +10 +s\n"));
+  // option, default, unit from the key, its doc; a string option's values and its doc
+  EXPECT_THAT(id.output, ::testing::ContainsRegex(
+                             "\n  lag_s +10 +s +fg-window: span of the fixed-lag window\n"));
   EXPECT_THAT(id.output,
               ::testing::ContainsRegex("\n  path_loss +'auto' +one of "
-                                       "auto\\|fixed\\|global\\|per-anchor\\|hierarchical\n"));
+                                       "auto\\|fixed\\|global\\|per-anchor\\|hierarchical +"
+                                       "self-calibration of the path loss"));
   EXPECT_THAT(id.output, ::testing::ContainsRegex("\n  pdr\\.detector +'vertical-peak' +one of "));
   CliRun bad = Cli("list nope");
   EXPECT_EQ(bad.code, 1);

@@ -13,9 +13,10 @@ StatusOr<OdometryDeadReckoningOptions> OdometryDeadReckoningOptions::FromYaml(
     const YAML::Node& node) {
   OdometryDeadReckoningOptions o;
   ConfigReader r(node, "odometry-dr");
-  r.Read("sigma_dist_frac", &o.sigma_dist_frac);
-  r.Read("sigma_dist_m", &o.sigma_dist_m);
-  r.Read("sigma_dheading_rad", &o.sigma_dheading_rad);
+  r.Read("sigma_dist_frac", &o.sigma_dist_frac,
+         "distance noise per increment, fraction of its length");
+  r.Read("sigma_dist_m", &o.sigma_dist_m, "constant distance noise per increment");
+  r.Read("sigma_dheading_rad", &o.sigma_dheading_rad, "heading-increment noise per increment");
   WG_RETURN_IF_ERROR(r.Finish());
   if (o.sigma_dist_frac < 0 || o.sigma_dist_m < 0 || o.sigma_dheading_rad < 0) {
     return InvalidArgument("odometry-dr: sigmas must be >= 0");

@@ -21,12 +21,17 @@ namespace walkgraph {
 StatusOr<PcrbOptions> PcrbOptions::FromYaml(const YAML::Node& node, const std::string& context) {
   PcrbOptions o;
   ConfigReader r(node, context);
-  r.Read("step_sigma_frac", &o.step_sigma_frac);
-  r.Read("step_sigma_m", &o.step_sigma_m);
-  r.Read("heading_sigma_rad", &o.heading_sigma_rad);
-  r.Read("min_process_sigma_m", &o.min_process_sigma_m);
-  r.Read("prior_sigma_m", &o.prior_sigma_m);
-  r.Read("min_distance_m", &o.min_distance_m);
+  r.Read("step_sigma_frac", &o.step_sigma_frac,
+         "step length sigma, fraction of the length (plus step_sigma_m)");
+  r.Read("step_sigma_m", &o.step_sigma_m, "step length sigma, constant part");
+  r.Read("heading_sigma_rad", &o.heading_sigma_rad,
+         "heading-increment sigma; lateral sigma = step length x this");
+  r.Read("min_process_sigma_m", &o.min_process_sigma_m,
+         "floor on the step length and lateral sigmas");
+  r.Read("prior_sigma_m", &o.prior_sigma_m,
+         "start position sigma; <= 0: the walk's initial_pose sigma_xy");
+  r.Read("min_distance_m", &o.min_distance_m,
+         "floor on the anchor distance in the radio information");
   WG_RETURN_IF_ERROR(r.Finish());
   if (o.step_sigma_frac < 0.0 || o.step_sigma_m < 0.0 || o.heading_sigma_rad < 0.0) {
     return InvalidArgument(context + ": step_sigma_frac, step_sigma_m, heading_sigma_rad >= 0");

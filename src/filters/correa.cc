@@ -18,19 +18,23 @@ StatusOr<CorreaEkfOptions> CorreaEkfOptions::FromYaml(const YAML::Node& node,
                                                       const std::string& context) {
   CorreaEkfOptions o;
   ConfigReader r(node, context);
-  r.Read("scmt", &o.scmt);
-  r.Read("p_fa", &o.p_fa);
-  r.Read("d_max_m", &o.d_max_m);
-  r.Read("epsilon_m2", &o.epsilon_m2);
-  r.Read("sigma_p_m", &o.sigma_p_m);
-  r.Read("sigma_v_mps", &o.sigma_v_mps);
-  r.Read("sigma_theta_rad", &o.sigma_theta_rad);
-  r.Read("step_length_m", &o.step_length_m);
-  r.Read("q_position_m", &o.q_position_m);
-  r.Read("q_speed_mps", &o.q_speed_mps);
-  r.Read("q_heading_rad", &o.q_heading_rad);
-  r.Read("gate_probability", &o.gate_probability);
-  r.Read("smooth", &o.smooth);
+  r.Read("scmt", &o.scmt, "SCMT switch of 001 eq. 21 (correa-scmt-ekf)");
+  r.Read("p_fa", &o.p_fa,
+         "false-alarm probability that sets the power threshold P_Th (001 eq. 19)");
+  r.Read("d_max_m", &o.d_max_m, "d_max of 001 eq. 19; 0: diagonal of the anchors' bounding box");
+  r.Read("epsilon_m2", &o.epsilon_m2, "epsilon << 1 of 001 eq. 21");
+  r.Read("sigma_p_m", &o.sigma_p_m, "sigma_p of the fix measurement (001 eq. 21)");
+  r.Read("sigma_v_mps", &o.sigma_v_mps, "sigma of the PDR speed V^ measurement (001 eq. 21)");
+  r.Read("sigma_theta_rad", &o.sigma_theta_rad,
+         "sigma of the PDR heading theta^ measurement (001 eq. 21)");
+  r.Read("step_length_m", &o.step_length_m,
+         "l_step of 001 eq. 6; <= 0: the front end's step lengths");
+  r.Read("q_position_m", &o.q_position_m, "process noise q_p of each position axis per epoch");
+  r.Read("q_speed_mps", &o.q_speed_mps, "process noise q_V of the speed per epoch");
+  r.Read("q_heading_rad", &o.q_heading_rad, "process noise q_theta of the heading per epoch");
+  r.Read("gate_probability", &o.gate_probability,
+         "chi-square(4) gate on the full innovation; 0 off");
+  r.Read("smooth", &o.smooth, "RTS smoother after the filter (-rts ids)");
   WG_RETURN_IF_ERROR(r.Finish());
   if (!(o.p_fa > 0 && o.p_fa < 1)) return InvalidArgument(context + ": p_fa must be in (0, 1)");
   if (o.d_max_m < 0 || !(o.epsilon_m2 > 0) || !(o.sigma_p_m > 0) || !(o.sigma_v_mps > 0) ||

@@ -13,19 +13,24 @@ StatusOr<RadioFrontEndOptions> RadioFrontEndOptions::FromYaml(const YAML::Node& 
   RadioFrontEndOptions o = defaults;
   const std::string ctx = context + " radio";
   ConfigReader r(node, ctx);
-  r.Read("window_s", &o.epochs.window_s);
-  r.Read("bias_corrected", &o.epochs.bias_corrected);
-  r.Read("receiver_height_m", &o.epochs.receiver_height_m);
-  r.Read("sensitivity", &o.epochs.sensitivity);
+  r.Read("window_s", &o.epochs.window_s, "readings within one window form an epoch");
+  r.Read("bias_corrected", &o.epochs.bias_corrected,
+         "RSS to range: ML (001 eq. 14) or bias-corrected (001 eq. 17)");
+  r.Read("receiver_height_m", &o.epochs.receiver_height_m,
+         "receiver height; ranges projected to the horizontal");
+  r.Read("sensitivity", &o.epochs.sensitivity, "RSS readings below this are dropped (dBm only)");
   r.ReadEnum("method", &o.method,
              std::vector<std::pair<std::string, PositioningMethod>>{
                  {"hyperbolic", PositioningMethod::kHyperbolic},
-                 {"nonlinear-ls", PositioningMethod::kNonlinearLs}});
-  r.Read("weighted", &o.weighted);
-  r.Read("collinear_ratio", &o.positioning.collinear_ratio);
-  r.Read("max_iterations", &o.positioning.max_iterations);
-  r.Read("tolerance_m", &o.positioning.tolerance_m);
-  r.Read("min_sigma_m", &o.positioning.min_sigma_m);
+                 {"nonlinear-ls", PositioningMethod::kNonlinearLs}},
+             "position fix: hyperbolic (linearized) or nonlinear least squares (001 eq. 5)");
+  r.Read("weighted", &o.weighted, "weight the ranges of a fix by 1/sigma^2 (else equal weights)");
+  r.Read("collinear_ratio", &o.positioning.collinear_ratio,
+         "no fix when anchors' smallest/largest principal std-dev is below this");
+  r.Read("max_iterations", &o.positioning.max_iterations, "most Gauss-Newton iterations of a fix");
+  r.Read("tolerance_m", &o.positioning.tolerance_m,
+         "Gauss-Newton stop: position update below this");
+  r.Read("min_sigma_m", &o.positioning.min_sigma_m, "floor on each range's sigma (weights)");
   WG_RETURN_IF_ERROR(r.Finish());
   if (!(o.epochs.window_s > 0) || !(o.positioning.collinear_ratio >= 0) ||
       o.positioning.max_iterations < 1 || !(o.positioning.tolerance_m > 0) ||

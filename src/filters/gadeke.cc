@@ -14,20 +14,26 @@ StatusOr<GadekeKfOptions> GadekeKfOptions::FromYaml(const YAML::Node& node,
                                                     const std::string& context) {
   GadekeKfOptions o;
   ConfigReader r(node, context);
-  r.Read("velocity_factor", &o.velocity_factor);
-  r.Read("processing_rate_hz", &o.processing_rate_hz);
-  r.Read("pdr_input", &o.pdr_input);
-  r.Read("pdr_sigma_frac", &o.pdr_sigma_frac);
-  r.Read("q_position_m2ps", &o.q_position_m2ps);
-  r.Read("q_velocity_m2ps3", &o.q_velocity_m2ps3);
-  r.Read("init_sigma_m", &o.init_sigma_m);
-  r.Read("init_sigma_v_mps", &o.init_sigma_v_mps);
-  r.Read("tag_height_m", &o.tag_height_m);
-  r.Read("bias_corrected_ranges", &o.bias_corrected_ranges);
-  r.Read("gate_probability", &o.gate_probability);
-  r.Read("outage_start_frac", &o.outage_start_frac);
-  r.Read("outage_end_frac", &o.outage_end_frac);
-  r.Read("smooth", &o.smooth);
+  r.Read("velocity_factor", &o.velocity_factor, "velocity decay per processing epoch (003 eq. 6)");
+  r.Read("processing_rate_hz", &o.processing_rate_hz, "filter epochs per second (003 Sec. 4.2)");
+  r.Read("pdr_input", &o.pdr_input, "PDR displacement as control input (003 eq. 6)");
+  r.Read("pdr_sigma_frac", &o.pdr_sigma_frac,
+         "sigma of the PDR input, fraction of its distance (003 Sec. 5)");
+  r.Read("q_position_m2ps", &o.q_position_m2ps,
+         "position random-walk noise density in Q (003 eq. 6)");
+  r.Read("q_velocity_m2ps3", &o.q_velocity_m2ps3,
+         "velocity random-walk noise density in Q (003 eq. 6)");
+  r.Read("init_sigma_m", &o.init_sigma_m,
+         "start sigma at the anchors' centroid without initial_pose");
+  r.Read("init_sigma_v_mps", &o.init_sigma_v_mps, "sigma of the start velocity");
+  r.Read("tag_height_m", &o.tag_height_m, "tag height; ranges projected to the horizontal");
+  r.Read("bias_corrected_ranges", &o.bias_corrected_ranges,
+         "RSS to range: ML or bias-corrected (001 eq. 17)");
+  r.Read("gate_probability", &o.gate_probability, "chi-square(1) gate on each range; 0 off");
+  r.Read("outage_start_frac", &o.outage_start_frac,
+         "simulated radio outage start, fraction of the walk; < 0 none");
+  r.Read("outage_end_frac", &o.outage_end_frac, "simulated radio outage end, fraction of the walk");
+  r.Read("smooth", &o.smooth, "RTS smoother after the filter (gadeke-kf-rts)");
   WG_RETURN_IF_ERROR(r.Finish());
   if (!(o.velocity_factor > 0 && o.velocity_factor <= 1)) {
     return InvalidArgument(context + ": velocity_factor must be in (0, 1]");
@@ -175,7 +181,7 @@ StatusOr<GadekeEstimatorOptions> GadekeEstimatorOptions::FromYaml(const YAML::No
   for (const auto& kv : own) r.Child(kv.first.Scalar());
   WG_RETURN_IF_ERROR(r.Finish());
   ConfigReader rr(radio, id + " radio");
-  rr.Read("min_sigma_m", &o.ranges.min_sigma_m);
+  rr.Read("min_sigma_m", &o.ranges.min_sigma_m, "floor on each range's sigma");
   WG_RETURN_IF_ERROR(rr.Finish());
   if (!(o.ranges.min_sigma_m > 0)) return InvalidArgument(id + " radio: min_sigma_m must be > 0");
   o.ranges.bias_corrected = o.filter.bias_corrected_ranges;

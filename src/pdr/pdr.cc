@@ -213,35 +213,51 @@ double MagHeading(const ImuSample& m, const Eigen::Quaterniond& q, double declin
 StatusOr<PdrOptions> PdrOptions::FromYaml(const YAML::Node& node) {
   PdrOptions o;
   ConfigReader r(node, "pdr");
-  r.ReadEnum("detector", &o.detector, kDetectorNames);
-  r.ReadEnum("length_model", &o.length_model, kLengthNames);
-  r.ReadEnum("heading", &o.heading, kHeadingNames);
-  r.ReadEnum("forward_axis", &o.forward_axis, kForwardNames);
-  r.Read("vertical_cutoff_hz", &o.vertical_cutoff_hz);
-  r.Read("vertical_peak_mps2", &o.vertical_peak_mps2);
-  r.Read("vertical_min_swing_mps2", &o.vertical_min_swing_mps2);
-  r.Read("fir_order", &o.fir_order);
-  r.Read("fir_cutoff_hz", &o.fir_cutoff_hz);
-  r.Read("fir_peak_mps2", &o.fir_peak_mps2);
-  r.Read("energy_threshold_m2ps4", &o.energy_threshold_m2ps4);
-  r.Read("energy_lockout_s", &o.energy_lockout_s);
+  r.ReadEnum("detector", &o.detector, kDetectorNames,
+             "step detector: vertical peaks, FIR magnitude (001 eq. 6), or energy (003 eq. 1)");
+  r.ReadEnum("length_model", &o.length_model, kLengthNames,
+             "step length model: Weinberg (000), constant, or linear in step frequency");
+  r.ReadEnum("heading", &o.heading, kHeadingNames,
+             "step heading: integrated gyro, or gyro blended with magnetometer (001 eq. 7)");
+  r.ReadEnum("forward_axis", &o.forward_axis, kForwardNames,
+             "walking direction: body x, body y, or PCA of horizontal acceleration");
+  r.Read("vertical_cutoff_hz", &o.vertical_cutoff_hz,
+         "vertical-peak: low-pass cut-off of vertical acceleration");
+  r.Read("vertical_peak_mps2", &o.vertical_peak_mps2,
+         "vertical-peak: least peak of the filtered vertical acceleration");
+  r.Read("vertical_min_swing_mps2", &o.vertical_min_swing_mps2,
+         "vertical-peak: least a_max - a_min of a step");
+  r.Read("fir_order", &o.fir_order, "fir-magnitude: FIR low-pass order (001 eq. 6)");
+  r.Read("fir_cutoff_hz", &o.fir_cutoff_hz, "fir-magnitude: FIR cut-off (001 eq. 6)");
+  r.Read("fir_peak_mps2", &o.fir_peak_mps2, "fir-magnitude: least peak of filtered |a| - g");
+  r.Read("energy_threshold_m2ps4", &o.energy_threshold_m2ps4,
+         "energy: acceleration energy threshold (003 eq. 1)");
+  r.Read("energy_lockout_s", &o.energy_lockout_s,
+         "energy: maxima this long after a step are not steps (003 eq. 1)");
   r.Read("energy_lockout_keep", &o.energy_lockout_keep,
-         AllowedValues(kStringOptions, "energy_lockout_keep"));
-  r.Read("min_step_interval_s", &o.min_step_interval_s);
-  r.Read("weinberg_k", &o.weinberg_k);
-  r.Read("constant_length_m", &o.constant_length_m);
-  r.Read("linear_c0_m", &o.linear_c0_m);
-  r.Read("linear_c1_m_s", &o.linear_c1_m_s);
-  r.Read("sigma_length_frac", &o.sigma_length_frac);
-  r.Read("sigma_length_m", &o.sigma_length_m);
-  r.Read("complementary_w", &o.complementary_w);
-  r.Read("mag_declination_rad", &o.mag_declination_rad);
-  r.Read("pca_window_s", &o.pca_window_s);
-  r.Read("sigma_dheading_rad", &o.sigma_dheading_rad);
-  r.Read("sigma_heading0_rad", &o.sigma_heading0_rad);
-  r.Read("attitude_gain", &o.attitude_gain);
-  r.Read("attitude_acc_gate_mps2", &o.attitude_acc_gate_mps2);
-  r.Read("gravity_mps2", &o.gravity_mps2);
+         AllowedValues(kStringOptions, "energy_lockout_keep"),
+         "energy: which maximum of a lockout span is the step");
+  r.Read("min_step_interval_s", &o.min_step_interval_s,
+         "vertical-peak, fir-magnitude: shortest time between steps");
+  r.Read("weinberg_k", &o.weinberg_k, "Weinberg K of l = K (a_max - a_min)^(1/4) (000 Sec. IV)");
+  r.Read("constant_length_m", &o.constant_length_m, "constant model: step length");
+  r.Read("linear_c0_m", &o.linear_c0_m, "linear model: c0 of l = c0 + c1 f_step");
+  r.Read("linear_c1_m_s", &o.linear_c1_m_s, "linear model: c1 of l = c0 + c1 f_step");
+  r.Read("sigma_length_frac", &o.sigma_length_frac,
+         "step length sigma, fraction of the length (plus sigma_length_m)");
+  r.Read("sigma_length_m", &o.sigma_length_m, "step length sigma, constant part");
+  r.Read("complementary_w", &o.complementary_w,
+         "complementary heading: magnetometer weight W per step (001 eq. 7)");
+  r.Read("mag_declination_rad", &o.mag_declination_rad,
+         "magnetic declination added to magnetometer headings");
+  r.Read("pca_window_s", &o.pca_window_s, "pca: walking time used for the PCA (003 eq. 3-5)");
+  r.Read("sigma_dheading_rad", &o.sigma_dheading_rad, "sigma of each step's heading increment");
+  r.Read("sigma_heading0_rad", &o.sigma_heading0_rad,
+         "sigma of the initial heading when initial_pose does not give it");
+  r.Read("attitude_gain", &o.attitude_gain, "Mahony attitude filter proportional gain");
+  r.Read("attitude_acc_gate_mps2", &o.attitude_acc_gate_mps2,
+         "attitude filter uses the accelerometer only if | |a| - g | below this");
+  r.Read("gravity_mps2", &o.gravity_mps2, "gravity magnitude");
   const YAML::Node stride = r.Child("stride");
   WG_RETURN_IF_ERROR(r.Finish());
   if (stride.IsDefined()) {

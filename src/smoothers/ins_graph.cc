@@ -129,44 +129,67 @@ StatusOr<InsGraphOptions> InsGraphOptions::FromYaml(const YAML::Node& node) {
   InsGraphOptions o;
   ConfigReader r(node, "fg-ins-batch");
   const YAML::Node front = r.Child("front_end");
-  r.ReadEnum("placement", &o.placement, kPlacementNames);
-  r.Read("every_n_samples", &o.every_n_samples);
-  r.Read("max_state_interval_s", &o.max_state_interval_s);
-  r.Read("zupt_sigma_mps", &o.zupt_sigma_mps);
-  r.Read("use_zaru", &o.use_zaru);
-  r.Read("zaru_sigma_radps", &o.zaru_sigma_radps);
-  r.Read("use_bias_prior", &o.use_bias_prior);
-  r.Read("initial_sigma_z_m", &o.initial_sigma_z_m);
-  r.Read("gauge_sigma_m", &o.gauge_sigma_m);
-  r.Read("gauge_sigma_yaw_rad", &o.gauge_sigma_yaw_rad);
-  r.Read("output_rate_hz", &o.output_rate_hz);
-  r.Read("compute_covariance", &o.compute_covariance);
-  r.Read("max_iterations", &o.max_iterations);
-  r.Read("initialization", &o.initialization, Allowed("initialization"));
-  r.Read("init_lag_s", &o.init_lag_s);
-  r.Read("init_marginalize_batch_s", &o.init_marginalize_batch_s);
-  r.Read("initial_trust_region_radius", &o.initial_trust_region_radius);
-  r.Read("function_tolerance", &o.function_tolerance);
-  r.Read("parameter_tolerance", &o.parameter_tolerance);
-  r.Read("gradient_tolerance", &o.gradient_tolerance);
-  r.Read("max_relinearizations", &o.max_relinearizations);
-  r.Read("relinearize_gyro_bias_radps", &o.relinearize_gyro_bias_radps);
-  r.Read("relinearize_acc_bias_mps2", &o.relinearize_acc_bias_mps2);
-  r.Read("use_rss", &o.use_rss);
-  r.Read("use_ranges", &o.use_ranges);
-  r.Read("receiver_offset_z_m", &o.receiver_offset_z_m);
-  r.Read("rss_loss", &o.rss_loss, Allowed("rss_loss"));
-  r.Read("rss_loss_scale", &o.rss_loss_scale);
-  r.Read("range_loss", &o.range_loss, Allowed("range_loss"));
-  r.Read("range_loss_scale", &o.range_loss_scale);
-  r.Read("estimate_range_bias", &o.estimate_range_bias);
-  r.Read("path_loss", &o.path_loss, Allowed("path_loss"));
-  r.Read("A_prior_sigma_db", &o.A_prior_sigma_db);
-  r.Read("eta_prior_sigma", &o.eta_prior_sigma);
-  r.Read("A_spread_prior_db", &o.A_spread_prior_db);
-  r.Read("eta_spread_prior", &o.eta_spread_prior);
-  r.Read("path_loss_anchor_test_z", &o.path_loss_anchor_test_z);
-  r.Read("range_bias_sigma_m", &o.range_bias_sigma_m);
+  r.ReadEnum("placement", &o.placement, kPlacementNames,
+             "where the graph puts states: at each stance or every n IMU samples");
+  r.Read("every_n_samples", &o.every_n_samples, "every-n placement: IMU samples between states");
+  r.Read("max_state_interval_s", &o.max_state_interval_s,
+         "extra states inside longer gaps (standstills)");
+  r.Read("zupt_sigma_mps", &o.zupt_sigma_mps,
+         "sigma of the zero-velocity update at stance states (OpenShoe's)");
+  r.Read("use_zaru", &o.use_zaru, "zero angular-rate updates when the foot is still");
+  r.Read("zaru_sigma_radps", &o.zaru_sigma_radps,
+         "ZARU sigma per gyro reading (divided by sqrt of the readings)");
+  r.Read("use_bias_prior", &o.use_bias_prior,
+         "prior N(0, front_end bias sigma^2) on the first state's IMU biases");
+  r.Read("initial_sigma_z_m", &o.initial_sigma_z_m, "sigma of the start height prior (z = 0)");
+  r.Read("gauge_sigma_m", &o.gauge_sigma_m,
+         "without initial_pose: sigma fixing the arbitrary origin");
+  r.Read("gauge_sigma_yaw_rad", &o.gauge_sigma_yaw_rad,
+         "without initial_pose: sigma fixing the arbitrary start yaw");
+  r.Read("output_rate_hz", &o.output_rate_hz, "rate of the output trajectory");
+  r.Read("compute_covariance", &o.compute_covariance,
+         "compute the state covariances of the output");
+  r.Read("max_iterations", &o.max_iterations, "fg-ins-batch: most Levenberg-Marquardt iterations");
+  r.Read("initialization", &o.initialization, Allowed("initialization"),
+         "batch start: the ZUPT-aided INS (front-end) or a fast window pass");
+  r.Read("init_lag_s", &o.init_lag_s, "initialization window: lag of the fast fg-ins-window pass");
+  r.Read("init_marginalize_batch_s", &o.init_marginalize_batch_s,
+         "initialization window: states leave in batches of this span");
+  r.Read("initial_trust_region_radius", &o.initial_trust_region_radius,
+         "LM starting trust-region radius");
+  r.Read("function_tolerance", &o.function_tolerance, "Ceres relative cost-change stop");
+  r.Read("parameter_tolerance", &o.parameter_tolerance, "Ceres relative step-size stop");
+  r.Read("gradient_tolerance", &o.gradient_tolerance, "Ceres gradient stop");
+  r.Read("max_relinearizations", &o.max_relinearizations,
+         "most re-preintegrations of the IMU after the biases moved");
+  r.Read("relinearize_gyro_bias_radps", &o.relinearize_gyro_bias_radps,
+         "re-preintegrate when a gyro bias moved more than this");
+  r.Read("relinearize_acc_bias_mps2", &o.relinearize_acc_bias_mps2,
+         "re-preintegrate when an accelerometer bias moved more than this");
+  r.Read("use_rss", &o.use_rss, "add the walk's rss.csv as RSS factors (dB domain)");
+  r.Read("use_ranges", &o.use_ranges, "add the walk's range.csv as range factors");
+  r.Read("receiver_offset_z_m", &o.receiver_offset_z_m, "receiver height above the IMU");
+  r.Read("rss_loss", &o.rss_loss, Allowed("rss_loss"), "robust loss of the RSS factors");
+  r.Read("rss_loss_scale", &o.rss_loss_scale,
+         "scale of the RSS loss, in sigma of the whitened residual");
+  r.Read("range_loss", &o.range_loss, Allowed("range_loss"), "robust loss of the range factors");
+  r.Read("range_loss_scale", &o.range_loss_scale,
+         "scale of the range loss, in sigma of the whitened residual");
+  r.Read("estimate_range_bias", &o.estimate_range_bias,
+         "estimate a per-anchor additive range bias");
+  r.Read("path_loss", &o.path_loss, Allowed("path_loss"),
+         "path loss (A, eta) of the RSS factors: held, global, or per anchor");
+  r.Read("A_prior_sigma_db", &o.A_prior_sigma_db,
+         "prior sigma of estimated A around walk.yaml's value");
+  r.Read("eta_prior_sigma", &o.eta_prior_sigma,
+         "prior sigma of estimated eta around walk.yaml's value");
+  r.Read("A_spread_prior_db", &o.A_spread_prior_db,
+         "per anchor: sigma of one anchor's A around the walk-wide mean");
+  r.Read("eta_spread_prior", &o.eta_spread_prior,
+         "per anchor: sigma of one anchor's eta around the walk-wide mean");
+  r.Read("path_loss_anchor_test_z", &o.path_loss_anchor_test_z,
+         "auto: solve per anchor when the anchor test exceeds this z; 0 never");
+  r.Read("range_bias_sigma_m", &o.range_bias_sigma_m, "prior sigma of the per-anchor range bias");
   WG_RETURN_IF_ERROR(r.Finish());
   if (front.IsDefined()) {
     WG_ASSIGN_OR_RETURN(o.front_end, StrideOptions::FromYaml(front));

@@ -126,16 +126,23 @@ StatusOr<InsWindowOptions> InsWindowOptions::FromYaml(const YAML::Node& node,
     }
   }
   ConfigReader r(window, context);
-  r.Read("lag_s", &o.lag_s);
-  r.Read("window_update_s", &o.window_update_s);
-  r.Read("window_max_iterations", &o.window_max_iterations);
-  r.Read("window_output", &o.window_output, AllowedValues(kStringOptions, "window_output"));
+  r.Read("lag_s", &o.lag_s, "span of the fixed-lag window");
+  r.Read("window_update_s", &o.window_update_s,
+         "0: one update per state; > 0: states gathered per this period");
+  r.Read("window_max_iterations", &o.window_max_iterations, "most LM iterations per window update");
+  r.Read("window_output", &o.window_output, AllowedValues(kStringOptions, "window_output"),
+         "each state's estimate when it leaves the window, or right after added");
   r.Read("preintegration_bias", &o.preintegration_bias,
-         AllowedValues(kStringOptions, "preintegration_bias"));
-  r.Read("window_marginalize_batch_s", &o.window_marginalize_batch_s);
-  r.Read("window_initial_trust_region_radius", &o.window_initial_trust_region_radius);
-  r.Read("gap_hold_max_s", &o.gap_hold_max_s);
-  r.Read("gap_release_yaw_sigma_rad", &o.gap_release_yaw_sigma_rad);
+         AllowedValues(kStringOptions, "preintegration_bias"),
+         "bias point of each IMU preintegration: the front end's or the window's");
+  r.Read("window_marginalize_batch_s", &o.window_marginalize_batch_s,
+         "states leave the window in batches of this span");
+  r.Read("window_initial_trust_region_radius", &o.window_initial_trust_region_radius,
+         "LM starting trust-region radius per window solve");
+  r.Read("gap_hold_max_s", &o.gap_hold_max_s,
+         "hold the window open this long at most after an IMU gap; 0 no hold");
+  r.Read("gap_release_yaw_sigma_rad", &o.gap_release_yaw_sigma_rad,
+         "release the hold at this yaw sigma when the pre-gap one is unknown");
   WG_RETURN_IF_ERROR(r.Finish());
   StatusOr<InsGraphOptions> graph = InsGraphOptions::FromYaml(rest);
   if (!graph.ok()) return InvalidArgument(context + ": " + graph.status().message());

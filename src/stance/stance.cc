@@ -150,24 +150,33 @@ void StanceOptions::set_threshold(double value) {
 StatusOr<StanceOptions> StanceOptions::FromYaml(const YAML::Node& node) {
   StanceOptions o;
   ConfigReader r(node, "stance");
-  r.ReadEnum("detector", &o.detector, kNames);
-  r.Read("window", &o.window);
-  r.Read("sigma_acc_mps2", &o.sigma_acc_mps2);
-  r.Read("sigma_gyro_radps", &o.sigma_gyro_radps);
-  r.Read("gravity_mps2", &o.gravity_mps2);
-  r.Read("glrt_threshold", &o.glrt_threshold);
-  r.Read("mv_threshold", &o.mv_threshold);
-  r.Read("mag_threshold", &o.mag_threshold);
-  r.Read("are_threshold", &o.are_threshold);
-  r.Read("mc_acc_min_mps2", &o.mc_acc_min_mps2);
-  r.Read("mc_acc_max_mps2", &o.mc_acc_max_mps2);
-  r.Read("mc_acc_std_max_mps2", &o.mc_acc_std_max_mps2);
-  r.Read("mc_std_window", &o.mc_std_window);
-  r.Read("mc_gyro_max_radps", &o.mc_gyro_max_radps);
-  r.Read("mc_median_window", &o.mc_median_window);
-  r.Read("still_window_s", &o.still_window_s);
-  r.Read("still_gyro_radps", &o.still_gyro_radps);
-  r.Read("still_acc_std_mps2", &o.still_acc_std_mps2);
+  r.ReadEnum("detector", &o.detector, kNames,
+             "stance detector (OpenShoe's GLRT, MV, MAG, ARE, or multi-condition)");
+  r.Read("window", &o.window, "samples per detector window W");
+  r.Read("sigma_acc_mps2", &o.sigma_acc_mps2,
+         "accelerometer noise sigma_a of the detector statistics");
+  r.Read("sigma_gyro_radps", &o.sigma_gyro_radps, "gyro noise sigma_g of the detector statistics");
+  r.Read("gravity_mps2", &o.gravity_mps2, "gravity magnitude");
+  r.Read("glrt_threshold", &o.glrt_threshold, "GLRT detector threshold gamma");
+  r.Read("mv_threshold", &o.mv_threshold, "MV (acceleration variance) detector threshold gamma");
+  r.Read("mag_threshold", &o.mag_threshold,
+         "MAG (acceleration magnitude) detector threshold gamma");
+  r.Read("are_threshold", &o.are_threshold, "ARE (angular rate energy) detector threshold gamma");
+  r.Read("mc_acc_min_mps2", &o.mc_acc_min_mps2,
+         "multi-condition: least acceleration magnitude at stance");
+  r.Read("mc_acc_max_mps2", &o.mc_acc_max_mps2,
+         "multi-condition: largest acceleration magnitude at stance");
+  r.Read("mc_acc_std_max_mps2", &o.mc_acc_std_max_mps2,
+         "multi-condition: largest local acceleration std-dev (th_sigma)");
+  r.Read("mc_std_window", &o.mc_std_window, "multi-condition: samples of the local std-dev window");
+  r.Read("mc_gyro_max_radps", &o.mc_gyro_max_radps,
+         "multi-condition: largest angular rate at stance");
+  r.Read("mc_median_window", &o.mc_median_window,
+         "multi-condition: samples of the median filter on the decision");
+  r.Read("still_window_s", &o.still_window_s, "ZARU still detection: window span");
+  r.Read("still_gyro_radps", &o.still_gyro_radps, "ZARU still detection: largest angular rate");
+  r.Read("still_acc_std_mps2", &o.still_acc_std_mps2,
+         "ZARU still detection: largest acceleration std-dev");
   WG_RETURN_IF_ERROR(r.Finish());
   if (o.window < 1 || o.mc_std_window < 1 || o.mc_median_window < 1 || o.sigma_acc_mps2 <= 0 ||
       o.sigma_gyro_radps <= 0 || o.still_window_s < 0) {
