@@ -389,6 +389,11 @@ TEST(StepGraphTest, OptionsAreStrict) {
   EXPECT_FALSE(reg.Create("fg-window", YAML::Load("{window_linear_solver: cg}")).ok());
   EXPECT_TRUE(reg.Create("fg-window", YAML::Load("{window_linear_solver: sparse}")).ok());
   EXPECT_FALSE(reg.Create("fg-batch", YAML::Load("{pdr: {detector: nope}}")).ok());
+  EXPECT_FALSE(reg.Create("fg-batch", YAML::Load("{level_sigma_m: -0.1}")).ok());
+  EXPECT_FALSE(reg.Create("fg-batch", YAML::Load("{floor_sigma_m: -1}")).ok());
+  EXPECT_FALSE(reg.Create("fg-batch", YAML::Load("{floor_snap_storeys: 0.5}")).ok());
+  EXPECT_FALSE(reg.Create("fg-batch", YAML::Load("{stair_landing_s: -1}")).ok());
+  EXPECT_TRUE(reg.Create("fg-batch", YAML::Load("{level_sigma_m: 0, floor_sigma_m: 0}")).ok());
   // Set in C++, the same rules hold at Run: "Huber" is not a loss name (it used to mean none).
   StepGraphOptions o;
   EXPECT_TRUE(o.Validate().ok());
