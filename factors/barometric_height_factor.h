@@ -19,6 +19,12 @@ inline double BarometricHeightM(double hpa, double ref_hpa) {
   return 44330.8 * (1.0 - std::pow(hpa / ref_hpa, 0.190263));
 }
 
+// Its inverse: the pressure height_m above the level of pressure `ref_hpa`,
+// p = p_ref·(1 − h/44330.8)^(1/0.190263) (the simulator's barometer).
+inline double BarometricPressureHpa(double height_m, double ref_hpa) {
+  return ref_hpa * std::pow(1.0 - height_m / 44330.8, 1.0 / 0.190263);
+}
+
 class BarometricHeightFactor {
  public:
   BarometricHeightFactor(double dh_m, double sigma_m) : dh_m_(dh_m), inv_sigma_(1.0 / sigma_m) {}

@@ -142,6 +142,13 @@ TEST(BarometricHeightFactorTest, HeightFromPressureFollowsTheStandardAtmosphere)
   EXPECT_NEAR(BarometricHeightM(979.3, 980.0), 0.7 * 8.4, 0.2);
 }
 
+TEST(BarometricHeightFactorTest, PressureFromHeightInvertsIt) {
+  EXPECT_NEAR(BarometricPressureHpa(1000.0, 1013.25), 898.76, 0.25);  // ICAO table
+  for (double h : {-10.0, 0.0, 3.5, 7.0, 250.0}) {
+    EXPECT_NEAR(BarometricHeightM(BarometricPressureHpa(h, 1013.25), 1013.25), h, 1e-9);
+  }
+}
+
 TEST(PositionPriorFactorTest, OneNodeIsTheWhitenedOffset) {
   std::unique_ptr<ceres::CostFunction> f(
       PositionPriorFactor<2>::Create(Eigen::Vector2d(3.0, -1.0), 0.5));

@@ -9,6 +9,7 @@
 
 #include <gtest/gtest.h>
 
+#include "factors/barometric_height_factor.h"
 #include "walkgraph/angle.h"
 #include "walkgraph/io.h"
 #include "walkgraph/path_loss.h"
@@ -48,7 +49,7 @@ Eigen::Vector3d TruthAt(const Walk& w, double t) {
 }
 
 TEST(Simulate, EveryPresetSimulatesAndValidates) {
-  ASSERT_EQ(Scenarios().size(), 8u);
+  ASSERT_EQ(Scenarios().size(), 9u);
   for (const ScenarioInfo& info : Scenarios()) {
     SCOPED_TRACE(info.name);
     auto w = SimulateScenario(info.name, 7);
@@ -327,6 +328,163 @@ TEST(Simulate, LinearGaussianIsCollinearAndHasConfiguredNoise) {
   EXPECT_NEAR(Stats(rr).second, 0.3, 0.03);
   EXPECT_NEAR(Stats(od).second, 0.05, 0.005);
   EXPECT_NEAR(Stats(od).first, 0.0, 0.006);
+}
+
+// ------------------------------------------------------------------ two-floor-building
+
+TEST(Simulate, TwoFloorBuildingClimbsOneStoreyByStairsAndComesBack) {
+  auto s = SimulateScenarioDetailed("two-floor-building", 3);
+  ASSERT_TRUE(s.ok()) << s.status().message();
+  const Walk& w = s->walk;
+  EXPECT_TRUE(ValidateWalk(w).ok()) << ValidateWalk(w).message();
+  EXPECT_EQ(w.meta.storey_height_m, 3.5);
+  ASSERT_TRUE(w.meta.initial_pose && w.meta.initial_pose->floor);
+  EXPECT_EQ(*w.meta.initial_pose->floor, 0);
+  EXPECT_EQ(w.meta.radio.path_loss.floor_loss_db, 15.0);
+  // Anchors: 8 per floor, mounted 2.5 m above it.
+  int on_floor[2] = {0, 0};
+  for (const Anchor& a : w.anchors) {
+    ASSERT_TRUE(a.floor.has_value());
+    ASSERT_TRUE(*a.floor == 0 || *a.floor == 1);
+    ++on_floor[*a.floor];
+    EXPECT_EQ(a.position_m.z(), 2.5);
+  }
+  EXPECT_EQ(on_floor[0], 8);
+  EXPECT_EQ(on_floor[1], 8);
+  // Truth: the floor of every sample is its height over the storey, rounded; both floors
+  // walked, floor 0 at the start and the end; heights within [0, 3.5].
+  double time_on[2] = {0.0, 0.0};
+  for (size_t i = 0; i < w.truth.size(); ++i) {
+    const TruthSample& t = w.truth[i];
+    ASSERT_TRUE(t.floor.has_value());
+    EXPECT_EQ(*t.floor, static_cast<int>(std::lround(t.position_m.z() / 3.5)));
+    ASSERT_GE(t.position_m.z(), -1e-9);
+    ASSERT_LE(t.position_m.z(), 3.5 + 1e-9);
+    if (i > 0) time_on[*t.floor] += t.t_s - w.truth[i - 1].t_s;
+  }
+  EXPECT_EQ(*w.truth.front().floor, 0);
+  EXPECT_EQ(*w.truth.back().floor, 0);
+  EXPECT_GT(time_on[1], 150.0);  // two 84-m laps at 1 m/s
+  EXPECT_GT(time_on[0], 300.0);
+  // Stairs: 20 rises of 0.175 m up and 20 down; each stair step moves one 0.28-m tread. A
+  // step event's rise is the truth height change since the previous event.
+  // Steps whose whole interval lies on a flight (the height changing at both ends):
+  // 12 + 8 rises, less a flight's first and last step, each way.
+  int up = 0, down = 0;
+  for (const sim::StepEvent& e : s->steps) {
+    const double t0 = e.t_s - e.duration_s, t1 = e.t_s;
+    const double z0 = TruthAt(w, t0).z(), z1 = TruthAt(w, t1).z();
+    const bool climbing = std::fabs(TruthAt(w, t0 + 0.04).z() - z0) > 1e-4 &&
+                          std::fabs(z1 - TruthAt(w, t1 - 0.04).z()) > 1e-4;
+    if (!climbing) continue;
+    (z1 > z0 ? up : down) += 1;
+    EXPECT_NEAR(std::fabs(z1 - z0), 0.175, 0.005) << "step at " << e.t_s << " s";
+    EXPECT_NEAR(e.length_m, 0.28, 0.005) << "step at " << e.t_s << " s";
+  }
+  EXPECT_GE(up, 14);
+  EXPECT_LE(up, 20);
+  EXPECT_GE(down, 14);
+  EXPECT_LE(down, 20);
+}
+
+// The barometer reads the standard atmosphere at the waist (1 m above the truth's floor
+// height): without drift the residuals are its white noise; with a trend only, they are the
+// trend (its sign in sim.baro_drift_rate_hpa_per_h); the random walk's increments have its
+// variance.
+TEST(Simulate, TwoFloorBuildingPressureFollowsTheTruthHeightPlusDrift) {
+  auto residuals = [](const Walk& w) {
+    std::vector<double> r;
+    for (const PressureSample& p : w.pressure) {
+      const double h = TruthAt(w, p.t_s).z() + w.meta.extra.at("sim.rx_height_offset_m");
+      r.push_back(p.hpa - BarometricPressureHpa(h, 1013.25));
+    }
+    return r;
+  };
+  auto white = SimulateScenario("two-floor-building", 5,
+                                YAML::Load("{baro_drift_hpa_per_h: 0, "
+                                           "baro_drift_rw_hpa_per_sqrt_h: 0}"));
+  ASSERT_TRUE(white.ok());
+  const auto [mean, sigma] = Stats(residuals(*white));
+  ASSERT_GT(white->pressure.size(), 5000u);  // 10 Hz over ≈ 9 min
+  EXPECT_NEAR(white->pressure[1].t_s - white->pressure[0].t_s, 0.1, 1e-9);
+  EXPECT_NEAR(mean, 0.0, 4.0 * 0.03 / std::sqrt(white->pressure.size()));
+  EXPECT_NEAR(sigma, 0.03, 0.002);
+  for (const char* rate : {"1.5", "4"}) {
+    auto trend = SimulateScenario(
+        "two-floor-building", 5,
+        YAML::Load(std::string("{baro_noise_hpa: 0, baro_drift_rw_hpa_per_sqrt_h: 0, "
+                               "baro_drift_hpa_per_h: ") +
+                   rate + "}"));
+    ASSERT_TRUE(trend.ok());
+    const double signed_rate = trend->meta.extra.at("sim.baro_drift_rate_hpa_per_h");
+    EXPECT_EQ(std::fabs(signed_rate), std::stod(rate));
+    const std::vector<double> r = residuals(*trend);
+    for (size_t i = 0; i < r.size(); i += 97) {
+      EXPECT_NEAR(r[i], signed_rate * trend->pressure[i].t_s / 3600.0, 2e-4);
+    }
+  }
+  auto rw = SimulateScenario("two-floor-building", 5,
+                             YAML::Load("{baro_noise_hpa: 0, baro_drift_hpa_per_h: 0, "
+                                        "baro_drift_rw_hpa_per_sqrt_h: 3}"));
+  ASSERT_TRUE(rw.ok());
+  const std::vector<double> r = residuals(*rw);
+  std::vector<double> steps;
+  for (size_t i = 10; i < r.size(); i += 10) steps.push_back(r[i] - r[i - 10]);  // 1-s steps
+  EXPECT_NEAR(Stats(steps).second, 3.0 * std::sqrt(1.0 / 3600.0), 0.005);
+}
+
+// RSS across floors: the log-distance model at the 3-D distance, minus 15 dB per slab between
+// anchor and receiver (1 m above the walker's floor). Every emission, also those lost to the
+// sensitivity (no truncation).
+TEST(Simulate, TwoFloorBuildingRssLosesTheFloorLossPerSlab) {
+  auto s = SimulateScenarioDetailed("two-floor-building", 2);
+  ASSERT_TRUE(s.ok());
+  const Walk& w = s->walk;
+  const PathLossModel model(w.meta.radio.path_loss, w.meta.radio.units);
+  std::vector<double> same, other;
+  for (const sim::Emission& e : s->rss_emissions) {
+    const Anchor& a = w.anchors[w.AnchorIndex(e.anchor_id)];
+    const Eigen::Vector3d rx = TruthAt(w, e.t_s) + Eigen::Vector3d(0, 0, 1.0);
+    const Eigen::Vector3d at(a.position_m.x(), a.position_m.y(), w.AnchorHeightM(a));
+    const double d = (rx - at).norm();
+    ASSERT_NEAR(e.distance_m, d, 0.01);
+    const int slabs =
+        static_cast<int>(std::fabs(std::floor(rx.z() / 3.5) - std::floor(at.z() / 3.5)));
+    (slabs == 0 ? same : other).push_back(e.value - (model.ExpectedRss(d) - 15.0 * slabs));
+  }
+  ASSERT_GT(same.size(), 1000u);
+  ASSERT_GT(other.size(), 1000u);
+  for (const auto* v : {&same, &other}) {
+    const auto [mean, sigma] = Stats(*v);
+    EXPECT_NEAR(mean, 0.0, 4.0 * 5.0 / std::sqrt(v->size()));
+    EXPECT_NEAR(sigma, 5.0, 0.25);
+  }
+}
+
+TEST(Simulate, TwoFloorBuildingKeysAreCheckedAndItsOwn) {
+  EXPECT_FALSE(SimulateScenario("two-floor-building", 1, YAML::Load("{baro_drift: 1}")).ok());
+  EXPECT_FALSE(
+      SimulateScenario("two-floor-building", 1, YAML::Load("{storey_height_m: 1.0}")).ok());
+  EXPECT_FALSE(
+      SimulateScenario("two-floor-building", 1, YAML::Load("{baro_noise_hpa: -0.1}")).ok());
+  EXPECT_FALSE(SimulateScenario("two-floor-building", 1,
+                                YAML::Load("{storey_height_m: 3.0, anchor_mount_m: 3.0}"))
+                   .ok());
+  EXPECT_FALSE(SimulateScenario("tarrio-circle", 1, YAML::Load("{floor_loss_db: 10}")).ok());
+  auto w = SimulateScenario("two-floor-building", 1,
+                            YAML::Load("{storey_height_m: 3.0, laps: 1, num_anchors: 5}"));
+  ASSERT_TRUE(w.ok()) << w.status().message();
+  EXPECT_EQ(w->meta.storey_height_m, 3.0);
+  EXPECT_EQ(w->anchors.size(), 5u);
+  double top = 0.0;
+  for (const TruthSample& t : w->truth) top = std::max(top, t.position_m.z());
+  EXPECT_NEAR(top, 3.0, 1e-6);
+  // Flat presets keep their planar truth, no floors and no barometer.
+  auto flat = SimulateScenario("tarrio-circle", 1, YAML::Load("{duration_s: 20}"));
+  ASSERT_TRUE(flat.ok());
+  EXPECT_TRUE(flat->pressure.empty());
+  EXPECT_FALSE(flat->has_truth_floors());
+  for (const TruthSample& t : flat->truth) ASSERT_EQ(t.position_m.z(), 0.0);
 }
 
 }  // namespace

@@ -18,7 +18,8 @@
 // h·(4u(1−u))⁵, pitch Θ·(4u(1−u))⁵·sin(2πu)/c (toe-off nose down, heel strike nose up),
 // yaw ψ_k + Δψ·σ(u). R_nb = Rz(ψ)·Ry(θ).
 //
-// Radio: log-distance RSS (PathLossModel) per emission, per-anchor A/η spread, NLOS episodes
+// Radio: log-distance RSS (PathLossModel) per emission, minus a floor loss per floor slab
+// between anchor and receiver, per-anchor A/η spread, NLOS episodes
 // (two-state Markov chain per anchor), outage windows, logistic detection probability
 // p(d) = p_max / (1 + exp((d − d50)/w)), sensitivity threshold; TOA ranges z = α + β·d + n
 // (002 eq. 6) with exponential NLOS bias.
@@ -70,6 +71,10 @@ struct PathSegment {
   double heading0_rad = 0.0;
   double length_m = 0.0;
   double curvature_1pm = 0.0;  // > 0 turns left (counter-clockwise)
+  // Stairs: the ground rises by climb per metre along the segment (negative: down), and each
+  // step moves step_length_m (a tread) instead of the gait model's length (0: level ground).
+  double climb = 0.0;
+  double step_length_m = 0.0;
   Eigen::Vector2d PositionAt(double s) const;
   double HeadingAt(double s) const { return heading0_rad + curvature_1pm * s; }
 };
@@ -108,6 +113,12 @@ struct BodyState {
   double yaw_rate_radps = 0.0;  // dψ/dt
   double curvature_1pm = 0.0;
   bool moving = false;
+  // Height of the ground under the walker above the plan's start (stairs change it) and its
+  // first two time derivatives.
+  double z_m = 0.0, vz_mps = 0.0, az_mps2 = 0.0;
+  // > 0 on stairs: every step moves the walker this far horizontally (a tread) instead of the
+  // gait model's length.
+  double step_length_m = 0.0;
 };
 
 class MotionPlan {
@@ -124,12 +135,16 @@ class MotionPlan {
     double length_m = 0.0, cruise_mps = 0.0, ramp_up_s = 0.0, ramp_down_s = 0.0;
     // Turn
     double dheading_rad = 0.0;
+    // Height of the ground at the phase's start; a leg's height change before each segment.
+    double z0_m = 0.0;
+    std::vector<double> cumulative_z_m;
   };
 
   MotionPlan(const Eigen::Vector2d& start, double heading_rad);
 
   // Walks along `segments` (which must start at the current position) at `speed_mps`, with a
   // raised-cosine speed ramp of ramp_s from rest (from_rest) and to rest (to_rest).
+  // Segments with a climb change the ground's height (stairs).
   void Walk(std::vector<PathSegment> segments, double speed_mps, bool from_rest, bool to_rest,
             double ramp_s = 1.5);
   void Stop(double duration_s);
@@ -144,6 +159,7 @@ class MotionPlan {
   const std::vector<Phase>& phases() const { return phases_; }
   Eigen::Vector2d end_position() const { return position_; }
   double end_heading() const { return heading_; }
+  double end_height() const { return height_; }
   BodyState At(double t_s) const;
   // Arc length walked within a leg phase at local time tau (and speed, accel).
   static void LegProfile(const Phase& leg, double tau, double* s, double* v, double* a);
@@ -152,6 +168,7 @@ class MotionPlan {
   std::vector<Phase> phases_;
   Eigen::Vector2d position_;
   double heading_;
+  double height_ = 0.0;
 };
 
 // ------------------------------------------------------------------ gait
@@ -311,6 +328,11 @@ struct RadioOptions {
   double jitter_s = 0.0;         // uniform ± jitter of each emission (kept inside the period)
   double report_period_s = 0.0;  // > 0: timestamps rounded up to the reader's polling grid
   double rss_quantum = 0.0;      // > 0: readings rounded to this step
+  // Multi-floor buildings: floor f's slab lies at height f × storey_height_m; each slab
+  // between an anchor and the receiver takes path_loss.floor_loss_db off the RSS (Seidel &
+  // Rappaport's floor attenuation factor). Anchors and receiver are given at their heights
+  // above floor 0.
+  double storey_height_m = kDefaultStoreyHeightM;
   // TOA (002 eq. 6): z = alpha + beta·d + N(0, sigma²) (+ NLOS bias)
   double toa_alpha_m = 0.0, toa_beta = 1.0, toa_sigma_m = 1.0;
 };
@@ -339,6 +361,28 @@ RadioResult SimulateRss(const std::vector<Anchor>& anchors, const ReceiverTrack&
                         double t_begin_s, double t_end_s, const RadioOptions& options, Rng rng);
 RadioResult SimulateToa(const std::vector<Anchor>& anchors, const ReceiverTrack& rx,
                         double t_begin_s, double t_end_s, const RadioOptions& options, Rng rng);
+
+// ------------------------------------------------------------------ barometer
+// A phone barometer at height h(t) above the reference level: p_k = P(h(t_k)) + d(t_k) + n_k,
+// P the standard atmosphere (BarometricPressureHpa, the inverse of the estimators'
+// BarometricHeightM), n_k ~ N(0, noise_hpa²) white, d(t) the drift: weather, a linear trend of
+// ±drift_hpa_per_h (the sign drawn from the seed), plus building air (ventilation, doors), a
+// random walk of drift_rw_hpa_per_sqrt_h. Readings at t = k / rate_hz, rounded to 1e-4 hPa.
+struct BarometerOptions {
+  double rate_hz = 10.0;
+  double ref_hpa = 1013.25;  // pressure at height 0
+  double noise_hpa = 0.03;
+  double drift_hpa_per_h = 0.0;
+  double drift_rw_hpa_per_sqrt_h = 0.0;
+};
+struct BarometerResult {
+  std::vector<PressureSample> pressure;
+  std::vector<double> drift_hpa;      // d(t_k), per reading
+  double drift_rate_hpa_per_h = 0.0;  // the signed trend
+};
+BarometerResult SimulateBarometer(const std::function<double(double t_s)>& height_m,
+                                  double t_begin_s, double t_end_s, const BarometerOptions& options,
+                                  Rng rng);
 
 // Anchors on the most square r×c grid with r·c = n, covering [x0,x0+w]×[y0,y0+h] (000 Sec. IV).
 std::vector<Anchor> GridAnchors(int n, double x0, double y0, double w, double h, double z);

@@ -6,10 +6,11 @@
 //
 // Same name + seed + overrides → identical walk (own Gaussian/uniform transforms over
 // mt19937_64; one forked stream per component). Truth: the IMU position at every IMU sample
-// (waist/hip: the walked path, planar; foot: the foot, with z), plus stance labels for foot
-// walks. meta.initial_pose = true start with σ_xy = 0.5 m, σ_ψ = 5°; meta.radio = the true
-// path-loss model; meta.extra holds "sim.*" numbers (seed, step length/frequency, rates, …).
-// Output resolution: acc 1e-6 m/s², gyro 1e-7 rad/s, mag 1e-4 µT, truth 1e-6 m, range 1 mm.
+// (waist/hip: the walked path, planar but for stairs; foot: the foot, with z), plus stance
+// labels for foot walks. meta.initial_pose = true start with σ_xy = 0.5 m, σ_ψ = 5°;
+// meta.radio = the true path-loss model; meta.extra holds "sim.*" numbers (seed, step
+// length/frequency, rates, …). Output resolution: acc 1e-6 m/s², gyro 1e-7 rad/s, mag 1e-4 µT,
+// truth 1e-6 m, range 1 mm.
 //
 // Presets — paper numbers, and [choices where the paper is silent]:
 // tarrio-circle (000 Sec. IV): 9 anchors on a 3×3 grid over 20×20 m (400 m²); circle r = 8 m
@@ -45,6 +46,23 @@
 //   white noise 0.011 m/s², 0.0055 rad/s; bias random walk 1e-4 (m/s²)/√s, 1e-4 (rad/s)/√s;
 //   reader at the waist: receiver 1 m above the foot].
 // jimenez-building-8tags: the same with 8 of the 71 tags (farthest-point subset; Table III).
+// two-floor-building [walkgraph's own; IMU and radio as tarrio-circle's]: two floors of a
+//   [40 × 14 m] building, storey_height_m [3.5 m]; on each a corridor loop [(6, 2)–(38, 12),
+//   84 m] and, at its west end, a dog-leg staircase: [storey / 0.175 m = 20 rises, 0.28-m
+//   treads; the first flight 12 rises, so the landing (0.6 × 1.4-m U-turn) lies at 0.6 storey,
+//   away from the half storey where a height's floor changes; walked at 0.45 m/s from rest
+//   to rest, one step per tread, the waist bouncing like a level step of the same cadence].
+//   Walk: `laps` [2] laps on floor 0, up, `laps` on floor 1, down, `laps` on floor 0 (≈ 9 min).
+//   Truth: x, y, z (the ground under the walker), floor = its height over the storey,
+//   rounded. Anchors [8 per floor, jittered 2 × 4 grid, 2.5 m above their floor, with the
+//   floor column]; RSS [A = −60 dBm, η = 2.5, σ = 5 dB, −95 dBm, 1 s] at the waist [1 m above
+//   the floor] with a floor loss [15 dB] per slab between anchor and receiver
+//   (walk.yaml radio.floor_loss_db, the true value). Barometer (pressure.csv) at the waist:
+//   the standard atmosphere of the estimators (BarometricPressureHpa, the inverse of
+//   BarometricHeightM) from [1013.25 hPa] at floor 0, [10 Hz], white noise [0.03 hPa], and
+//   drift: a weather trend [±2 hPa/h, sign drawn from the seed] plus a random walk
+//   [0.3 hPa/√h] (sim_models.h SimulateBarometer). initial_pose.floor 0; duration_s only
+//   cuts the walk.
 // linear-gaussian: a linear-Gaussian problem in walk form, for KF+RTS == batch == fixed-lag
 //   tests. Straight walk at known constant heading ψ0 (initial_pose σ_ψ = 1e-6 rad; every
 //   dheading = 0): odometry x_{k+1} = x_k + d_k·(cos ψ0, sin ψ0), d_k = l_k + N(0, σ_d²),
@@ -65,8 +83,11 @@
 //   detection_d50_m, detection_width_m, nlos_fraction, nlos_episode_s, nlos_rss_bias_db,
 //   initial_sigma_xy_m, initial_sigma_heading_deg; loops: laps; prieto-laps: toa_sigma_m,
 //   toa_alpha_m, toa_beta, nlos_range_bias_m; gadeke-outage: run_length_m, outage_start_frac,
-//   outage_end_frac; foot presets: stance_fraction. linear-gaussian: duration_s, step_period_s,
-//   step_sigma_m, range_sigma_m, heading_deg, range_every.
+//   outage_end_frac; foot presets: stance_fraction; two-floor-building: storey_height_m,
+//   stair_rise_m, stair_tread_m, stair_speed_mps, floor_loss_db, anchor_mount_m, baro_rate_hz,
+//   baro_ref_hpa, baro_noise_hpa, baro_drift_hpa_per_h, baro_drift_rw_hpa_per_sqrt_h.
+//   linear-gaussian: duration_s, step_period_s, step_sigma_m, range_sigma_m, heading_deg,
+//   range_every.
 #ifndef WALKGRAPH_SIMULATE_H_
 #define WALKGRAPH_SIMULATE_H_
 

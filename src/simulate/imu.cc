@@ -28,6 +28,15 @@ double Activity(const GaitOptions& g, double v) {
   return x * x * (3.0 - 2.0 * x);
 }
 
+// The step length whose Weinberg amplitude the waist shows: the step's own on level ground; on
+// stairs (a fixed tread) that of a level step at the same cadence f, l = a/(1 − b·f) from
+// l = a + b·v and f = v/l [a stair step shakes the pelvis like a level step of its rhythm, so
+// Weinberg overestimates a tread, as on real stairs].
+double BouncingLength(const GaitOptions& g, double l, double f, const BodyState& b) {
+  if (!(b.step_length_m > 0.0)) return l;
+  return g.step_length_a_m / std::max(0.1, 1.0 - g.step_length_b_s * f);
+}
+
 Eigen::Matrix3d Rz(double a) { return Eigen::AngleAxisd(a, Eigen::Vector3d::UnitZ()).matrix(); }
 
 }  // namespace
@@ -126,7 +135,7 @@ WaistImuResult SimulateWaistImu(const MotionPlan& plan, const WaistImuOptions& o
     const double t = static_cast<double>(k) / o.rate_hz;
     const BodyState b = plan.At(t);
     const double v = b.speed_mps;
-    const double l = StepLength(o.gait, v);
+    const double l = b.step_length_m > 0.0 ? b.step_length_m : StepLength(o.gait, v);
     const double f = v > 0.0 ? v / l : 0.0;
     if (k > 0) {
       const double dt = t - prev_t;
@@ -152,7 +161,8 @@ WaistImuResult SimulateWaistImu(const MotionPlan& plan, const WaistImuOptions& o
     prev_t = t;
     const double act = Activity(o.gait, v);
     const double two_pi_phi = 2.0 * kPi * phase;
-    const double a_vert = act * StepAmplitude(o.gait, l) * std::sin(two_pi_phi);
+    const double a_vert =
+        act * StepAmplitude(o.gait, BouncingLength(o.gait, l, f, b)) * std::sin(two_pi_phi);
     // Pelvis sway at stride frequency f/2: lateral position S·sin(πφ), yaw Y·cos(πφ).
     const double w = kPi * f;
     const double a_lat = -act * o.lateral_sway_m * w * w * std::sin(0.5 * two_pi_phi);
@@ -161,11 +171,11 @@ WaistImuResult SimulateWaistImu(const MotionPlan& plan, const WaistImuOptions& o
     const Eigen::Vector3d fwd(std::cos(b.heading_rad), std::sin(b.heading_rad), 0.0);
     const Eigen::Vector3d left(-fwd.y(), fwd.x(), 0.0);
     const Eigen::Vector3d a_n = b.accel_mps2 * fwd + (v * b.yaw_rate_radps + a_lat) * left +
-                                Eigen::Vector3d(0.0, 0.0, a_vert);
+                                Eigen::Vector3d(0.0, 0.0, a_vert + b.az_mps2);
     ImuTruth s;
     s.t_s = t;
-    s.position_n = Eigen::Vector3d(b.position_m.x(), b.position_m.y(), o.height_m);
-    s.velocity_n = v * fwd;
+    s.position_n = Eigen::Vector3d(b.position_m.x(), b.position_m.y(), o.height_m + b.z_m);
+    s.velocity_n = v * fwd + Eigen::Vector3d(0.0, 0.0, b.vz_mps);
     const Eigen::Matrix3d R = Rz(b.heading_rad + yaw_sway);
     s.q_nb = Eigen::Quaterniond(R);
     s.specific_force_b = R.transpose() * (a_n + g_up);

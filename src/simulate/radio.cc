@@ -69,6 +69,14 @@ std::vector<double> EmissionTimes(const RadioOptions& o, double t0, double t1, R
   return times;
 }
 
+// Floor slabs (at f × storey) between two heights: |⌊z_a/storey⌋ − ⌊z_b/storey⌋|; 0 without
+// a floor loss.
+int SlabsBetween(double z_a, double z_b, const RadioOptions& o) {
+  if (!(o.path_loss.floor_loss_db > 0.0)) return 0;
+  const double fa = std::floor(z_a / o.storey_height_m), fb = std::floor(z_b / o.storey_height_m);
+  return static_cast<int>(std::fabs(fa - fb));
+}
+
 template <typename Sample>
 void SortByTime(std::vector<Sample>* v) {
   std::stable_sort(v->begin(), v->end(), [](const Sample& a, const Sample& b) {
@@ -95,10 +103,12 @@ RadioResult SimulateRss(const std::vector<Anchor>& anchors, const ReceiverTrack&
       Emission e;
       e.t_s = t;
       e.anchor_id = anchor.id;
-      e.distance_m = (rx(t) - anchor.position_m).norm();
+      const Eigen::Vector3d receiver = rx(t);
+      e.distance_m = (receiver - anchor.position_m).norm();
       e.nlos = Inside(nlos, t);
       e.in_outage = Inside(o.outages_s, t);
-      e.expected = model.ExpectedRss(e.distance_m);
+      e.expected = model.ExpectedRss(e.distance_m) -
+                   sign * pl.floor_loss_db * SlabsBetween(receiver.z(), anchor.position_m.z(), o);
       // Fixed draw order per emission keeps streams aligned whatever the outcome.
       const double shadow = noise.Gaussian(0.0, pl.sigma_db);
       const double extra = noise.Exponential(o.nlos.rss_bias_db);

@@ -48,6 +48,12 @@ struct Params {
   double rx_height_offset_m = 0.0;
   // gadeke
   double run_length_m = 700.0, outage_start_frac = 0.3, outage_end_frac = 0.8;
+  // multi-floor building (two-floor-building): storeys, stairs, anchors' mounting height, the
+  // barometer; the radio's floor loss is radio.floor_loss_db
+  bool building = false;
+  double stair_rise_m = 0.175, stair_tread_m = 0.28, stair_speed_mps = 0.45;
+  double anchor_mount_m = 2.5;
+  sim::BarometerOptions baro;
   // initial pose
   double sigma_xy_m = 0.5, sigma_heading_deg = 5.0;
   std::map<std::string, double> extra;
@@ -374,6 +380,117 @@ Status JimenezBuild(Params* p, std::vector<Anchor>* anchors, sim::MotionPlan* pl
   return Status::Ok();
 }
 
+// ------------------------------------------------------------------ two-floor building
+// Footprint 40 × 14 m; on each floor a corridor loop and, at the west end, a dog-leg staircase
+// (flight, U-turn landing, flight) between floor 0 and floor 1 (simulate.h).
+const std::vector<Eigen::Vector2d> kLoopFloor0 = {{6, 2}, {38, 2}, {38, 12}, {6, 12}};
+const std::vector<Eigen::Vector2d> kLoopFloor1 = {{6, 3.4}, {6, 2}, {38, 2}, {38, 12}, {6, 12}};
+const Eigen::Vector2d kStairFoot(5.0, 2.0);  // floor 0's end of the staircase
+
+void BuildingDefaults(Params* p) {
+  p->source = "[walkgraph's own two-floor building; IMU and radio after 000 Sec. IV]";
+  p->building = true;
+  p->placement = ImuPlacement::kWaist;
+  p->imu_rate_hz = 50.0;
+  p->laps = 2;
+  p->has_laps = true;
+  p->start_still_s = 5.0;
+  p->end_still_s = 5.0;
+  p->noise.acc_noise_mps2 = 5.7575e-2;
+  p->gyro_bias_dph = 10.0;
+  p->mag = false;
+  p->gait.weinberg_k = 0.45;
+  p->radio.path_loss = {-60.0, 2.5, 1.0, 5.0, 15.0};
+  p->radio.sensitivity = -95.0;
+  p->radio.period_s = 1.0;
+  p->radio.storey_height_m = 3.5;
+  p->num_anchors = 16;
+  p->rx_height_offset_m = 1.0;
+  p->baro.drift_hpa_per_h = 2.0;
+  p->baro.drift_rw_hpa_per_sqrt_h = 0.3;
+}
+
+// A straight flight from a to b whose ground rises by rise_m, one tread per step.
+std::vector<sim::PathSegment> Flight(const Eigen::Vector2d& a, const Eigen::Vector2d& b,
+                                     double rise_m, double tread_m) {
+  std::vector<sim::PathSegment> segs = sim::PolylinePath({a, b}, 0.0);
+  for (sim::PathSegment& s : segs) {
+    s.climb = rise_m / s.length_m;
+    s.step_length_m = tread_m;
+  }
+  return segs;
+}
+
+// The staircase, up from kStairFoot or down to it: n = storey / stair_rise_m rises (rounded),
+// the first flight from floor 0 ⌊(3n + 2)/5⌋ of them (the landing at 0.6 storey, away from
+// the half storey where the floor of a height changes), a 0.6 × 1.4 m U-turn on the landing.
+// Returns the segments and the floor-1 end (*top).
+std::vector<sim::PathSegment> Staircase(const Params& p, bool up, Eigen::Vector2d* top) {
+  const double storey = p.radio.storey_height_m, tread = p.stair_tread_m;
+  const int n = std::max(2, static_cast<int>(std::lround(storey / p.stair_rise_m)));
+  const int n1 = (3 * n + 2) / 5, n2 = n - n1;
+  const double rise = storey / n, x1 = kStairFoot.x() - n1 * tread, xl = x1 - 0.6;
+  const double y0 = kStairFoot.y(), y1 = y0 + 1.4;
+  *top = Eigen::Vector2d(x1 + n2 * tread, y1);
+  std::vector<sim::PathSegment> out;
+  auto append = [&out](const std::vector<sim::PathSegment>& v) {
+    out.insert(out.end(), v.begin(), v.end());
+  };
+  if (up) {
+    append(Flight(kStairFoot, {x1, y0}, n1 * rise, tread));
+    append(sim::PolylinePath({{x1, y0}, {xl, y0}, {xl, y1}, {x1, y1}}, 0.3));
+    append(Flight({x1, y1}, *top, n2 * rise, tread));
+  } else {
+    append(Flight(*top, {x1, y1}, -n2 * rise, tread));
+    append(sim::PolylinePath({{x1, y1}, {xl, y1}, {xl, y0}, {x1, y0}}, 0.3));
+    append(Flight({x1, y0}, kStairFoot, -n1 * rise, tread));
+  }
+  return out;
+}
+
+// Anchors on both floors: num_anchors split between them (floor 0 gets the odd one), each
+// floor's a jittered 2 × 4 grid over the footprint, mounted anchor_mount_m above its floor.
+std::vector<Anchor> BuildingAnchors(const Params& p) {
+  std::vector<Anchor> out;
+  for (int floor = 0; floor < 2; ++floor) {
+    Params q = p;
+    q.num_anchors = floor == 0 ? (p.num_anchors + 1) / 2 : p.num_anchors / 2;
+    if (q.num_anchors == 0) continue;
+    const auto grid = JitteredGrid(2, 4, 0, 0, 40, 14, 1.5, p.anchor_mount_m, 8, 5 + floor);
+    for (Anchor a : PickAnchors(q, grid)) {
+      a.id = static_cast<int>(out.size()) + 1;
+      a.floor = floor;
+      out.push_back(a);
+    }
+  }
+  return out;
+}
+
+// Floor 0: `laps` loops; up the stairs; floor 1: `laps` loops; down; floor 0: `laps` loops.
+Status BuildingBuild(Params* p, std::vector<Anchor>* anchors, sim::MotionPlan* plan) {
+  *anchors = BuildingAnchors(*p);
+  Eigen::Vector2d top;
+  std::vector<sim::PathSegment> up = Staircase(*p, true, &top), down = Staircase(*p, false, &top);
+  *plan = sim::MotionPlan(kLoopFloor0[0], 0.0);
+  plan->Stop(p->start_still_s);
+  std::vector<Eigen::Vector2d> w = sim::RepeatLoop(kLoopFloor0, p->laps);
+  w.push_back(kStairFoot);
+  plan->WalkWaypoints(w, p->speed_mps, p->corner_radius_m, 2.0);
+  plan->Walk(up, p->stair_speed_mps, true, true);
+  w = {top};
+  for (const auto& q : sim::RepeatLoop(kLoopFloor1, p->laps)) w.push_back(q);
+  w.push_back(top);
+  plan->WalkWaypoints(w, p->speed_mps, p->corner_radius_m, 2.0);
+  plan->Walk(down, p->stair_speed_mps, true, true);
+  w = {kStairFoot};
+  for (const auto& q : sim::RepeatLoop(kLoopFloor0, p->laps)) w.push_back(q);
+  plan->WalkWaypoints(w, p->speed_mps, p->corner_radius_m, 2.0);
+  plan->Stop(p->end_still_s);
+  p->extra["sim.loop_length_m"] = sim::PolylineLength(sim::RepeatLoop(kLoopFloor0, 1));
+  p->extra["sim.laps"] = p->laps;
+  return Status::Ok();
+}
+
 const Preset* FindPreset(const std::string& name) {
   static const std::vector<Preset> more = {
       {"jimenez-building",
@@ -389,6 +506,10 @@ const Preset* FindPreset(const std::string& name) {
          p->num_anchors = 8;
        },
        JimenezBuild},
+      {"two-floor-building",
+       "two floors, a dog-leg staircase, 16 anchors with a floor loss, waist IMU 50 Hz, a "
+       "drifting barometer",
+       BuildingDefaults, BuildingBuild},
   };
   for (const auto& list : {&Presets(), &more}) {
     for (const Preset& p : *list) {
@@ -396,6 +517,51 @@ const Preset* FindPreset(const std::string& name) {
     }
   }
   return nullptr;
+}
+
+void ReadBuildingKeys(ConfigReader* r, Params* p) {
+  r->Read("storey_height_m", &p->radio.storey_height_m);
+  r->Read("stair_rise_m", &p->stair_rise_m);
+  r->Read("stair_tread_m", &p->stair_tread_m);
+  r->Read("stair_speed_mps", &p->stair_speed_mps);
+  r->Read("floor_loss_db", &p->radio.path_loss.floor_loss_db);
+  r->Read("anchor_mount_m", &p->anchor_mount_m);
+  r->Read("baro_rate_hz", &p->baro.rate_hz);
+  r->Read("baro_ref_hpa", &p->baro.ref_hpa);
+  r->Read("baro_noise_hpa", &p->baro.noise_hpa);
+  r->Read("baro_drift_hpa_per_h", &p->baro.drift_hpa_per_h);
+  r->Read("baro_drift_rw_hpa_per_sqrt_h", &p->baro.drift_rw_hpa_per_sqrt_h);
+}
+
+// The two-floor building's own keys: physical ranges (a staircase that fits between floors,
+// a barometer that reads).
+Status CheckBuilding(const Params& p) {
+  const struct {
+    const char* key;
+    double value, lo, hi;
+  } kRanges[] = {
+      {"storey_height_m", p.radio.storey_height_m, 2.4, 6.0},
+      {"stair_rise_m", p.stair_rise_m, 0.1, 0.25},
+      {"stair_tread_m", p.stair_tread_m, 0.2, 0.4},
+      {"stair_speed_mps", p.stair_speed_mps, 0.2, 1.0},
+      {"floor_loss_db", p.radio.path_loss.floor_loss_db, 0.0, 50.0},
+      {"anchor_mount_m", p.anchor_mount_m, 0.0, 6.0},
+      {"baro_rate_hz", p.baro.rate_hz, 0.1, 200.0},
+      {"baro_ref_hpa", p.baro.ref_hpa, 300.0, 1100.0},
+      {"baro_noise_hpa", p.baro.noise_hpa, 0.0, 1.0},
+      {"baro_drift_hpa_per_h", p.baro.drift_hpa_per_h, 0.0, 20.0},
+      {"baro_drift_rw_hpa_per_sqrt_h", p.baro.drift_rw_hpa_per_sqrt_h, 0.0, 10.0},
+  };
+  for (const auto& r : kRanges) {
+    if (!(r.value >= r.lo && r.value <= r.hi)) {
+      return InvalidArgument("simulate " + p.name + ": " + r.key + " " + internal::Num(r.value) +
+                             " outside [" + internal::Num(r.lo) + ", " + internal::Num(r.hi) + "]");
+    }
+  }
+  if (!(p.anchor_mount_m < p.radio.storey_height_m)) {
+    return InvalidArgument("simulate " + p.name + ": anchor_mount_m must be below storey_height_m");
+  }
+  return Status::Ok();
 }
 
 Status ReadOverrides(const YAML::Node& node, Params* p) {
@@ -446,7 +612,9 @@ Status ReadOverrides(const YAML::Node& node, Params* p) {
     r.Read("outage_end_frac", &p->outage_end_frac);
   }
   if (p->foot) r.Read("stance_fraction", &p->stance_fraction);
+  if (p->building) ReadBuildingKeys(&r, p);
   WG_RETURN_IF_ERROR(r.Finish());
+  if (p->building) WG_RETURN_IF_ERROR(CheckBuilding(*p));
   const std::string ctx = "simulate " + p->name + ": ";
   if (!(p->speed_mps > 0.1 && p->speed_mps < 3.0)) {
     return InvalidArgument(ctx + "speed_mps must be in (0.1, 3)");
@@ -601,12 +769,49 @@ StatusOr<Simulation> SimulateLinearGaussian(uint64_t seed, const YAML::Node& ove
   return s;
 }
 
+// Truth at every IMU sample (foot walks: and stance labels); the building's floors: the floor
+// whose level is nearest (the estimators' rule), so on the stairs it changes at half a storey.
+void AddTruth(const std::vector<sim::ImuTruth>& imu_truth, const Params& p, Walk* w) {
+  for (const auto& t : imu_truth) {
+    TruthSample ts;
+    ts.t_s = t.t_s;
+    ts.has_z = p.foot || p.building;
+    for (int i = 0; i < 3; ++i) ts.position_m[i] = Q(t.position_n[i], 1e-6);
+    if (p.building) {
+      ts.floor = static_cast<int>(std::lround(t.position_n.z() / p.radio.storey_height_m));
+    }
+    w->truth.push_back(ts);
+    if (p.foot) w->stance_truth.push_back({t.t_s, t.stance});
+  }
+}
+
+// The two-floor building's barometer at the receiver (the waist) above floor 0, into
+// walk.pressure; its numbers and the stairs' into p->extra.
+void AddBarometer(const sim::MotionPlan& plan, double t_end, Rng rng, Params* p, Walk* w) {
+  const sim::MotionPlan* pl = &plan;
+  const double dz = p->rx_height_offset_m;
+  auto baro = sim::SimulateBarometer([pl, dz](double t) { return pl->At(t).z_m + dz; }, 0.0, t_end,
+                                     p->baro, rng);
+  w->pressure = std::move(baro.pressure);
+  auto& x = p->extra;
+  x["sim.baro_drift_rate_hpa_per_h"] = baro.drift_rate_hpa_per_h;
+  x["sim.baro_drift_end_hpa"] = baro.drift_hpa.empty() ? 0.0 : baro.drift_hpa.back();
+  x["sim.baro_rate_hz"] = p->baro.rate_hz;
+  x["sim.baro_ref_hpa"] = p->baro.ref_hpa;
+  x["sim.baro_noise_hpa"] = p->baro.noise_hpa;
+  x["sim.baro_drift_rw_hpa_per_sqrt_h"] = p->baro.drift_rw_hpa_per_sqrt_h;
+  const double storey = p->radio.storey_height_m;
+  x["sim.stair_rise_m"] = storey / std::max(2L, std::lround(storey / p->stair_rise_m));
+  x["sim.stair_tread_m"] = p->stair_tread_m;
+  x["sim.stair_speed_mps"] = p->stair_speed_mps;
+}
+
 }  // namespace
 
 std::vector<ScenarioInfo> Scenarios() {
   std::vector<ScenarioInfo> out;
   for (const Preset& p : Presets()) out.push_back({p.name, p.description});
-  for (const char* name : {"jimenez-building", "jimenez-building-8tags"}) {
+  for (const char* name : {"jimenez-building", "jimenez-building-8tags", "two-floor-building"}) {
     const Preset* p = FindPreset(name);
     out.push_back({p->name, p->description});
   }
@@ -664,15 +869,13 @@ StatusOr<Simulation> SimulateScenarioDetailed(const std::string& name, uint64_t 
     wo.rate_hz = p.imu_rate_hz;
     wo.gait = p.gait;
     auto waist = sim::SimulateWaistImu(plan, wo);
+    // The truth: the walked path on the ground (its height changes on stairs only).
+    for (auto& t : waist.truth) t.position_n.z() -= wo.height_m;
     s.imu_truth = std::move(waist.truth);
     s.steps = std::move(waist.steps);
   }
   while (!s.imu_truth.empty() && s.imu_truth.back().t_s > t_end + 1e-9) s.imu_truth.pop_back();
   while (!s.steps.empty() && s.steps.back().t_s > t_end) s.steps.pop_back();
-  if (!p.foot) {
-    // Planar truth: the waist's path, no z.
-    for (auto& t : s.imu_truth) t.position_n.z() = 0.0;
-  }
   sim::MagneticFieldOptions field_options = p.field;
   std::unique_ptr<sim::MagneticField> field;
   if (p.mag) field = std::make_unique<sim::MagneticField>(field_options, rng.Fork(10));
@@ -685,14 +888,7 @@ StatusOr<Simulation> SimulateScenarioDetailed(const std::string& name, uint64_t 
       if (m.has_mag) m.mag_ut[i] = Q(m.mag_ut[i], 1e-4);
     }
   }
-  for (const auto& t : s.imu_truth) {
-    TruthSample ts;
-    ts.t_s = t.t_s;
-    ts.has_z = p.foot;
-    for (int i = 0; i < 3; ++i) ts.position_m[i] = Q(t.position_n[i], 1e-6);
-    w.truth.push_back(ts);
-    if (p.foot) w.stance_truth.push_back({t.t_s, t.stance});
-  }
+  AddTruth(s.imu_truth, p, &w);
 
   // Radio, received at the walker (foot presets: plus rx_height_offset_m above the foot).
   w.anchors = anchors;
@@ -705,9 +901,10 @@ StatusOr<Simulation> SimulateScenarioDetailed(const std::string& name, uint64_t 
     };
   } else {
     const sim::MotionPlan* pl = &plan;
-    rx = [pl](double t) {
-      const Eigen::Vector2d q = pl->At(t).position_m;
-      return Eigen::Vector3d(q.x(), q.y(), 0.0);
+    const double dz = p.rx_height_offset_m;
+    rx = [pl, dz](double t) {
+      const sim::BodyState b = pl->At(t);
+      return Eigen::Vector3d(b.position_m.x(), b.position_m.y(), b.z_m + dz);
     };
   }
   if (p.name == "gadeke-outage") {
@@ -715,17 +912,23 @@ StatusOr<Simulation> SimulateScenarioDetailed(const std::string& name, uint64_t 
     p.extra["sim.outage_start_s"] = p.outage_start_frac * t_end;
     p.extra["sim.outage_end_s"] = p.outage_end_frac * t_end;
   }
+  // Anchors with a floor are mounted above it: the radio sees them at their height.
+  if (p.building) w.meta.storey_height_m = p.radio.storey_height_m;
+  std::vector<Anchor> placed = anchors;
+  for (Anchor& a : placed) a.position_m.z() = w.AnchorHeightM(a);
   if (p.rss_on) {
-    auto radio = sim::SimulateRss(anchors, rx, 0.0, t_end, p.radio, rng.Fork(20));
+    auto radio = sim::SimulateRss(placed, rx, 0.0, t_end, p.radio, rng.Fork(20));
     w.rss = std::move(radio.rss);
     s.rss_emissions = std::move(radio.emissions);
     s.per_anchor = std::move(radio.per_anchor);
   }
   if (p.toa_on) {
-    auto radio = sim::SimulateToa(anchors, rx, 0.0, t_end, p.radio, rng.Fork(20));
+    auto radio = sim::SimulateToa(placed, rx, 0.0, t_end, p.radio, rng.Fork(20));
     w.ranges = std::move(radio.ranges);
     s.range_emissions = std::move(radio.emissions);
   }
+
+  if (p.building) AddBarometer(plan, t_end, rng.Fork(30), &p, &w);
 
   WalkMeta& m = w.meta;
   m.name = name;
@@ -748,7 +951,7 @@ StatusOr<Simulation> SimulateScenarioDetailed(const std::string& name, uint64_t 
                                p.sigma_xy_m,
                                DegToRad(p.sigma_heading_deg),
                                true,
-                               std::nullopt};
+                               p.building ? std::optional<int>(0) : std::nullopt};
   auto& x = m.extra;
   x = p.extra;
   x["sim.seed"] = static_cast<double>(seed);

@@ -133,6 +133,7 @@ void MotionPlan::Stop(double duration_s) {
   p.t1_s = p.t0_s + duration_s;
   p.start = position_;
   p.heading0_rad = heading_;
+  p.z0_m = height_;
   phases_.push_back(p);
 }
 
@@ -144,6 +145,7 @@ void MotionPlan::Turn(double dheading_rad, double duration_s) {
   p.t1_s = p.t0_s + duration_s;
   p.start = position_;
   p.heading0_rad = heading_;
+  p.z0_m = height_;
   p.dheading_rad = dheading_rad;
   phases_.push_back(p);
   heading_ += dheading_rad;
@@ -165,11 +167,15 @@ void MotionPlan::Walk(std::vector<PathSegment> segments, double speed_mps, bool 
   p.t0_s = duration();
   p.start = segments.front().start;
   p.heading0_rad = h0;
-  double total = 0.0;
+  p.z0_m = height_;
+  double total = 0.0, rise = 0.0;
   for (const auto& s : segments) {
     p.cumulative_m.push_back(total);
+    p.cumulative_z_m.push_back(rise);
     total += s.length_m;
+    rise += s.climb * s.length_m;
   }
+  height_ += rise;
   p.segments = std::move(segments);
   p.length_m = total;
   p.ramp_up_s = from_rest ? ramp_s : 0.0;
@@ -232,6 +238,7 @@ BodyState MotionPlan::At(double t_s) const {
   b.t_s = t_s;
   b.position_m = position_;
   b.heading_rad = heading_;
+  b.z_m = height_;
   if (phases_.empty()) return b;
   auto it = std::upper_bound(phases_.begin(), phases_.end(), t_s,
                              [](double t, const Phase& p) { return t < p.t0_s; });
@@ -241,6 +248,7 @@ BodyState MotionPlan::At(double t_s) const {
   const double tau = std::max(0.0, t_s - p.t0_s);
   b.position_m = p.start;
   b.heading_rad = p.heading0_rad;
+  b.z_m = p.z0_m;
   if (p.kind == PhaseKind::kTurn) {
     const double d = p.t1_s - p.t0_s, x = kPi * std::min(tau, d) / d;
     b.heading_rad = p.heading0_rad + p.dheading_rad * 0.5 * (1.0 - std::cos(x));
@@ -260,6 +268,10 @@ BodyState MotionPlan::At(double t_s) const {
     b.curvature_1pm = seg.curvature_1pm;
     b.yaw_rate_radps = seg.curvature_1pm * v;
     b.moving = v > 0.0;
+    b.z_m = p.z0_m + p.cumulative_z_m[i] + seg.climb * ls;
+    b.vz_mps = seg.climb * v;
+    b.az_mps2 = seg.climb * a;
+    b.step_length_m = seg.step_length_m;
   }
   return b;
 }

@@ -28,6 +28,7 @@
 #include "util/text.h"
 #include "walkgraph/angle.h"
 #include "walkgraph/config.h"
+#include "walkgraph/kalman.h"
 #include "walkgraph/path_loss.h"
 #include "walkgraph/radio.h"
 #include "walkgraph/smoothers/chain_covariance.h"
@@ -96,6 +97,14 @@ StatusOr<StepGraphOptions> StepGraphOptions::FromYaml(const YAML::Node& node,
   r.Read("stair_tread_sigma_m", &o.stair_tread_sigma_m, "sigma of the stair step length");
   r.Read("stair_min_rise_storeys", &o.stair_min_rise_storeys,
          "least height change of a run of stair steps, in storeys");
+  r.Read("stair_landing_s", &o.stair_landing_s,
+         "stair runs one way starting within this span are one staircase (landings)");
+  r.Read("level_sigma_m", &o.level_sigma_m,
+         "sigma of the height change over a level walking step (0: the barometer alone)");
+  r.Read("floor_sigma_m", &o.floor_sigma_m,
+         "sigma of the pull of a level step near a floor onto that floor's height");
+  r.Read("floor_snap_storeys", &o.floor_snap_storeys,
+         "a level step this close to a floor's height (in storeys) is pulled onto it");
   r.Read("step_sigma_scale", &o.step_sigma_scale,
          "factor on each step's length sigma (Step::sigma_length_m)");
   r.Read("dheading_sigma_scale", &o.dheading_sigma_scale,
@@ -228,6 +237,12 @@ Status CheckStepGraphOptions(const StepGraphOptions& o, const std::string& conte
   WG_RETURN_IF_ERROR(positive(o.stair_tread_m, "stair_tread_m"));
   WG_RETURN_IF_ERROR(positive(o.stair_tread_sigma_m, "stair_tread_sigma_m"));
   WG_RETURN_IF_ERROR(positive(o.stair_min_rise_storeys, "stair_min_rise_storeys"));
+  if (!(o.stair_landing_s >= 0)) return InvalidArgument(context + ": stair_landing_s must be >= 0");
+  if (!(o.level_sigma_m >= 0)) return InvalidArgument(context + ": level_sigma_m must be >= 0");
+  if (!(o.floor_sigma_m >= 0)) return InvalidArgument(context + ": floor_sigma_m must be >= 0");
+  if (!(o.floor_snap_storeys >= 0 && o.floor_snap_storeys < 0.5)) {
+    return InvalidArgument(context + ": floor_snap_storeys must be in [0, 0.5)");
+  }
   if (!(o.baro_drift_m2ps >= 0)) return InvalidArgument(context + ": baro_drift_m2ps must be >= 0");
   WG_RETURN_IF_ERROR(positive(o.step_sigma_scale, "step_sigma_scale"));
   WG_RETURN_IF_ERROR(positive(o.dheading_sigma_scale, "dheading_sigma_scale"));
@@ -431,23 +446,38 @@ struct StepGraph::Impl {
   std::vector<double> baro_z;
   double start_z = 0.0, storey_m = kDefaultStoreyHeightM;
   void MakeHeights(const Walk& walk, const std::vector<double>& node_t);
-  // Stair steps (StepGraphOptions::stairs): their horizontal length is a tread. Returns how
-  // many steps were taken for stair steps.
+  // Staircases: on_stairs[k] for node k's step; with StepGraphOptions::stairs their horizontal
+  // length is a tread. Returns how many steps were given a tread.
   int MarkStairs(const Walk& walk, const std::vector<double>& node_t);
+  std::vector<int> StairCandidates(const Walk& walk, const std::vector<double>& node_t) const;
   int stair_steps = 0;
+  std::vector<bool> on_stairs;
+  // σ of the barometric height change over dt (BarometricHeightFactor).
+  double BaroSigma(double dt) const {
+    return std::sqrt(2.0 * o.baro_sigma_m * o.baro_sigma_m + o.baro_drift_m2ps * std::max(dt, 0.0));
+  }
+  // The heights' causal estimate (ChainHeights): the readings' receiver heights; the floor
+  // level each level node is held at (NaN: none).
+  std::vector<double> node_z, floor_level;
+  Status ChainHeights(const std::vector<double>& node_t);
+  // Whether node k's step is a walking step on the level (StepGraphOptions::level_sigma_m).
+  bool LevelStep(int k, double dt) const {
+    return floors && o.level_sigma_m > 0 && !odometry && !radio_only && !bridged[k] &&
+           !on_stairs[k] && dt <= o.max_step_duration_s;
+  }
   // Anchors with floors: each anchor's height (Walk::AnchorHeightM) and floor.
   std::vector<double> anchor_z;
   std::vector<std::optional<int>> anchor_floor;
   int Floor(double z_m) const { return static_cast<int>(std::lround(z_m / storey_m)); }
-  // A reading's receiver height: its nodes' barometric heights (the start floor's height
-  // without a barometer).
+  // A reading's receiver height: its nodes' estimated heights (node_z; the start floor's
+  // height without a barometer).
   double ReceiverHeight(int node_a, int node_b, double alpha) const {
     if (!floors) return start_z;
-    const double za = start_z + baro_z[node_a];
-    return node_b < 0 ? za : (1.0 - alpha) * za + alpha * (start_z + baro_z[node_b]);
+    const double za = node_z[node_a];
+    return node_b < 0 ? za : (1.0 - alpha) * za + alpha * node_z[node_b];
   }
   // An RSS reading of anchor a from a multi-floor walk: the anchor at its height, the receiver
-  // receiver_height_m above its nodes' barometric height, and the reading raised by the floor loss
+  // receiver_height_m above its nodes' estimated height, and the reading raised by the floor loss
   // of the floors in between (the expected RSS lowered by it). Leaves `rss`, `anchor_m`,
   // `receiver_m` as they are for an anchor without a floor, and for every anchor while the
   // walk's radio has no floor loss (floor_loss_db 0: the planar model, which its A and η were
@@ -750,6 +780,7 @@ StatusOr<std::unique_ptr<StepGraph>> StepGraph::Build(const Walk& walk, const St
   m.MakeHeights(walk, g->node_t_);
   m.stair_steps = m.MarkStairs(walk, g->node_t_);
   m.DeadReckon(walk, g.get());
+  WG_RETURN_IF_ERROR(m.ChainHeights(g->node_t_));  // after DeadReckon: bridged
   for (const Anchor& a : walk.anchors) {
     m.anchor_z.push_back(walk.AnchorHeightM(a));
     m.anchor_floor.push_back(a.floor);
@@ -787,14 +818,15 @@ double PressureAt(const std::vector<PressureSample>& p, double t, double window_
 
 }  // namespace
 
-int StepGraph::Impl::MarkStairs(const Walk& walk, const std::vector<double>& node_t) {
-  if (!floors || !o.stairs || odometry || radio_only) return 0;
+// Candidates (dir[k] = ±1 for node k's step): steps whose barometric height changes at the
+// rate of stairs, one way.
+std::vector<int> StepGraph::Impl::StairCandidates(const Walk& walk,
+                                                  const std::vector<double>& node_t) const {
   const std::vector<bool> gap = BridgedNodes(walk, true, node_t);
   const double p0 = PressureAt(walk.pressure, node_t[0], o.baro_window_s);
   auto height = [&](double t) {  // above node 0, as baro_z
     return BarometricHeightM(PressureAt(walk.pressure, t, o.baro_window_s), p0);
   };
-  // Candidates: steps whose height changes at the rate of stairs, one way.
   std::vector<int> dir(node_t.size(), 0);
   for (size_t k = 1; k < node_t.size(); ++k) {
     if (gap[k]) continue;
@@ -802,27 +834,84 @@ int StepGraph::Impl::MarkStairs(const Walk& walk, const std::vector<double>& nod
     const double rate = (height(t + h) - height(t - h)) / o.stair_window_s;
     if (std::fabs(rate) >= o.stair_rate_mps) dir[k] = rate > 0 ? 1 : -1;
   }
-  // A staircase: a run of candidates one way that changes the height by a floor transition's
-  // worth (stair_min_rise_storeys × storey); shorter runs are the phone lifted or lowered.
-  int n = 0;
+  return dir;
+}
+
+int StepGraph::Impl::MarkStairs(const Walk& walk, const std::vector<double>& node_t) {
+  on_stairs.assign(node_t.size(), false);
+  if (!floors || odometry || radio_only) return 0;
+  const std::vector<int> dir = StairCandidates(walk, node_t);
+  struct Run {
+    size_t a, b;  // candidate steps of nodes [a, b), one way
+  };
+  std::vector<Run> runs;
   for (size_t a = 1; a < node_t.size();) {
     size_t b = a;
     while (b < node_t.size() && dir[b] != 0 && dir[b] == dir[a]) ++b;
-    if (b == a) {
-      ++a;
-      continue;
+    if (b > a) runs.push_back({a, b});
+    a = std::max(b, a + 1);
+  }
+  // A staircase: runs one way, each starting within stair_landing_s of the previous one's end
+  // (a landing between flights), that together change the height by a floor transition's
+  // worth (stair_min_rise_storeys × storey); shorter ones are the phone lifted or lowered.
+  int n = 0;
+  for (size_t i = 0; i < runs.size();) {
+    size_t j = i + 1;
+    while (j < runs.size() && dir[runs[j].a] == dir[runs[i].a] &&
+           node_t[runs[j].a - 1] - node_t[runs[j - 1].b - 1] <= o.stair_landing_s) {
+      ++j;
     }
-    const double rise = baro_z[b - 1] - baro_z[a - 1];
-    if (std::fabs(rise) >= o.stair_min_rise_storeys * storey_m) {
-      for (size_t k = a; k < b; ++k) {
+    const double rise = baro_z[runs[j - 1].b - 1] - baro_z[runs[i].a - 1];
+    for (size_t r = i; r < j && std::fabs(rise) >= o.stair_min_rise_storeys * storey_m; ++r) {
+      for (size_t k = runs[r].a; k < runs[r].b; ++k) {
+        on_stairs[k] = true;  // no level factor (also with stairs: false)
+        if (!o.stairs) continue;
         steps[k - 1].length_m = o.stair_tread_m;
         steps[k - 1].sigma_length_m = o.stair_tread_sigma_m;
         ++n;
       }
     }
-    a = b;
+    i = j;
   }
   return n;
+}
+
+// The heights' causal estimate: a scalar Kalman filter along the height chain with the
+// graph's own height factors — node 0 at the start height (σ start_height_sigma_m); each step
+// the barometric change, on a level walking step combined with the level factor's 0 by their
+// information; a level node whose filtered height lies within floor_snap_storeys of a floor's
+// level f × storey gets that level as a measurement (σ floor_sigma_m), and the graph the same
+// prior (floor_level). Forward only, so fg-window's online output stays causal. Its heights
+// are the readings' receiver heights and the height states' initial values.
+Status StepGraph::Impl::ChainHeights(const std::vector<double>& node_t) {
+  node_z.assign(node_t.size(), start_z);
+  floor_level.assign(node_t.size(), std::numeric_limits<double>::quiet_NaN());
+  if (!floors) return Status::Ok();
+  Eigen::VectorXd x = Eigen::VectorXd::Constant(1, start_z);
+  Eigen::MatrixXd P = Eigen::MatrixXd::Constant(1, 1, std::pow(o.start_height_sigma_m, 2));
+  const Eigen::MatrixXd H = Eigen::MatrixXd::Identity(1, 1);
+  const Eigen::MatrixXd R = Eigen::MatrixXd::Constant(1, 1, std::pow(o.floor_sigma_m, 2));
+  for (size_t k = 1; k < node_t.size(); ++k) {
+    const double dt = node_t[k] - node_t[k - 1];
+    const bool level = LevelStep(static_cast<int>(k), dt);
+    double dz = baro_z[k] - baro_z[k - 1], var = std::pow(BaroSigma(dt), 2);
+    if (level) {
+      const double info = 1.0 / var + 1.0 / (o.level_sigma_m * o.level_sigma_m);
+      dz *= 1.0 / (var * info);
+      var = 1.0 / info;
+    }
+    x[0] += dz;
+    P(0, 0) += var;
+    const double z_floor = Floor(x[0]) * storey_m;
+    if (level && o.floor_sigma_m > 0 &&
+        std::fabs(x[0] - z_floor) <= o.floor_snap_storeys * storey_m) {
+      floor_level[k] = z_floor;
+      WG_RETURN_IF_ERROR(
+          KalmanUpdate(Eigen::VectorXd::Constant(1, z_floor - x[0]), H, R, 0.0, &x, &P).status());
+    }
+    node_z[k] = x[0];
+  }
+  return Status::Ok();
 }
 
 // Each node's pressure: PressureAt (±baro_window_s/2); heights above node 0's by the standard
@@ -919,7 +1008,7 @@ std::vector<SmootherState> StepGraph::NodeStates(int k, const Eigen::Vector2d& p
   SmootherState z;
   z.key = HeightKey(k);
   z.t_s = node_t_[k];
-  z.value = {m.start_z + m.baro_z[k]};
+  z.value = {m.node_z[k]};
   return {p, th, z};
 }
 
@@ -1089,10 +1178,18 @@ std::vector<SmootherFactor> StepGraph::FactorsAt(int k) const {
               {HeightKey(0)});
   } else if (m.floors) {
     const double dt = node_t_[k] - node_t_[k - 1];
-    const double sigma =
-        std::sqrt(2.0 * o.baro_sigma_m * o.baro_sigma_m + o.baro_drift_m2ps * std::max(dt, 0.0));
-    add(BarometricHeightFactor::Create(m.baro_z[k] - m.baro_z[k - 1], sigma),
+    add(BarometricHeightFactor::Create(m.baro_z[k] - m.baro_z[k - 1], m.BaroSigma(dt)),
         {HeightKey(k - 1), HeightKey(k)});
+    // A walking step off the stairs keeps the height: the barometer's drift stays out of it;
+    // and it is on a floor (ChainHeights).
+    if (m.LevelStep(k, dt)) {
+      add(BarometricHeightFactor::Create(0.0, o.level_sigma_m), {HeightKey(k - 1), HeightKey(k)});
+    }
+    if (std::isfinite(m.floor_level[k])) {
+      add_owned(DiagonalPrior(Eigen::VectorXd::Constant(1, m.floor_level[k]),
+                              Eigen::VectorXd::Constant(1, o.floor_sigma_m)),
+                {HeightKey(k)});
+    }
   }
   m.AddReadingFactors(k, &out);
   for (const GraphFactor& f : m.user_at[k]) out.push_back(f);  // shared cost functions

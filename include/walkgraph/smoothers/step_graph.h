@@ -85,10 +85,12 @@ struct StepGraphOptions {
   // between consecutive nodes (BarometricHeightFactor, σ² = 2·baro_sigma_m² + baro_drift_m2ps·Δt,
   // each node's pressure the mean of the readings within ±baro_window_s/2), the start height
   // at the start floor (initial_pose.floor; floor 0 when the walk does not give it) with σ
-  // start_height_sigma_m; each node's floor is its height over walk.yaml storey_height_m,
-  // rounded. A phone barometer's noise is ~0.02–0.03 hPa (≈ 0.2 m); indoor drift (weather, air
-  // conditioning) ~1 hPa per hour (≈ 2 mm/s, as a random walk 0.5 m over 100 s). Datasheet
-  // and textbook figures, not fitted on a walk.
+  // start_height_sigma_m, level walking steps and floor levels (level_sigma_m,
+  // floor_sigma_m below); each node's floor is its height over walk.yaml storey_height_m,
+  // rounded. The readings' receiver heights (and floors) are the height chain's causal
+  // estimate (StepGraph::Impl::ChainHeights). A phone barometer's noise is ~0.02–0.03 hPa (≈ 0.2
+  // m); indoor drift (weather, air conditioning) ~1 hPa per hour (≈ 2 mm/s, as a random walk 0.5 m
+  // over 100 s). Datasheet and textbook figures, not fitted on a walk.
   bool floors = true;
   double baro_sigma_m = 0.25;
   double baro_drift_m2ps = 0.0025;
@@ -104,13 +106,33 @@ struct StepGraphOptions {
   // stair_min_rise_storeys × storey_height_m (a floor transition; half a storey also takes
   // a mezzanine) count: a phone lifted or lowered in the hand moves it ~0.5 m at that rate
   // (IPIN trials 01/05/21, flat: runs of ≤ 2.5 s at 0.1–0.18 m/s). stairs: false keeps the PDR
-  // lengths.
+  // lengths (the staircases are still found: their steps get no level factor, below).
   bool stairs = true;
   double stair_rate_mps = 0.1;
   double stair_window_s = 3.0;
   double stair_tread_m = 0.28;
   double stair_tread_sigma_m = 0.1;
   double stair_min_rise_storeys = 0.5;
+  // Flights joined by a landing: runs of stair steps one way, each starting within
+  // stair_landing_s of the previous one's end, count as one staircase (a U-turn landing is
+  // walked in ~3–6 s, and the 3-s window leaves a flight's first and last step out; its steps
+  // keep their PDR lengths).
+  double stair_landing_s = 10.0;
+  // Level walking: a walking step (one of at most max_step_duration_s, not across an IMU gap)
+  // that is not a stair step keeps the height, Δz ~ N(0, level_sigma_m²) beside the
+  // barometric factor, so the barometer's drift (weather: ~1–2 hPa, ≈ 8–17 m, per hour)
+  // leaves the height between staircases and the floor follows the stairs only. 0.05 m per
+  // step: a 1:12 ramp (the steepest wheelchair ramp) rises 0.06 m per 0.7 m step. Ramps, lifts
+  // and escalators change the height through the barometric factor alone (no walking steps
+  // on a lift; a ramp's rise is mostly held back). 0 turns it off.
+  double level_sigma_m = 0.05;
+  // Floors are levels: a level walking step's node whose height (the chain's causal estimate)
+  // lies within floor_snap_storeys × storey of a floor's level f × storey_height_m is held
+  // there, σ floor_sigma_m per node, so the height errors of the staircases (the barometer's
+  // noise and drift over each, ~0.2–0.4 m) do not add up from floor to floor. Landings and
+  // mezzanines near half a storey are left alone. floor_sigma_m 0 turns it off.
+  double floor_sigma_m = 0.5;
+  double floor_snap_storeys = 0.25;
 
   // Radio.
   std::string rss_residual = "db";  // db (RssFactor) | range (RssRangeFactor, 004 eq. 7)
