@@ -12,9 +12,11 @@ StatusOr<ZuptInsOptions> ZuptInsOptions::FromYaml(const YAML::Node& node) {
   ZuptInsOptions o;
   ConfigReader r(node, "zupt-ins");
   const YAML::Node front = r.Child("front_end");
-  r.Read("output_rate_hz", &o.output_rate_hz);
-  r.Read("gauge_sigma_m", &o.gauge_sigma_m);
-  r.Read("gauge_sigma_yaw_rad", &o.gauge_sigma_yaw_rad);
+  r.Read("output_rate_hz", &o.output_rate_hz,
+         "trajectory output rate (plus a pose at every stride end)");
+  r.Read("gauge_sigma_m", &o.gauge_sigma_m,
+         "start position std-dev without initial_pose (arbitrary origin)");
+  r.Read("gauge_sigma_yaw_rad", &o.gauge_sigma_yaw_rad, "start yaw std-dev without initial_pose");
   WG_RETURN_IF_ERROR(r.Finish());
   if (front.IsDefined()) {
     WG_ASSIGN_OR_RETURN(o.front_end, StrideOptions::FromYaml(front));

@@ -107,47 +107,78 @@ StatusOr<JimenezIezOptions> JimenezIezOptions::FromYaml(const YAML::Node& node,
   o.smooth = smooth;
   o.stance = JimenezIezOptions().stance;
   ConfigReader r(node, context);
-  r.Read("acc_noise_density", &o.acc_noise_density);
-  r.Read("gyro_noise_density", &o.gyro_noise_density);
-  r.Read("acc_bias_rw", &o.acc_bias_rw);
-  r.Read("gyro_bias_rw", &o.gyro_bias_rw);
-  r.Read("init_acc_bias_sigma_mps2", &o.init_acc_bias_sigma_mps2);
-  r.Read("init_gyro_bias_sigma_radps", &o.init_gyro_bias_sigma_radps);
-  r.Read("init_tilt_sigma_rad", &o.init_tilt_sigma_rad);
-  r.Read("init_velocity_sigma_mps", &o.init_velocity_sigma_mps);
-  r.Read("init_height_sigma_m", &o.init_height_sigma_m);
-  r.Read("init_position_sigma_m", &o.init_position_sigma_m);
-  r.Read("init_yaw_sigma_rad", &o.init_yaw_sigma_rad);
-  r.Read("leveling_window_s", &o.leveling_window_s);
-  r.Read("initial_heading_from_pose", &o.initial_heading_from_pose);
+  r.Read(
+      "acc_noise_density", &o.acc_noise_density,
+      "accelerometer white noise density, m/s^2/sqrt(Hz) (Xsens MTi data sheet; 004 gives none)");
+  r.Read("gyro_noise_density", &o.gyro_noise_density,
+         "gyro white noise density, rad/s/sqrt(Hz) (Xsens MTi data sheet)");
+  r.Read("acc_bias_rw", &o.acc_bias_rw,
+         "accelerometer bias random walk, (m/s^2)/sqrt(s) (our choice; 004 gives none)");
+  r.Read("gyro_bias_rw", &o.gyro_bias_rw,
+         "gyro bias random walk, (rad/s)/sqrt(s) (our choice; 004 gives none)");
+  r.Read("init_acc_bias_sigma_mps2", &o.init_acc_bias_sigma_mps2,
+         "initial accelerometer bias std-dev (004 Table I bias stability)");
+  r.Read("init_gyro_bias_sigma_radps", &o.init_gyro_bias_sigma_radps,
+         "initial gyro bias std-dev (004 Table I bias stability)");
+  r.Read("init_tilt_sigma_rad", &o.init_tilt_sigma_rad,
+         "initial roll/pitch std-dev after levelling");
+  r.Read("init_velocity_sigma_mps", &o.init_velocity_sigma_mps,
+         "initial velocity std-dev (the walk starts still)");
+  r.Read("init_height_sigma_m", &o.init_height_sigma_m, "initial height std-dev");
+  r.Read("init_position_sigma_m", &o.init_position_sigma_m,
+         "initial position std-dev without initial_pose (origin, or the anchors' centroid)");
+  r.Read("init_yaw_sigma_rad", &o.init_yaw_sigma_rad,
+         "initial yaw std-dev without initial_pose (unless the compass gives it)");
+  r.Read("leveling_window_s", &o.leveling_window_s,
+         "initial roll/pitch from the mean specific force over this first span");
+  r.Read("initial_heading_from_pose", &o.initial_heading_from_pose,
+         "initial_pose.heading_rad is the IMU x-axis yaw");
   std::vector<std::string> samplings;
   for (const auto& name : ImuSamplingNames()) samplings.push_back(name.first);
-  r.Read("imu_sampling", &o.imu_sampling, samplings);
-  r.Read("imu_sampling_from_walk", &o.imu_sampling_from_walk);
-  r.Read("gravity_mps2", &o.gravity_mps2);
-  r.Read("stance_source", &o.stance_source, AllowedValues(kStringOptions, "stance_source"));
-  r.Read("zupt", &o.zupt);
-  r.Read("zupt_sigma_mps", &o.zupt_sigma_mps);
-  r.Read("zaru", &o.zaru);
-  r.Read("zaru_sigma_radps", &o.zaru_sigma_radps);
-  r.Read("compass", &o.compass);
-  r.Read("compass_sigma_rad", &o.compass_sigma_rad);
-  r.Read("compass_every_stance_sample", &o.compass_every_stance_sample);
-  r.Read("declination_rad", &o.declination_rad);
-  r.Read("compass_max_field_deviation_ut", &o.compass_max_field_deviation_ut);
-  r.Read("compass_max_dip_deviation_rad", &o.compass_max_dip_deviation_rad);
-  r.Read("compass_gate_probability", &o.compass_gate_probability);
-  r.Read("rss0", &o.rss0);
-  r.Read("path_loss_exponent", &o.path_loss_exponent);
-  r.Read("sigma_rss", &o.sigma_rss);
-  r.Read("d0_m", &o.d0_m);
-  r.Read("path_loss_from_walk", &o.path_loss_from_walk);
-  r.Read("bias_corrected_ranges", &o.bias_corrected_ranges);
-  r.Read("min_range_sigma_m", &o.min_range_sigma_m);
-  r.Read("reader_height_m", &o.reader_height_m);
-  r.Read("planar_ranges", &o.planar_ranges);
-  r.Read("range_gate_probability", &o.range_gate_probability);
-  r.Read("output_rate_hz", &o.output_rate_hz);
+  r.Read("imu_sampling", &o.imu_sampling, samplings,
+         "IMU sample convention (strapdown.h): interval averages or instantaneous values");
+  r.Read("imu_sampling_from_walk", &o.imu_sampling_from_walk,
+         "a simulated walk's sim.imu_interval_average overrides imu_sampling");
+  r.Read("gravity_mps2", &o.gravity_mps2, "local gravity magnitude");
+  r.Read("stance_source", &o.stance_source, AllowedValues(kStringOptions, "stance_source"),
+         "stance from the detector (stance:) or the walk's stance_truth labels as an oracle");
+  r.Read("zupt", &o.zupt, "zero-velocity update at stance (004 Algorithm 1)");
+  r.Read("zupt_sigma_mps", &o.zupt_sigma_mps, "ZUPT std-dev per axis (IEZ+/OpenShoe)");
+  r.Read("zaru", &o.zaru, "zero angular-rate update when still (004 Algorithm 1)");
+  r.Read("zaru_sigma_radps", &o.zaru_sigma_radps,
+         "ZARU std-dev per axis (the gyro's per-sample white noise at 100 Hz)");
+  r.Read("compass", &o.compass, "compass heading update at stance (004 Algorithm 1 lines 10-11)");
+  r.Read("compass_sigma_rad", &o.compass_sigma_rad,
+         "compass heading std-dev (our choice; 004 gives none)");
+  r.Read("compass_every_stance_sample", &o.compass_every_stance_sample,
+         "compass update at every stance sample (as the pseudo-code) or once per stance");
+  r.Read("declination_rad", &o.declination_rad,
+         "magnetic declination added to the compass heading");
+  r.Read("compass_max_field_deviation_ut", &o.compass_max_field_deviation_ut,
+         "refuse the compass when |B| differs from the levelling window's by more; <= 0: off");
+  r.Read("compass_max_dip_deviation_rad", &o.compass_max_dip_deviation_rad,
+         "refuse the compass when the dip differs from the levelling window's by more; <= 0: off");
+  r.Read("compass_gate_probability", &o.compass_gate_probability,
+         "chi-square(1) gate on the heading innovation at this probability; 0: off");
+  r.Read("rss0", &o.rss0,
+         "RSS at d0 of the filter's own path-loss model (004 eq. 5; RFCode units)");
+  r.Read("path_loss_exponent", &o.path_loss_exponent,
+         "|p| of the filter's path-loss model (004 eq. 5)");
+  r.Read("sigma_rss", &o.sigma_rss, "RSS std-dev for the range std-dev of 004 eq. 7");
+  r.Read("d0_m", &o.d0_m, "reference distance of the path-loss model (004 eq. 5)");
+  r.Read("path_loss_from_walk", &o.path_loss_from_walk,
+         "use the walk's path-loss model instead of the paper's (RSS0 60, |p| 2.3)");
+  r.Read("bias_corrected_ranges", &o.bias_corrected_ranges,
+         "divide each range by exp(sigma_d^2/2) (001 eq. 17; not in 004)");
+  r.Read("min_range_sigma_m", &o.min_range_sigma_m,
+         "floor on the range std-dev of 004 eq. 7 (it vanishes as d -> 0)");
+  r.Read("reader_height_m", &o.reader_height_m, "RFID reader (waist) height above the foot IMU");
+  r.Read("planar_ranges", &o.planar_ranges,
+         "2-D ranges as 004 eq. 1 is printed (else 3-D with the reader height)");
+  r.Read("range_gate_probability", &o.range_gate_probability,
+         "chi-square(1) gate per tag range at this probability; 0: off");
+  r.Read("output_rate_hz", &o.output_rate_hz,
+         "trajectory output rate (the filter runs at the IMU rate)");
   const YAML::Node stance = r.Child("stance");
   WG_RETURN_IF_ERROR(r.Finish());
   if (stance.IsDefined() && !stance.IsNull()) {

@@ -58,44 +58,62 @@ StatusOr<PrietoOptions> PrietoOptions::FromYaml(const YAML::Node& node, const st
                                                 const PrietoOptions& defaults) {
   PrietoOptions o = defaults;
   ConfigReader r(node, context);
-  r.Read("sigma_jerk_mps3", &o.sigma_jerk_mps3);
-  r.Read("sigma_attitude_rate_ps", &o.sigma_attitude_rate_ps);
-  r.Read("sigma_omega_rate_radps2", &o.sigma_omega_rate_radps2);
-  r.Read("sigma_acc_bias_mps2", &o.sigma_acc_bias_mps2);
-  r.Read("sigma_gyro_bias_radps", &o.sigma_gyro_bias_radps);
-  r.Read("sigma_v0_mps", &o.sigma_v0_mps);
-  r.Read("sigma_a0_mps2", &o.sigma_a0_mps2);
-  r.Read("sigma_w0_radps", &o.sigma_w0_radps);
-  r.Read("sigma_acc_mps2", &o.sigma_acc_mps2);
-  r.Read("sigma_gyro_radps", &o.sigma_gyro_radps);
-  r.ReadEnum("imu_sampling", &o.imu_sampling, ImuSamplingNames());
-  r.Read("gravity_mps2", &o.gravity_mps2);
-  r.Read("use_rss", &o.use_rss);
-  r.Read("use_toa", &o.use_toa);
-  r.Read("rss_alpha_dbm", &o.rss_alpha_dbm);
-  r.Read("rss_beta", &o.rss_beta);
-  r.Read("rss_sigma_db", &o.rss_sigma_db);
-  r.Read("toa_alpha_m", &o.toa_alpha_m);
-  r.Read("toa_beta", &o.toa_beta);
-  r.Read("toa_sigma_m", &o.toa_sigma_m);
-  r.Read("receiver_offset_z_m", &o.receiver_offset_z_m);
-  r.Read("gate_probability", &o.gate_probability);
-  r.Read("radio_epoch_s", &o.radio_epoch_s);
-  r.Read("ukf_alpha", &o.ukf_alpha);
-  r.Read("ukf_beta", &o.ukf_beta);
-  r.Read("ukf_kappa", &o.ukf_kappa);
-  r.Read("ukf_mean_iterations", &o.ukf_mean_iterations);
-  r.Read("init_sigma_m", &o.init_sigma_m);
-  r.Read("init_sigma_z_m", &o.init_sigma_z_m);
-  r.Read("init_sigma_v_mps", &o.init_sigma_v_mps);
-  r.Read("init_sigma_a_mps2", &o.init_sigma_a_mps2);
-  r.Read("init_sigma_tilt_rad", &o.init_sigma_tilt_rad);
-  r.Read("init_sigma_omega_radps", &o.init_sigma_omega_radps);
-  r.Read("init_sigma_acc_bias_mps2", &o.init_sigma_acc_bias_mps2);
-  r.Read("init_sigma_gyro_bias_radps", &o.init_sigma_gyro_bias_radps);
-  r.Read("init_attitude_window_s", &o.init_attitude_window_s);
-  r.Read("radio_only_step_s", &o.radio_only_step_s);
-  r.Read("output_rate_hz", &o.output_rate_hz);
+  r.Read("sigma_jerk_mps3", &o.sigma_jerk_mps3,
+         "jerk noise sigma_d(3) of the constant-acceleration model (002 eq. 1)");
+  r.Read("sigma_attitude_rate_ps", &o.sigma_attitude_rate_ps,
+         "attitude quaternion noise sigma_q' (002 eq. 3)");
+  r.Read("sigma_omega_rate_radps2", &o.sigma_omega_rate_radps2,
+         "angular acceleration noise sigma_w' (002 eq. 4)");
+  r.Read("sigma_acc_bias_mps2", &o.sigma_acc_bias_mps2,
+         "accelerometer bias noise sigma_bf (002 eq. 4)");
+  r.Read("sigma_gyro_bias_radps", &o.sigma_gyro_bias_radps, "gyro bias noise sigma_bw (002 eq. 4)");
+  r.Read("sigma_v0_mps", &o.sigma_v0_mps, "stance evidence of zero velocity, std-dev (002 eq. 9)");
+  r.Read("sigma_a0_mps2", &o.sigma_a0_mps2,
+         "stance evidence of zero acceleration, std-dev (002 eq. 9)");
+  r.Read("sigma_w0_radps", &o.sigma_w0_radps,
+         "stance evidence of zero angular rate, std-dev (002 eq. 9)");
+  r.Read("sigma_acc_mps2", &o.sigma_acc_mps2,
+         "accelerometer measurement noise (002 eq. 7; Xsens MTx data sheet)");
+  r.Read("sigma_gyro_radps", &o.sigma_gyro_radps,
+         "gyro measurement noise (002 eq. 8; Xsens MTx data sheet)");
+  r.ReadEnum("imu_sampling", &o.imu_sampling, ImuSamplingNames(),
+             "IMU sample convention (strapdown.h): interval averages or instantaneous values");
+  r.Read("gravity_mps2", &o.gravity_mps2, "local gravity magnitude");
+  r.Read("use_rss", &o.use_rss, "fuse RSS readings (002 eq. 5); set by the -imu/-wifi ids");
+  r.Read("use_toa", &o.use_toa, "fuse TOA ranges (002 eq. 6); set by the -imu/-wifi ids");
+  r.Read("rss_alpha_dbm", &o.rss_alpha_dbm,
+         "alpha^s of the RSS model (002 eq. 5); NaN: the walk's");
+  r.Read("rss_beta", &o.rss_beta, "beta^s of the RSS model (002 eq. 5); NaN: the walk's");
+  r.Read("rss_sigma_db", &o.rss_sigma_db, "RSS std-dev; NaN: the walk's");
+  r.Read("toa_alpha_m", &o.toa_alpha_m, "alpha^tau offset of the TOA model (002 eq. 6)");
+  r.Read("toa_beta", &o.toa_beta, "beta^tau scale of the TOA model (002 eq. 6)");
+  r.Read("toa_sigma_m", &o.toa_sigma_m, "TOA range std-dev; NaN: the walk's");
+  r.Read("receiver_offset_z_m", &o.receiver_offset_z_m, "radio receiver height above the IMU");
+  r.Read("gate_probability", &o.gate_probability,
+         "chi-square(1) gate per radio reading at this probability; 0: off (as the paper)");
+  r.Read("radio_epoch_s", &o.radio_epoch_s,
+         "fuse the readings within this span as one vector (002 eq. 5-6); 0: each at its time");
+  r.Read("ukf_alpha", &o.ukf_alpha, "UKF sigma-point spread alpha (scaled unscented transform)");
+  r.Read("ukf_beta", &o.ukf_beta, "UKF beta (2: Gaussian prior)");
+  r.Read("ukf_kappa", &o.ukf_kappa, "UKF kappa");
+  r.Read("ukf_mean_iterations", &o.ukf_mean_iterations,
+         "iterations of the UKF's quaternion mean of the sigma points");
+  r.Read("init_sigma_m", &o.init_sigma_m,
+         "initial horizontal position std-dev without initial_pose");
+  r.Read("init_sigma_z_m", &o.init_sigma_z_m, "initial height std-dev");
+  r.Read("init_sigma_v_mps", &o.init_sigma_v_mps, "initial velocity std-dev");
+  r.Read("init_sigma_a_mps2", &o.init_sigma_a_mps2, "initial acceleration std-dev");
+  r.Read("init_sigma_tilt_rad", &o.init_sigma_tilt_rad,
+         "initial roll/pitch std-dev after levelling");
+  r.Read("init_sigma_omega_radps", &o.init_sigma_omega_radps, "initial angular rate std-dev");
+  r.Read("init_sigma_acc_bias_mps2", &o.init_sigma_acc_bias_mps2,
+         "initial accelerometer bias std-dev");
+  r.Read("init_sigma_gyro_bias_radps", &o.init_sigma_gyro_bias_radps, "initial gyro bias std-dev");
+  r.Read("init_attitude_window_s", &o.init_attitude_window_s,
+         "initial roll/pitch from the mean specific force over this first span");
+  r.Read("radio_only_step_s", &o.radio_only_step_s,
+         "prediction step Delta_k of radio-only walks without an IMU (002 Sec. IV-A)");
+  r.Read("output_rate_hz", &o.output_rate_hz, "trajectory (and RTS) output rate");
   const YAML::Node stance = r.Child("stance");
   WG_RETURN_IF_ERROR(r.Finish());
   if (stance.IsDefined()) {

@@ -23,12 +23,18 @@ StatusOr<TarrioKfOptions> TarrioKfOptions::FromYaml(const YAML::Node& node,
                                                     const std::string& context) {
   TarrioKfOptions o;
   ConfigReader r(node, context);
-  r.Read("sigma_a_mps2", &o.sigma_a_mps2);
-  r.Read("sigma_v_mps", &o.sigma_v_mps);
-  r.Read("sigma_p_m", &o.sigma_p_m);
-  r.Read("prediction", &o.prediction, AllowedValues(kKfStrings, "prediction"));
-  r.Read("gate_probability", &o.gate_probability);
-  r.Read("smooth", &o.smooth);
+  r.Read("sigma_a_mps2", &o.sigma_a_mps2,
+         "acceleration noise sigma_a of the process noise Q (000 eq. 6)");
+  r.Read("sigma_v_mps", &o.sigma_v_mps,
+         "PDR velocity noise sigma_v of the process noise Q (000 eq. 6)");
+  r.Read("sigma_p_m", &o.sigma_p_m,
+         "std-dev of each axis of an RSS position fix, R = sigma_p^2 I (000 eq. 7)");
+  r.Read("prediction", &o.prediction, AllowedValues(kKfStrings, "prediction"),
+         "eq. 8 as written (last PDR velocity) or the PDR displacement since the last epoch");
+  r.Read("gate_probability", &o.gate_probability,
+         "chi-square(2) gate on the fix innovation at this probability; 0: no gate (as the paper)");
+  r.Read("smooth", &o.smooth,
+         "RTS backward pass over the RSS epochs (chosen by the id: tarrio-kf-rts)");
   WG_RETURN_IF_ERROR(r.Finish());
   if (o.sigma_a_mps2 < 0 || o.sigma_v_mps < 0 || !(o.sigma_p_m > 0)) {
     return InvalidArgument(context + ": sigma_a_mps2, sigma_v_mps must be >= 0, sigma_p_m > 0");
@@ -273,7 +279,8 @@ StatusOr<TarrioEstimatorOptions> TarrioEstimatorOptions::FromYaml(const YAML::No
   // The rest: pdr, radio and (pdr-only) start.
   ConfigReader r(node, id);
   if (mode == TarrioMode::kPdrOnly) {
-    r.Read("start", &o.start, AllowedValues(kEstimatorStrings, "start"));
+    r.Read("start", &o.start, AllowedValues(kEstimatorStrings, "start"),
+           "pdr-only: start at the first RSS fix (000 Sec. IV) or at walk.yaml initial_pose");
   }
   const YAML::Node radio = r.Child("radio");
   const YAML::Node pdr = mode == TarrioMode::kRssOnly ? YAML::Node() : r.Child("pdr");

@@ -276,25 +276,36 @@ StanceOptions StrideOptions::DefaultStance() {
 StatusOr<StrideOptions> StrideOptions::FromYaml(const YAML::Node& node) {
   StrideOptions o;
   ConfigReader r(node, "strides");
-  r.ReadEnum("sampling", &o.sampling, ImuSamplingNames());
+  r.ReadEnum("sampling", &o.sampling, ImuSamplingNames(),
+             "IMU sample convention (strapdown.h): interval averages or instantaneous values");
   const YAML::Node stance = r.Child("stance");
-  r.Read("compensate_gyro_bias", &o.compensate_gyro_bias);
-  r.Read("gravity_mps2", &o.gravity_mps2);
-  r.Read("acc_noise_mps2", &o.acc_noise_mps2);
-  r.Read("gyro_noise_radps", &o.gyro_noise_radps);
-  r.Read("acc_bias_sigma_mps2", &o.acc_bias_sigma_mps2);
-  r.Read("gyro_bias_sigma_radps", &o.gyro_bias_sigma_radps);
-  r.Read("acc_bias_rw_mps2_sqrts", &o.acc_bias_rw_mps2_sqrts);
-  r.Read("gyro_bias_rw_radps_sqrts", &o.gyro_bias_rw_radps_sqrts);
-  r.Read("zupt_sigma_mps", &o.zupt_sigma_mps);
-  r.Read("zaru_sigma_radps", &o.zaru_sigma_radps);
-  r.Read("use_zaru", &o.use_zaru);
-  r.Read("tilt_sigma_rad", &o.tilt_sigma_rad);
-  r.Read("min_stance_s", &o.min_stance_s);
-  r.Read("min_swing_s", &o.min_swing_s);
-  r.Read("min_sigma_length_m", &o.min_sigma_length_m);
-  r.Read("min_sigma_heading_rad", &o.min_sigma_heading_rad);
-  r.Read("min_sigma_dheading_rad", &o.min_sigma_dheading_rad);
+  r.Read("compensate_gyro_bias", &o.compensate_gyro_bias,
+         "subtract the gyro mean of the first still run before detecting stance again");
+  r.Read("gravity_mps2", &o.gravity_mps2, "local gravity magnitude");
+  r.Read("acc_noise_mps2", &o.acc_noise_mps2,
+         "accelerometer white noise per reading (Xsens MTi, 004 Table I)");
+  r.Read("gyro_noise_radps", &o.gyro_noise_radps,
+         "gyro white noise per reading (Xsens MTi, 004 Table I)");
+  r.Read("acc_bias_sigma_mps2", &o.acc_bias_sigma_mps2,
+         "turn-on accelerometer bias std-dev (004 Table I bias stability)");
+  r.Read("gyro_bias_sigma_radps", &o.gyro_bias_sigma_radps,
+         "turn-on gyro bias std-dev (004 Table I bias stability)");
+  r.Read("acc_bias_rw_mps2_sqrts", &o.acc_bias_rw_mps2_sqrts,
+         "accelerometer bias random walk per sqrt(s) (no paper value)");
+  r.Read("gyro_bias_rw_radps_sqrts", &o.gyro_bias_rw_radps_sqrts,
+         "gyro bias random walk per sqrt(s) (no paper value)");
+  r.Read("zupt_sigma_mps", &o.zupt_sigma_mps, "ZUPT std-dev per axis (OpenShoe)");
+  r.Read("zaru_sigma_radps", &o.zaru_sigma_radps, "ZARU std-dev per axis (the gyro's white noise)");
+  r.Read("use_zaru", &o.use_zaru, "zero angular-rate updates when still");
+  r.Read("tilt_sigma_rad", &o.tilt_sigma_rad, "std-dev of the levelled initial roll/pitch");
+  r.Read("min_stance_s", &o.min_stance_s, "shorter stance runs are detector blips, not stances");
+  r.Read("min_swing_s", &o.min_swing_s, "shorter swings between stances are no stride");
+  r.Read("min_sigma_length_m", &o.min_sigma_length_m,
+         "floor on each stride's length std-dev (the filter is optimistic)");
+  r.Read("min_sigma_heading_rad", &o.min_sigma_heading_rad,
+         "floor on each stride's heading std-dev");
+  r.Read("min_sigma_dheading_rad", &o.min_sigma_dheading_rad,
+         "floor on each stride's heading-change std-dev");
   WG_RETURN_IF_ERROR(r.Finish());
   if (stance.IsDefined()) {
     // Keys absent from the map keep this front end's defaults (not stance.h's).
