@@ -2,11 +2,22 @@
 # Writes docs/estimators.md from `walkgraph list` and `walkgraph list ID` (the registry's own
 # descriptions and the defaults its option readers validate against), so the page cannot drift
 # from the code. Run after a build:  tools/gen_estimators_doc.sh [build/tools/walkgraph]
+# With --check first, writes nothing and fails when docs/estimators.md differs from what the
+# build would write (ctest estimators_doc_current).
 set -euo pipefail
 ROOT="$(cd "$(dirname "$0")/.." && pwd)"
+check=0
+if [ "${1:-}" = "--check" ]; then
+  check=1
+  shift
+fi
 W="${1:-$ROOT/build/tools/walkgraph}"
 OUT="$ROOT/docs/estimators.md"
-tmp="$(mktemp "$OUT.XXXXXX")"
+if [ "$check" = 1 ]; then
+  tmp="$(mktemp)"
+else
+  tmp="$(mktemp "$OUT.XXXXXX")"  # beside OUT: renamed over it whole
+fi
 trap 'rm -f "$tmp"' EXIT
 ids=$("$W" list | awk '/^estimators/ {on = 1; next} /^[a-z]/ {on = 0} on && /^  / {print $1}')
 {
@@ -33,6 +44,14 @@ ids=$("$W" list | awk '/^estimators/ {on = 1; next} /^[a-z]/ {on = 0} on && /^  
     echo '```'
   done
 } >"$tmp"
+if [ "$check" = 1 ]; then
+  if ! diff -u "$OUT" "$tmp" >&2; then
+    echo "docs/estimators.md is stale: run tools/gen_estimators_doc.sh and commit it" >&2
+    exit 1
+  fi
+  echo "docs/estimators.md is current ($(echo "$ids" | wc -w) estimators)"
+  exit 0
+fi
 mv "$tmp" "$OUT"
 trap - EXIT
 echo "wrote $OUT ($(echo "$ids" | wc -w) estimators)"
