@@ -32,3 +32,19 @@ def test_monte_carlo_rows_show_mean_std_and_bad_runs(tmp_path):
 def test_single_walk_has_no_std(tmp_path):
     lines = run(tmp_path, {"estimators": {"fg-batch": {"rmse_m": 1.25}}}, "rmse_m")
     assert lines[2] == "| `fg-batch` | 1.250 | 0 / 0 of 1 |"
+
+
+def test_pivot_puts_walks_side_by_side(tmp_path):
+    a, b = tmp_path / "a.json", tmp_path / "b.json"
+    a.write_text(json.dumps({"runs": 4, "estimators": {
+        "fg-batch": {"anees": 1.5, "anees_std": 0.25},
+        "rss-only": {"anees": 1234.5, "anees_std": 450.0, "diverged_runs": 1}}}))
+    b.write_text(json.dumps({"runs": 4, "estimators": {
+        "gadeke-kf": {"anees": None, "failed_runs": 4},
+        "fg-batch": {"anees": 2.0, "anees_std": 0.5}}}))
+    out = subprocess.run([sys.executable, TOOL, "--pivot", "anees", "A=%s" % a, "B=%s" % b],
+                         capture_output=True, text=True, check=True).stdout.splitlines()
+    assert out[0] == "| estimator | `A` | `B` |"
+    assert out[2] == "| `fg-batch` | 1.500 ± 0.250 | 2.000 ± 0.500 |"
+    assert out[3] == "| `rss-only` | 1.23e+03 ± 450.000 (1 diverged) | — |"
+    assert out[4] == "| `gadeke-kf` | — | fails |"
