@@ -20,12 +20,12 @@ prose after
 """
 
 
-def run(tmp_path, doc):
+def run(tmp_path, doc, *flags):
     path = tmp_path / "doc.md"
     path.write_text(doc)
     build = tmp_path / "mybuild"
     build.mkdir(exist_ok=True)
-    r = subprocess.run([sys.executable, TOOL, str(build), str(tmp_path), str(path)],
+    r = subprocess.run([sys.executable, TOOL, *flags, str(build), str(tmp_path), str(path)],
                        capture_output=True, text=True)
     return r, path.read_text()
 
@@ -54,3 +54,10 @@ def test_an_unclosed_block_is_refused(tmp_path):
     r, text = run(tmp_path, doc)
     assert r.returncode != 0 and "has no" in r.stderr
     assert text == doc
+
+
+def test_only_regenerates_the_matching_blocks(tmp_path):
+    r, text = run(tmp_path, DOC, "--only", "printf")
+    assert r.returncode == 0, r.stderr
+    assert "1 block(s)" in r.stderr
+    assert text == DOC.replace("old\n", "x\ny\n")  # the first block keeps its stale table
