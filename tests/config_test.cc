@@ -7,6 +7,9 @@
 
 #include "walkgraph/config.h"
 #include "walkgraph/estimator.h"
+#include "walkgraph/pdr.h"
+#include "walkgraph/smoothers/ins_graph.h"
+#include "walkgraph/smoothers/step_graph.h"
 
 namespace walkgraph {
 namespace {
@@ -70,24 +73,41 @@ TEST(ConfigReader, StringOptionsWithAllowedValues) {
   EXPECT_EQ((*recorded)[1].allowed, (std::vector<std::string>{"x", "y"}));
 }
 
-// One table serves the reader and Validate: a value set in C++ is checked against the same list.
-struct TwoStrings {
-  std::string mode = "a";
-  std::string other = "x";
-};
-TEST(StringOptionTable, ChecksEveryFieldAgainstItsList) {
-  const std::vector<StringOption<TwoStrings>> table = {{"mode", &TwoStrings::mode, {"a", "b"}},
-                                                       {"other", &TwoStrings::other, {"x"}}};
-  EXPECT_EQ(AllowedValues(table, "mode"), (std::vector<std::string>{"a", "b"}));
-  EXPECT_TRUE(AllowedValues(table, "absent").empty());
-  TwoStrings o;
-  EXPECT_TRUE(CheckStringOptions(table, o, "t").ok());
-  o.other = "y";
-  EXPECT_EQ(CheckStringOptions(table, o, "t").message(), "t: other must be one of x, not 'y'");
+// One names table per enum: ToString, FromString and Validate's check read it.
+TEST(EnumNames, ToStringFromStringAndValidateShareOneTable) {
+  EXPECT_STREQ(ToString(LossKind::kSoftL1), "soft-l1");
+  EXPECT_EQ(*LossKindFromString("tukey"), LossKind::kTukey);
+  // Spellings are exact: "Huber" is refused, not silently no loss (issue 18).
+  const StatusOr<LossKind> huber = LossKindFromString("Huber");
+  ASSERT_FALSE(huber.ok());
+  EXPECT_EQ(huber.status().message(),
+            "loss must be one of none, huber, cauchy, soft-l1, arctan, tukey, not 'Huber'");
+  for (const auto& [name, value] : PathLossModeNames()) {
+    EXPECT_EQ(*PathLossModeFromString(ToString(value)), value) << name;
+  }
+  EXPECT_TRUE(CheckEnumOption(WindowOutputNames(), WindowOutput::kOnline, "out", "t").ok());
+  EXPECT_EQ(
+      CheckEnumOption(WindowOutputNames(), static_cast<WindowOutput>(7), "out", "t").message(),
+      "t: out must be one of lagged, online, not the value 7");
+}
+
+// An enum option set from C++ to a value outside its table is refused by Validate (Run).
+TEST(EnumNames, ValidateRefusesAnOutOfTableValue) {
+  StepGraphOptions step;
+  EXPECT_TRUE(step.Validate().ok());
+  step.rss_loss = static_cast<LossKind>(42);
+  EXPECT_THAT(step.Validate().message(), HasSubstr("rss_loss must be one of"));
+  InsGraphOptions ins;
+  EXPECT_TRUE(ins.Validate().ok());
+  ins.path_loss = PathLossMode::kPerAnchor;  // not one of fg-ins-batch's modes
+  EXPECT_THAT(ins.Validate().message(), HasSubstr("path_loss must be one of"));
+  PdrOptions pdr;
+  pdr.energy_lockout_keep = static_cast<EnergyLockoutKeep>(9);
+  EXPECT_FALSE(pdr.Validate().ok());
 }
 
 // The estimators' string options refuse an unknown value from YAML, naming the allowed ones.
-TEST(StringOptionTable, EstimatorsRefuseUnknownValuesNamingTheAllowedOnes) {
+TEST(EnumNames, EstimatorsRefuseUnknownValuesNamingTheAllowedOnes) {
   const auto& reg = EstimatorRegistry::Builtin();
   for (const auto& [id, yaml] : std::vector<std::pair<const char*, const char*>>{
            {"tarrio-kf", "{prediction: magic}"},

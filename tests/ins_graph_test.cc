@@ -174,8 +174,8 @@ TEST(InsGraphBatch, SegmentFactorsComposeToTheBatchGraph) {
       auto f = InsSegmentFactors(c, &s, k, n);
       auto rf = InsRadioFactors(c, &s, k, n, &radio);
       EXPECT_TRUE(f.ok() && rf.ok());
-      for (const InsFactor& x : *f) ++(*counts)[x.kind];
-      for (const InsFactor& x : *rf) ++(*counts)[x.kind];
+      for (const InsFactor& x : *f) ++(*counts)[ToString(x.kind)];
+      for (const InsFactor& x : *rf) ++(*counts)[ToString(x.kind)];
       AddInsFactors(&problem, &*f);
       AddInsFactors(&problem, &*rf);
     }
@@ -233,7 +233,7 @@ TEST(InsGraphBatch, ReadingsInAnImuGapAreInterpolatedAcrossIt) {
   }
   size_t next = 0, inside = 0;
   for (const InsFactor& x : *f) {
-    if (x.kind != "rss") continue;
+    if (x.kind != InsFactorKind::kRss) continue;
     ASSERT_LT(next, readings.size());
     const double t = readings[next++]->t_s;
     if (t < gap_begin + 1.0 || t > gap_end - 1.0) continue;
@@ -277,7 +277,7 @@ TEST(InsGraphBatch, OptionsAndApplicability) {
       YAML::Load("{front_end: {zupt_sigma_mps: 0.02}, output_rate_hz: 10, range_loss: huber}"));
   ASSERT_TRUE(o.ok()) << o.status().ToString();
   EXPECT_DOUBLE_EQ(o->front_end.zupt_sigma_mps, 0.02);
-  EXPECT_EQ(o->range_loss, "huber");
+  EXPECT_EQ(o->range_loss, LossKind::kHuber);
   auto waist = SimulateScenario("tarrio-circle", 1, YAML::Load("{duration_s: 20}"));
   ASSERT_TRUE(waist.ok());
   auto est = EstimatorRegistry::Builtin().Create("fg-ins-batch");

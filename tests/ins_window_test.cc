@@ -317,11 +317,11 @@ TEST(InsGraphWindow, OptionsAndRegistration) {
   auto o = InsWindowOptions::FromYaml(
       YAML::Load("{lag_s: 4, window_update_s: 1, receiver_offset_z_m: 1.0, front_end: "
                  "{zupt_sigma_mps: 0.02}}"),
-      "fg-ins-window", "online");
+      "fg-ins-window", WindowOutput::kOnline);
   ASSERT_TRUE(o.ok()) << o.status().ToString();
   EXPECT_DOUBLE_EQ(o->lag_s, 4.0);
   EXPECT_DOUBLE_EQ(o->window_update_s, 1.0);
-  EXPECT_EQ(o->window_output, "online");
+  EXPECT_EQ(o->window_output, WindowOutput::kOnline);
   EXPECT_DOUBLE_EQ(o->graph.receiver_offset_z_m, 1.0);
   EXPECT_DOUBLE_EQ(o->graph.front_end.zupt_sigma_mps, 0.02);
   // Reading a node leaves it as it was: compare --config validates each estimator's node,

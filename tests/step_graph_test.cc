@@ -394,10 +394,11 @@ TEST(StepGraphTest, OptionsAreStrict) {
   EXPECT_FALSE(reg.Create("fg-batch", YAML::Load("{floor_snap_storeys: 0.5}")).ok());
   EXPECT_FALSE(reg.Create("fg-batch", YAML::Load("{stair_landing_s: -1}")).ok());
   EXPECT_TRUE(reg.Create("fg-batch", YAML::Load("{level_sigma_m: 0, floor_sigma_m: 0}")).ok());
-  // Set in C++, the same rules hold at Run: "Huber" is not a loss name (it used to mean none).
+  // Set in C++, the same rules hold at Run: a value outside the enum's table is refused ("Huber"
+  // used to mean no loss; the name is refused by LossKindFromString, config_test).
   StepGraphOptions o;
   EXPECT_TRUE(o.Validate().ok());
-  o.rss_loss = "Huber";
+  o.rss_loss = static_cast<LossKind>(17);
   auto walk = SimulateScenario("tarrio-circle", 1, YAML::Load("{duration_s: 10}"));
   ASSERT_TRUE(walk.ok());
   for (const auto& r : {StepGraphBatch(o).Run(*walk), StepGraphWindow(o).Run(*walk)}) {

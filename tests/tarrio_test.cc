@@ -72,7 +72,7 @@ TEST(TarrioKfOptionsTest, PaperDefaultsAndStrictYaml) {
   EXPECT_EQ(o->sigma_a_mps2, 0.1);
   EXPECT_EQ(o->sigma_v_mps, 0.1);
   EXPECT_EQ(o->sigma_p_m, 2.0);
-  EXPECT_EQ(o->prediction, "last-velocity");
+  EXPECT_EQ(o->prediction, TarrioPrediction::kLastVelocity);
   EXPECT_FALSE(o->smooth);
   EXPECT_FALSE(TarrioKfOptions::FromYaml(YAML::Load("{sigma_q: 1}"), "tarrio-kf").ok());
   EXPECT_FALSE(TarrioKfOptions::FromYaml(YAML::Load("{prediction: magic}"), "tarrio-kf").ok());

@@ -67,42 +67,6 @@ class ConfigReader {
   Status first_error_;
 };
 
-// The string options of an Options type and the values each allows: one table its FromYaml
-// reads them with (AllowedValues) and its Validate checks them against (CheckStringOptions).
-template <typename Options>
-struct StringOption {
-  const char* key;
-  std::string Options::*field;
-  std::vector<std::string> allowed;
-};
-template <typename Options>
-const std::vector<std::string>& AllowedValues(const std::vector<StringOption<Options>>& table,
-                                              const std::string& key) {
-  for (const StringOption<Options>& s : table) {
-    if (key == s.key) return s.allowed;
-  }
-  static const std::vector<std::string> none;
-  return none;
-}
-template <typename Options>
-Status CheckStringOptions(const std::vector<StringOption<Options>>& table, const Options& o,
-                          const std::string& context) {
-  for (const StringOption<Options>& s : table) {
-    const std::string& v = o.*s.field;
-    bool found = false;
-    std::string list;
-    for (const std::string& a : s.allowed) {
-      found = found || a == v;
-      list += (list.empty() ? "" : ", ") + a;
-    }
-    if (!found) {
-      return InvalidArgument(context + ": " + s.key + " must be one of " + list + ", not '" + v +
-                             "'");
-    }
-  }
-  return Status::Ok();
-}
-
 // An option and the value it holds before the YAML is applied: its default.
 struct OptionDefault {
   std::string key;  // nested options as "parent.key"

@@ -19,6 +19,8 @@ struct OdometryDeadReckoningOptions {
   double sigma_dheading_rad = 0.01; // heading-increment noise per increment
 
   static StatusOr<OdometryDeadReckoningOptions> FromYaml(const YAML::Node& node);
+  // Every rule FromYaml applies; Run refuses options that break one.
+  Status Validate() const;
 };
 
 class OdometryDeadReckoning : public Estimator {

@@ -81,6 +81,8 @@ struct PcrbOptions {
 
   // Keys: the field names. Unknown keys are errors.
   static StatusOr<PcrbOptions> FromYaml(const YAML::Node& node, const std::string& context);
+  // Every rule FromYaml applies; the bound refuses options that break one.
+  Status Validate(const std::string& context = "pcrb") const;
 };
 
 // The Fisher information of one walk (or its Monte Carlo mean), split into the Tichavský terms

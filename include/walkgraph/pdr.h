@@ -35,6 +35,7 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
+#include "walkgraph/enum_names.h"
 #include "walkgraph/measurements.h"
 #include "walkgraph/status.h"
 #include "walkgraph/strides.h"
@@ -48,6 +49,12 @@ enum class HeadingMethod { kGyro, kComplementary };
 // The walking direction in the levelled body frame: the body x axis, the body y axis (a phone
 // held in portrait in front of the walker: Android's y runs along the screen to its top), or
 // the main axis of horizontal acceleration (PCA, 003).
+// Which maximum of an energy lockout span is the step (PdrOptions::energy_lockout_keep).
+enum class EnergyLockoutKeep { kFirst, kStrongest };
+const EnumNames<EnergyLockoutKeep>& EnergyLockoutKeepNames();  // first, strongest
+const char* ToString(EnergyLockoutKeep k);
+StatusOr<EnergyLockoutKeep> EnergyLockoutKeepFromString(const std::string& name);
+
 enum class ForwardAxisMethod { kBodyX, kBodyY, kPca };
 
 struct PdrOptions {
@@ -69,7 +76,7 @@ struct PdrOptions {
   // within 300 ms after a step are rejected) or "strongest" (a larger maximum within 300 ms
   // replaces the step: one step per energy burst whatever its shape; the span still runs from
   // the burst's first maximum). 003 does not say which.
-  std::string energy_lockout_keep = "first";
+  EnergyLockoutKeep energy_lockout_keep = EnergyLockoutKeep::kFirst;
   // Shortest time between two steps for (a) and (b) (no paper value; 0.25 s ≈ 4 steps/s).
   double min_step_interval_s = 0.25;
 
@@ -101,6 +108,9 @@ struct PdrOptions {
   // (weinberg|constant|linear), heading (gyro|complementary), forward_axis (body-x|body-y|pca), and
   // every numeric field by its name; stride (a map of StrideOptions keys).
   static StatusOr<PdrOptions> FromYaml(const YAML::Node& node);
+  // Every rule FromYaml applies (ranges, enum values); DetectSteps and ComputeSteps refuse
+  // options that break one.
+  Status Validate() const;
 };
 
 // A detected step before length and heading are attached.

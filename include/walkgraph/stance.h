@@ -63,6 +63,8 @@ struct StanceOptions {
 
   // Keys: detector (glrt|mv|mag|are|multi-condition) and every numeric field by its name.
   static StatusOr<StanceOptions> FromYaml(const YAML::Node& node);
+  // Every rule FromYaml applies; DetectStance refuses options that break one.
+  Status Validate() const;
 };
 
 // Statistic, stance decision and still decision for every IMU sample of the walk.

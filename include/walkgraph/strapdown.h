@@ -28,6 +28,7 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
+#include "walkgraph/enum_names.h"
 #include "walkgraph/walk.h"
 
 namespace walkgraph {
@@ -41,7 +42,9 @@ struct NavState {
 
 enum class ImuSampling { kIntervalAverage, kInstantaneous };
 // Its names in options ("interval-average", "instantaneous"): the one table readers use.
-const std::vector<std::pair<std::string, ImuSampling>>& ImuSamplingNames();
+const EnumNames<ImuSampling>& ImuSamplingNames();
+const char* ToString(ImuSampling s);
+StatusOr<ImuSampling> ImuSamplingFromString(const std::string& name);
 
 struct StrapdownOptions {
   double gravity_mps2 = 9.81;

@@ -91,6 +91,8 @@ struct StrideOptions {
   // Keys: sampling (interval-average|instantaneous), stance (a map, StanceOptions keys), and
   // every other field by its name.
   static StatusOr<StrideOptions> FromYaml(const YAML::Node& node);
+  // Every rule FromYaml applies; ComputeStrides and RunZuptIns refuse options that break one.
+  Status Validate() const;
   static StanceOptions DefaultStance();
 };
 

@@ -28,6 +28,8 @@ struct ZuptInsOptions {
   // Keys: front_end (a map of StrideOptions keys), output_rate_hz, gauge_sigma_m,
   // gauge_sigma_yaw_rad.
   static StatusOr<ZuptInsOptions> FromYaml(const YAML::Node& node);
+  // Every rule FromYaml applies (and front_end's); Run refuses options that break one.
+  Status Validate() const;
 };
 
 class ZuptInsDeadReckoning : public Estimator {

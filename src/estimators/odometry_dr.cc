@@ -18,10 +18,16 @@ StatusOr<OdometryDeadReckoningOptions> OdometryDeadReckoningOptions::FromYaml(
   r.Read("sigma_dist_m", &o.sigma_dist_m, "constant distance noise per increment");
   r.Read("sigma_dheading_rad", &o.sigma_dheading_rad, "heading-increment noise per increment");
   WG_RETURN_IF_ERROR(r.Finish());
+  WG_RETURN_IF_ERROR(o.Validate());
+  return o;
+}
+
+Status OdometryDeadReckoningOptions::Validate() const {
+  const OdometryDeadReckoningOptions& o = *this;
   if (o.sigma_dist_frac < 0 || o.sigma_dist_m < 0 || o.sigma_dheading_rad < 0) {
     return InvalidArgument("odometry-dr: sigmas must be >= 0");
   }
-  return o;
+  return Status::Ok();
 }
 
 Status OdometryDeadReckoning::CheckApplicable(const Walk& walk) const {
@@ -34,6 +40,7 @@ Status OdometryDeadReckoning::CheckApplicable(const Walk& walk) const {
 }
 
 StatusOr<EstimateResult> OdometryDeadReckoning::Run(const Walk& walk) const {
+  WG_RETURN_IF_ERROR(options_.Validate());
   WG_RETURN_IF_ERROR(CheckApplicable(walk));
   const InitialPose& p0 = *walk.meta.initial_pose;
   Eigen::Vector3d x(p0.x_m, p0.y_m, p0.heading_rad);

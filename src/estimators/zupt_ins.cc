@@ -21,10 +21,17 @@ StatusOr<ZuptInsOptions> ZuptInsOptions::FromYaml(const YAML::Node& node) {
   if (front.IsDefined()) {
     WG_ASSIGN_OR_RETURN(o.front_end, StrideOptions::FromYaml(front));
   }
+  WG_RETURN_IF_ERROR(o.Validate());
+  return o;
+}
+
+Status ZuptInsOptions::Validate() const {
+  const ZuptInsOptions& o = *this;
+  WG_RETURN_IF_ERROR(o.front_end.Validate());
   if (!(o.output_rate_hz > 0) || !(o.gauge_sigma_m > 0) || !(o.gauge_sigma_yaw_rad > 0)) {
     return InvalidArgument("zupt-ins: output_rate_hz and the gauge sigmas must be > 0");
   }
-  return o;
+  return Status::Ok();
 }
 
 Status ZuptInsDeadReckoning::CheckApplicable(const Walk& walk) const {
@@ -36,6 +43,7 @@ Status ZuptInsDeadReckoning::CheckApplicable(const Walk& walk) const {
 }
 
 StatusOr<EstimateResult> ZuptInsDeadReckoning::Run(const Walk& walk) const {
+  WG_RETURN_IF_ERROR(options_.Validate());
   WG_RETURN_IF_ERROR(CheckApplicable(walk));
   WG_ASSIGN_OR_RETURN(ZuptInsSolution s, RunZuptIns(walk, options_.front_end));
   Eigen::Matrix3d P = Eigen::Vector3d(options_.gauge_sigma_m * options_.gauge_sigma_m,

@@ -33,13 +33,19 @@ StatusOr<PcrbOptions> PcrbOptions::FromYaml(const YAML::Node& node, const std::s
   r.Read("min_distance_m", &o.min_distance_m,
          "floor on the anchor distance in the radio information");
   WG_RETURN_IF_ERROR(r.Finish());
+  WG_RETURN_IF_ERROR(o.Validate(context));
+  return o;
+}
+
+Status PcrbOptions::Validate(const std::string& context) const {
+  const PcrbOptions& o = *this;
   if (o.step_sigma_frac < 0.0 || o.step_sigma_m < 0.0 || o.heading_sigma_rad < 0.0) {
     return InvalidArgument(context + ": step_sigma_frac, step_sigma_m, heading_sigma_rad >= 0");
   }
   if (!(o.min_process_sigma_m > 0.0) || !(o.min_distance_m > 0.0)) {
     return InvalidArgument(context + ": min_process_sigma_m and min_distance_m must be > 0");
   }
-  return o;
+  return Status::Ok();
 }
 
 namespace {
@@ -239,6 +245,7 @@ StatusOr<std::vector<Eigen::Matrix2d>> SmoothingBlocks(const PcrbInformation& in
 
 StatusOr<PcrbInformation> PcrbInformationFromSimulation(const Simulation& sim,
                                                         const PcrbOptions& o) {
+  WG_RETURN_IF_ERROR(o.Validate());
   const Walk& w = sim.walk;
   if (w.meta.imu_placement == ImuPlacement::kFoot) {
     return FailedPrecondition(

@@ -36,6 +36,12 @@ StatusOr<CorreaEkfOptions> CorreaEkfOptions::FromYaml(const YAML::Node& node,
          "chi-square(4) gate on the full innovation; 0 off");
   r.Read("smooth", &o.smooth, "RTS smoother after the filter (-rts ids)");
   WG_RETURN_IF_ERROR(r.Finish());
+  WG_RETURN_IF_ERROR(o.Validate(context));
+  return o;
+}
+
+Status CorreaEkfOptions::Validate(const std::string& context) const {
+  const CorreaEkfOptions& o = *this;
   if (!(o.p_fa > 0 && o.p_fa < 1)) return InvalidArgument(context + ": p_fa must be in (0, 1)");
   if (o.d_max_m < 0 || !(o.epsilon_m2 > 0) || !(o.sigma_p_m > 0) || !(o.sigma_v_mps > 0) ||
       !(o.sigma_theta_rad > 0) || !(o.q_position_m > 0) || !(o.q_speed_mps > 0) ||
@@ -45,7 +51,7 @@ StatusOr<CorreaEkfOptions> CorreaEkfOptions::FromYaml(const YAML::Node& node,
   if (o.gate_probability < 0 || o.gate_probability >= 1) {
     return InvalidArgument(context + ": gate_probability must be in [0, 1)");
   }
-  return o;
+  return Status::Ok();
 }
 
 double CorreaFalseAlarmProbability(const PathLossModel& model, double p_th, double d_max_m) {
@@ -227,6 +233,7 @@ class CorreaModel : public KalmanModel {
 }  // namespace
 
 StatusOr<EstimateResult> RunCorreaEkf(const CorreaInputs& in, const CorreaEkfOptions& o) {
+  WG_RETURN_IF_ERROR(o.Validate());
   if (in.fixes.empty()) return FailedPrecondition("correa: no LS position fixes");
   WG_ASSIGN_OR_RETURN(const double p_th, ScmtThreshold(in, o));
   EstimateResult result;
@@ -291,7 +298,14 @@ StatusOr<CorreaEstimatorOptions> CorreaEstimatorOptions::FromYaml(const YAML::No
     pdr_defaults["constant_length_m"] = length.str();
   }
   WG_ASSIGN_OR_RETURN(o.pdr, PdrOptionsFromYaml(pdr, pdr_defaults, id + " pdr"));
+  WG_RETURN_IF_ERROR(o.Validate(id));
   return o;
+}
+
+Status CorreaEstimatorOptions::Validate(const std::string& id) const {
+  WG_RETURN_IF_ERROR(filter.Validate(id));
+  WG_RETURN_IF_ERROR(radio.Validate(id));
+  return pdr.Validate();
 }
 
 Status CorreaEstimator::CheckApplicable(const Walk& walk) const {
@@ -313,6 +327,7 @@ Status CorreaEstimator::CheckApplicable(const Walk& walk) const {
 }
 
 StatusOr<EstimateResult> CorreaEstimator::Run(const Walk& walk) const {
+  WG_RETURN_IF_ERROR(options_.Validate(id_));
   WG_RETURN_IF_ERROR(CheckApplicable(walk));
   WG_ASSIGN_OR_RETURN(FixesFromFrontEnd fixes,
                       PositionFixesFromFrontEnd(walk, options_.radio, id_));

@@ -32,6 +32,13 @@ StatusOr<RadioFrontEndOptions> RadioFrontEndOptions::FromYaml(const YAML::Node& 
          "Gauss-Newton stop: position update below this");
   r.Read("min_sigma_m", &o.positioning.min_sigma_m, "floor on each range's sigma (weights)");
   WG_RETURN_IF_ERROR(r.Finish());
+  WG_RETURN_IF_ERROR(o.Validate(context));
+  return o;
+}
+
+Status RadioFrontEndOptions::Validate(const std::string& context) const {
+  const RadioFrontEndOptions& o = *this;
+  const std::string ctx = context + " radio";
   if (!(o.epochs.window_s > 0) || !(o.positioning.collinear_ratio >= 0) ||
       o.positioning.max_iterations < 1 || !(o.positioning.tolerance_m > 0) ||
       !(o.positioning.min_sigma_m > 0)) {
@@ -39,7 +46,7 @@ StatusOr<RadioFrontEndOptions> RadioFrontEndOptions::FromYaml(const YAML::Node& 
                            ": need window_s > 0, collinear_ratio >= 0, max_iterations >= 1, "
                            "tolerance_m > 0, min_sigma_m > 0");
   }
-  return o;
+  return Status::Ok();
 }
 
 StatusOr<PdrOptions> PdrOptionsFromYaml(const YAML::Node& node,
@@ -144,6 +151,7 @@ StatusOr<StepSequence> StepsFromFrontEnd(const Walk& walk, const PdrOptions& pdr
 StatusOr<FixesFromFrontEnd> PositionFixesFromFrontEnd(const Walk& walk,
                                                       const RadioFrontEndOptions& radio,
                                                       const std::string& id) {
+  WG_RETURN_IF_ERROR(radio.Validate(id));
   StatusOr<std::vector<RangeEpoch>> epochs = BuildRangeEpochs(walk, radio.epochs);
   if (!epochs.ok()) return Status(epochs.status().code(), id + ": " + epochs.status().message());
   // The radio front end's rule for which stream it positions from.

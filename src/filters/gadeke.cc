@@ -35,6 +35,12 @@ StatusOr<GadekeKfOptions> GadekeKfOptions::FromYaml(const YAML::Node& node,
   r.Read("outage_end_frac", &o.outage_end_frac, "simulated radio outage end, fraction of the walk");
   r.Read("smooth", &o.smooth, "RTS smoother after the filter (gadeke-kf-rts)");
   WG_RETURN_IF_ERROR(r.Finish());
+  WG_RETURN_IF_ERROR(o.Validate(context));
+  return o;
+}
+
+Status GadekeKfOptions::Validate(const std::string& context) const {
+  const GadekeKfOptions& o = *this;
   if (!(o.velocity_factor > 0 && o.velocity_factor <= 1)) {
     return InvalidArgument(context + ": velocity_factor must be in (0, 1]");
   }
@@ -48,7 +54,7 @@ StatusOr<GadekeKfOptions> GadekeKfOptions::FromYaml(const YAML::Node& node,
   if (o.outage_start_frac >= 0 && !(o.outage_end_frac > o.outage_start_frac)) {
     return InvalidArgument(context + ": outage_end_frac must exceed outage_start_frac");
   }
-  return o;
+  return Status::Ok();
 }
 
 namespace {
@@ -144,6 +150,7 @@ class GadekeModel : public KalmanModel {
 StatusOr<EstimateResult> RunGadekeKf(const StepSequence& steps,
                                      const std::vector<RangeMeasurement>& ranges,
                                      const GadekeStart& start, const GadekeKfOptions& o) {
+  WG_RETURN_IF_ERROR(o.Validate());
   EstimateResult result;
   GadekeModel model(steps, ranges, start, o);
   KalmanRunOptions run;
@@ -183,7 +190,6 @@ StatusOr<GadekeEstimatorOptions> GadekeEstimatorOptions::FromYaml(const YAML::No
   ConfigReader rr(radio, id + " radio");
   rr.Read("min_sigma_m", &o.ranges.min_sigma_m, "floor on each range's sigma");
   WG_RETURN_IF_ERROR(rr.Finish());
-  if (!(o.ranges.min_sigma_m > 0)) return InvalidArgument(id + " radio: min_sigma_m must be > 0");
   o.ranges.bias_corrected = o.filter.bias_corrected_ranges;
   WG_ASSIGN_OR_RETURN(o.pdr, PdrOptionsFromYaml(pdr,
                                                 {{"detector", "energy"},
@@ -193,7 +199,14 @@ StatusOr<GadekeEstimatorOptions> GadekeEstimatorOptions::FromYaml(const YAML::No
                                                  {"forward_axis", "pca"},
                                                  {"heading", "complementary"}},
                                                 id + " pdr"));
+  WG_RETURN_IF_ERROR(o.Validate(id));
   return o;
+}
+
+Status GadekeEstimatorOptions::Validate(const std::string& id) const {
+  WG_RETURN_IF_ERROR(filter.Validate(id));
+  if (!(ranges.min_sigma_m > 0)) return InvalidArgument(id + " radio: min_sigma_m must be > 0");
+  return pdr.Validate();
 }
 
 Status GadekeEstimator::CheckApplicable(const Walk& walk) const {
@@ -203,6 +216,7 @@ Status GadekeEstimator::CheckApplicable(const Walk& walk) const {
 }
 
 StatusOr<EstimateResult> GadekeEstimator::Run(const Walk& walk) const {
+  WG_RETURN_IF_ERROR(options_.Validate(id_));
   WG_RETURN_IF_ERROR(CheckApplicable(walk));
   WG_ASSIGN_OR_RETURN(const StepSequence steps, StepsFromFrontEnd(walk, options_.pdr, true, id_));
   StatusOr<std::vector<RangeMeasurement>> all = RangeMeasurementsFromWalk(walk, options_.ranges);

@@ -11,6 +11,7 @@
 #include <Eigen/Cholesky>
 
 #include "estimators/builtin.h"
+#include "util/enum_define.h"
 #include "walkgraph/angle.h"
 #include "walkgraph/config.h"
 #include "walkgraph/filters/ranges.h"
@@ -18,6 +19,10 @@
 #include "walkgraph/kalman_driver.h"
 
 namespace walkgraph {
+
+WALKGRAPH_DEFINE_ENUM_NAMES(JimenezStanceSource, "stance_source",
+                            {"detector", JimenezStanceSource::kDetector},
+                            {"labels", JimenezStanceSource::kLabels})
 
 namespace {
 
@@ -87,16 +92,6 @@ TrajectoryPoint OutputPoint(const JimenezNominal& nominal, const Eigen::MatrixXd
   return pt;
 }
 
-StatusOr<ImuSampling> SamplingFromString(const std::string& s) {
-  for (const auto& [name, value] : ImuSamplingNames()) {
-    if (s == name) return value;
-  }
-  return InvalidArgument("imu_sampling must be interval-average or instantaneous, not '" + s + "'");
-}
-
-const std::vector<StringOption<JimenezIezOptions>> kStringOptions = {
-    {"stance_source", &JimenezIezOptions::stance_source, {"detector", "labels"}}};
-
 }  // namespace
 
 StatusOr<JimenezIezOptions> JimenezIezOptions::FromYaml(const YAML::Node& node,
@@ -133,15 +128,13 @@ StatusOr<JimenezIezOptions> JimenezIezOptions::FromYaml(const YAML::Node& node,
          "initial roll/pitch from the mean specific force over this first span");
   r.Read("initial_heading_from_pose", &o.initial_heading_from_pose,
          "initial_pose.heading_rad is the IMU x-axis yaw");
-  std::vector<std::string> samplings;
-  for (const auto& name : ImuSamplingNames()) samplings.push_back(name.first);
-  r.Read("imu_sampling", &o.imu_sampling, samplings,
-         "IMU sample convention (strapdown.h): interval averages or instantaneous values");
+  r.ReadEnum("imu_sampling", &o.imu_sampling, ImuSamplingNames(),
+             "IMU sample convention (strapdown.h): interval averages or instantaneous values");
   r.Read("imu_sampling_from_walk", &o.imu_sampling_from_walk,
          "a simulated walk's sim.imu_interval_average overrides imu_sampling");
   r.Read("gravity_mps2", &o.gravity_mps2, "local gravity magnitude");
-  r.Read("stance_source", &o.stance_source, AllowedValues(kStringOptions, "stance_source"),
-         "stance from the detector (stance:) or the walk's stance_truth labels as an oracle");
+  r.ReadEnum("stance_source", &o.stance_source, JimenezStanceSourceNames(),
+             "stance from the detector (stance:) or the walk's stance_truth labels as an oracle");
   r.Read("zupt", &o.zupt, "zero-velocity update at stance (004 Algorithm 1)");
   r.Read("zupt_sigma_mps", &o.zupt_sigma_mps, "ZUPT std-dev per axis (IEZ+/OpenShoe)");
   r.Read("zaru", &o.zaru, "zero angular-rate update when still (004 Algorithm 1)");
@@ -191,9 +184,15 @@ StatusOr<JimenezIezOptions> JimenezIezOptions::FromYaml(const YAML::Node& node,
       o.stance.still_gyro_radps = JimenezIezOptions().stance.still_gyro_radps;
     }
   }
-  auto sampling = SamplingFromString(o.imu_sampling);
-  if (!sampling.ok()) return InvalidArgument(context + ": " + sampling.status().message());
-  WG_RETURN_IF_ERROR(CheckStringOptions(kStringOptions, o, context));
+  WG_RETURN_IF_ERROR(o.Validate(context));
+  return o;
+}
+
+Status JimenezIezOptions::Validate(const std::string& context) const {
+  const JimenezIezOptions& o = *this;
+  WG_RETURN_IF_ERROR(CheckEnumOption(ImuSamplingNames(), o.imu_sampling, "imu_sampling", context));
+  WG_RETURN_IF_ERROR(
+      CheckEnumOption(JimenezStanceSourceNames(), o.stance_source, "stance_source", context));
   auto positive = [](double v) { return v > 0.0 && std::isfinite(v); };
   for (double v : {o.acc_noise_density, o.gyro_noise_density, o.init_acc_bias_sigma_mps2,
                    o.init_gyro_bias_sigma_radps, o.init_tilt_sigma_rad, o.init_velocity_sigma_mps,
@@ -215,7 +214,7 @@ StatusOr<JimenezIezOptions> JimenezIezOptions::FromYaml(const YAML::Node& node,
   for (double g : {o.compass_gate_probability, o.range_gate_probability}) {
     if (g < 0 || g >= 1) return InvalidArgument(context + ": gate probabilities must be in [0, 1)");
   }
-  return o;
+  return Status::Ok();
 }
 
 double JimenezYaw(const Eigen::Quaterniond& q_nb) {
@@ -286,7 +285,7 @@ void JimenezInjectError(const JimenezVector& dx, JimenezNominal* nominal, Eigen:
 Status CheckJimenezApplicable(const Walk& walk, const JimenezIezOptions& options) {
   const char* id = options.use_rss ? "jimenez-iez-rss" : "jimenez-iez";
   if (walk.imu.size() < 2) return FailedPrecondition(std::string(id) + " needs imu.csv");
-  if (options.stance_source == "labels" && walk.stance_truth.empty()) {
+  if (options.stance_source == JimenezStanceSource::kLabels && walk.stance_truth.empty()) {
     return FailedPrecondition(std::string(id) + ": stance_source labels needs stance_truth.csv");
   }
   if (walk.meta.imu_placement != ImuPlacement::kFoot) {
@@ -605,10 +604,11 @@ double Mean(const std::vector<double>& v) {
 
 StatusOr<EstimateResult> RunJimenezIez(const Walk& walk, const JimenezIezOptions& o,
                                        JimenezDetails* details) {
+  WG_RETURN_IF_ERROR(o.Validate(o.use_rss ? "jimenez-iez-rss" : "jimenez-iez"));
   WG_RETURN_IF_ERROR(CheckJimenezApplicable(walk, o));
   const std::vector<ImuSample>& imu = walk.imu;
   const size_t n_imu = imu.size();
-  WG_ASSIGN_OR_RETURN(ImuSampling sampling, SamplingFromString(o.imu_sampling));
+  ImuSampling sampling = o.imu_sampling;
   if (o.imu_sampling_from_walk) {
     auto it = walk.meta.extra.find("sim.imu_interval_average");
     if (it != walk.meta.extra.end()) {
@@ -616,7 +616,7 @@ StatusOr<EstimateResult> RunJimenezIez(const Walk& walk, const JimenezIezOptions
     }
   }
   WG_ASSIGN_OR_RETURN(StanceMask stance, DetectStance(walk, o.stance));
-  if (o.stance_source == "labels") {
+  if (o.stance_source == JimenezStanceSource::kLabels) {
     WG_ASSIGN_OR_RETURN(stance.stance, StanceLabelsAtImu(walk));
   }
   const double imu_dt = (imu.back().t_s - imu.front().t_s) / static_cast<double>(n_imu - 1);
@@ -681,7 +681,8 @@ StatusOr<EstimateResult> RunJimenezIez(const Walk& walk, const JimenezIezOptions
   diag["stance_fraction"] = static_cast<double>(stance_samples) / static_cast<double>(n_imu - 1);
   diag["smoother_epochs"] = static_cast<double>(rts.size());
   d->stance = std::move(stance);
-  d->stance_detector = o.stance_source == "labels" ? "labels" : ToString(o.stance.detector);
+  d->stance_detector =
+      o.stance_source == JimenezStanceSource::kLabels ? "labels" : ToString(o.stance.detector);
   return result;
 }
 

@@ -121,6 +121,12 @@ StatusOr<PrietoOptions> PrietoOptions::FromYaml(const YAML::Node& node, const st
     if (!s.ok()) return InvalidArgument(context + ": " + s.status().message());
     o.stance = *s;
   }
+  WG_RETURN_IF_ERROR(o.Validate(context));
+  return o;
+}
+
+Status PrietoOptions::Validate(const std::string& context) const {
+  const PrietoOptions& o = *this;
   const double positive[] = {o.sigma_jerk_mps3,
                              o.sigma_omega_rate_radps2,
                              o.sigma_v0_mps,
@@ -168,7 +174,7 @@ StatusOr<PrietoOptions> PrietoOptions::FromYaml(const YAML::Node& node, const st
   if (!(o.ukf_beta >= 0) || !(o.ukf_alpha <= 1.0)) {
     return InvalidArgument(context + ": need 0 < ukf_alpha <= 1 and ukf_beta >= 0");
   }
-  return o;
+  return Status::Ok();
 }
 
 namespace prieto {
@@ -1023,6 +1029,7 @@ Status CheckPrietoApplicable(const Walk& walk, const PrietoOptions& options) {
 }
 
 StatusOr<EstimateResult> RunPrietoFilter(const Walk& walk, const PrietoOptions& o) {
+  WG_RETURN_IF_ERROR(o.Validate());
   WG_RETURN_IF_ERROR(CheckPrietoApplicable(walk, o));
   const bool use_imu = o.sensors != PrietoSensors::kRadioOnly;
   const bool use_radio = o.sensors != PrietoSensors::kImuOnly;

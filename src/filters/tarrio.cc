@@ -4,20 +4,18 @@
 #include <cmath>
 
 #include "estimators/builtin.h"
+#include "util/enum_define.h"
 #include "walkgraph/config.h"
 #include "walkgraph/kalman.h"
 #include "walkgraph/kalman_driver.h"
 
 namespace walkgraph {
 
-namespace {
-
-const std::vector<StringOption<TarrioKfOptions>> kKfStrings = {
-    {"prediction", &TarrioKfOptions::prediction, {"last-velocity", "pdr-displacement"}}};
-const std::vector<StringOption<TarrioEstimatorOptions>> kEstimatorStrings = {
-    {"start", &TarrioEstimatorOptions::start, {"first-fix", "initial-pose"}}};
-
-}  // namespace
+WALKGRAPH_DEFINE_ENUM_NAMES(TarrioPrediction, "prediction",
+                            {"last-velocity", TarrioPrediction::kLastVelocity},
+                            {"pdr-displacement", TarrioPrediction::kPdrDisplacement})
+WALKGRAPH_DEFINE_ENUM_NAMES(TarrioStart, "start", {"first-fix", TarrioStart::kFirstFix},
+                            {"initial-pose", TarrioStart::kInitialPose})
 
 StatusOr<TarrioKfOptions> TarrioKfOptions::FromYaml(const YAML::Node& node,
                                                     const std::string& context) {
@@ -29,21 +27,26 @@ StatusOr<TarrioKfOptions> TarrioKfOptions::FromYaml(const YAML::Node& node,
          "PDR velocity noise sigma_v of the process noise Q (000 eq. 6)");
   r.Read("sigma_p_m", &o.sigma_p_m,
          "std-dev of each axis of an RSS position fix, R = sigma_p^2 I (000 eq. 7)");
-  r.Read("prediction", &o.prediction, AllowedValues(kKfStrings, "prediction"),
-         "eq. 8 as written (last PDR velocity) or the PDR displacement since the last epoch");
+  r.ReadEnum("prediction", &o.prediction, TarrioPredictionNames(),
+             "eq. 8 as written (last PDR velocity) or the PDR displacement since the last epoch");
   r.Read("gate_probability", &o.gate_probability,
          "chi-square(2) gate on the fix innovation at this probability; 0: no gate (as the paper)");
   r.Read("smooth", &o.smooth,
          "RTS backward pass over the RSS epochs (chosen by the id: tarrio-kf-rts)");
   WG_RETURN_IF_ERROR(r.Finish());
-  if (o.sigma_a_mps2 < 0 || o.sigma_v_mps < 0 || !(o.sigma_p_m > 0)) {
+  WG_RETURN_IF_ERROR(o.Validate(context));
+  return o;
+}
+
+Status TarrioKfOptions::Validate(const std::string& context) const {
+  if (sigma_a_mps2 < 0 || sigma_v_mps < 0 || !(sigma_p_m > 0)) {
     return InvalidArgument(context + ": sigma_a_mps2, sigma_v_mps must be >= 0, sigma_p_m > 0");
   }
-  WG_RETURN_IF_ERROR(CheckStringOptions(kKfStrings, o, context));
-  if (o.gate_probability < 0 || o.gate_probability >= 1) {
+  WG_RETURN_IF_ERROR(CheckEnumOption(TarrioPredictionNames(), prediction, "prediction", context));
+  if (gate_probability < 0 || gate_probability >= 1) {
     return InvalidArgument(context + ": gate_probability must be in [0, 1)");
   }
-  return o;
+  return Status::Ok();
 }
 
 namespace {
@@ -112,8 +115,9 @@ StatusOr<FilterEpoch> KalmanFixEpoch(const PositionFix& f, double t, double t_ep
   FilterEpoch e;
   e.t_s = t;
   e.F = Eigen::Matrix2d::Identity();
-  e.x_prior =
-      options.prediction == "last-velocity" ? Eigen::Vector2d(p_epoch + dT * v) : p;  // eq. 8
+  e.x_prior = options.prediction == TarrioPrediction::kLastVelocity
+                  ? Eigen::Vector2d(p_epoch + dT * v)
+                  : p;                              // eq. 8
   e.P_prior = P_epoch + ProcessNoise(options, dT);  // eq. 9, eq. 6
   Eigen::VectorXd x = e.x_prior;
   Eigen::MatrixXd Pk = e.P_prior;
@@ -165,6 +169,7 @@ void AppendTrajectory(const std::vector<Output>& outputs, Trajectory* trajectory
 StatusOr<EstimateResult> RunTarrio(const StepSequence& steps, const std::vector<PositionFix>& fixes,
                                    const TarrioKfOptions& options, TarrioMode mode,
                                    std::optional<Eigen::Vector2d> start) {
+  WG_RETURN_IF_ERROR(options.Validate());
   WG_RETURN_IF_ERROR(CheckTarrioInputs(steps, fixes, mode, start));
   const bool uses_fixes = mode != TarrioMode::kPdrOnly;
   const Eigen::Matrix2d R = Eigen::Matrix2d::Identity() * options.sigma_p_m * options.sigma_p_m;
@@ -279,15 +284,14 @@ StatusOr<TarrioEstimatorOptions> TarrioEstimatorOptions::FromYaml(const YAML::No
   // The rest: pdr, radio and (pdr-only) start.
   ConfigReader r(node, id);
   if (mode == TarrioMode::kPdrOnly) {
-    r.Read("start", &o.start, AllowedValues(kEstimatorStrings, "start"),
-           "pdr-only: start at the first RSS fix (000 Sec. IV) or at walk.yaml initial_pose");
+    r.ReadEnum("start", &o.start, TarrioStartNames(),
+               "pdr-only: start at the first RSS fix (000 Sec. IV) or at walk.yaml initial_pose");
   }
   const YAML::Node radio = r.Child("radio");
   const YAML::Node pdr = mode == TarrioMode::kRssOnly ? YAML::Node() : r.Child("pdr");
   // The filter's keys were checked above; mark them known for Finish().
   for (const auto& kv : own) r.Child(kv.first.Scalar());
   WG_RETURN_IF_ERROR(r.Finish());
-  WG_RETURN_IF_ERROR(CheckStringOptions(kEstimatorStrings, o, id));
   WG_ASSIGN_OR_RETURN(o.radio, RadioFrontEndOptions::FromYaml(radio, o.radio, id));
   WG_ASSIGN_OR_RETURN(o.pdr, PdrOptionsFromYaml(pdr,
                                                 {{"detector", "vertical-peak"},
@@ -295,7 +299,14 @@ StatusOr<TarrioEstimatorOptions> TarrioEstimatorOptions::FromYaml(const YAML::No
                                                  {"weinberg_k", "0.45"},
                                                  {"heading", "gyro"}},
                                                 id + " pdr"));
+  WG_RETURN_IF_ERROR(o.Validate(id));
   return o;
+}
+
+Status TarrioEstimatorOptions::Validate(const std::string& id) const {
+  WG_RETURN_IF_ERROR(filter.Validate(id));
+  WG_RETURN_IF_ERROR(CheckEnumOption(TarrioStartNames(), start, "start", id));
+  return pdr.Validate();
 }
 
 Status TarrioEstimator::CheckApplicable(const Walk& walk) const {
@@ -308,6 +319,7 @@ Status TarrioEstimator::CheckApplicable(const Walk& walk) const {
 }
 
 StatusOr<EstimateResult> TarrioEstimator::Run(const Walk& walk) const {
+  WG_RETURN_IF_ERROR(options_.Validate(id_));
   WG_RETURN_IF_ERROR(CheckApplicable(walk));
   StepSequence steps;
   if (UsesSteps()) {

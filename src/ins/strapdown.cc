@@ -2,14 +2,13 @@
 
 #include <cmath>
 
+#include "util/enum_define.h"
+
 namespace walkgraph {
 
-const std::vector<std::pair<std::string, ImuSampling>>& ImuSamplingNames() {
-  static const std::vector<std::pair<std::string, ImuSampling>> names = {
-      {"interval-average", ImuSampling::kIntervalAverage},
-      {"instantaneous", ImuSampling::kInstantaneous}};
-  return names;
-}
+WALKGRAPH_DEFINE_ENUM_NAMES(ImuSampling, "imu_sampling",
+                            {"interval-average", ImuSampling::kIntervalAverage},
+                            {"instantaneous", ImuSampling::kInstantaneous})
 
 Eigen::Quaterniond QuaternionExp(const Eigen::Vector3d& phi) {
   const double a = phi.norm();

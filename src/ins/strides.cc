@@ -318,6 +318,8 @@ StatusOr<StrideOptions> StrideOptions::FromYaml(const YAML::Node& node) {
   return o;
 }
 
+Status StrideOptions::Validate() const { return CheckOptions(*this); }
+
 namespace {
 
 // The running filter: nominal state, biases and the error covariance. Each update of the error

@@ -6,15 +6,18 @@
 
 #include <Eigen/Eigenvalues>
 
+#include "util/enum_define.h"
 #include "walkgraph/angle.h"
 #include "walkgraph/config.h"
 
 namespace walkgraph {
 
+WALKGRAPH_DEFINE_ENUM_NAMES(EnergyLockoutKeep, "energy_lockout_keep",
+                            {"first", EnergyLockoutKeep::kFirst},
+                            {"strongest", EnergyLockoutKeep::kStrongest})
+
 namespace {
 
-const std::vector<StringOption<PdrOptions>> kStringOptions = {
-    {"energy_lockout_keep", &PdrOptions::energy_lockout_keep, {"first", "strongest"}}};
 const std::vector<std::pair<std::string, StepDetector>> kDetectorNames = {
     {"vertical-peak", StepDetector::kVerticalPeak},
     {"fir-magnitude", StepDetector::kFirMagnitude},
@@ -129,7 +132,8 @@ StatusOr<std::vector<StepEvent>> DetectWithSignals(const Walk& walk, const ImuSi
         // "Within 300 ms" inclusive: a maximum exactly 300 ms on (3 samples at 10 Hz) is
         // rejected; 1 ns of slack since sample times carry rounding (0.1 + 0.2 > 0.3).
         if (!peaks.empty() && walk.imu[i].t_s - window_start_s <= o.energy_lockout_s + 1e-9) {
-          if (o.energy_lockout_keep == "strongest" && energy[i] > energy[peaks.back()]) {
+          if (o.energy_lockout_keep == EnergyLockoutKeep::kStrongest &&
+              energy[i] > energy[peaks.back()]) {
             peaks.back() = i;  // the step moves to the larger maximum; its window does not
           }
           continue;
@@ -234,9 +238,8 @@ StatusOr<PdrOptions> PdrOptions::FromYaml(const YAML::Node& node) {
          "energy: acceleration energy threshold (003 eq. 1)");
   r.Read("energy_lockout_s", &o.energy_lockout_s,
          "energy: maxima this long after a step are not steps (003 eq. 1)");
-  r.Read("energy_lockout_keep", &o.energy_lockout_keep,
-         AllowedValues(kStringOptions, "energy_lockout_keep"),
-         "energy: which maximum of a lockout span is the step");
+  r.ReadEnum("energy_lockout_keep", &o.energy_lockout_keep, EnergyLockoutKeepNames(),
+             "energy: which maximum of a lockout span is the step");
   r.Read("min_step_interval_s", &o.min_step_interval_s,
          "vertical-peak, fir-magnitude: shortest time between steps");
   r.Read("weinberg_k", &o.weinberg_k, "Weinberg K of l = K (a_max - a_min)^(1/4) (000 Sec. IV)");
@@ -263,6 +266,12 @@ StatusOr<PdrOptions> PdrOptions::FromYaml(const YAML::Node& node) {
   if (stride.IsDefined()) {
     WG_ASSIGN_OR_RETURN(o.stride, StrideOptions::FromYaml(stride));
   }
+  WG_RETURN_IF_ERROR(o.Validate());
+  return o;
+}
+
+Status PdrOptions::Validate() const {
+  const PdrOptions& o = *this;
   if (o.fir_order < 2 || o.fir_cutoff_hz <= 0 || o.vertical_cutoff_hz <= 0 ||
       o.complementary_w < 0 || o.complementary_w > 1 || o.weinberg_k <= 0 ||
       o.min_step_interval_s < 0 || o.energy_lockout_s < 0 || o.gravity_mps2 <= 0) {
@@ -270,8 +279,8 @@ StatusOr<PdrOptions> PdrOptions::FromYaml(const YAML::Node& node) {
         "pdr: need fir_order >= 2, cut-offs > 0, 0 <= complementary_w <= 1, weinberg_k > 0, "
         "intervals >= 0, gravity_mps2 > 0");
   }
-  WG_RETURN_IF_ERROR(CheckStringOptions(kStringOptions, o, "pdr"));
-  return o;
+  return CheckEnumOption(EnergyLockoutKeepNames(), o.energy_lockout_keep, "energy_lockout_keep",
+                         "pdr");
 }
 
 std::vector<double> DesignLowPassFir(int order, double cutoff_hz, double rate_hz) {
@@ -341,12 +350,14 @@ StatusOr<std::vector<Eigen::Quaterniond>> EstimateAttitude(const std::vector<Imu
 }
 
 StatusOr<std::vector<StepEvent>> DetectSteps(const Walk& walk, const PdrOptions& options) {
+  WG_RETURN_IF_ERROR(options.Validate());
   WG_RETURN_IF_ERROR(CheckImu(walk));
   WG_ASSIGN_OR_RETURN(const ImuSignals s, ComputeSignals(walk, options));
   return DetectWithSignals(walk, s, options);
 }
 
 StatusOr<StepSequence> ComputeSteps(const Walk& walk, const PdrOptions& o) {
+  WG_RETURN_IF_ERROR(o.Validate());
   WG_RETURN_IF_ERROR(CheckImu(walk));
   WG_ASSIGN_OR_RETURN(const ImuSignals s, ComputeSignals(walk, o));
   WG_ASSIGN_OR_RETURN(const std::vector<StepEvent> events, DetectWithSignals(walk, s, o));

@@ -51,19 +51,21 @@ double SolveSummary::normalized_cost() const {
 
 namespace internal {
 
-const std::vector<std::string>& LossNames() {
-  static const std::vector<std::string> names = {"none",    "huber",  "cauchy",
-                                                 "soft-l1", "arctan", "tukey"};
-  return names;
-}
-
-std::unique_ptr<ceres::LossFunction> MakeLoss(const std::string& name, double scale) {
-  if (name == "huber") return std::make_unique<ceres::HuberLoss>(scale);
-  if (name == "cauchy") return std::make_unique<ceres::CauchyLoss>(scale);
-  if (name == "soft-l1") return std::make_unique<ceres::SoftLOneLoss>(scale);
-  if (name == "arctan") return std::make_unique<ceres::ArctanLoss>(scale);
-  if (name == "tukey") return std::make_unique<ceres::TukeyLoss>(scale);
-  return nullptr;
+std::unique_ptr<ceres::LossFunction> MakeLoss(LossKind kind, double scale) {
+  switch (kind) {
+    case LossKind::kHuber:
+      return std::make_unique<ceres::HuberLoss>(scale);
+    case LossKind::kCauchy:
+      return std::make_unique<ceres::CauchyLoss>(scale);
+    case LossKind::kSoftL1:
+      return std::make_unique<ceres::SoftLOneLoss>(scale);
+    case LossKind::kArctan:
+      return std::make_unique<ceres::ArctanLoss>(scale);
+    case LossKind::kTukey:
+      return std::make_unique<ceres::TukeyLoss>(scale);
+    default:
+      return nullptr;
+  }
 }
 
 namespace {

@@ -17,16 +17,15 @@
 #include <Eigen/Core>
 
 #include "walkgraph/graph.h"
+#include "walkgraph/smoothers/graph_options.h"
 #include "walkgraph/status.h"
 
 namespace walkgraph {
 namespace internal {
 
-// The robust losses the graphs' options name (Ceres' losses on whitened residuals, scale in σ):
-// the one list their option readers and MakeLoss use.
-const std::vector<std::string>& LossNames();  // none huber cauchy soft-l1 arctan tukey
-// The loss `name` at `scale`; nullptr for "none" or a name not in LossNames().
-std::unique_ptr<ceres::LossFunction> MakeLoss(const std::string& name, double scale);
+// The robust loss `kind` (graph_options.h) at `scale` (in σ of the whitened residual); nullptr
+// for LossKind::kNone.
+std::unique_ptr<ceres::LossFunction> MakeLoss(LossKind kind, double scale);
 
 // A problem over blocks and costs its owner keeps (FactorGraph, FixedLagSmoother: they own
 // every cost function, loss and manifold); fast_removal for one that removes blocks.

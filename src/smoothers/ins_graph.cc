@@ -24,27 +24,38 @@
 #include "factors/zaru_factor.h"
 #include "factors/zupt_factor.h"
 #include "smoothers/graph_internal.h"
+#include "util/enum_define.h"
 #include "walkgraph/angle.h"
 #include "walkgraph/config.h"
 #include "walkgraph/kalman.h"
 
 namespace walkgraph {
 
+WALKGRAPH_DEFINE_ENUM_NAMES(InsFactorKind, "InsFactor kind", {"imu", InsFactorKind::kImu},
+                            {"bias_rw_gyro", InsFactorKind::kBiasRwGyro},
+                            {"bias_rw_acc", InsFactorKind::kBiasRwAcc},
+                            {"zupt", InsFactorKind::kZupt}, {"zaru", InsFactorKind::kZaru},
+                            {"prior", InsFactorKind::kPrior},
+                            {"bias_prior_gyro", InsFactorKind::kBiasPriorGyro},
+                            {"bias_prior_acc", InsFactorKind::kBiasPriorAcc},
+                            {"path_loss_spread", InsFactorKind::kPathLossSpread},
+                            {"path_loss_prior", InsFactorKind::kPathLossPrior},
+                            {"rss", InsFactorKind::kRss}, {"range", InsFactorKind::kRange},
+                            {"range_bias_prior", InsFactorKind::kRangeBiasPrior},
+                            {"waypoint", InsFactorKind::kWaypoint})
+
 namespace {
 
-// The string options and the values each allows: the one table FromYaml reads them with and
-// Validate checks them against.
-const std::vector<StringOption<InsGraphOptions>>& StringOptions() {
-  using O = InsGraphOptions;
-  static const std::vector<StringOption<O>> table = {
-      {"initialization", &O::initialization, {"front-end", "window"}},
-      {"rss_loss", &O::rss_loss, internal::LossNames()},
-      {"range_loss", &O::range_loss, internal::LossNames()},
-      {"path_loss", &O::path_loss, {"auto", "fixed", "global", "hierarchical"}}};
-  return table;
-}
-const std::vector<std::string>& Allowed(const std::string& key) {
-  return AllowedValues(StringOptions(), key);
+// path_loss: every mode but per-anchor (InsGraphOptions::path_loss).
+const EnumNames<PathLossMode>& InsPathLossNames() {
+  static const EnumNames<PathLossMode> names = [] {
+    EnumNames<PathLossMode> n;
+    for (const auto& nv : PathLossModeNames()) {
+      if (nv.second != PathLossMode::kPerAnchor) n.push_back(nv);
+    }
+    return n;
+  }();
+  return names;
 }
 const std::vector<std::pair<std::string, InsStatePlacement>> kPlacementNames = {
     {"stance", InsStatePlacement::kStance}, {"every-n", InsStatePlacement::kEveryN}};
@@ -53,7 +64,12 @@ const std::vector<std::pair<std::string, InsStatePlacement>> kPlacementNames = {
 
 Status InsGraphOptions::Validate() const {
   const InsGraphOptions& o = *this;
-  WG_RETURN_IF_ERROR(CheckStringOptions(StringOptions(), o, "fg-ins-batch"));
+  const std::string context = "fg-ins-batch";
+  WG_RETURN_IF_ERROR(
+      CheckEnumOption(InsInitializationNames(), o.initialization, "initialization", context));
+  WG_RETURN_IF_ERROR(CheckEnumOption(LossKindNames(), o.rss_loss, "rss_loss", context));
+  WG_RETURN_IF_ERROR(CheckEnumOption(LossKindNames(), o.range_loss, "range_loss", context));
+  WG_RETURN_IF_ERROR(CheckEnumOption(InsPathLossNames(), o.path_loss, "path_loss", context));
   if (!(o.init_lag_s > 0) || !(o.init_marginalize_batch_s >= 0) ||
       !(o.initial_trust_region_radius > 0)) {
     return InvalidArgument(
@@ -85,9 +101,9 @@ Status InsGraphOptions::Validate() const {
 
 namespace {
 
-InsFactor MakeFactor(std::string kind, ceres::CostFunction* cost, std::vector<double*> blocks) {
+InsFactor MakeFactor(InsFactorKind kind, ceres::CostFunction* cost, std::vector<double*> blocks) {
   InsFactor f;
-  f.kind = std::move(kind);
+  f.kind = kind;
   f.cost.reset(cost);
   f.blocks = std::move(blocks);
   return f;
@@ -150,8 +166,8 @@ StatusOr<InsGraphOptions> InsGraphOptions::FromYaml(const YAML::Node& node) {
   r.Read("compute_covariance", &o.compute_covariance,
          "compute the state covariances of the output");
   r.Read("max_iterations", &o.max_iterations, "fg-ins-batch: most Levenberg-Marquardt iterations");
-  r.Read("initialization", &o.initialization, Allowed("initialization"),
-         "batch start: the ZUPT-aided INS (front-end) or a fast window pass");
+  r.ReadEnum("initialization", &o.initialization, InsInitializationNames(),
+             "batch start: the ZUPT-aided INS (front-end) or a fast window pass");
   r.Read("init_lag_s", &o.init_lag_s, "initialization window: lag of the fast fg-ins-window pass");
   r.Read("init_marginalize_batch_s", &o.init_marginalize_batch_s,
          "initialization window: states leave in batches of this span");
@@ -169,16 +185,16 @@ StatusOr<InsGraphOptions> InsGraphOptions::FromYaml(const YAML::Node& node) {
   r.Read("use_rss", &o.use_rss, "add the walk's rss.csv as RSS factors (dB domain)");
   r.Read("use_ranges", &o.use_ranges, "add the walk's range.csv as range factors");
   r.Read("receiver_offset_z_m", &o.receiver_offset_z_m, "receiver height above the IMU");
-  r.Read("rss_loss", &o.rss_loss, Allowed("rss_loss"), "robust loss of the RSS factors");
+  r.ReadEnum("rss_loss", &o.rss_loss, LossKindNames(), "robust loss of the RSS factors");
   r.Read("rss_loss_scale", &o.rss_loss_scale,
          "scale of the RSS loss, in sigma of the whitened residual");
-  r.Read("range_loss", &o.range_loss, Allowed("range_loss"), "robust loss of the range factors");
+  r.ReadEnum("range_loss", &o.range_loss, LossKindNames(), "robust loss of the range factors");
   r.Read("range_loss_scale", &o.range_loss_scale,
          "scale of the range loss, in sigma of the whitened residual");
   r.Read("estimate_range_bias", &o.estimate_range_bias,
          "estimate a per-anchor additive range bias");
-  r.Read("path_loss", &o.path_loss, Allowed("path_loss"),
-         "path loss (A, eta) of the RSS factors: held, global, or per anchor");
+  r.ReadEnum("path_loss", &o.path_loss, InsPathLossNames(),
+             "path loss (A, eta) of the RSS factors: held, global, or per anchor");
   r.Read("A_prior_sigma_db", &o.A_prior_sigma_db,
          "prior sigma of estimated A around walk.yaml's value");
   r.Read("eta_prior_sigma", &o.eta_prior_sigma,
@@ -258,7 +274,8 @@ void AddInsStateBlocks(ceres::Problem* problem, InsState* s, ceres::Manifold* q_
 std::vector<InsFactor> InsStateFactors(const InsGraphContext& c, InsState* s) {
   std::vector<InsFactor> out;
   if (s->zupt) {
-    out.push_back(MakeFactor("zupt", ZuptFactor::Create(c.options.zupt_sigma_mps), {s->v.data()}));
+    out.push_back(MakeFactor(InsFactorKind::kZupt, ZuptFactor::Create(c.options.zupt_sigma_mps),
+                             {s->v.data()}));
   }
   return out;
 }
@@ -300,14 +317,15 @@ StatusOr<std::vector<InsFactor>> InsBetweenFactors(const InsGraphContext& c, Ins
     }
   }
   std::vector<InsFactor> out;
-  out.push_back(MakeFactor("imu", ImuPreintegrationFactor::Create(pim, o.front_end.gravity_mps2),
+  out.push_back(MakeFactor(InsFactorKind::kImu,
+                           ImuPreintegrationFactor::Create(pim, o.front_end.gravity_mps2),
                            {a->p.data(), a->v.data(), a->q.data(), a->bg.data(), a->ba.data(),
                             b->p.data(), b->v.data(), b->q.data()}));
   const double dt = b->t_s - a->t_s;
-  out.push_back(MakeFactor("bias_rw_gyro",
+  out.push_back(MakeFactor(InsFactorKind::kBiasRwGyro,
                            BiasRandomWalkFactor::Create(o.front_end.gyro_bias_rw_radps_sqrts, dt),
                            {a->bg.data(), b->bg.data()}));
-  out.push_back(MakeFactor("bias_rw_acc",
+  out.push_back(MakeFactor(InsFactorKind::kBiasRwAcc,
                            BiasRandomWalkFactor::Create(o.front_end.acc_bias_rw_mps2_sqrts, dt),
                            {a->ba.data(), b->ba.data()}));
   if (o.use_zaru && c.still != nullptr && c.still->size() == imu.size()) {
@@ -320,7 +338,7 @@ StatusOr<std::vector<InsFactor>> InsBetweenFactors(const InsGraphContext& c, Ins
     }
     if (m > 0) {
       out.push_back(MakeFactor(
-          "zaru",
+          InsFactorKind::kZaru,
           ZaruFactor::Create(sum / m, o.zaru_sigma_radps / std::sqrt(static_cast<double>(m))),
           {b->bg.data()}));
     }
@@ -346,24 +364,26 @@ std::vector<InsFactor> InsGaugeFactors(const InsGraphContext& c, InsState* first
   }
   // Without a known start but with radio, the anchors fix the gauge.
   if (c.walk->meta.initial_pose || !HasRadio(c)) {
-    out.push_back(MakeFactor("prior", InsPriorFactor::Create(p0, sigma_p, yaw0, sigma_yaw),
+    out.push_back(MakeFactor(InsFactorKind::kPrior,
+                             InsPriorFactor::Create(p0, sigma_p, yaw0, sigma_yaw),
                              {first->p.data(), first->q.data()}));
   }
   if (o.use_bias_prior) {
     out.push_back(MakeFactor(
-        "bias_prior_gyro",
+        InsFactorKind::kBiasPriorGyro,
         BiasPriorFactor::Create(Eigen::Vector3d::Zero(), o.front_end.gyro_bias_sigma_radps),
         {first->bg.data()}));
     out.push_back(MakeFactor(
-        "bias_prior_acc",
+        InsFactorKind::kBiasPriorAcc,
         BiasPriorFactor::Create(Eigen::Vector3d::Zero(), o.front_end.acc_bias_sigma_mps2),
         {first->ba.data()}));
   }
   if (o.use_zaru && c.still != nullptr && c.still->size() == c.walk->imu.size() &&
       (*c.still)[first->imu_index]) {
-    out.push_back(MakeFactor(
-        "zaru", ZaruFactor::Create(c.walk->imu[first->imu_index].gyro_radps, o.zaru_sigma_radps),
-        {first->bg.data()}));
+    out.push_back(
+        MakeFactor(InsFactorKind::kZaru,
+                   ZaruFactor::Create(c.walk->imu[first->imu_index].gyro_radps, o.zaru_sigma_radps),
+                   {first->bg.data()}));
   }
   return out;
 }
@@ -435,9 +455,9 @@ Where ReceiverAt(const InsGraphContext& c, std::vector<InsState>* states, size_t
 
 }  // namespace
 
-std::string ResolveInsPathLoss(const InsGraphOptions& o, const RadioDefaults& radio) {
-  if (o.path_loss != "auto") return o.path_loss;
-  return radio.calibrated ? "fixed" : "global";
+PathLossMode ResolveInsPathLoss(const InsGraphOptions& o, const RadioDefaults& radio) {
+  if (o.path_loss != PathLossMode::kAuto) return o.path_loss;
+  return radio.calibrated ? PathLossMode::kFixed : PathLossMode::kGlobal;
 }
 
 namespace {
@@ -450,7 +470,7 @@ double* PathLossBlock(const InsGraphOptions& o, int id, InsRadioBlocks* blocks,
   auto [it, created] = blocks->anchor_path_loss.emplace(id, blocks->path_loss);
   if (blocks->anchor_path_loss_prior_added.insert(id).second) {
     out->push_back(MakeFactor(
-        "path_loss_spread",
+        InsFactorKind::kPathLossSpread,
         DifferencePriorFactor<2>::Create(Eigen::Vector2d(o.A_spread_prior_db, o.eta_spread_prior)),
         {it->second.data(), blocks->path_loss.data()}));
   }
@@ -477,13 +497,13 @@ StatusOr<std::vector<InsFactor>> InsRadioFactors(const InsGraphContext& c,
       blocks->path_loss = {radio.path_loss.A_dbm, radio.path_loss.eta};
       blocks->path_loss_set = true;
     }
-    const std::string model = ResolveInsPathLoss(o, radio);
-    blocks->estimate_path_loss = model != "fixed";
-    blocks->per_anchor_path_loss = model == "hierarchical";
+    const PathLossMode model = ResolveInsPathLoss(o, radio);
+    blocks->estimate_path_loss = model != PathLossMode::kFixed;
+    blocks->per_anchor_path_loss = model == PathLossMode::kHierarchical;
     if (blocks->estimate_path_loss && !blocks->path_loss_prior_added) {
       blocks->path_loss_prior_added = true;
       out.push_back(MakeFactor(
-          "path_loss_prior",
+          InsFactorKind::kPathLossPrior,
           new ceres::NormalPrior(
               Eigen::Vector2d(1.0 / o.A_prior_sigma_db, 1.0 / o.eta_prior_sigma).asDiagonal(),
               Eigen::Vector2d(radio.path_loss.A_dbm, radio.path_loss.eta)),
@@ -503,9 +523,10 @@ StatusOr<std::vector<InsFactor>> InsRadioFactors(const InsGraphContext& c,
       const Where at = where(r.t_s);
       InsFactor f;
       if (at.b == nullptr) {
-        f = MakeFactor("rss", RssFactor<3>::Create(reading), {at.a->p.data(), path_loss});
+        f = MakeFactor(InsFactorKind::kRss, RssFactor<3>::Create(reading),
+                       {at.a->p.data(), path_loss});
       } else {
-        f = MakeFactor("rss", RssFactor<3>::CreateInterpolated(reading, at.alpha),
+        f = MakeFactor(InsFactorKind::kRss, RssFactor<3>::CreateInterpolated(reading, at.alpha),
                        {at.a->p.data(), at.b->p.data(), path_loss});
       }
       f.anchor_id = r.anchor_id;
@@ -522,7 +543,7 @@ StatusOr<std::vector<InsFactor>> InsRadioFactors(const InsGraphContext& c,
       double* bias = &blocks->range_bias_m[r.anchor_id];
       if (o.estimate_range_bias && blocks->bias_prior_added.insert(r.anchor_id).second) {
         out.push_back(MakeFactor(
-            "range_bias_prior",
+            InsFactorKind::kRangeBiasPrior,
             new ceres::NormalPrior(Eigen::MatrixXd::Constant(1, 1, 1.0 / o.range_bias_sigma_m),
                                    Eigen::VectorXd::Zero(1)),
             {bias}));
@@ -531,10 +552,10 @@ StatusOr<std::vector<InsFactor>> InsRadioFactors(const InsGraphContext& c,
       const Where at = where(r.t_s);
       InsFactor f;
       if (at.b == nullptr) {
-        f = MakeFactor("range", RangeFactor<3>::Create(r.range_m, anchor, sigma),
+        f = MakeFactor(InsFactorKind::kRange, RangeFactor<3>::Create(r.range_m, anchor, sigma),
                        {at.a->p.data(), bias});
       } else {
-        f = MakeFactor("range",
+        f = MakeFactor(InsFactorKind::kRange,
                        RangeFactor<3>::CreateInterpolated(r.range_m, anchor, sigma, at.alpha),
                        {at.a->p.data(), at.b->p.data(), bias});
       }
@@ -545,14 +566,14 @@ StatusOr<std::vector<InsFactor>> InsRadioFactors(const InsGraphContext& c,
   for (const Waypoint& wp : w.waypoints) {  // known positions of the foot
     if (!inside(wp.t_s)) continue;
     const Where at = where(wp.t_s);
-    out.push_back(
-        at.b == nullptr
-            ? MakeFactor("waypoint", PositionPriorFactor<3>::Create(wp.position_m, wp.sigma_m),
-                         {at.a->p.data()})
-            : MakeFactor(
-                  "waypoint",
-                  PositionPriorFactor<3>::CreateInterpolated(wp.position_m, wp.sigma_m, at.alpha),
-                  {at.a->p.data(), at.b->p.data()}));
+    out.push_back(at.b == nullptr
+                      ? MakeFactor(InsFactorKind::kWaypoint,
+                                   PositionPriorFactor<3>::Create(wp.position_m, wp.sigma_m),
+                                   {at.a->p.data()})
+                      : MakeFactor(InsFactorKind::kWaypoint,
+                                   PositionPriorFactor<3>::CreateInterpolated(wp.position_m,
+                                                                              wp.sigma_m, at.alpha),
+                                   {at.a->p.data(), at.b->p.data()}));
   }
   return out;
 }
@@ -833,7 +854,7 @@ StatusOr<std::unique_ptr<ceres::Problem>> BuildInsBatch(
   for (InsFactor& f : radio_factors) {
     const ceres::ResidualBlockId id =
         problem->AddResidualBlock(f.cost.release(), f.loss.release(), f.blocks);
-    if (f.kind == "rss") out->rss.emplace_back(f.anchor_id, id);
+    if (f.kind == InsFactorKind::kRss) out->rss.emplace_back(f.anchor_id, id);
   }
   WG_RETURN_IF_ERROR(AddInsUserFactors(problem.get(), states, user));
   HoldInsRadioBlocks(problem.get(), radio, context.options);
@@ -880,8 +901,8 @@ StatusOr<InsBatchSolve> SolveInsBatch(const InsGraphContext& context, std::vecto
 std::optional<internal::AnchorOffsetTest> TestInsAnchors(const InsGraphOptions& o,
                                                          const InsRadioBlocks& radio,
                                                          const InsBatchSolve& solve) {
-  if (o.path_loss != "auto" || !radio.estimate_path_loss || radio.per_anchor_path_loss ||
-      !(o.path_loss_anchor_test_z > 0) || solve.rss.empty()) {
+  if (o.path_loss != PathLossMode::kAuto || !radio.estimate_path_loss ||
+      radio.per_anchor_path_loss || !(o.path_loss_anchor_test_z > 0) || solve.rss.empty()) {
     return std::nullopt;
   }
   std::vector<std::pair<int, double>> residuals;
@@ -902,7 +923,7 @@ StatusOr<EstimateResult> InsGraphBatch::Run(const Walk& walk) const {
   const InsGraphOptions& o = options_;
   WG_ASSIGN_OR_RETURN(ZuptInsSolution front, RunZuptIns(walk, o.front_end));
   WG_ASSIGN_OR_RETURN(std::vector<InsState> states, InitialInsStates(walk, front, o));
-  if (o.initialization == "window") {
+  if (o.initialization == InsInitialization::kWindow) {
     InsWindowOptions wo;
     wo.graph = o;
     wo.graph.compute_covariance = false;
@@ -937,7 +958,7 @@ StatusOr<EstimateResult> InsGraphBatch::Run(const Walk& walk) const {
   WG_ASSIGN_OR_RETURN(InsBatchSolve solve, SolveInsBatch(context, &states, &radio, user, solver));
   const std::optional<internal::AnchorOffsetTest> test = TestInsAnchors(o, radio, solve);
   if (test && test->disagree) {  // per anchor, from the global solution
-    context.options.path_loss = "hierarchical";
+    context.options.path_loss = PathLossMode::kHierarchical;
     const int iterations = solve.iterations;
     WG_ASSIGN_OR_RETURN(solve, SolveInsBatch(context, &states, &radio, user, solver));
     solve.iterations += iterations;

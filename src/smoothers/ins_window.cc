@@ -99,16 +99,11 @@ std::optional<double> YawSigma(FixedLagSmoother* smoother, StateKey q_key) {
   return std::sqrt((*c)(2, 2));
 }
 
-// The window's string options and their values (read and checked against these).
-const std::vector<StringOption<InsWindowOptions>> kStringOptions = {
-    {"window_output", &InsWindowOptions::window_output, {"lagged", "online"}},
-    {"preintegration_bias", &InsWindowOptions::preintegration_bias, {"front-end", "estimate"}}};
-
 }  // namespace
 
 StatusOr<InsWindowOptions> InsWindowOptions::FromYaml(const YAML::Node& node,
                                                       const std::string& context,
-                                                      const std::string& default_output) {
+                                                      WindowOutput default_output) {
   InsWindowOptions o;
   o.window_output = default_output;
   // The window's own keys are read here, the rest by InsGraphOptions::FromYaml.
@@ -130,11 +125,10 @@ StatusOr<InsWindowOptions> InsWindowOptions::FromYaml(const YAML::Node& node,
   r.Read("window_update_s", &o.window_update_s,
          "0: one update per state; > 0: states gathered per this period");
   r.Read("window_max_iterations", &o.window_max_iterations, "most LM iterations per window update");
-  r.Read("window_output", &o.window_output, AllowedValues(kStringOptions, "window_output"),
-         "each state's estimate when it leaves the window, or right after added");
-  r.Read("preintegration_bias", &o.preintegration_bias,
-         AllowedValues(kStringOptions, "preintegration_bias"),
-         "bias point of each IMU preintegration: the front end's or the window's");
+  r.ReadEnum("window_output", &o.window_output, WindowOutputNames(),
+             "each state's estimate when it leaves the window, or right after added");
+  r.ReadEnum("preintegration_bias", &o.preintegration_bias, PreintegrationBiasNames(),
+             "bias point of each IMU preintegration: the front end's or the window's");
   r.Read("window_marginalize_batch_s", &o.window_marginalize_batch_s,
          "states leave the window in batches of this span");
   r.Read("window_initial_trust_region_radius", &o.window_initial_trust_region_radius,
@@ -147,6 +141,12 @@ StatusOr<InsWindowOptions> InsWindowOptions::FromYaml(const YAML::Node& node,
   StatusOr<InsGraphOptions> graph = InsGraphOptions::FromYaml(rest);
   if (!graph.ok()) return InvalidArgument(context + ": " + graph.status().message());
   o.graph = *graph;
+  WG_RETURN_IF_ERROR(o.Validate(context));
+  return o;
+}
+
+Status InsWindowOptions::Validate(const std::string& context) const {
+  const InsWindowOptions& o = *this;
   if (!(o.lag_s > 0) || !(o.window_update_s >= 0) || o.window_max_iterations < 1 ||
       !(o.window_marginalize_batch_s >= 0) || !(o.window_initial_trust_region_radius > 0) ||
       !(o.gap_hold_max_s >= 0) || !(o.gap_release_yaw_sigma_rad > 0)) {
@@ -156,13 +156,18 @@ StatusOr<InsWindowOptions> InsWindowOptions::FromYaml(const YAML::Node& node,
                            "window_initial_trust_region_radius > 0, gap_hold_max_s >= 0, "
                            "gap_release_yaw_sigma_rad > 0");
   }
-  WG_RETURN_IF_ERROR(CheckStringOptions(kStringOptions, o, context));
-  return o;
+  WG_RETURN_IF_ERROR(
+      CheckEnumOption(WindowOutputNames(), o.window_output, "window_output", context));
+  WG_RETURN_IF_ERROR(CheckEnumOption(PreintegrationBiasNames(), o.preintegration_bias,
+                                     "preintegration_bias", context));
+  const Status graph = o.graph.Validate();
+  if (!graph.ok()) return InvalidArgument(context + ": " + graph.message());
+  return Status::Ok();
 }
 
 Status InsGraphWindow::CheckApplicable(const Walk& walk) const {
   const std::string id =
-      options_.window_output == "online" ? "fg-ins-window-online" : "fg-ins-window";
+      options_.window_output == WindowOutput::kOnline ? "fg-ins-window-online" : "fg-ins-window";
   if (walk.meta.imu_placement != ImuPlacement::kFoot) {
     return FailedPrecondition(id + " needs a foot-mounted IMU (imu_placement: foot)");
   }
@@ -181,7 +186,7 @@ class InsWindowRun {
       : walk_(walk),
         o_(options),
         g_(options.graph),
-        online_(options.window_output == "online"),
+        online_(options.window_output == WindowOutput::kOnline),
         smoother_(SmootherOptions(options)) {}
 
   StatusOr<EstimateResult> Run(std::vector<InsState>* lagged_out);
@@ -259,8 +264,9 @@ Status InsWindowRun::Start() {
   for (size_t i = 0; i < n_; ++i) {
     for (int b = 0; b < kBlocksPerState; ++b) key_of_[BlockOf(&build_[i], b)] = Key(i, b);
   }
-  path_loss_key_ =
-      ResolveInsPathLoss(g_, walk_.meta.radio) == "hierarchical" ? Symbol('m', 0) : PathLossKey(0);
+  path_loss_key_ = ResolveInsPathLoss(g_, walk_.meta.radio) == PathLossMode::kHierarchical
+                       ? Symbol('m', 0)
+                       : PathLossKey(0);
   key_of_[radio_.path_loss.data()] = path_loss_key_;
   WG_ASSIGN_OR_RETURN(user_, InsUserFactors(context_, &build_));
   lagged_ = current_ = build_;
@@ -382,7 +388,7 @@ Status InsWindowRun::AddState(size_t i) {
   InsState init = build_[i];
   if (i > 0) {
     init = CarryForward(front_states_[i - 1], front_states_[i], last_);
-    if (o_.preintegration_bias == "estimate") {
+    if (o_.preintegration_bias == PreintegrationBias::kEstimate) {
       build_[i - 1].bg = last_.bg;
       build_[i - 1].ba = last_.ba;
     }
@@ -520,6 +526,7 @@ StatusOr<EstimateResult> InsWindowRun::Run(std::vector<InsState>* lagged_out) {
 
 StatusOr<EstimateResult> RunInsWindow(const Walk& walk, const InsWindowOptions& options,
                                       std::vector<InsState>* lagged_out) {
+  WG_RETURN_IF_ERROR(options.Validate());
   return InsWindowRun(walk, options).Run(lagged_out);
 }
 
@@ -533,7 +540,7 @@ StatusOr<EstimateResult> InsGraphWindow::Run(const Walk& walk) const {
 StatusOr<std::vector<InsState>> InsWindowLaggedStates(const Walk& walk,
                                                       const InsWindowOptions& options) {
   InsWindowOptions o = options;
-  o.window_output = "lagged";
+  o.window_output = WindowOutput::kLagged;
   WG_RETURN_IF_ERROR(InsGraphWindow(o).CheckApplicable(walk));
   std::vector<InsState> lagged;
   WG_RETURN_IF_ERROR(RunInsWindow(walk, o, &lagged).status());
@@ -543,7 +550,7 @@ StatusOr<std::vector<InsState>> InsWindowLaggedStates(const Walk& walk,
 namespace internal {
 
 Status RegisterInsGraphWindow(EstimatorRegistry* registry) {
-  auto parse = [](const char* id, const char* output) {
+  auto parse = [](const char* id, WindowOutput output) {
     return [id, output](const YAML::Node& config) {
       return InsWindowOptions::FromYaml(config, id, output);
     };
@@ -552,11 +559,11 @@ Status RegisterInsGraphWindow(EstimatorRegistry* registry) {
       {"fg-ins-window",
        "foot-INS factor graph as a fixed-lag smoother (10 s lag, marginalization prior): lagged "
        "estimates (foot IMU)",
-       OptionsFactory<InsGraphWindow>(parse("fg-ins-window", "lagged"))}));
+       OptionsFactory<InsGraphWindow>(parse("fg-ins-window", WindowOutput::kLagged))}));
   return registry->Register(
       {"fg-ins-window-online",
        "fg-ins-window's online output: each state right after its own update",
-       OptionsFactory<InsGraphWindow>(parse("fg-ins-window-online", "online"))});
+       OptionsFactory<InsGraphWindow>(parse("fg-ins-window-online", WindowOutput::kOnline))});
 }
 
 }  // namespace internal

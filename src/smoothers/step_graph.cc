@@ -37,27 +37,6 @@ namespace walkgraph {
 
 namespace {
 
-// The string options and the values each allows: the one table FromYaml reads them with and
-// Validate checks them against.
-const std::vector<StringOption<StepGraphOptions>>& StringOptions() {
-  using O = StepGraphOptions;
-  static const std::vector<StringOption<O>> table = {
-      {"mag_heading_loss", &O::mag_heading_loss, internal::LossNames()},
-      {"rss_residual", &O::rss_residual, {"db", "range"}},
-      {"rss_loss", &O::rss_loss, internal::LossNames()},
-      {"range_loss", &O::range_loss, internal::LossNames()},
-      {"path_loss", &O::path_loss, {"auto", "fixed", "global", "per-anchor", "hierarchical"}},
-      {"range_bias", &O::range_bias, {"none", "global", "per-anchor"}},
-      {"range_scale", &O::range_scale, {"none", "global", "per-anchor"}},
-      {"initialization", &O::initialization, {"dead-reckoning", "window", "auto"}},
-      {"window_output", &O::window_output, {"lagged", "online"}},
-      {"window_linear_solver", &O::window_linear_solver, {"dense", "sparse", "eigen-sparse"}}};
-  return table;
-}
-const std::vector<std::string>& Allowed(const std::string& key) {
-  return AllowedValues(StringOptions(), key);
-}
-
 // σ-whitened Gaussian prior r = diag(1/σ)(x − μ) (Ceres' NormalPrior).
 std::unique_ptr<ceres::CostFunction> DiagonalPrior(const Eigen::VectorXd& mean,
                                                    const Eigen::VectorXd& sigma) {
@@ -127,8 +106,8 @@ StatusOr<StepGraphOptions> StepGraphOptions::FromYaml(const YAML::Node& node,
          "add a magnetometer HeadingFactor per step when the steps carry one");
   r.Read("mag_heading_sigma_rad", &o.mag_heading_sigma_rad,
          "sigma of the magnetometer heading factor");
-  r.Read("mag_heading_loss", &o.mag_heading_loss, Allowed("mag_heading_loss"),
-         "robust loss of the magnetometer heading factor");
+  r.ReadEnum("mag_heading_loss", &o.mag_heading_loss, LossKindNames(),
+             "robust loss of the magnetometer heading factor");
   r.Read("mag_heading_loss_scale", &o.mag_heading_loss_scale,
          "scale of that loss, in sigma of the whitened residual");
   r.Read("odometry_sigma_dist_frac", &o.odometry_sigma_dist_frac,
@@ -139,12 +118,12 @@ StatusOr<StepGraphOptions> StepGraphOptions::FromYaml(const YAML::Node& node,
          "odometry walks: lateral sigma per increment");
   r.Read("odometry_sigma_dheading_rad", &o.odometry_sigma_dheading_rad,
          "odometry walks: heading-increment sigma per increment");
-  r.Read("rss_residual", &o.rss_residual, Allowed("rss_residual"),
-         "RSS residual in dB (RssFactor) or as a range (RssRangeFactor, 004 eq. 7)");
-  r.Read("rss_loss", &o.rss_loss, Allowed("rss_loss"), "robust loss of the RSS factors");
+  r.ReadEnum("rss_residual", &o.rss_residual, RssResidualNames(),
+             "RSS residual in dB (RssFactor) or as a range (RssRangeFactor, 004 eq. 7)");
+  r.ReadEnum("rss_loss", &o.rss_loss, LossKindNames(), "robust loss of the RSS factors");
   r.Read("rss_loss_scale", &o.rss_loss_scale,
          "scale of the RSS loss, in sigma of the whitened residual");
-  r.Read("range_loss", &o.range_loss, Allowed("range_loss"), "robust loss of the range factors");
+  r.ReadEnum("range_loss", &o.range_loss, LossKindNames(), "robust loss of the range factors");
   r.Read("range_loss_scale", &o.range_loss_scale,
          "scale of the range loss, in sigma of the whitened residual");
   r.Read("receiver_height_m", &o.receiver_height_m,
@@ -156,8 +135,8 @@ StatusOr<StepGraphOptions> StepGraphOptions::FromYaml(const YAML::Node& node,
   r.Read("eta", &o.eta,
          "path loss exponent; 0: walk.yaml radio's; prior mean when self-calibrating");
   r.Read("sigma_db", &o.sigma_db, "RSS noise sigma; 0: walk.yaml radio's");
-  r.Read("path_loss", &o.path_loss, Allowed("path_loss"),
-         "self-calibration of the path loss (A, eta) of the RSS factors");
+  r.ReadEnum("path_loss", &o.path_loss, PathLossModeNames(),
+             "self-calibration of the path loss (A, eta) of the RSS factors");
   r.Read("A_prior_sigma_db", &o.A_prior_sigma_db,
          "prior sigma of estimated A around the walk's value");
   r.Read("eta_prior_sigma", &o.eta_prior_sigma,
@@ -166,12 +145,12 @@ StatusOr<StepGraphOptions> StepGraphOptions::FromYaml(const YAML::Node& node,
          "hierarchical: sigma of one anchor's A around the walk-wide mean");
   r.Read("eta_spread_prior", &o.eta_spread_prior,
          "hierarchical: sigma of one anchor's eta around the walk-wide mean");
-  r.Read("range_bias", &o.range_bias, Allowed("range_bias"),
-         "additive range bias b estimated: none, one for the walk, or per anchor");
+  r.ReadEnum("range_bias", &o.range_bias, CalibrationScopeNames(),
+             "additive range bias b estimated: none, one for the walk, or per anchor");
   r.Read("range_bias_prior_sigma_m", &o.range_bias_prior_sigma_m,
          "prior sigma of the range bias b");
-  r.Read("range_scale", &o.range_scale, Allowed("range_scale"),
-         "range scale error s (rho = (1 + s) d + b): none, global or per anchor");
+  r.ReadEnum("range_scale", &o.range_scale, CalibrationScopeNames(),
+             "range scale error s (rho = (1 + s) d + b): none, global or per anchor");
   r.Read("range_scale_prior_sigma", &o.range_scale_prior_sigma,
          "prior sigma of the range scale error s");
   r.Read("align_window_s", &o.align_window_s,
@@ -181,8 +160,8 @@ StatusOr<StepGraphOptions> StepGraphOptions::FromYaml(const YAML::Node& node,
          "start check: least turn of the aligned dead reckoning to drop it");
   r.Read("start_check_sigmas", &o.start_check_sigmas,
          "start check: least turn in heading sigmas to drop it");
-  r.Read("initialization", &o.initialization, Allowed("initialization"),
-         "fg-batch start: dead reckoning, a fast fixed-lag pass, or by walk");
+  r.ReadEnum("initialization", &o.initialization, StepGraphInitNames(),
+             "fg-batch start: dead reckoning, a fast fixed-lag pass, or by walk");
   r.Read("max_iterations", &o.max_iterations, "fg-batch: most Levenberg-Marquardt iterations");
   r.Read("initial_trust_region_radius", &o.initial_trust_region_radius,
          "fg-batch: LM starting trust-region radius");
@@ -194,10 +173,10 @@ StatusOr<StepGraphOptions> StepGraphOptions::FromYaml(const YAML::Node& node,
   r.Read("lag_s", &o.lag_s, "fg-window: span of the fixed-lag window");
   r.Read("window_max_iterations", &o.window_max_iterations,
          "fg-window: most LM iterations per window update");
-  r.Read("window_output", &o.window_output, Allowed("window_output"),
-         "fg-window: each node's estimate when it leaves the window, or right after added");
-  r.Read("window_linear_solver", &o.window_linear_solver, Allowed("window_linear_solver"),
-         "fg-window: linear solver of each window solve");
+  r.ReadEnum("window_output", &o.window_output, WindowOutputNames(),
+             "fg-window: each node's estimate when it leaves the window, or right after added");
+  r.ReadEnum("window_linear_solver", &o.window_linear_solver, WindowLinearSolverNames(),
+             "fg-window: linear solver of each window solve");
   r.Read("window_update_s", &o.window_update_s,
          "fg-window: 0 one update per node; > 0 nodes gathered per this period");
   r.Read("window_marginalize_batch_s", &o.window_marginalize_batch_s,
@@ -289,8 +268,23 @@ Status CheckStepGraphOptions(const StepGraphOptions& o, const std::string& conte
     return InvalidArgument(
         context + ": max_iterations, window_max_iterations, init_max_iterations, num_threads >= 1");
   }
-  WG_RETURN_IF_ERROR(CheckStringOptions(StringOptions(), o, context));
-  if (o.path_loss != "auto" && o.path_loss != "fixed" && o.rss_residual != "db") {
+  WG_RETURN_IF_ERROR(
+      CheckEnumOption(LossKindNames(), o.mag_heading_loss, "mag_heading_loss", context));
+  WG_RETURN_IF_ERROR(CheckEnumOption(RssResidualNames(), o.rss_residual, "rss_residual", context));
+  WG_RETURN_IF_ERROR(CheckEnumOption(LossKindNames(), o.rss_loss, "rss_loss", context));
+  WG_RETURN_IF_ERROR(CheckEnumOption(LossKindNames(), o.range_loss, "range_loss", context));
+  WG_RETURN_IF_ERROR(CheckEnumOption(PathLossModeNames(), o.path_loss, "path_loss", context));
+  WG_RETURN_IF_ERROR(CheckEnumOption(CalibrationScopeNames(), o.range_bias, "range_bias", context));
+  WG_RETURN_IF_ERROR(
+      CheckEnumOption(CalibrationScopeNames(), o.range_scale, "range_scale", context));
+  WG_RETURN_IF_ERROR(
+      CheckEnumOption(StepGraphInitNames(), o.initialization, "initialization", context));
+  WG_RETURN_IF_ERROR(
+      CheckEnumOption(WindowOutputNames(), o.window_output, "window_output", context));
+  WG_RETURN_IF_ERROR(CheckEnumOption(WindowLinearSolverNames(), o.window_linear_solver,
+                                     "window_linear_solver", context));
+  if (o.path_loss != PathLossMode::kAuto && o.path_loss != PathLossMode::kFixed &&
+      o.rss_residual != RssResidual::kDb) {
     return InvalidArgument(context + ": path-loss self-calibration needs rss_residual 'db'");
   }
   WG_RETURN_IF_ERROR(positive(o.init_lag_s, "init_lag_s"));
@@ -310,12 +304,12 @@ namespace {
 
 // path_loss "auto": see StepGraphOptions::path_loss. *held_radio_only: auto held it because
 // the walk has neither steps nor odometry.
-std::string ResolvePathLoss(const Walk& walk, const StepGraphOptions& o, bool* held_radio_only) {
+PathLossMode ResolvePathLoss(const Walk& walk, const StepGraphOptions& o, bool* held_radio_only) {
   *held_radio_only = false;
-  if (o.path_loss != "auto") return o.path_loss;
-  if (walk.meta.radio.calibrated || o.rss_residual != "db") return "fixed";
+  if (o.path_loss != PathLossMode::kAuto) return o.path_loss;
+  if (walk.meta.radio.calibrated || o.rss_residual != RssResidual::kDb) return PathLossMode::kFixed;
   *held_radio_only = !walk.has_odometry() && !walk.has_imu();
-  return *held_radio_only ? "fixed" : "hierarchical";
+  return *held_radio_only ? PathLossMode::kFixed : PathLossMode::kHierarchical;
 }
 
 // The static states' keys (graph.h lists the letters); group: the anchor index or 0.
@@ -495,7 +489,7 @@ struct StepGraph::Impl {
   std::shared_ptr<const ceres::LossFunction> rss_loss, range_loss, mag_loss;
 
   bool PathLossPerAnchor() const {
-    return o.path_loss == "per-anchor" || o.path_loss == "hierarchical";
+    return o.path_loss == PathLossMode::kPerAnchor || o.path_loss == PathLossMode::kHierarchical;
   }
   int PathLossGroup(int anchor) const { return PathLossPerAnchor() ? anchor : 0; }
   void CheckStartHeading(const Walk& walk, StepGraph* g);
@@ -523,8 +517,12 @@ struct StepGraph::Impl {
     }
     return x;
   }
-  int RangeBiasGroup(int anchor) const { return o.range_bias == "per-anchor" ? anchor : 0; }
-  int RangeScaleGroup(int anchor) const { return o.range_scale == "per-anchor" ? anchor : 0; }
+  int RangeBiasGroup(int anchor) const {
+    return o.range_bias == CalibrationScope::kPerAnchor ? anchor : 0;
+  }
+  int RangeScaleGroup(int anchor) const {
+    return o.range_scale == CalibrationScope::kPerAnchor ? anchor : 0;
+  }
 };
 
 StepGraph::~StepGraph() = default;
@@ -930,14 +928,15 @@ void StepGraph::Impl::MakeHeights(const Walk& walk, const std::vector<double>& n
 }
 
 bool StepGraph::path_loss_estimated() const {
-  return impl_->any_rss && impl_->o.rss_residual == "db" && impl_->o.path_loss != "fixed";
+  return impl_->any_rss && impl_->o.rss_residual == RssResidual::kDb &&
+         impl_->o.path_loss != PathLossMode::kFixed;
 }
 
 std::vector<SmootherState> StepGraph::StaticStates() const {
   const Impl& m = *impl_;
   std::vector<SmootherState> out;
   const PathLossParams& pl = m.radio.path_loss;
-  if (m.any_rss && m.o.rss_residual == "db") {
+  if (m.any_rss && m.o.rss_residual == RssResidual::kDb) {
     std::set<int> groups;
     for (size_t a = 0; a < m.anchors.size(); ++a) {
       if (m.anchor_has_rss[a]) groups.insert(m.PathLossGroup(static_cast<int>(a)));
@@ -946,10 +945,10 @@ std::vector<SmootherState> StepGraph::StaticStates() const {
       SmootherState s;
       s.key = PathLossKey(gr);
       s.value = {pl.A_dbm, pl.eta};
-      s.constant = m.o.path_loss == "fixed";
+      s.constant = m.o.path_loss == PathLossMode::kFixed;
       out.push_back(std::move(s));
     }
-    if (m.o.path_loss == "hierarchical") {
+    if (m.o.path_loss == PathLossMode::kHierarchical) {
       SmootherState s;
       s.key = kPathLossMeanKey;
       s.value = {pl.A_dbm, pl.eta};
@@ -965,7 +964,7 @@ std::vector<SmootherState> StepGraph::StaticStates() const {
       SmootherState s;
       s.key = RangeBiasKey(gr);
       s.value = {0.0};
-      s.constant = m.o.range_bias == "none";
+      s.constant = m.o.range_bias == CalibrationScope::kNone;
       out.push_back(std::move(s));
     }
     std::set<int> scale_groups;
@@ -976,7 +975,7 @@ std::vector<SmootherState> StepGraph::StaticStates() const {
       SmootherState s;
       s.key = RangeScaleKey(gr);
       s.value = {0.0};
-      s.constant = m.o.range_scale == "none";
+      s.constant = m.o.range_scale == CalibrationScope::kNone;
       out.push_back(std::move(s));
     }
   }
@@ -1048,7 +1047,7 @@ void StepGraph::Impl::AddReadingFactors(int k, std::vector<SmootherFactor>* out)
       continue;
     }
     const Eigen::Vector3d& anchor = anchors[r.index].position_m;
-    if (r.kind == Reading::Kind::kRss && o.rss_residual == "db") {
+    if (r.kind == Reading::Kind::kRss && o.rss_residual == RssResidual::kDb) {
       RssFactor<2>::Reading rd;
       rd.rss = r.value;
       rd.anchor_m = anchor;
@@ -1126,7 +1125,7 @@ std::vector<SmootherFactor> StepGraph::FactorsAt(int k) const {
         add_owned(DiagonalPrior(Eigen::VectorXd::Zero(1),
                                 Eigen::VectorXd::Constant(1, o.range_bias_prior_sigma_m)),
                   {s.key});
-      } else if (letter == 'l' && o.path_loss == "hierarchical") {  // tied to the mean
+      } else if (letter == 'l' && o.path_loss == PathLossMode::kHierarchical) {  // tied to the mean
         add(DifferencePriorFactor<2>::Create(
                 Eigen::Vector2d(o.A_spread_prior_db, o.eta_spread_prior)),
             {s.key, kPathLossMeanKey});
@@ -1225,9 +1224,9 @@ void AddStaticDiagnostics(const StepGraph& graph,
     if (s.key == kGyroBiasKey) {
       (*d)["gyro_bias_radps"] = v[0];
     } else if (letter == 's') {
-      (*d)[name("range_scale", o.range_scale == "per-anchor", g)] = v[0];
+      (*d)[name("range_scale", o.range_scale == CalibrationScope::kPerAnchor, g)] = v[0];
     } else if (letter == 'b') {
-      (*d)[name("range_bias_m", o.range_bias == "per-anchor", g)] = v[0];
+      (*d)[name("range_bias_m", o.range_bias == CalibrationScope::kPerAnchor, g)] = v[0];
     } else {  // l(g): per anchor unless global; m(0): hierarchical's walk-wide mean
       const bool per_anchor = letter == 'l' && graph.path_loss_per_anchor();
       (*d)[name("path_loss_A", per_anchor, g)] = v[0];
@@ -1345,14 +1344,15 @@ StatusOr<EstimateResult> StepGraphBatch::Run(const Walk& walk) const {
   // auto: dead reckoning for odometry walks (wheel odometry barely drifts), the window for
   // IMU steps (a gyro's heading drift over a long walk leaves dead reckoning in a wrong basin:
   // measured on correa-classroom 0.85 → 0.23 m RMSE, gadeke-outage 18.8 → 0.71 m).
-  const bool window_init = options_.initialization == "window" ||
-                           (options_.initialization == "auto" && !walk.has_odometry());
+  const bool window_init =
+      options_.initialization == StepGraphInit::kWindow ||
+      (options_.initialization == StepGraphInit::kAuto && !walk.has_odometry());
   if (window_init) {
     // Start from the fixed-lag smoother's lagged estimates (it grows the solution
     // incrementally, so it does not get lost).
     StepGraphOptions wo = options_;
     wo.covariance = false;
-    wo.window_output = "lagged";
+    wo.window_output = WindowOutput::kLagged;
     wo.lag_s = options_.init_lag_s;
     wo.window_update_s = options_.init_update_s;
     wo.window_max_iterations = options_.init_max_iterations;
@@ -1443,9 +1443,10 @@ FixedLagSmoother::Options WindowSmootherOptions(const StepGraphOptions& o) {
   so.marginalize_batch_s = o.window_marginalize_batch_s;
   so.solver.initial_trust_region_radius = o.window_initial_trust_region_radius;
   so.solver.max_iterations = o.window_max_iterations;
-  so.solver.linear_solver = o.window_linear_solver == "dense" ? LinearSolver::kDenseNormalCholesky
-                                                              : LinearSolver::kSparseNormalCholesky;
-  so.solver.eigen_sparse = o.window_linear_solver == "eigen-sparse";
+  so.solver.linear_solver = o.window_linear_solver == WindowLinearSolver::kDense
+                                ? LinearSolver::kDenseNormalCholesky
+                                : LinearSolver::kSparseNormalCholesky;
+  so.solver.eigen_sparse = o.window_linear_solver == WindowLinearSolver::kEigenSparse;
   so.solver.function_tolerance = o.window_function_tolerance;
   so.solver.parameter_tolerance = o.parameter_tolerance;
   so.solver.num_threads = o.num_threads;
@@ -1455,7 +1456,7 @@ FixedLagSmoother::Options WindowSmootherOptions(const StepGraphOptions& o) {
 StatusOr<EstimateResult> RunWindowNodes(const Walk& walk, const StepGraphOptions& options_) {
   WG_ASSIGN_OR_RETURN(std::unique_ptr<StepGraph> graph, StepGraph::Build(walk, options_));
   const int n = graph->num_nodes();
-  const bool online = options_.window_output == "online";
+  const bool online = options_.window_output == WindowOutput::kOnline;
   FixedLagSmoother smoother(WindowSmootherOptions(options_));
 
   std::vector<TrajectoryPoint> points(n);
@@ -1582,9 +1583,9 @@ Status RegisterStepGraphSmoothers(EstimatorRegistry* registry) {
     };
   };
   StepGraphOptions selfcal;
-  selfcal.path_loss = "global";
+  selfcal.path_loss = PathLossMode::kGlobal;
   StepGraphOptions online;
-  online.window_output = "online";
+  online.window_output = WindowOutput::kOnline;
   WG_RETURN_IF_ERROR(registry->Register(
       {"fg-batch",
        "factor graph, full batch: steps/odometry + RSS (dB) / ranges (bias, robust), Ceres "

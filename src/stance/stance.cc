@@ -178,15 +178,22 @@ StatusOr<StanceOptions> StanceOptions::FromYaml(const YAML::Node& node) {
   r.Read("still_acc_std_mps2", &o.still_acc_std_mps2,
          "ZARU still detection: largest acceleration std-dev");
   WG_RETURN_IF_ERROR(r.Finish());
+  WG_RETURN_IF_ERROR(o.Validate());
+  return o;
+}
+
+Status StanceOptions::Validate() const {
+  const StanceOptions& o = *this;
   if (o.window < 1 || o.mc_std_window < 1 || o.mc_median_window < 1 || o.sigma_acc_mps2 <= 0 ||
       o.sigma_gyro_radps <= 0 || o.still_window_s < 0) {
     return InvalidArgument("stance: windows must be >= 1 and sigmas > 0");
   }
-  return o;
+  return Status::Ok();
 }
 
 StatusOr<StanceMask> DetectStance(const Walk& walk, const StanceOptions& o) {
   WG_RETURN_IF_ERROR(CheckImu(walk, o));
+  WG_RETURN_IF_ERROR(o.Validate());
   if (o.window < 1 || o.mc_std_window < 1 || o.mc_median_window < 1) {
     return InvalidArgument("stance: windows must be >= 1");
   }

@@ -64,6 +64,8 @@ struct CorreaEkfOptions {
   bool smooth = false;            // RTS ("-rts")
 
   static StatusOr<CorreaEkfOptions> FromYaml(const YAML::Node& node, const std::string& context);
+  // Every rule FromYaml applies; the filter refuses options that break one.
+  Status Validate(const std::string& context = "correa-ekf") const;
 };
 
 // P_FA(P_Th) of eq. 19 and its inverse for the model `model` (dBm) and d_max.
@@ -94,6 +96,8 @@ struct CorreaEstimatorOptions {
   // `scmt` and `smooth` come from the id; `id` names the estimator in messages.
   static StatusOr<CorreaEstimatorOptions> FromYaml(const YAML::Node& node, CorreaVariant variant,
                                                    bool smooth, const std::string& id);
+  // Every rule FromYaml applies (filter and front ends); Run refuses options that break one.
+  Status Validate(const std::string& id = "correa") const;
 };
 
 class CorreaEstimator : public Estimator {

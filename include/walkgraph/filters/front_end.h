@@ -46,6 +46,8 @@ struct RadioFrontEndOptions {
   static StatusOr<RadioFrontEndOptions> FromYaml(const YAML::Node& node,
                                                  const RadioFrontEndOptions& defaults,
                                                  const std::string& context);
+  // Every rule FromYaml applies; messages are prefixed "<context> radio".
+  Status Validate(const std::string& context = "estimator") const;
 };
 
 // The `pdr:` child map: PdrOptions::FromYaml of the paper's defaults (PdrOptions keys and

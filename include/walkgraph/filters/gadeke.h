@@ -59,6 +59,8 @@ struct GadekeKfOptions {
   bool smooth = false;  // RTS ("gadeke-kf-rts")
 
   static StatusOr<GadekeKfOptions> FromYaml(const YAML::Node& node, const std::string& context);
+  // Every rule FromYaml applies; the filter refuses options that break one.
+  Status Validate(const std::string& context = "gadeke-kf") const;
 };
 
 struct GadekeStart {
@@ -81,6 +83,8 @@ struct GadekeEstimatorOptions {
   static GadekeEstimatorOptions PaperDefaults();
   static StatusOr<GadekeEstimatorOptions> FromYaml(const YAML::Node& node, bool smooth,
                                                    const std::string& id);
+  // Every rule FromYaml applies (filter and front ends); Run refuses options that break one.
+  Status Validate(const std::string& id = "gadeke-kf") const;
 };
 
 class GadekeEstimator : public Estimator {

@@ -85,6 +85,12 @@ inline constexpr int kJimenezAccBias = 12;
 using JimenezMatrix = Eigen::Matrix<double, kJimenezStateSize, kJimenezStateSize>;
 using JimenezVector = Eigen::Matrix<double, kJimenezStateSize, 1>;
 
+// JimenezIezOptions::stance_source: detector | labels.
+enum class JimenezStanceSource { kDetector, kLabels };
+const EnumNames<JimenezStanceSource>& JimenezStanceSourceNames();
+const char* ToString(JimenezStanceSource s);
+StatusOr<JimenezStanceSource> JimenezStanceSourceFromString(const std::string& name);
+
 struct JimenezIezOptions {
   // Process noise. 004 Table I lists only bias stability; the white-noise densities are the
   // Xsens MTi data-sheet values (the paper's IMU): 0.002 m/s²/√Hz, 0.05 °/s/√Hz. The bias
@@ -107,7 +113,7 @@ struct JimenezIezOptions {
   bool initial_heading_from_pose = true;  // initial_pose.heading_rad is the IMU x-axis yaw
   // IMU sample convention of strapdown.h ("interval-average" | "instantaneous"); a simulated
   // walk's sim.imu_interval_average overrides it when imu_sampling_from_walk.
-  std::string imu_sampling = "interval-average";
+  ImuSampling imu_sampling = ImuSampling::kIntervalAverage;
   bool imu_sampling_from_walk = true;
   double gravity_mps2 = 9.81;
 
@@ -130,7 +136,7 @@ struct JimenezIezOptions {
   // "detector" (stance.h) or "labels": the walk's stance_truth (e.g. PyShoe's Vicon zv labels,
   // the simulator's truth) as an oracle, for studies that separate detection from filtering.
   // ZARU's still flags always come from the detector.
-  std::string stance_source = "detector";
+  JimenezStanceSource stance_source = JimenezStanceSource::kDetector;
 
   // Compass heading update at stance (004 Algorithm 1 lines 10–11). The paper gives no σ;
   // 10° is our choice. compass_every_stance_sample (default, as the pseudo-code: inside the
@@ -170,6 +176,8 @@ struct JimenezIezOptions {
   // Every field above by its name (angles in radians), plus `stance:` (StanceOptions keys).
   static StatusOr<JimenezIezOptions> FromYaml(const YAML::Node& node, const std::string& context,
                                               bool use_rss, bool smooth);
+  // Every rule FromYaml applies; RunJimenezIez refuses options that break one.
+  Status Validate(const std::string& context = "jimenez-iez") const;
 };
 
 // The INS nominal state the error state is defined about.

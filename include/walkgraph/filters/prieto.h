@@ -191,6 +191,8 @@ struct PrietoOptions {
   static StatusOr<PrietoOptions> FromYaml(const YAML::Node& node, const std::string& context,
                                           const PrietoOptions& defaults);
   static StatusOr<PrietoOptions> FromYaml(const YAML::Node& node, const std::string& context);
+  // Every rule FromYaml applies; the filter refuses options that break one.
+  Status Validate(const std::string& context = "prieto") const;
 };
 
 namespace prieto {

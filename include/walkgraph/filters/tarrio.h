@@ -37,6 +37,7 @@
 #include <yaml-cpp/yaml.h>
 #include <Eigen/Core>
 
+#include "walkgraph/enum_names.h"
 #include "walkgraph/estimator.h"
 #include "walkgraph/filters/front_end.h"
 #include "walkgraph/measurements.h"
@@ -46,13 +47,24 @@ namespace walkgraph {
 
 enum class TarrioMode { kKalman, kRssOnly, kRssPdrReset, kPdrOnly };
 
+// TarrioKfOptions::prediction: last-velocity | pdr-displacement.
+enum class TarrioPrediction { kLastVelocity, kPdrDisplacement };
+const EnumNames<TarrioPrediction>& TarrioPredictionNames();
+const char* ToString(TarrioPrediction p);
+StatusOr<TarrioPrediction> TarrioPredictionFromString(const std::string& name);
+// TarrioEstimatorOptions::start: first-fix | initial-pose.
+enum class TarrioStart { kFirstFix, kInitialPose };
+const EnumNames<TarrioStart>& TarrioStartNames();
+const char* ToString(TarrioStart s);
+StatusOr<TarrioStart> TarrioStartFromString(const std::string& name);
+
 struct TarrioKfOptions {
   double sigma_a_mps2 = 0.1;  // eq. 6
   double sigma_v_mps = 0.1;   // eq. 6
   double sigma_p_m = 2.0;     // eq. 7
   // "last-velocity": eq. 8 as written (ΔT times the last PDR velocity). "pdr-displacement": the
   // PDR displacement integrated by eq. 13 since the last epoch (exact for curved paths).
-  std::string prediction = "last-velocity";
+  TarrioPrediction prediction = TarrioPrediction::kLastVelocity;
   // Mahalanobis gate on the fix innovation: the χ²(2) quantile of this probability; 0 = off
   // (the paper does not gate).
   double gate_probability = 0.0;
@@ -60,6 +72,8 @@ struct TarrioKfOptions {
   bool smooth = false;
 
   static StatusOr<TarrioKfOptions> FromYaml(const YAML::Node& node, const std::string& context);
+  // Every rule FromYaml applies; RunTarrio refuses options that break one.
+  Status Validate(const std::string& context = "tarrio-kf") const;
 };
 
 // Runs one of the four variants on front-end outputs. Steps and fixes must be sorted by time.
@@ -83,13 +97,16 @@ struct TarrioEstimatorOptions {
   RadioFrontEndOptions radio;  // 000 Sec. IV: ΔT = 2 s epochs, hyperbolic positioning (eq. 2)
   // pdr-only: start at the first RSS fix (000 Sec. IV: "the initial localization result is used
   // as the starting point for the PDR system") or at the walk's initial_pose.
-  std::string start = "first-fix";
+  TarrioStart start = TarrioStart::kFirstFix;
 
   // 000's front-end defaults.
   static TarrioEstimatorOptions PaperDefaults();
   // `id` names the estimator in messages; `smooth` is set by the id (tarrio-kf-rts).
   static StatusOr<TarrioEstimatorOptions> FromYaml(const YAML::Node& node, TarrioMode mode,
                                                    bool smooth, const std::string& id);
+  // Every rule FromYaml applies (filter and front ends); TarrioEstimator::Run refuses options
+  // that break one.
+  Status Validate(const std::string& id = "tarrio") const;
 };
 
 class TarrioEstimator : public Estimator {
@@ -101,7 +118,9 @@ class TarrioEstimator : public Estimator {
 
  private:
   bool UsesSteps() const { return mode_ != TarrioMode::kRssOnly; }
-  bool UsesFixes() const { return mode_ != TarrioMode::kPdrOnly || options_.start == "first-fix"; }
+  bool UsesFixes() const {
+    return mode_ != TarrioMode::kPdrOnly || options_.start == TarrioStart::kFirstFix;
+  }
 
   std::string id_;
   TarrioMode mode_;

@@ -83,6 +83,7 @@
 
 #include "walkgraph/estimator.h"
 #include "walkgraph/graph.h"
+#include "walkgraph/smoothers/graph_options.h"
 #include "walkgraph/status.h"
 #include "walkgraph/strides.h"
 #include "walkgraph/walk.h"
@@ -113,7 +114,7 @@ struct InsGraphOptions {
   // position drift grows with the walk and the batch must undo it: from the front end LM took 31
   // iterations on a 16-min prieto-laps walk and 173 on 1 h; the window grows the solution
   // incrementally and hands the batch a start near its optimum.
-  std::string initialization = "window";
+  InsInitialization initialization = InsInitialization::kWindow;
   double init_lag_s = 10.0;
   double init_marginalize_batch_s = 1.0;
   // LM's starting trust-region radius (Ceres' default 1e4 damps a long chain's soft modes).
@@ -133,9 +134,9 @@ struct InsGraphOptions {
   double receiver_offset_z_m = 0.0;  // receiver above the IMU (jimenez-building sim: 1 m)
   // Cauchy at 1σ: on prieto-laps (30 % NLOS, +6 dB / +3 m) 2-lap RMSE 0.38 m vs 0.62 m with
   // Huber at 2σ (mean of 4 seeds); jimenez-building unchanged (0.18 m).
-  std::string rss_loss = "cauchy";
+  LossKind rss_loss = LossKind::kCauchy;
   double rss_loss_scale = 1.0;
-  std::string range_loss = "cauchy";
+  LossKind range_loss = LossKind::kCauchy;
   double range_loss_scale = 1.0;
   bool estimate_range_bias = false;  // per-anchor additive range bias, prior N(0, σ²)
   double range_bias_sigma_m = 1.0;
@@ -154,7 +155,7 @@ struct InsGraphOptions {
   // at path_loss_anchor_test_z (the normal quantile of the test's level: 3.09, p = 0.001;
   // 0: never). Measured (seed 1): identical anchors T = 54 for 66 anchors (critical 105),
   // spread T = 9,949. fg-ins-window keeps global (it cannot solve its past again).
-  std::string path_loss = "auto";
+  PathLossMode path_loss = PathLossMode::kAuto;  // not kPerAnchor
   double A_prior_sigma_db = 10.0;
   double eta_prior_sigma = 1.0;
   double A_spread_prior_db = 4.0;
@@ -190,9 +191,30 @@ struct InsState {
   Eigen::Vector3d acc_bias() const { return Eigen::Vector3d(ba[0], ba[1], ba[2]); }
 };
 
+// What an InsFactor is (its name: imu, bias_rw_gyro, …, waypoint).
+enum class InsFactorKind {
+  kImu,
+  kBiasRwGyro,
+  kBiasRwAcc,
+  kZupt,
+  kZaru,
+  kPrior,
+  kBiasPriorGyro,
+  kBiasPriorAcc,
+  kPathLossSpread,
+  kPathLossPrior,
+  kRss,
+  kRange,
+  kRangeBiasPrior,
+  kWaypoint
+};
+const EnumNames<InsFactorKind>& InsFactorKindNames();
+const char* ToString(InsFactorKind k);
+StatusOr<InsFactorKind> InsFactorKindFromString(const std::string& name);
+
 // A cost function with its (optional) loss and the parameter blocks it acts on.
 struct InsFactor {
-  std::string kind;    // imu | bias_rw_gyro | bias_rw_acc | zupt | zaru | prior | bias_prior_*
+  InsFactorKind kind = InsFactorKind::kImu;
   int anchor_id = -1;  // rss, range: the reading's anchor
   std::unique_ptr<ceres::CostFunction> cost;
   std::unique_ptr<ceres::LossFunction> loss;
@@ -255,7 +277,7 @@ StatusOr<std::vector<InsFactor>> InsRadioFactors(const InsGraphContext& context,
                                                  InsRadioBlocks* blocks);
 
 // InsGraphOptions::path_loss resolved for a walk's radio: fixed, global or hierarchical.
-std::string ResolveInsPathLoss(const InsGraphOptions& options, const RadioDefaults& radio);
+PathLossMode ResolveInsPathLoss(const InsGraphOptions& options, const RadioDefaults& radio);
 
 // Holds the path loss constant unless estimated, and the range biases unless
 // estimate_range_bias.

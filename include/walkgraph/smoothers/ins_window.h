@@ -70,8 +70,8 @@ struct InsWindowOptions {
   double lag_s = 10.0;
   double window_update_s = 0.0;  // 0: one update per state; > 0: states gathered per period
   int window_max_iterations = 10;
-  std::string window_output = "lagged";           // lagged | online
-  std::string preintegration_bias = "front-end";  // front-end | estimate (see the top)
+  WindowOutput window_output = WindowOutput::kLagged;
+  PreintegrationBias preintegration_bias = PreintegrationBias::kFrontEnd;  // (see the top)
   // FixedLagSmoother::Options: states leave in batches of this span; LM's starting radius
   // (the window is warm-started: nearly undamped). Measured on a 60-min prieto-laps walk
   // without covariances: 0 s / 1e4 (Ceres' default) 16.9 s, RMSE 0.621 m; 1 s / 1e8 9.7 s,
@@ -94,7 +94,10 @@ struct InsWindowOptions {
   // default), preintegration_bias, gap_hold_max_s, gap_release_yaw_sigma_rad, and every
   // InsGraphOptions key at the same level (InsGraphOptions::FromYaml); unknown keys are errors.
   static StatusOr<InsWindowOptions> FromYaml(const YAML::Node& node, const std::string& context,
-                                             const std::string& default_output = "lagged");
+                                             WindowOutput default_output = WindowOutput::kLagged);
+  // Every rule the YAML reader applies (and graph.Validate()); the window's Run refuses options
+  // that break one. Messages are prefixed with `context`.
+  Status Validate(const std::string& context = "fg-ins-window") const;
 };
 
 class InsGraphWindow : public Estimator {

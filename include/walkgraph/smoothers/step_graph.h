@@ -50,6 +50,7 @@
 #include "walkgraph/estimator.h"
 #include "walkgraph/pdr.h"
 #include "walkgraph/smoothers/fixed_lag_smoother.h"
+#include "walkgraph/smoothers/graph_options.h"
 
 namespace walkgraph {
 
@@ -73,7 +74,7 @@ struct StepGraphOptions {
   double gyro_bias_prior_sigma_radps = 0.02;
   bool use_mag_heading = true;  // HeadingFactor per step when the steps carry it
   double mag_heading_sigma_rad = 0.35;
-  std::string mag_heading_loss = "cauchy";
+  LossKind mag_heading_loss = LossKind::kCauchy;
   double mag_heading_loss_scale = 1.0;
   // Odometry walks: OdometryFactor σ (the odometry-dr defaults).
   double odometry_sigma_dist_frac = 0.05;
@@ -135,13 +136,14 @@ struct StepGraphOptions {
   double floor_snap_storeys = 0.25;
 
   // Radio.
-  std::string rss_residual = "db";  // db (RssFactor) | range (RssRangeFactor, 004 eq. 7)
+  // db (RssFactor) | range (RssRangeFactor, 004 eq. 7).
+  RssResidual rss_residual = RssResidual::kDb;
   // Cauchy at 0.5σ: with 20 % NLOS readings 15 dB low (tarrio-circle) the RMSE rises 1.16×
   // over clean data, against 1.88× for Huber at 2σ, and clean data lose nothing (0.332 vs
   // 0.343 m); measured, see docs/results.md.
-  std::string rss_loss = "cauchy";
+  LossKind rss_loss = LossKind::kCauchy;
   double rss_loss_scale = 0.5;  // in σ (residuals are whitened)
-  std::string range_loss = "cauchy";
+  LossKind range_loss = LossKind::kCauchy;
   double range_loss_scale = 2.0;
   double receiver_height_m = 0.0;  // receiver z for the planar graph
   double range_sigma_m = 0.0;      // > 0: overrides walk.meta.radio.range_sigma_m
@@ -172,7 +174,7 @@ struct StepGraphOptions {
   // diagnostics: path_loss_estimated = 1 when (A, η) were estimated; path_loss_A /
   // path_loss_eta the walk-wide estimate (global, or hierarchical's mean), path_loss_A.<id> /
   // path_loss_eta.<id> each anchor's (per-anchor, hierarchical).
-  std::string path_loss = "auto";
+  PathLossMode path_loss = PathLossMode::kAuto;
   double A_prior_sigma_db = 10.0;
   double eta_prior_sigma = 1.0;
   // hierarchical: how far one anchor's (A, η) may sit from the walk's mean (1σ). Spreads
@@ -180,9 +182,9 @@ struct StepGraphOptions {
   // tenths in η (surroundings); chosen from that, not tuned on a walk.
   double A_spread_prior_db = 4.0;
   double eta_spread_prior = 0.4;
-  std::string range_bias = "per-anchor";  // none | global | per-anchor
+  CalibrationScope range_bias = CalibrationScope::kPerAnchor;  // none | global | per-anchor
   double range_bias_prior_sigma_m = 5.0;
-  std::string range_scale = "global";  // none | global | per-anchor: ρ = (1 + s)·d + b
+  CalibrationScope range_scale = CalibrationScope::kGlobal;  // ρ = (1 + s)·d + b
   double range_scale_prior_sigma = 0.1;
 
   // Initialization and solver. fg-batch starts from dead reckoning ("dead-reckoning"), from
@@ -199,7 +201,7 @@ struct StepGraphOptions {
   bool start_check = true;
   double start_check_rad = 1.0471975511965976;  // 60°
   double start_check_sigmas = 5.0;
-  std::string initialization = "auto";
+  StepGraphInit initialization = StepGraphInit::kAuto;
   double init_lag_s = 20.0;
   double init_update_s = 5.0;
   int init_max_iterations = 10;  // LM iterations per update of that pass
@@ -221,9 +223,9 @@ struct StepGraphOptions {
   // sparse: SPARSE_NORMAL_CHOLESKY on SuiteSparse; eigen-sparse: the same on Eigen's
   // SimplicialLDLT (less set-up per solve, which dominates on a window of ~100 blocks:
   // Plaza1 without covariances 2.62 → 2.28 s); dense: DENSE_NORMAL_CHOLESKY.
-  std::string window_linear_solver = "eigen-sparse";
+  WindowLinearSolver window_linear_solver = WindowLinearSolver::kEigenSparse;
   double window_update_s = 0.0;          // 0: one update per node; > 0: nodes gathered per period
-  std::string window_output = "lagged";  // lagged | online
+  WindowOutput window_output = WindowOutput::kLagged;
   // States leave the window in batches of this span (FixedLagSmoother::Options): one
   // marginalization and one covariance solve per batch instead of per node; 0: per update.
   double window_marginalize_batch_s = 1.0;
