@@ -9,6 +9,8 @@
 
 #include "walkgraph/angle.h"
 #include "walkgraph/convert.h"
+#include "walkgraph/simulate.h"
+#include "walkgraph/strides.h"
 
 namespace walkgraph {
 namespace {
@@ -157,6 +159,114 @@ TEST(StanceTest, PyshoeTrialsAgainstViconLabels) {
       std::printf("pyshoe %s %-15s best threshold %.4g precision %.3f recall %.3f F1 %.3f\n", trial,
                   ToString(d), best->threshold, best->precision(), best->recall(), f1(*best));
       if (d == StanceDetector::kGlrt) EXPECT_GT(f1(*best), 0.8) << trial;
+    }
+  }
+}
+
+// What the adaptive default reaches against zv_vicon on both shared trials (issue 21's target
+// is 0.9; the trials' labels disagree on what stance is: the Vicon foot speed that best
+// reproduces them is 0.72 m/s on 11-22-03 and 0.033 m/s on 11-48-35, and with one speed
+// threshold the Vicon speed itself reaches F1 0.75 on both, so no single detector setting can
+// reach 0.9 on both).
+constexpr double kAdaptivePyshoeF1 = 0.65;
+
+double F1(const StanceScore& s) {
+  return 2 * s.precision() * s.recall() / std::max(s.precision() + s.recall(), 1e-12);
+}
+
+// The adaptive detector finds the synthetic stance with no threshold given: its statistic's
+// clusters are where no fixed γ of the other tests was tuned (noise ×30: the stance cluster
+// moves up three decades), and a fixed GLRT at its default misses every stance there.
+TEST(StanceTest, AdaptiveFollowsTheWalksOwnStatistic) {
+  Walk w = MakeFootWalk(2);
+  std::mt19937_64 rng(3);
+  std::normal_distribution<double> n01(0.0, 1.0);
+  for (ImuSample& s : w.imu) {
+    for (int k = 0; k < 3; ++k) s.gyro_radps[k] += 0.1 * n01(rng);  // a noisy gyro
+  }
+  auto labels = StanceLabelsAtImu(w);
+  ASSERT_TRUE(labels.ok());
+  StanceOptions fixed = StrideOptions::DefaultStance();
+  fixed.detector = StanceDetector::kGlrt;
+  auto mf = DetectStance(w, fixed);
+  ASSERT_TRUE(mf.ok());
+  EXPECT_LT(ScoreStance(mf->stance, *labels).recall(), 0.1);
+  // With a 5 s window the final 3 s standstill has no swing inside its windows: they take the
+  // walk's γ.
+  for (double window_s : {0.0, 5.0}) {
+    StanceOptions o = StrideOptions::DefaultStance();
+    ASSERT_EQ(o.detector, StanceDetector::kAdaptiveGlrt);
+    o.adaptive_window_s = window_s;
+    auto m = DetectStance(w, o);
+    ASSERT_TRUE(m.ok()) << m.status().ToString();
+    const StanceScore s = ScoreStance(m->stance, *labels);
+    EXPECT_GE(F1(s), 0.9) << "window " << window_s << " precision " << s.precision() << " recall "
+                          << s.recall();
+  }
+}
+
+// A standstill has no swing cluster: the adaptive detector falls back to glrt_threshold (with
+// Otsu's split alone it would call half of the still samples swing).
+TEST(StanceTest, AdaptiveFallsBackWithoutTwoClusters) {
+  Walk w = MakeFootWalk(4);
+  Walk still;
+  for (const ImuSample& s : w.imu) {
+    if (s.t_s >= 10.0) still.imu.push_back(s);
+  }
+  StanceOptions o = StrideOptions::DefaultStance();
+  o.glrt_threshold = 1e9;
+  auto m = DetectStance(still, o);
+  ASSERT_TRUE(m.ok());
+  for (bool b : m->stance) ASSERT_TRUE(b);
+  o.adaptive_fraction = 1.5;
+  EXPECT_FALSE(DetectStance(still, o).ok());
+}
+
+// The default detector of the foot front end against the simulator's truth on both foot
+// presets (walking at 100 Hz, the Xsens noise of 004 Table I).
+TEST(StanceTest, AdaptiveOnTheSimulatedFootPresets) {
+  for (const char* scenario : {"jimenez-building", "prieto-laps"}) {
+    auto w = SimulateScenario(scenario, 5);
+    ASSERT_TRUE(w.ok()) << w.status().ToString();
+    auto labels = StanceLabelsAtImu(*w);
+    ASSERT_TRUE(labels.ok()) << labels.status().ToString();
+    // The front end's detection: the adaptive default after the turn-on gyro bias is removed.
+    auto front = RunZuptIns(*w, StrideOptions());
+    ASSERT_TRUE(front.ok()) << front.status().ToString();
+    const StanceScore s = ScoreStance(front->stance.stance, *labels);
+    std::printf("%s adaptive: precision %.3f recall %.3f F1 %.3f\n", scenario, s.precision(),
+                s.recall(), F1(s));
+    // Measured (seed 5): precision 0.836 / 0.830, recall 1.000 / 1.000, F1 0.911 / 0.907; the
+    // false stance samples are the slow first and last instants of each swing.
+    EXPECT_GE(F1(s), 0.9) << scenario;
+    EXPECT_GE(s.precision(), 0.8) << scenario;
+    EXPECT_GE(s.recall(), 0.99) << scenario;
+  }
+}
+
+// The shared PyShoe trials with every detector at its default setting (the closing note's F1
+// table) and the adaptive default against its targets.
+TEST(StanceTest, PyshoeDefaultsAgainstViconLabels) {
+  const std::string dir = std::string(WALKGRAPH_SHARED_DATASETS) + "/pyshoe_vicon";
+  if (!std::filesystem::exists(dir)) GTEST_SKIP() << dir << " not present";
+  for (const char* trial : {"2017-11-22-11-22-03.csv", "2017-11-22-11-48-35.csv"}) {
+    auto w = Convert("pyshoe", {dir + "/" + trial});
+    ASSERT_TRUE(w.ok()) << w.status().ToString();
+    auto labels = StanceLabelsAtImu(*w);
+    ASSERT_TRUE(labels.ok());
+    for (StanceDetector d :
+         {StanceDetector::kGlrt, StanceDetector::kMv, StanceDetector::kMag, StanceDetector::kAre,
+          StanceDetector::kMultiCondition, StanceDetector::kAdaptiveGlrt}) {
+      StanceOptions o = StrideOptions::DefaultStance();
+      o.detector = d;
+      auto m = DetectStance(*w, o);
+      ASSERT_TRUE(m.ok());
+      const StanceScore s = ScoreStance(m->stance, *labels);
+      std::printf("pyshoe %s %-15s default: precision %.3f recall %.3f F1 %.3f\n", trial,
+                  ToString(d), s.precision(), s.recall(), F1(s));
+      if (d == StanceDetector::kAdaptiveGlrt) {
+        EXPECT_GE(F1(s), kAdaptivePyshoeF1) << trial;
+      }
     }
   }
 }

@@ -13,6 +13,24 @@
 //   C3: ‖ω‖ < ω_max;  stance = median filter (m samples) of C1 ∧ C2 ∧ C3.
 // Its statistic is the local std σ_‖a‖ (th_σ is the threshold the search varies).
 //
+// Adaptive GLRT ("adaptive", the foot front end's default, strides.h): the GLRT statistic of
+// a walk is bimodal — stance samples cluster decades below swing samples — but where the
+// clusters sit depends on the IMU's noise, its mounting, the gait and the floor (the best fixed
+// γ of the two shared PyShoe trials differs by two decades), so γ comes from the walk itself:
+//   L = log10 T (finite, > 0) over the walk, or over a centred window of adaptive_window_s
+//   (recomputed every adaptive_step_s) so that γ follows changes of gait speed;
+//   Otsu's split of L's histogram (adaptive_bins bins between its 0.5th and 99.5th percentile)
+//   gives the class means m_stance < m_swing;  log10 γ = m_stance + α·(m_swing − m_stance),
+//   α = adaptive_fraction (0.5 is Otsu's midpoint; lower is more conservative for ZUPTs).
+//   Not bimodal (m_swing − m_stance < adaptive_min_separation decades, e.g. a standstill or a
+//   window of pure swing, or fewer than adaptive_min_samples samples): a window takes the whole
+//   walk's γ, and a walk that is not bimodal glrt_threshold.
+// Where it fails: a walk that is (nearly) all stance or all swing inside the window has no
+// valley (hence the fallback); shuffling, crawling or a foot that never stops (running on
+// some gaits) gives a stance mode that is not still, and the split then marks the quietest
+// part of the swing; zero-velocity labels that call the whole ground contact (heel strike to
+// toe off) stance cannot be matched by a detector meant for ZUPTs (see docs/estimators.md).
+//
 // ZARU "still" (004): the whole foot at rest — over a centred window of still_window_s,
 // max ‖ω‖ < still_gyro_radps and the std of ‖a‖ < still_acc_std_mps2.
 #ifndef WALKGRAPH_STANCE_H_
@@ -29,7 +47,7 @@
 
 namespace walkgraph {
 
-enum class StanceDetector { kGlrt, kMv, kMag, kAre, kMultiCondition };
+enum class StanceDetector { kGlrt, kMv, kMag, kAre, kMultiCondition, kAdaptiveGlrt };
 const char* ToString(StanceDetector d);
 StatusOr<StanceDetector> StanceDetectorFromString(const std::string& name);
 
@@ -52,17 +70,27 @@ struct StanceOptions {
   int mc_std_window = 15;
   double mc_gyro_max_radps = 50.0 * 3.14159265358979323846 / 180.0;
   int mc_median_window = 11;
+  // Adaptive GLRT (see the top of this file).
+  double adaptive_fraction = 0.3;
+  double adaptive_window_s = 0.0;  // 0: the whole walk
+  double adaptive_step_s = 1.0;
+  int adaptive_bins = 100;
+  double adaptive_min_separation = 1.0;  // decades
+  int adaptive_min_samples = 200;
   // ZARU still detection.
   double still_window_s = 1.0;
   double still_gyro_radps = 0.05;
   double still_acc_std_mps2 = 0.1;
 
-  // The threshold of the selected detector (γ, or th_σ for the multi-condition detector).
+  // The threshold of the selected detector (γ, th_σ for the multi-condition detector, α =
+  // adaptive_fraction for the adaptive one).
   double threshold() const;
   void set_threshold(double value);
 
-  // Keys: detector (glrt|mv|mag|are|multi-condition) and every numeric field by its name.
+  // Keys: detector (glrt|mv|mag|are|multi-condition|adaptive) and every numeric field by its name;
+  // a key the map does not name keeps its value in `base` (a front end's own defaults).
   static StatusOr<StanceOptions> FromYaml(const YAML::Node& node);
+  static StatusOr<StanceOptions> FromYaml(const YAML::Node& node, const StanceOptions& base);
   // Every rule FromYaml applies; DetectStance refuses options that break one.
   Status Validate() const;
 };
@@ -82,7 +110,8 @@ struct StanceScore {
 StanceScore ScoreStance(const std::vector<bool>& detected, const std::vector<bool>& labels);
 
 // Precision/recall per threshold against the walk's stance labels. With no thresholds given,
-// 40 values log-spaced between the 1st and 99th percentile of the detector's statistic.
+// 40 values log-spaced between the 1st and 99th percentile of the detector's statistic (for the
+// adaptive detector: α = 0.05, 0.10, …, 0.95).
 StatusOr<std::vector<StanceScore>> StanceThresholdSearch(const Walk& walk,
                                                          const StanceOptions& base,
                                                          std::vector<double> thresholds = {});

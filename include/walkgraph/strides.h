@@ -51,10 +51,14 @@
 namespace walkgraph {
 
 struct StrideOptions {
-  // Stance detector: OpenShoe's GLRT (stance.h) with γ = 3e3 instead of OpenShoe's 3e5. At
-  // 3e5 the simulated foot presets get ZUPTs while the foot still moves (precision 0.73 vs the
-  // truth labels on jimenez-building) and the EKF's accelerometer bias runs off to 0.4 m/s²;
-  // between 3e2 and 1e4 the ZUPT-INS error is flat (0.96–1.02 % of distance, ibid.).
+  // Stance detector: the adaptive GLRT (stance.h: γ from the walk's own statistic, α = 0.3),
+  // fallback γ = 3e3 instead of OpenShoe's 3e5. A fixed γ does not carry over: at 3e5 the
+  // simulated foot presets get ZUPTs while the foot still moves (precision 0.73 vs the truth
+  // labels on jimenez-building) and the EKF's accelerometer bias runs off to 0.4 m/s²; at 3e3
+  // PyShoe trial 11-48-35 keeps too few ZUPTs and fg-ins-batch ends at 0.825 m RMSE (0.054 m
+  // adaptive). The adaptive γ lands at ≈1.4e3 on the presets and 1.3e4 / 4.4e4 on the two
+  // PyShoe trials (a numpy check of the same statistic); fg-ins-batch RMSE is flat for α in 0.2–0.5
+  // on all four (issue 21).
   StanceOptions stance = DefaultStance();
   // Subtract the mean gyro of the first still run (≥ 0.5 s of `still` samples; else of the
   // rest the walk starts with, ≥ 1 s of 0.5 s windows whose gyro and ‖a‖ spreads stay below the
@@ -89,8 +93,9 @@ struct StrideOptions {
   double min_sigma_dheading_rad = 0.002;
 
   // Keys: sampling (interval-average|instantaneous), stance (a map, StanceOptions keys), and
-  // every other field by its name.
+  // every other field by its name; a key the map does not name keeps its value in `base`.
   static StatusOr<StrideOptions> FromYaml(const YAML::Node& node);
+  static StatusOr<StrideOptions> FromYaml(const YAML::Node& node, const StrideOptions& base);
   // Every rule FromYaml applies; ComputeStrides and RunZuptIns refuse options that break one.
   Status Validate() const;
   static StanceOptions DefaultStance();

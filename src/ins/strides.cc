@@ -269,12 +269,17 @@ Step MakeStride(double t_s, double t_ref, const Eigen::Vector2d& d, double yaw, 
 
 StanceOptions StrideOptions::DefaultStance() {
   StanceOptions s;
-  s.glrt_threshold = 3e3;
+  s.detector = StanceDetector::kAdaptiveGlrt;
+  s.glrt_threshold = 3e3;  // the adaptive detector's fallback (and the fixed GLRT's γ)
   return s;
 }
 
 StatusOr<StrideOptions> StrideOptions::FromYaml(const YAML::Node& node) {
-  StrideOptions o;
+  return FromYaml(node, StrideOptions());
+}
+
+StatusOr<StrideOptions> StrideOptions::FromYaml(const YAML::Node& node, const StrideOptions& base) {
+  StrideOptions o = base;
   ConfigReader r(node, "strides");
   r.ReadEnum("sampling", &o.sampling, ImuSamplingNames(),
              "IMU sample convention (strapdown.h): interval averages or instantaneous values");
@@ -309,10 +314,7 @@ StatusOr<StrideOptions> StrideOptions::FromYaml(const YAML::Node& node) {
   WG_RETURN_IF_ERROR(r.Finish());
   if (stance.IsDefined()) {
     // Keys absent from the map keep this front end's defaults (not stance.h's).
-    YAML::Node merged = YAML::Clone(stance);
-    if (merged.IsMap() && !merged["glrt_threshold"])
-      merged["glrt_threshold"] = o.stance.glrt_threshold;
-    WG_ASSIGN_OR_RETURN(o.stance, StanceOptions::FromYaml(merged));
+    WG_ASSIGN_OR_RETURN(o.stance, StanceOptions::FromYaml(stance, o.stance));
   }
   WG_RETURN_IF_ERROR(CheckOptions(o));
   return o;

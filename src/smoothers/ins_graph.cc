@@ -208,7 +208,7 @@ StatusOr<InsGraphOptions> InsGraphOptions::FromYaml(const YAML::Node& node) {
   r.Read("range_bias_sigma_m", &o.range_bias_sigma_m, "prior sigma of the per-anchor range bias");
   WG_RETURN_IF_ERROR(r.Finish());
   if (front.IsDefined()) {
-    WG_ASSIGN_OR_RETURN(o.front_end, StrideOptions::FromYaml(front));
+    WG_ASSIGN_OR_RETURN(o.front_end, StrideOptions::FromYaml(front, o.front_end));
   }
   WG_RETURN_IF_ERROR(o.Validate());
   return o;

@@ -16,7 +16,8 @@ const std::vector<std::pair<std::string, StanceDetector>> kNames = {
     {"mv", StanceDetector::kMv},
     {"mag", StanceDetector::kMag},
     {"are", StanceDetector::kAre},
-    {"multi-condition", StanceDetector::kMultiCondition}};
+    {"multi-condition", StanceDetector::kMultiCondition},
+    {"adaptive", StanceDetector::kAdaptiveGlrt}};
 
 // T_k of the OpenShoe detectors for the window starting at k (k = 0..n−W).
 std::vector<double> WindowStatistic(const std::vector<ImuSample>& imu, const StanceOptions& o) {
@@ -33,7 +34,8 @@ std::vector<double> WindowStatistic(const std::vector<ImuSample>& imu, const Sta
       const Eigen::Vector3d& a = imu[i].acc_mps2;
       const Eigen::Vector3d& g = imu[i].gyro_radps;
       switch (o.detector) {
-        case StanceDetector::kGlrt: {
+        case StanceDetector::kGlrt:
+        case StanceDetector::kAdaptiveGlrt: {
           const Eigen::Vector3d up =
               mean.norm() > 0 ? Eigen::Vector3d(mean.normalized()) : Eigen::Vector3d::UnitZ();
           sum += (a - o.gravity_mps2 * up).squaredNorm() / sa2 + g.squaredNorm() / sg2;
@@ -87,6 +89,82 @@ std::vector<bool> MedianFilter(const std::vector<bool>& x, int window) {
   return out;
 }
 
+// Otsu's split of the histogram of `v` (sorted ascending): the class means (lower, upper).
+std::pair<double, double> OtsuClassMeans(const std::vector<double>& v, int bins) {
+  const double lo = v[v.size() / 200], hi = v[v.size() - 1 - v.size() / 200];
+  if (!(hi > lo)) return {lo, lo};
+  std::vector<double> count(bins, 0.0);
+  const double width = (hi - lo) / bins;
+  for (double x : v) {
+    const int b = static_cast<int>((x - lo) / width);
+    count[std::clamp(b, 0, bins - 1)] += 1.0;
+  }
+  double total = 0.0, total_sum = 0.0;
+  for (int b = 0; b < bins; ++b) {
+    total += count[b];
+    total_sum += count[b] * (lo + (b + 0.5) * width);
+  }
+  double w0 = 0.0, sum0 = 0.0, best = -1.0;
+  std::pair<double, double> means{lo, hi};
+  for (int b = 0; b + 1 < bins; ++b) {
+    w0 += count[b];
+    sum0 += count[b] * (lo + (b + 0.5) * width);
+    const double w1 = total - w0;
+    if (w0 <= 0.0 || w1 <= 0.0) continue;
+    const double m0 = sum0 / w0, m1 = (total_sum - sum0) / w1;
+    const double between = w0 * w1 * (m1 - m0) * (m1 - m0);
+    if (between > best) {
+      best = between;
+      means = {m0, m1};
+    }
+  }
+  return means;
+}
+
+// γ of the adaptive detector from the statistic of samples [a, b) (see stance.h), `fallback`
+// when they are too few or not bimodal.
+double AdaptiveGamma(const std::vector<double>& statistic, size_t a, size_t b,
+                     const StanceOptions& o, double fallback) {
+  std::vector<double> v;
+  v.reserve(b - a);
+  for (size_t i = a; i < b; ++i) {
+    if (std::isfinite(statistic[i]) && statistic[i] > 0) v.push_back(std::log10(statistic[i]));
+  }
+  if (static_cast<int>(v.size()) < std::max(o.adaptive_min_samples, 2)) return fallback;
+  std::sort(v.begin(), v.end());
+  const auto [m0, m1] = OtsuClassMeans(v, o.adaptive_bins);
+  if (m1 - m0 < o.adaptive_min_separation) return fallback;
+  return std::pow(10.0, m0 + o.adaptive_fraction * (m1 - m0));
+}
+
+// Per-sample γ of the adaptive detector: one for the walk, or one per adaptive_step_s from the
+// centred window of adaptive_window_s.
+std::vector<double> AdaptiveThresholds(const Walk& walk, const std::vector<double>& statistic,
+                                       const StanceOptions& o) {
+  const size_t n = statistic.size();
+  const double walk_gamma = AdaptiveGamma(statistic, 0, n, o, o.glrt_threshold);
+  if (o.adaptive_window_s <= 0.0) return std::vector<double>(n, walk_gamma);
+  std::vector<double> gamma(n);
+  const auto time_index = [&](double t) {
+    return static_cast<size_t>(
+        std::lower_bound(walk.imu.begin(), walk.imu.end(), t,
+                         [](const ImuSample& s, double x) { return s.t_s < x; }) -
+        walk.imu.begin());
+  };
+  const double t0 = walk.imu.front().t_s, step = std::max(o.adaptive_step_s, 1e-3);
+  for (size_t i = 0; i < n;) {
+    const double tc = walk.imu[i].t_s;
+    const size_t a = time_index(tc - 0.5 * o.adaptive_window_s);
+    const size_t b = time_index(tc + 0.5 * o.adaptive_window_s);
+    const double g = AdaptiveGamma(statistic, a, b, o, walk_gamma);
+    const double t_next = t0 + step * (std::floor((tc - t0) / step) + 1.0);
+    const size_t next = std::max(i + 1, time_index(t_next));
+    for (size_t k = i; k < std::min(next, n); ++k) gamma[k] = g;
+    i = next;
+  }
+  return gamma;
+}
+
 Status CheckImu(const Walk& walk, const StanceOptions& o) {
   if (walk.imu.size() < static_cast<size_t>(std::max(o.window, 2))) {
     return FailedPrecondition("stance: the walk needs at least W IMU samples");
@@ -108,7 +186,7 @@ StatusOr<StanceDetector> StanceDetectorFromString(const std::string& name) {
     if (n == name) return value;
   }
   return InvalidArgument("stance: unknown detector " + internal::Quoted(name) +
-                         " (glrt|mv|mag|are|multi-condition)");
+                         " (glrt|mv|mag|are|multi-condition|adaptive)");
 }
 
 double StanceOptions::threshold() const {
@@ -123,6 +201,8 @@ double StanceOptions::threshold() const {
       return are_threshold;
     case StanceDetector::kMultiCondition:
       return mc_acc_std_max_mps2;
+    case StanceDetector::kAdaptiveGlrt:
+      return adaptive_fraction;
   }
   return 0.0;
 }
@@ -144,14 +224,22 @@ void StanceOptions::set_threshold(double value) {
     case StanceDetector::kMultiCondition:
       mc_acc_std_max_mps2 = value;
       break;
+    case StanceDetector::kAdaptiveGlrt:
+      adaptive_fraction = value;
+      break;
   }
 }
 
 StatusOr<StanceOptions> StanceOptions::FromYaml(const YAML::Node& node) {
-  StanceOptions o;
+  return FromYaml(node, StanceOptions());
+}
+
+StatusOr<StanceOptions> StanceOptions::FromYaml(const YAML::Node& node, const StanceOptions& base) {
+  StanceOptions o = base;
   ConfigReader r(node, "stance");
   r.ReadEnum("detector", &o.detector, kNames,
-             "stance detector (OpenShoe's GLRT, MV, MAG, ARE, or multi-condition)");
+             "stance detector (OpenShoe's GLRT, MV, MAG, ARE, multi-condition, or adaptive: the "
+             "GLRT with a threshold from the walk's own statistic)");
   r.Read("window", &o.window, "samples per detector window W");
   r.Read("sigma_acc_mps2", &o.sigma_acc_mps2,
          "accelerometer noise sigma_a of the detector statistics");
@@ -173,6 +261,16 @@ StatusOr<StanceOptions> StanceOptions::FromYaml(const YAML::Node& node) {
          "multi-condition: largest angular rate at stance");
   r.Read("mc_median_window", &o.mc_median_window,
          "multi-condition: samples of the median filter on the decision");
+  r.Read("adaptive_fraction", &o.adaptive_fraction,
+         "adaptive: log-threshold's place between the stance and swing class means (0..1)");
+  r.Read("adaptive_window_s", &o.adaptive_window_s,
+         "adaptive: centred window of the statistic's distribution (0: the whole walk)");
+  r.Read("adaptive_step_s", &o.adaptive_step_s, "adaptive: threshold recomputed every step");
+  r.Read("adaptive_bins", &o.adaptive_bins, "adaptive: histogram bins of Otsu's split");
+  r.Read("adaptive_min_separation", &o.adaptive_min_separation,
+         "adaptive: least decades between the class means, else glrt_threshold is used");
+  r.Read("adaptive_min_samples", &o.adaptive_min_samples,
+         "adaptive: least samples in the window, else glrt_threshold is used");
   r.Read("still_window_s", &o.still_window_s, "ZARU still detection: window span");
   r.Read("still_gyro_radps", &o.still_gyro_radps, "ZARU still detection: largest angular rate");
   r.Read("still_acc_std_mps2", &o.still_acc_std_mps2,
@@ -188,15 +286,18 @@ Status StanceOptions::Validate() const {
       o.sigma_gyro_radps <= 0 || o.still_window_s < 0) {
     return InvalidArgument("stance: windows must be >= 1 and sigmas > 0");
   }
+  if (!(o.adaptive_fraction >= 0.0 && o.adaptive_fraction <= 1.0) || o.adaptive_bins < 2 ||
+      o.adaptive_window_s < 0 || !(o.adaptive_step_s > 0) || o.adaptive_min_separation < 0) {
+    return InvalidArgument(
+        "stance: adaptive_fraction must be in [0, 1], adaptive_bins >= 2, adaptive_step_s > 0, "
+        "adaptive_window_s and adaptive_min_separation >= 0");
+  }
   return Status::Ok();
 }
 
 StatusOr<StanceMask> DetectStance(const Walk& walk, const StanceOptions& o) {
   WG_RETURN_IF_ERROR(CheckImu(walk, o));
   WG_RETURN_IF_ERROR(o.Validate());
-  if (o.window < 1 || o.mc_std_window < 1 || o.mc_median_window < 1) {
-    return InvalidArgument("stance: windows must be >= 1");
-  }
   const size_t n = walk.imu.size();
   StanceMask m;
   m.t_s.resize(n);
@@ -221,9 +322,11 @@ StatusOr<StanceMask> DetectStance(const Walk& walk, const StanceOptions& o) {
     for (size_t k = 0; k < t.size(); ++k) {
       for (size_t i = k; i < k + w; ++i) m.statistic[i] = std::min(m.statistic[i], t[k]);
     }
-    const double gamma = o.threshold();
+    const std::vector<double> gamma = o.detector == StanceDetector::kAdaptiveGlrt
+                                          ? AdaptiveThresholds(walk, m.statistic, o)
+                                          : std::vector<double>(n, o.threshold());
     m.stance.resize(n);
-    for (size_t i = 0; i < n; ++i) m.stance[i] = m.statistic[i] < gamma;
+    for (size_t i = 0; i < n; ++i) m.stance[i] = m.statistic[i] < gamma[i];
   }
 
   // ZARU: centred window of still_window_s.
@@ -288,6 +391,9 @@ StatusOr<std::vector<StanceScore>> StanceThresholdSearch(const Walk& walk,
                                                          const StanceOptions& base,
                                                          std::vector<double> thresholds) {
   WG_ASSIGN_OR_RETURN(const std::vector<bool> labels, StanceLabelsAtImu(walk));
+  if (thresholds.empty() && base.detector == StanceDetector::kAdaptiveGlrt) {
+    for (int i = 1; i <= 19; ++i) thresholds.push_back(0.05 * i);
+  }
   if (thresholds.empty()) {
     WG_ASSIGN_OR_RETURN(const StanceMask m, DetectStance(walk, base));
     std::vector<double> v;
