@@ -169,6 +169,71 @@ TEST(StudyShard, PartsMergeToTheBytesOfTheWholeRun) {
   }
 }
 
+// The MPI ranks claim cells from a shared counter as they finish (StudyOptions::claim_cell):
+// which part runs which cell then depends on timing, the merged bytes must not. Here each part
+// gets an arbitrary share of the claim positions (parts run one after the other: the manifest's
+// YAML nodes are not for concurrent reading within one process; MPI ranks are processes).
+TEST(StudyShard, ClaimedPartsMergeToTheBytesOfTheWholeRun) {
+  const StudyManifest m = Manifest();
+  auto whole = RunStudy(m, {}, Registry());
+  ASSERT_TRUE(whole.ok()) << whole.status().message();
+  const int cells = static_cast<int>(whole->cells.size());
+  for (int n : {2, 3}) {
+    std::vector<std::vector<int>> claims(n);  // claim positions of each part, in order
+    for (int at = 0; at < cells; ++at) claims[(at * at + n) % n].push_back(at);
+    std::vector<StudyPart> parts;
+    size_t run = 0;
+    for (int i = n - 1; i >= 0; --i) {
+      size_t next = 0;
+      StudyOptions claim;
+      claim.claim_cell = [&claims, &next, i] {
+        return next < claims[i].size() ? claims[i][next++] : 1 << 20;
+      };
+      auto part = RunStudyPart(m, {i, n}, claim, Registry());
+      ASSERT_TRUE(part.ok()) << part.status().message();
+      EXPECT_TRUE(part->claimed);
+      EXPECT_EQ(part->cells.size(), claims[i].size());
+      run += part->cells.size();
+      auto back = ParseStudyPart(SerializeStudyPart(*part), "part");
+      ASSERT_TRUE(back.ok()) << back.status().message();
+      EXPECT_TRUE(back->claimed);
+      parts.push_back(std::move(back).value());
+    }
+    EXPECT_EQ(run, whole->cells.size());
+    auto merged = MergeStudyParts(m, parts);
+    ASSERT_TRUE(merged.ok()) << merged.status().message();
+    EXPECT_EQ(StudyCsv(*merged), StudyCsv(*whole)) << n;
+    EXPECT_EQ(RenderStudyHtml(*merged), RenderStudyHtml(*whole)) << n;
+  }
+}
+
+TEST(StudyShard, MergeRefusesClaimedPartsThatMissOrRepeatACell) {
+  const StudyManifest m = Manifest();
+  int next = 0;
+  StudyOptions first;  // claims every cell
+  first.claim_cell = [&next] { return next++; };
+  auto all = RunStudyPart(m, {0, 2}, first, Registry());
+  StudyOptions none;  // claims nothing: the counter is past the last cell
+  none.claim_cell = [] { return 1 << 20; };
+  auto empty = RunStudyPart(m, {1, 2}, none, Registry());
+  ASSERT_TRUE(all.ok() && empty.ok());
+  EXPECT_TRUE(empty->cells.empty());
+  auto message = [&](std::vector<StudyPart> ps) {
+    auto r = MergeStudyParts(m, ps);
+    return r.ok() ? std::string("merged") : r.status().message();
+  };
+  EXPECT_EQ(message({*all, *empty}), "merged");
+  StudyPart twice = *all;
+  twice.shard.index = 1;
+  EXPECT_THAT(message({*all, twice}), HasSubstr("a cell of another part"));
+  StudyPart short_of_one = *all;
+  short_of_one.cells.pop_back();
+  EXPECT_THAT(message({short_of_one, *empty}), HasSubstr("is in no part"));
+  auto fixed = RunStudyPart(m, {1, 2}, {}, Registry());
+  ASSERT_TRUE(fixed.ok());
+  EXPECT_THAT(message({*all, *fixed}), HasSubstr("mixed"));
+}
+
 TEST(StudyShard, BytesKeepEveryDoubleExactly) {
   StudyPart p;
   p.shard = {1, 2};

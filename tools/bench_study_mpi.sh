@@ -9,6 +9,8 @@
 #   balance    the CPU times of the two --shard parts, run one after the other, summed, over
 #              the larger one: the speedup of 2 ranks on 2 free cores without the serial part,
 #              measurable on a busy machine too (CPU time hardly depends on the load);
+#   ceiling    2 T1 / (wall of two independent one-process studies run at once): what two
+#              processes can gain on this machine at all (2.0 on 2 free cores);
 #   serial     what does not shrink with ranks: the launch (`mpirun -np 2 walkgraph --version`)
 #              plus rank 0's merge and write after the gather, measured as `walkgraph study
 #              merge` of the two --shard parts of the same study;
@@ -52,6 +54,10 @@ mpi=(mpirun --oversubscribe --bind-to none -np)
 load0=$(cut -d' ' -f1-3 /proc/loadavg)
 read -r t1 c1 < <(timed "${mpi[@]}" 1 "$cli" study cut.yaml --threads 1 --out np1)
 read -r t2 c2 < <(timed "${mpi[@]}" 2 "$cli" study cut.yaml --threads 1 --out np2)
+# The machine's own ceiling: two independent one-process studies at once (no MPI, nothing
+# shared). On a VM whose two vCPUs are not two free cores this is well below 2x.
+read -r tc _ < <(timed bash -c '"$0" study cut.yaml --threads 1 --out c1 & "$0" study cut.yaml \
+  --threads 1 --out c2; wait' "$cli")
 load1=$(cut -d' ' -f1-3 /proc/loadavg)
 cmp np1/study.csv np2/study.csv && cmp np1/study.html np2/study.html
 launch=$(seconds "${mpi[@]}" 2 "$cli" --version 2> /dev/null)
@@ -60,11 +66,11 @@ read -r _ p1 < <(timed "$cli" study cut.yaml --threads 1 --shard 1/2 --out p1)
 cmp np1/study.csv <("$cli" study merge p0 p1 --out merged > /dev/null && cat merged/study.csv)
 merge=$(seconds "$cli" study merge p0 p1 --out merged)
 python3 - "$t1" "$t2" "$launch" "$merge" "$cells" "$runs" "$load0" "$load1" "$c1" "$c2" "$p0" \
-  "$p1" <<'PY' | tee "$out/study-mpi.md"
+  "$p1" "$tc" <<'PY' | tee "$out/study-mpi.md"
 import sys
 t1, t2, launch, merge = map(float, sys.argv[1:5])
 cells, runs = int(sys.argv[5]), int(sys.argv[6])
-c1, c2, p0, p1 = map(float, sys.argv[9:13])
+c1, c2, p0, p1, tc = map(float, sys.argv[9:14])
 serial = launch + merge
 s = serial / t1
 print("jimenez_tables.yaml cut to %d runs per cell (%d cells), --threads 1 per rank" % (runs, cells))
@@ -75,6 +81,10 @@ print("|---:|---:|---:|---:|")
 print("| 1 | %.1f | %.1f | 1.00 |" % (t1, c1))
 print("| 2 | %.1f | %.1f | %.2f |" % (t2, c2, t1 / t2))
 print()
+ceiling = 2.0 * t1 / tc
+print("machine ceiling: two one-process studies at once %.1f s (one alone %.1f s): at most "
+      "%.2fx from 2 processes here; 2 ranks reached %.0f %% of it" %
+      (tc, t1, ceiling, 100.0 * (t1 / t2) / ceiling))
 print("parts 0/2 and 1/2 alone: CPU %.1f s and %.1f s; balance (sum / larger) %.2f" %
       (p0, p1, (p0 + p1) / max(p0, p1)))
 print("serial part: launch %.2f s + merge and write %.2f s = %.2f s; s = %.4f of T1" %

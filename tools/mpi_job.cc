@@ -76,6 +76,39 @@ int MpiJob::Broadcast(int value) const {
   return value;
 }
 
+SharedCounter::SharedCounter(const MpiJob& job) {
+  if (!job.joined()) return;
+  int* base = nullptr;
+  auto* win = new MPI_Win;
+  const MPI_Aint bytes = job.rank() == 0 ? sizeof(int) : 0;
+  MPI_Win_allocate(bytes, sizeof(int), MPI_INFO_NULL, MPI_COMM_WORLD, &base, win);
+  if (job.rank() == 0) {
+    MPI_Win_lock(MPI_LOCK_EXCLUSIVE, 0, 0, *win);
+    *base = 0;
+    MPI_Win_unlock(0, *win);
+  }
+  MPI_Barrier(MPI_COMM_WORLD);  // the counter is 0 before anyone adds to it
+  window_ = win;
+}
+
+SharedCounter::~SharedCounter() {
+  if (window_ == nullptr) return;
+  auto* win = static_cast<MPI_Win*>(window_);
+  MPI_Win_free(win);
+  delete win;
+}
+
+int SharedCounter::FetchAdd() {
+  if (window_ == nullptr) return local_++;
+  MPI_Win win = *static_cast<MPI_Win*>(window_);
+  const int one = 1;
+  int before = 0;
+  MPI_Win_lock(MPI_LOCK_SHARED, 0, 0, win);
+  MPI_Fetch_and_op(&one, &before, MPI_INT, 0, 0, MPI_SUM, win);
+  MPI_Win_unlock(0, win);
+  return before;
+}
+
 #else  // one process
 
 MpiJob::MpiJob(int*, char***) {}
@@ -85,6 +118,9 @@ walkgraph::StatusOr<std::vector<std::string>> MpiJob::Gather(const std::string& 
   return std::vector<std::string>{bytes};
 }
 int MpiJob::Broadcast(int value) const { return value; }
+SharedCounter::SharedCounter(const MpiJob&) {}
+SharedCounter::~SharedCounter() = default;
+int SharedCounter::FetchAdd() { return local_++; }
 
 #endif
 

@@ -32,9 +32,30 @@ class MpiJob {
   // Collective: rank 0's `value` on every rank.
   int Broadcast(int value) const;
 
+  bool joined() const { return joined_; }
+
  private:
   bool joined_ = false;
   int rank_ = 0, size_ = 1;
+};
+
+// A counter shared by the ranks of a job (MPI one-sided: a window on rank 0, incremented with
+// MPI_Fetch_and_op under a passive-target lock, so no rank waits for another to serve it — with
+// OpenMPI's shared-memory and UCX windows; over plain TCP a claim may wait until rank 0 next
+// calls MPI). Construction and destruction are collective; one process: a plain counter.
+class SharedCounter {
+ public:
+  explicit SharedCounter(const MpiJob& job);
+  ~SharedCounter();
+  SharedCounter(const SharedCounter&) = delete;
+  SharedCounter& operator=(const SharedCounter&) = delete;
+
+  // The counter's value before this call adds 1 (0, 1, 2, ... over all ranks together).
+  int FetchAdd();
+
+ private:
+  int local_ = 0;
+  void* window_ = nullptr;  // MPI_Win (MPI builds, joined jobs)
 };
 
 }  // namespace walkgraph_cli

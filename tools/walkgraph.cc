@@ -482,7 +482,7 @@ struct StudyArgs {
 constexpr char kOtherFailed[] = "stopped: another process of the study failed";
 
 std::string RunOwnPart(const StudyArgs& a, const walkgraph_cli::MpiJob& job,
-                       const walkgraph::StudyShard& shard,
+                       const walkgraph::StudyShard& shard, const std::function<int()>& claim_cell,
                        std::optional<walkgraph::StudyManifest>* manifest_out) {
   Status local;
   auto manifest = walkgraph::ReadStudyManifest(a.manifest);
@@ -498,20 +498,28 @@ std::string RunOwnPart(const StudyArgs& a, const walkgraph_cli::MpiJob& job,
   if (local.ok()) {
     walkgraph::StudyOptions options;
     options.threads = a.threads;
+    options.claim_cell = claim_cell;
     options.validated = [&](const Status& v) {
       agreed = true;
       return job.AllOk(v.ok()) ? Status::Ok() : walkgraph::Cancelled(kOtherFailed);
     };
-    if (job.rank() == 0 && ::isatty(STDERR_FILENO)) {
-      const std::string who =
-          job.size() > 1 ? " (rank 0 of " + std::to_string(job.size()) + ")" : "";
-      options.progress = [who](int done, int total) {
-        std::fprintf(stderr, "\rstudy: %d/%d cells%s", done, total, who.c_str());
+    const bool tty = job.rank() == 0 && ::isatty(STDERR_FILENO);
+    if (tty && job.size() > 1) {
+      const int ranks = job.size();
+      options.progress = [ranks](int done, int total) {
+        std::fprintf(stderr, "\rstudy: rank 0 of %d has run %d of the %d cells", ranks, done,
+                     total);
+        std::fflush(stderr);
+      };
+    } else if (tty) {
+      options.progress = [](int done, int total) {
+        std::fprintf(stderr, "\rstudy: %d/%d cells", done, total);
         if (done == total) std::fprintf(stderr, "\n");
         std::fflush(stderr);
       };
     }
     part = walkgraph::RunStudyPart(*manifest, shard, options);
+    if (tty && job.size() > 1) std::fprintf(stderr, "\n");
     *manifest_out = std::move(manifest).value();
   }
   if (!agreed) job.AllOk(false);
@@ -570,7 +578,17 @@ int RunStudy(const StudyArgs& a, const walkgraph_cli::MpiJob& job) {
     shard = *parsed;
   }
   std::optional<walkgraph::StudyManifest> manifest;
-  const std::string mine = RunOwnPart(a, job, shard, &manifest);
+  std::string mine;
+  if (job.size() > 1) {
+    // The ranks claim cells from one counter as they finish theirs (the cost model
+    // runs × estimators cannot know which cells are slow); the outputs do not depend on who ran
+    // which cell.
+    walkgraph_cli::SharedCounter counter(job);
+    mine = RunOwnPart(
+        a, job, shard, [&counter] { return counter.FetchAdd(); }, &manifest);
+  } else {
+    mine = RunOwnPart(a, job, shard, nullptr, &manifest);
+  }
   auto gathered = job.Gather(mine);
   int rc = 0;
   if (job.rank() == 0) {

@@ -141,6 +141,12 @@ struct StudyOptions {
   // that pass's result; a failure it returns stops the part (e.g. when another process of the
   // same study failed: the MPI glue agrees on it here so that every rank stops at once).
   std::function<Status(const Status& validation)> validated;
+  // Cells shared out as they are asked for (the MPI glue's counter, shared by the ranks): when
+  // set, the part validates its fixed cells (StudyShardCells) but then runs the cells it claims
+  // — each call returns the next unclaimed position in StudyCellOrder, counted over every
+  // process of the study; a position past the last cell means none is left. Each cell is still
+  // computed whole by one process, so the merged outputs are those of a one-process run.
+  std::function<int()> claim_cell;
 };
 
 StatusOr<StudyResult> RunStudy(const StudyManifest& manifest, const StudyOptions& options = {},
@@ -159,9 +165,11 @@ std::string FormatStudyTable(const StudyResult& result);
 // cell is computed by exactly one part with the same code (RunStudy is part 0 of 1, merged).
 // Cells are assigned by their cost (runs × estimators): largest first, each to the part with the
 // least cost so far (ties: the earlier cell, the lower part), a deterministic function of the
-// manifest and n. The MPI build of the CLI runs part r of N on rank r and gathers the parts'
-// bytes (SerializeStudyPart) on rank 0; `walkgraph study --shard i/n` writes a part to a folder
-// and `walkgraph study merge` combines them (docs/studies-on-clusters.md).
+// manifest and n. `walkgraph study --shard i/n` writes such a part to a folder and `walkgraph
+// study merge` combines them. The MPI build of the CLI instead lets its ranks claim cells from a
+// shared counter as they finish (StudyOptions::claim_cell: the cost model cannot know which cells
+// are slow) and gathers the parts' bytes (SerializeStudyPart) on rank 0
+// (docs/studies-on-clusters.md).
 struct StudyShard {
   int index = 0;  // i: 0 <= i < count
   int count = 1;  // n
@@ -172,11 +180,17 @@ StatusOr<StudyShard> ParseStudyShard(const std::string& text);
 
 // The cells of part `shard`, as indices into the study's cells (sweep by sweep, value by value).
 std::vector<int> StudyShardCells(const StudyManifest& manifest, const StudyShard& shard);
+// Every cell, largest cost first (ties: manifest order): the order in which the fixed split
+// deals them out and in which claimed cells (StudyOptions::claim_cell) are handed out.
+std::vector<int> StudyCellOrder(const StudyManifest& manifest);
 
 struct StudyPart {
   StudyShard shard;
   std::string manifest_path, manifest_text;  // the manifest the part ran (StudyManifest path/text)
   std::vector<StudyCell> cells;              // the part's cells, in the study's order
+  // The cells were claimed from a pool shared by the processes (StudyOptions::claim_cell), not
+  // dealt by the fixed split: merged, every cell must come from exactly one part.
+  bool claimed = false;
 };
 
 // Validates and runs the cells of part `shard` (as RunStudy does for all of them).
@@ -188,7 +202,8 @@ StatusOr<StudyPart> RunStudyPart(const StudyManifest& manifest, const StudyShard
 std::string SerializeStudyPart(const StudyPart& part);
 StatusOr<StudyPart> ParseStudyPart(const std::string& bytes, const std::string& origin);
 
-// The whole study from parts 0..n-1 of one manifest (each exactly once, in any order).
+// The whole study from parts 0..n-1 of one manifest (each exactly once, in any order; all of
+// the fixed split, or all claimed).
 StatusOr<StudyResult> MergeStudyParts(const StudyManifest& manifest,
                                       const std::vector<StudyPart>& parts);
 

@@ -518,12 +518,41 @@ StatusOr<StudyCell> RunCell(const StudyManifest& m, int k, int i, const Walk* wa
 
 }  // namespace
 
+namespace {
+
+// The cells a part runs: its fixed ones, or (claim_cell) the ones it claims as it goes.
+class CellSource {
+ public:
+  CellSource(const StudyManifest& m, std::vector<int> fixed, const std::function<int()>& claim)
+      : fixed_(std::move(fixed)), claim_(claim) {
+    if (claim_) order_ = StudyCellOrder(m);
+  }
+  // The next cell (an index into the study's cells), or -1.
+  int Next() {
+    if (!claim_) return next_ < fixed_.size() ? fixed_[next_++] : -1;
+    const int at = claim_();
+    return at >= 0 && at < static_cast<int>(order_.size()) ? order_[at] : -1;
+  }
+  // For progress: the part's cells, or (claiming) every cell of the study.
+  int total(int study_cells) const {
+    return claim_ ? study_cells : static_cast<int>(fixed_.size());
+  }
+
+ private:
+  std::vector<int> fixed_, order_;
+  size_t next_ = 0;
+  const std::function<int()>& claim_;
+};
+
+}  // namespace
+
 StatusOr<StudyPart> RunStudyPart(const StudyManifest& m, const StudyShard& shard,
                                  const StudyOptions& options, const EstimatorRegistry& registry) {
   WG_RETURN_IF_ERROR(shard.Validate());
   const std::vector<std::pair<int, int>> all = CellIndex(m);
   std::vector<std::pair<int, int>> mine;
-  for (int c : StudyShardCells(m, shard)) mine.push_back(all[c]);
+  const std::vector<int> fixed = StudyShardCells(m, shard);
+  for (int c : fixed) mine.push_back(all[c]);
   std::vector<std::optional<Walk>> walks;
   Status valid = ValidateCells(m, mine, &walks);
   if (options.validated) {
@@ -533,15 +562,29 @@ StatusOr<StudyPart> RunStudyPart(const StudyManifest& m, const StudyShard& shard
   WG_RETURN_IF_ERROR(valid);
   StudyPart part;
   part.shard = shard;
+  part.claimed = static_cast<bool>(options.claim_cell);
   part.manifest_path = m.path;
   part.manifest_text = m.text;
+  CellSource source(m, fixed, options.claim_cell);
   int done = 0;
-  for (const auto& [k, i] : mine) {
+  for (int c = source.Next(); c >= 0; c = source.Next()) {
+    const auto [k, i] = all[c];
+    if (!m.sweeps[k].walk_dir.empty() &&
+        !walks[k]) {  // a claimed cell of a sweep not validated here
+      StatusOr<Walk> w = ReadWalk(m.sweeps[k].walk_dir);
+      if (!w.ok())
+        return Status(w.status().code(), CellAt(m, m.sweeps[k], i) + ": " + w.status().message());
+      walks[k] = std::move(w).value();
+    }
     const Walk* walk = walks[k] ? &*walks[k] : nullptr;
     WG_ASSIGN_OR_RETURN(StudyCell cell, RunCell(m, k, i, walk, options, registry));
     part.cells.push_back(std::move(cell));
-    if (options.progress) options.progress(++done, static_cast<int>(mine.size()));
+    if (options.progress) options.progress(++done, source.total(static_cast<int>(all.size())));
   }
+  // In the study's order (claimed cells come in claim order).
+  std::sort(part.cells.begin(), part.cells.end(), [](const StudyCell& a, const StudyCell& b) {
+    return std::make_pair(a.sweep, a.value) < std::make_pair(b.sweep, b.value);
+  });
   return part;
 }
 

@@ -41,21 +41,35 @@ StatusOr<StudyShard> ParseStudyShard(const std::string& text) {
   return s;
 }
 
-std::vector<int> StudyShardCells(const StudyManifest& m, const StudyShard& shard) {
-  // Cost of each cell: runs × estimators.
+namespace {
+
+// Cost of each cell (in the study's order): runs × estimators.
+std::vector<long long> CellCosts(const StudyManifest& m) {
   std::vector<long long> cost;
   for (const StudySweep& s : m.sweeps) {
     for (size_t i = 0; i < s.values.size(); ++i) {
       cost.push_back(static_cast<long long>(s.runs) * static_cast<long long>(s.estimators.size()));
     }
   }
+  return cost;
+}
+
+}  // namespace
+
+std::vector<int> StudyCellOrder(const StudyManifest& m) {
+  const std::vector<long long> cost = CellCosts(m);
   std::vector<int> order(cost.size());
   for (size_t c = 0; c < order.size(); ++c) order[c] = static_cast<int>(c);
   std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return cost[a] > cost[b]; });
+  return order;
+}
+
+std::vector<int> StudyShardCells(const StudyManifest& m, const StudyShard& shard) {
+  const std::vector<long long> cost = CellCosts(m);
   const int n = std::max(shard.count, 1);
   std::vector<long long> load(n, 0);
   std::vector<int> mine;
-  for (int c : order) {
+  for (int c : StudyCellOrder(m)) {
     const int to = static_cast<int>(std::min_element(load.begin(), load.end()) - load.begin());
     load[to] += cost[c];
     if (to == shard.index) mine.push_back(c);
@@ -69,7 +83,7 @@ std::vector<int> StudyShardCells(const StudyManifest& m, const StudyShard& shard
 namespace {
 
 // 2: the floor figures (ipin_score_m, floor_hit_rate) in every row's stats.
-constexpr const char kMagic[] = "walkgraph-study-part 2";
+constexpr const char kMagic[] = "walkgraph-study-part 3";
 
 // Fields as whitespace-separated tokens; strings as <length>:<bytes>; doubles by their bits.
 class PartWriter {
@@ -210,6 +224,7 @@ std::string SerializeStudyPart(const StudyPart& part) {
   w.String(kMagic);
   w.Int(part.shard.index);
   w.Int(part.shard.count);
+  w.Int(part.claimed ? 1 : 0);
   w.String(part.manifest_path);
   w.String(part.manifest_text);
   w.Int(static_cast<long long>(part.cells.size()));
@@ -237,6 +252,7 @@ StatusOr<StudyPart> ParseStudyPart(const std::string& bytes, const std::string& 
   StudyPart part;
   part.shard.index = static_cast<int>(r.Int(0, INT32_MAX));
   part.shard.count = static_cast<int>(r.Int(1, INT32_MAX));
+  part.claimed = r.Int(0, 1) == 1;
   part.manifest_path = r.String();
   part.manifest_text = r.String();
   const long long cells = r.Int(0, INT32_MAX);
@@ -260,7 +276,11 @@ StatusOr<StudyPart> ParseStudyPart(const std::string& bytes, const std::string& 
 
 // ------------------------------------------------------------------ merging
 
-StatusOr<StudyResult> MergeStudyParts(const StudyManifest& m, const std::vector<StudyPart>& parts) {
+namespace {
+
+// The parts of one split of manifest `m`, by index (each exactly once).
+StatusOr<std::vector<const StudyPart*>> PartsByIndex(const StudyManifest& m,
+                                                     const std::vector<StudyPart>& parts) {
   if (parts.empty()) return InvalidArgument("study merge: no parts");
   const int n = parts.front().shard.count;
   std::vector<const StudyPart*> by_index(n, nullptr);
@@ -271,6 +291,9 @@ StatusOr<StudyResult> MergeStudyParts(const StudyManifest& m, const std::vector<
       return InvalidArgument(which + ": the parts are of different splits (n = " +
                              std::to_string(n) + " and " + std::to_string(p.shard.count) + ")");
     }
+    if (p.claimed != parts.front().claimed) {
+      return InvalidArgument(which + ": parts of the fixed split and claimed parts mixed");
+    }
     if (p.manifest_text != m.text || p.manifest_path != m.path) {
       return InvalidArgument(which + ": ran another manifest (" + p.manifest_path + ") than " +
                              m.path);
@@ -278,6 +301,19 @@ StatusOr<StudyResult> MergeStudyParts(const StudyManifest& m, const std::vector<
     if (by_index[p.shard.index] != nullptr) return InvalidArgument(which + ": given twice");
     by_index[p.shard.index] = &p;
   }
+  for (int i = 0; i < n; ++i) {
+    if (by_index[i] == nullptr) {
+      return InvalidArgument("study part " + std::to_string(i) + "/" + std::to_string(n) +
+                             " is missing");
+    }
+  }
+  return by_index;
+}
+
+}  // namespace
+
+StatusOr<StudyResult> MergeStudyParts(const StudyManifest& m, const std::vector<StudyPart>& parts) {
+  WG_ASSIGN_OR_RETURN(const std::vector<const StudyPart*> by_index, PartsByIndex(m, parts));
   std::vector<int> flat_base;  // index of each sweep's first cell
   int total = 0;
   for (const StudySweep& s : m.sweeps) {
@@ -285,24 +321,35 @@ StatusOr<StudyResult> MergeStudyParts(const StudyManifest& m, const std::vector<
     total += static_cast<int>(s.values.size());
   }
   std::vector<const StudyCell*> cells(total, nullptr);
-  for (int i = 0; i < n; ++i) {
-    const std::string which = "study part " + std::to_string(i) + "/" + std::to_string(n);
-    if (by_index[i] == nullptr) return InvalidArgument(which + " is missing");
-    const std::vector<int> expected = StudyShardCells(m, by_index[i]->shard);
+  for (const StudyPart* part : by_index) {
+    const std::string which =
+        "study part " + std::to_string(part->shard.index) + "/" + std::to_string(part->shard.count);
     std::vector<int> got;
-    for (const StudyCell& c : by_index[i]->cells) {
+    for (const StudyCell& c : part->cells) {
       if (c.sweep < 0 || c.sweep >= static_cast<int>(m.sweeps.size()) || c.value < 0 ||
           c.value >= static_cast<int>(m.sweeps[c.sweep].values.size())) {
         return InvalidArgument(which + ": a cell outside the manifest");
       }
       got.push_back(flat_base[c.sweep] + c.value);
+      if (cells[got.back()] != nullptr) return InvalidArgument(which + ": a cell of another part");
       cells[got.back()] = &c;
     }
-    if (got != expected) return InvalidArgument(which + ": not the cells of that part");
+    if (!part->claimed && got != StudyShardCells(m, part->shard)) {
+      return InvalidArgument(which + ": not the cells of that part");
+    }
   }
   StudyResult result;
   result.manifest = m;
-  for (const StudyCell* c : cells) result.cells.push_back(*c);
+  for (size_t k = 0; k < m.sweeps.size(); ++k) {
+    for (size_t i = 0; i < m.sweeps[k].values.size(); ++i) {
+      const StudyCell* c = cells[flat_base[k] + i];
+      if (c == nullptr) {
+        return InvalidArgument("study merge: sweep '" + m.sweeps[k].name + "', value " +
+                               m.sweeps[k].values[i] + " is in no part");
+      }
+      result.cells.push_back(*c);
+    }
+  }
   return result;
 }
 
