@@ -62,8 +62,12 @@ TEST(InsGraphWindow, LagLongerThanTheWalkEqualsBatch) {
       "function_tolerance: 1e-16, parameter_tolerance: 1e-16, gradient_tolerance: 1e-16, "
       "max_iterations: 500, rss_loss: none, range_loss: none";
   // The batch from the front end: the window's graph preintegrates at the front end's biases,
-  // and a window-initialized batch would preintegrate at the window's estimates.
-  auto batch = RunEstimator("fg-ins-batch", *w, "{" + graph + ", initialization: front-end}");
+  // and a window-initialized batch would preintegrate at the window's estimates. The batch
+  // with the window's causal stance detector (StrideOptions::Causal), so both see one front end.
+  auto batch = RunEstimator("fg-ins-batch", *w,
+                            "{" + graph +
+                                ", initialization: front-end, front_end: {stance: "
+                                "{adaptive_causal: true, adaptive_window_s: 60}}}");
   auto window =
       RunEstimator("fg-ins-window", *w, "{" + graph + ", lag_s: 1000, window_max_iterations: 500}");
   ASSERT_TRUE(batch.ok()) << batch.status().ToString();
@@ -98,10 +102,9 @@ TEST(InsGraphWindow, OnlineOutputUsesOnlyPastData) {
   ASSERT_TRUE(w.ok()) << w.status().ToString();
   const double t_cut = 40.0;
   const Walk cut = Truncated(*w, t_cut);
-  // A fixed-threshold detector: the adaptive default (stance.h) takes γ from the whole walk's
-  // statistic, so a truncated walk gets another γ — not causal (issue 21, left open).
-  const std::string cfg =
-      "{lag_s: 5, estimate_range_bias: true, front_end: {stance: {detector: glrt}}}";
+  // The defaults: the window's adaptive stance detector takes γ from the past only
+  // (StrideOptions::Causal), so a truncated walk gets the same stances up to the cut.
+  const std::string cfg = "{lag_s: 5, estimate_range_bias: true}";
   auto full = RunEstimator("fg-ins-window-online", *w, cfg);
   auto part = RunEstimator("fg-ins-window-online", cut, cfg);
   auto full_lagged = RunEstimator("fg-ins-window", *w, cfg);
@@ -162,10 +165,9 @@ TEST(InsGraphWindow, BeatsTheCausalFiltersOnTheSimulatedBuilding) {
   const int runs = testing::MonteCarloRuns(2);
   // The sanitizer build checks the window's code paths only: a minute, the window alone.
   const std::string laps = testing::kSanitized ? "{duration_s: 60}" : "{laps: 3}";
-  // Every estimator here runs causally (up to its lag): the fixed GLRT, not the adaptive
-  // detector, whose threshold comes from the whole walk (stance.h; issue 21).
-  const std::string stance = "front_end: {stance: {detector: glrt}}";
-  const std::string graph = "{receiver_offset_z_m: 1.0, " + stance + "}";
+  // With their defaults: zupt-ins and the window detect stance causally (StrideOptions::Causal),
+  // fg-ins-batch from the whole walk.
+  const std::string graph = "{receiver_offset_z_m: 1.0}";
   std::map<std::string, double> mean;
   const std::vector<std::string> ids =
       testing::kSanitized ? std::vector<std::string>{"fg-ins-window", "fg-ins-window-online"}
@@ -177,7 +179,7 @@ TEST(InsGraphWindow, BeatsTheCausalFiltersOnTheSimulatedBuilding) {
     std::printf("jimenez-building seed %d:", 300 + i);
     for (const std::string& id : ids) {
       const bool graph_id = id.rfind("fg-ins", 0) == 0;
-      const std::string cfg = graph_id ? graph : id == "zupt-ins" ? "{" + stance + "}" : "{}";
+      const std::string cfg = graph_id ? graph : "{}";
       auto r = RunEstimator(id, *w, cfg);
       ASSERT_TRUE(r.ok()) << id << ": " << r.status().ToString();
       const double rmse = Rmse(*w, *r);

@@ -1,5 +1,6 @@
 #include "walkgraph/stance.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -203,6 +204,53 @@ TEST(StanceTest, AdaptiveFollowsTheWalksOwnStatistic) {
     EXPECT_GE(F1(s), 0.9) << "window " << window_s << " precision " << s.precision() << " recall "
                           << s.recall();
   }
+}
+
+// The causal adaptive detector (StrideOptions::Causal: γ from the trailing window only): a walk
+// cut at t gets the same stances up to t (but for the GLRT's own W-sample window at the cut),
+// the noisy walk above is still found, and a causal detector without a window is refused.
+TEST(StanceTest, CausalAdaptiveUsesOnlyThePast) {
+  Walk w = MakeFootWalk(5);
+  std::mt19937_64 rng(6);
+  std::normal_distribution<double> n01(0.0, 1.0);
+  for (ImuSample& s : w.imu) {
+    for (int k = 0; k < 3; ++k) s.gyro_radps[k] += 0.1 * n01(rng);  // γ far from the fallback
+  }
+  const StanceOptions o = StrideOptions().Causal().stance;
+  ASSERT_TRUE(o.adaptive_causal);
+  auto full = DetectStance(w, o);
+  ASSERT_TRUE(full.ok()) << full.status().ToString();
+  auto labels = StanceLabelsAtImu(w);
+  ASSERT_TRUE(labels.ok());
+  // The first second falls back to glrt_threshold (fewer than adaptive_min_samples samples).
+  const StanceScore score = ScoreStance(full->stance, *labels);
+  EXPECT_GE(F1(score), 0.85) << "precision " << score.precision() << " recall " << score.recall();
+  // The same window centred (not causal) looks ahead: cutting the walk changes its stances.
+  StanceOptions centred = o;
+  centred.adaptive_causal = false;
+  auto centred_full = DetectStance(w, centred);
+  ASSERT_TRUE(centred_full.ok());
+  size_t centred_differ = 0;
+  for (double cut_s : {2.5, 6.2, 9.0}) {
+    Walk cut = w;
+    cut.imu.erase(std::remove_if(cut.imu.begin(), cut.imu.end(),
+                                 [&](const ImuSample& s) { return s.t_s > cut_s; }),
+                  cut.imu.end());
+    auto part = DetectStance(cut, o);
+    auto centred_part = DetectStance(cut, centred);
+    ASSERT_TRUE(part.ok() && centred_part.ok());
+    const size_t upto = part->stance.size() - static_cast<size_t>(o.window);
+    size_t differ = 0;
+    for (size_t i = 0; i < upto; ++i) {
+      differ += part->stance[i] != full->stance[i];
+      centred_differ += centred_part->stance[i] != centred_full->stance[i];
+    }
+    EXPECT_EQ(differ, 0u) << "cut at " << cut_s << " s";
+  }
+  EXPECT_GT(centred_differ, 0u);
+  StanceOptions bad = o;  // causal needs the trailing window
+  bad.adaptive_window_s = 0.0;
+  EXPECT_FALSE(bad.Validate().ok());
 }
 
 // A standstill has no swing cluster: the adaptive detector falls back to glrt_threshold (with

@@ -24,7 +24,8 @@
 //   α = adaptive_fraction (0.5 is Otsu's midpoint; lower is more conservative for ZUPTs).
 //   Not bimodal (m_swing − m_stance < adaptive_min_separation decades, e.g. a standstill or a
 //   window of pure swing, or fewer than adaptive_min_samples samples): a window takes the whole
-//   walk's γ, and a walk that is not bimodal glrt_threshold.
+//   walk's γ, and a walk that is not bimodal glrt_threshold. adaptive_causal: the window
+//   trails the sample instead (only past samples), for estimators that must be causal.
 // Where it fails: a walk that is (nearly) all stance or all swing inside the window has no
 // valley (hence the fallback); shuffling, crawling or a foot that never stops (running on
 // some gaits) gives a stance mode that is not still, and the split then marks the quietest
@@ -73,6 +74,10 @@ struct StanceOptions {
   // Adaptive GLRT (see the top of this file).
   double adaptive_fraction = 0.3;
   double adaptive_window_s = 0.0;  // 0: the whole walk
+  // Causal: γ of a sample from the adaptive_window_s before it only (which must then be > 0),
+  // for filters and fixed-lag smoothers whose output at t may not depend on later samples.
+  // Until that window holds a bimodal statistic, glrt_threshold; after, the last bimodal γ.
+  bool adaptive_causal = false;
   double adaptive_step_s = 1.0;
   int adaptive_bins = 100;
   double adaptive_min_separation = 1.0;  // decades

@@ -20,7 +20,7 @@
 namespace walkgraph {
 
 struct ZuptInsOptions {
-  StrideOptions front_end;
+  StrideOptions front_end = StrideOptions().Causal();  // a filter: the causal detector
   double output_rate_hz = 20.0;
   double gauge_sigma_m = 1e-3;
   double gauge_sigma_yaw_rad = 1e-3;

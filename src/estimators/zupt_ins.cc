@@ -19,7 +19,7 @@ StatusOr<ZuptInsOptions> ZuptInsOptions::FromYaml(const YAML::Node& node) {
   r.Read("gauge_sigma_yaw_rad", &o.gauge_sigma_yaw_rad, "start yaw std-dev without initial_pose");
   WG_RETURN_IF_ERROR(r.Finish());
   if (front.IsDefined()) {
-    WG_ASSIGN_OR_RETURN(o.front_end, StrideOptions::FromYaml(front));
+    WG_ASSIGN_OR_RETURN(o.front_end, StrideOptions::FromYaml(front, o.front_end));
   }
   WG_RETURN_IF_ERROR(o.Validate());
   return o;

@@ -274,6 +274,13 @@ StanceOptions StrideOptions::DefaultStance() {
   return s;
 }
 
+StrideOptions StrideOptions::Causal() const {
+  StrideOptions o = *this;
+  o.stance.adaptive_causal = true;
+  o.stance.adaptive_window_s = 60.0;
+  return o;
+}
+
 StatusOr<StrideOptions> StrideOptions::FromYaml(const YAML::Node& node) {
   return FromYaml(node, StrideOptions());
 }

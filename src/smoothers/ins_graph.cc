@@ -142,7 +142,12 @@ bool HasRadio(const InsGraphContext& c) { return UsesRss(c) || UsesRanges(c); }
 }  // namespace
 
 StatusOr<InsGraphOptions> InsGraphOptions::FromYaml(const YAML::Node& node) {
-  InsGraphOptions o;
+  return FromYaml(node, InsGraphOptions());
+}
+
+StatusOr<InsGraphOptions> InsGraphOptions::FromYaml(const YAML::Node& node,
+                                                    const InsGraphOptions& base) {
+  InsGraphOptions o = base;
   ConfigReader r(node, "fg-ins-batch");
   const YAML::Node front = r.Child("front_end");
   r.ReadEnum("placement", &o.placement, kPlacementNames,

@@ -101,6 +101,12 @@ std::optional<double> YawSigma(FixedLagSmoother* smoother, StateKey q_key) {
 
 }  // namespace
 
+InsGraphOptions WindowGraphDefaults() {
+  InsGraphOptions o;
+  o.front_end = o.front_end.Causal();
+  return o;
+}
+
 StatusOr<InsWindowOptions> InsWindowOptions::FromYaml(const YAML::Node& node,
                                                       const std::string& context,
                                                       WindowOutput default_output) {
@@ -138,7 +144,7 @@ StatusOr<InsWindowOptions> InsWindowOptions::FromYaml(const YAML::Node& node,
   r.Read("gap_release_yaw_sigma_rad", &o.gap_release_yaw_sigma_rad,
          "release the hold at this yaw sigma when the pre-gap one is unknown");
   WG_RETURN_IF_ERROR(r.Finish());
-  StatusOr<InsGraphOptions> graph = InsGraphOptions::FromYaml(rest);
+  StatusOr<InsGraphOptions> graph = InsGraphOptions::FromYaml(rest, o.graph);
   if (!graph.ok()) return InvalidArgument(context + ": " + graph.status().message());
   o.graph = *graph;
   WG_RETURN_IF_ERROR(o.Validate(context));

@@ -139,26 +139,35 @@ double AdaptiveGamma(const std::vector<double>& statistic, size_t a, size_t b,
 
 // Per-sample γ of the adaptive detector: one for the walk, or one per adaptive_step_s from the
 // centred window of adaptive_window_s.
+// Sample index of the first IMU sample at or after t.
+size_t ImuIndexAt(const Walk& walk, double t) {
+  return static_cast<size_t>(
+      std::lower_bound(walk.imu.begin(), walk.imu.end(), t,
+                       [](const ImuSample& s, double x) { return s.t_s < x; }) -
+      walk.imu.begin());
+}
+
 std::vector<double> AdaptiveThresholds(const Walk& walk, const std::vector<double>& statistic,
                                        const StanceOptions& o) {
   const size_t n = statistic.size();
-  const double walk_gamma = AdaptiveGamma(statistic, 0, n, o, o.glrt_threshold);
-  if (o.adaptive_window_s <= 0.0) return std::vector<double>(n, walk_gamma);
+  // The causal detector never looks at the whole walk: its fallback is the last bimodal γ.
+  double fallback =
+      o.adaptive_causal ? o.glrt_threshold : AdaptiveGamma(statistic, 0, n, o, o.glrt_threshold);
+  if (o.adaptive_window_s <= 0.0) return std::vector<double>(n, fallback);
   std::vector<double> gamma(n);
-  const auto time_index = [&](double t) {
-    return static_cast<size_t>(
-        std::lower_bound(walk.imu.begin(), walk.imu.end(), t,
-                         [](const ImuSample& s, double x) { return s.t_s < x; }) -
-        walk.imu.begin());
-  };
-  const double t0 = walk.imu.front().t_s, step = std::max(o.adaptive_step_s, 1e-3);
+  // Blocks of adaptive_step_s from the walk's start (so a walk cut at t gets the same γ up to t).
+  const double t0 = walk.imu.front().t_s;
   for (size_t i = 0; i < n;) {
     const double tc = walk.imu[i].t_s;
-    const size_t a = time_index(tc - 0.5 * o.adaptive_window_s);
-    const size_t b = time_index(tc + 0.5 * o.adaptive_window_s);
-    const double g = AdaptiveGamma(statistic, a, b, o, walk_gamma);
-    const double t_next = t0 + step * (std::floor((tc - t0) / step) + 1.0);
-    const size_t next = std::max(i + 1, time_index(t_next));
+    const double g =
+        o.adaptive_causal
+            ? AdaptiveGamma(statistic, ImuIndexAt(walk, tc - o.adaptive_window_s), i, o, fallback)
+            : AdaptiveGamma(statistic, ImuIndexAt(walk, tc - 0.5 * o.adaptive_window_s),
+                            ImuIndexAt(walk, tc + 0.5 * o.adaptive_window_s), o, fallback);
+    if (o.adaptive_causal) fallback = g;
+    const double t_next =
+        t0 + o.adaptive_step_s * (std::floor((tc - t0) / o.adaptive_step_s) + 1.0);
+    const size_t next = std::max(i + 1, ImuIndexAt(walk, t_next));
     for (size_t k = i; k < std::min(next, n); ++k) gamma[k] = g;
     i = next;
   }
@@ -265,6 +274,8 @@ StatusOr<StanceOptions> StanceOptions::FromYaml(const YAML::Node& node, const St
          "adaptive: log-threshold's place between the stance and swing class means (0..1)");
   r.Read("adaptive_window_s", &o.adaptive_window_s,
          "adaptive: centred window of the statistic's distribution (0: the whole walk)");
+  r.Read("adaptive_causal", &o.adaptive_causal,
+         "adaptive: threshold from the adaptive_window_s before each sample only (causal)");
   r.Read("adaptive_step_s", &o.adaptive_step_s, "adaptive: threshold recomputed every step");
   r.Read("adaptive_bins", &o.adaptive_bins, "adaptive: histogram bins of Otsu's split");
   r.Read("adaptive_min_separation", &o.adaptive_min_separation,
@@ -291,6 +302,10 @@ Status StanceOptions::Validate() const {
     return InvalidArgument(
         "stance: adaptive_fraction must be in [0, 1], adaptive_bins >= 2, adaptive_step_s > 0, "
         "adaptive_window_s and adaptive_min_separation >= 0");
+  }
+  if (o.adaptive_causal && !(o.adaptive_window_s > 0)) {
+    return InvalidArgument(
+        "stance: adaptive_causal needs adaptive_window_s > 0 (the trailing window)");
   }
   return Status::Ok();
 }

@@ -186,6 +186,8 @@ struct InsGraphOptions {
   // Keys: front_end (a map of StrideOptions keys), placement (stance|every-n) and every other
   // field by its name.
   static StatusOr<InsGraphOptions> FromYaml(const YAML::Node& node);
+  // The same over `base`: keys the map does not name keep their value there.
+  static StatusOr<InsGraphOptions> FromYaml(const YAML::Node& node, const InsGraphOptions& base);
 };
 
 // One state's parameter blocks (the caller owns them; they must not move while a ceres::Problem
