@@ -111,7 +111,6 @@
 #include <string>
 #include <vector>
 
-#include <yaml-cpp/yaml.h>
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
@@ -186,12 +185,7 @@ struct PrietoOptions {
   // Stance detector (stance: child map); default Jiménez's multi-condition detector [33].
   StanceOptions stance = PrietoDefaultStance();
 
-  // Reads the YAML keys (every field above except filter/sensors/smooth; `stance:` is a map of
-  // StanceOptions keys; imu_sampling: interval-average|instantaneous) over `defaults`.
-  static StatusOr<PrietoOptions> FromYaml(const YAML::Node& node, const std::string& context,
-                                          const PrietoOptions& defaults);
-  static StatusOr<PrietoOptions> FromYaml(const YAML::Node& node, const std::string& context);
-  // Every rule FromYaml applies; the filter refuses options that break one.
+  // Every rule its YAML reader applies; the filter refuses options that break one.
   Status Validate(const std::string& context = "prieto") const;
 };
 
