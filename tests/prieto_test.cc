@@ -8,6 +8,7 @@
 #include <Eigen/Dense>
 
 #include "config/parsers.h"
+#include "filters/prieto_model.h"
 #include "test_util.h"
 #include "walkgraph/angle.h"
 #include "walkgraph/estimator.h"

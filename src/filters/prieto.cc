@@ -13,6 +13,7 @@
 
 #include "config/parsers.h"
 #include "estimators/builtin.h"
+#include "filters/prieto_model.h"
 #include "walkgraph/angle.h"
 #include "walkgraph/config.h"
 #include "walkgraph/filters/ranges.h"
