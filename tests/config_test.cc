@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include "config/reader.h"
 #include "walkgraph/config.h"
 #include "walkgraph/estimator.h"
 #include "walkgraph/pdr.h"
@@ -210,6 +211,33 @@ TEST(LoadYamlFile, ExpectsARegularFile) {
   EXPECT_THAT(LoadYamlFile("/").status().message(), HasSubstr("expected a regular file"));
   EXPECT_THAT(LoadYamlFile("/dev/null").status().message(), HasSubstr("device"));
   EXPECT_EQ(LoadYamlFile("/nonexistent/x.yaml").status().code(), StatusCode::kNotFound);
+}
+
+// The public configuration value: parsed by the same loader (its checks, its messages), read
+// by the estimators' own readers (unknown keys refused with the line), empty when it holds no
+// keys, and written back as YAML that parses to the same map.
+TEST(Config, ParsesLoadsAndReachesTheEstimatorsReaders) {
+  EXPECT_TRUE(Config().empty());
+  auto blank = Config::Parse("", "cfg.yaml");
+  ASSERT_TRUE(blank.ok()) << blank.status().message();
+  EXPECT_TRUE(blank->empty());
+  EXPECT_THAT(Config::Parse("a: 1\na: 2\n", "cfg.yaml").status().message(),
+              HasSubstr("cfg.yaml:2: duplicate key 'a'"));
+  EXPECT_EQ(Config::Load("/nonexistent/x.yaml").status().code(), StatusCode::kNotFound);
+
+  auto config = Config::Parse("lag_s: 5\npath_loss: global\n", "cfg.yaml");
+  ASSERT_TRUE(config.ok()) << config.status().message();
+  EXPECT_FALSE(config->empty());
+  auto again = Config::Parse(config->ToYaml(), "again");
+  ASSERT_TRUE(again.ok()) << again.status().message();
+  EXPECT_EQ(again->node()["lag_s"].Scalar(), "5");
+  EXPECT_EQ(again->node()["path_loss"].Scalar(), "global");
+  const EstimatorRegistry& reg = EstimatorRegistry::Builtin();
+  EXPECT_TRUE(reg.Create("fg-window", *config).ok());
+  auto typo = Config::Parse("lag_s: 5\nlag_z: 5\n", "cfg.yaml");
+  ASSERT_TRUE(typo.ok());
+  EXPECT_THAT(reg.Create("fg-window", *typo).status().message(),
+              HasSubstr("(line 2): unknown option 'lag_z'"));
 }
 
 }  // namespace

@@ -7,6 +7,7 @@
 
 #include <gtest/gtest.h>
 
+#include "config/parsers.h"
 #include "test_util.h"
 #include "walkgraph/compare.h"
 #include "walkgraph/metrics.h"
@@ -140,12 +141,12 @@ TEST(CorreaTest, ScmtBeatsEkfBeatsLsOnClassroomWalk) {
 }
 
 TEST(CorreaEkfOptionsTest, DefaultsAndValidation) {
-  auto o = CorreaEkfOptions::FromYaml(YAML::Node(), "correa-ekf");
+  auto o = CorreaEkfOptionsFromYaml(YAML::Node(), "correa-ekf");
   ASSERT_TRUE(o.ok());
   EXPECT_EQ(o->p_fa, 0.05);
   EXPECT_FALSE(o->scmt);
-  EXPECT_FALSE(CorreaEkfOptions::FromYaml(YAML::Load("{p_fa: 1.0}"), "c").ok());
-  EXPECT_FALSE(CorreaEkfOptions::FromYaml(YAML::Load("{foo: 1.0}"), "c").ok());
+  EXPECT_FALSE(CorreaEkfOptionsFromYaml(YAML::Load("{p_fa: 1.0}"), "c").ok());
+  EXPECT_FALSE(CorreaEkfOptionsFromYaml(YAML::Load("{foo: 1.0}"), "c").ok());
 }
 
 // ------------------------------------------------------------------ simulator presets
@@ -157,7 +158,7 @@ TEST(CorreaEkfOptionsTest, DefaultsAndValidation) {
 // (see the closing note of this unit's branch).
 
 Comparison CorreaMonteCarlo(const std::string& scenario, const std::string& overrides, int runs,
-                            uint64_t seed, const std::map<std::string, YAML::Node>& configs = {}) {
+                            uint64_t seed, const std::map<std::string, Config>& configs = {}) {
   return testing::ScenarioMonteCarlo(
       scenario, overrides,
       {"correa-ls", "correa-ekf", "correa-scmt-ekf", "correa-ekf-rts", "correa-scmt-ekf-rts"}, runs,

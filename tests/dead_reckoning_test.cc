@@ -1,8 +1,9 @@
 #include <cmath>
 
-#include <Eigen/Eigenvalues>
 #include <gtest/gtest.h>
+#include <Eigen/Eigenvalues>
 
+#include "config/parsers.h"
 #include "walkgraph/angle.h"
 #include "walkgraph/dead_reckoning.h"
 #include "walkgraph/io.h"
@@ -49,8 +50,8 @@ TEST(OdometryDeadReckoning, NeedsOdometryAndStart) {
 }
 
 TEST(OdometryDeadReckoningOptions, RejectsNegativeSigma) {
-  EXPECT_FALSE(OdometryDeadReckoningOptions::FromYaml(YAML::Load("sigma_dist_m: -1")).ok());
-  EXPECT_FALSE(OdometryDeadReckoningOptions::FromYaml(YAML::Load("sigma_typo: 1")).ok());
+  EXPECT_FALSE(OdometryDeadReckoningOptionsFromYaml(YAML::Load("sigma_dist_m: -1")).ok());
+  EXPECT_FALSE(OdometryDeadReckoningOptionsFromYaml(YAML::Load("sigma_typo: 1")).ok());
 }
 
 // Real data: the bundled Plaza1 walk. The issue tracker reports 1.97 m RMSE for dead reckoning

@@ -6,6 +6,7 @@
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+#include <yaml-cpp/yaml.h>
 
 #include "walkgraph/compare.h"
 #include "walkgraph/divergence.h"
@@ -139,7 +140,7 @@ EstimatorRegistry FakeRegistry() {
   EstimatorRegistry r;
   const auto add = [&](const std::string& id, double dy, bool runaway) {
     EXPECT_TRUE(r.Register({id, "test",
-                            [=](const YAML::Node&) -> StatusOr<std::unique_ptr<Estimator>> {
+                            [=](const Config&) -> StatusOr<std::unique_ptr<Estimator>> {
                               return std::unique_ptr<Estimator>(new Fake(dy, 1.0, runaway));
                             }})
                     .ok());

@@ -1,5 +1,7 @@
 #include "walkgraph/filters/front_end.h"
 
+#include "config/parsers.h"
+
 #include <cmath>
 
 #include <gmock/gmock.h>
@@ -16,12 +18,12 @@ TEST(RadioFrontEndOptionsTest, OverlaysTheGivenDefaultsAndIsStrict) {
   paper.epochs.window_s = 2.0;
   paper.method = PositioningMethod::kNonlinearLs;
   paper.weighted = false;
-  auto same = RadioFrontEndOptions::FromYaml(YAML::Node(), paper, "x");
+  auto same = RadioFrontEndOptionsFromYaml(YAML::Node(), paper, "x");
   ASSERT_TRUE(same.ok());
   EXPECT_EQ(same->epochs.window_s, 2.0);
   EXPECT_EQ(same->method, PositioningMethod::kNonlinearLs);
   EXPECT_FALSE(same->weighted);
-  auto o = RadioFrontEndOptions::FromYaml(
+  auto o = RadioFrontEndOptionsFromYaml(
       YAML::Load("{window_s: 0.5, method: hyperbolic, weighted: true, max_iterations: 7}"), paper,
       "x");
   ASSERT_TRUE(o.ok());
@@ -29,12 +31,12 @@ TEST(RadioFrontEndOptionsTest, OverlaysTheGivenDefaultsAndIsStrict) {
   EXPECT_EQ(o->method, PositioningMethod::kHyperbolic);
   EXPECT_TRUE(o->weighted);
   EXPECT_EQ(o->positioning.max_iterations, 7);
-  auto bad = RadioFrontEndOptions::FromYaml(YAML::Load("{windoe_s: 1}"), paper, "tarrio-kf");
+  auto bad = RadioFrontEndOptionsFromYaml(YAML::Load("{windoe_s: 1}"), paper, "tarrio-kf");
   ASSERT_FALSE(bad.ok());
   EXPECT_THAT(bad.status().message(), HasSubstr("tarrio-kf radio"));
   EXPECT_THAT(bad.status().message(), HasSubstr("windoe_s"));
-  EXPECT_FALSE(RadioFrontEndOptions::FromYaml(YAML::Load("{method: lsq}"), paper, "x").ok());
-  EXPECT_FALSE(RadioFrontEndOptions::FromYaml(YAML::Load("{window_s: 0}"), paper, "x").ok());
+  EXPECT_FALSE(RadioFrontEndOptionsFromYaml(YAML::Load("{method: lsq}"), paper, "x").ok());
+  EXPECT_FALSE(RadioFrontEndOptionsFromYaml(YAML::Load("{window_s: 0}"), paper, "x").ok());
 }
 
 TEST(PdrOptionsFromYamlTest, PaperDefaultsUnderTheUsersKeys) {

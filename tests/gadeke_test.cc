@@ -6,6 +6,7 @@
 
 #include <gtest/gtest.h>
 
+#include "config/parsers.h"
 #include "test_util.h"
 #include "walkgraph/compare.h"
 #include "walkgraph/estimator.h"
@@ -74,14 +75,14 @@ double MeanError(const Synth& s, const Trajectory& traj, double t0, double t1) {
 }
 
 TEST(GadekeKfOptionsTest, PaperDefaultsAndValidation) {
-  auto o = GadekeKfOptions::FromYaml(YAML::Node(), "gadeke-kf");
+  auto o = GadekeKfOptionsFromYaml(YAML::Node(), "gadeke-kf");
   ASSERT_TRUE(o.ok());
   EXPECT_EQ(o->velocity_factor, 0.99);
   EXPECT_EQ(o->processing_rate_hz, 10.0);
   EXPECT_EQ(o->pdr_sigma_frac, 0.05);
-  EXPECT_FALSE(GadekeKfOptions::FromYaml(YAML::Load("{velocity_factor: 1.5}"), "g").ok());
-  EXPECT_FALSE(GadekeKfOptions::FromYaml(YAML::Load("{outage_start_frac: 0.5}"), "g").ok());
-  EXPECT_FALSE(GadekeKfOptions::FromYaml(YAML::Load("{nope: 1}"), "g").ok());
+  EXPECT_FALSE(GadekeKfOptionsFromYaml(YAML::Load("{velocity_factor: 1.5}"), "g").ok());
+  EXPECT_FALSE(GadekeKfOptionsFromYaml(YAML::Load("{outage_start_frac: 0.5}"), "g").ok());
+  EXPECT_FALSE(GadekeKfOptionsFromYaml(YAML::Load("{nope: 1}"), "g").ok());
 }
 
 TEST(RangeMeasurementsTest, ConvertsRssThroughThePathLossModel) {
@@ -177,7 +178,7 @@ TEST(GadekePresetTest, BridgesTheOutageLikePdrAndRecoversWithin30s) {
   auto kf = reg.Create("gadeke-kf", YAML::Load("{pdr: " + pdr + "}"));
   auto rts = reg.Create("gadeke-kf-rts", YAML::Load("{pdr: " + pdr + "}"));
   auto wsn = reg.Create("gadeke-kf", YAML::Load("{pdr_input: false, pdr: " + pdr + "}"));
-  auto pdr_options = PdrOptions::FromYaml(
+  auto pdr_options = PdrOptionsFromYaml(
       YAML::Load("{detector: energy, length_model: weinberg, heading: complementary, "
                  "energy_threshold_m2ps4: 2, forward_axis: body-x}"));
   ASSERT_TRUE(kf.ok() && rts.ok() && wsn.ok() && pdr_options.ok());

@@ -21,6 +21,7 @@
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+#include <yaml-cpp/yaml.h>
 #include <nlohmann/json.hpp>
 
 #include "walkgraph/compare.h"
@@ -93,7 +94,7 @@ EstimatorRegistry Registry(std::vector<std::string>* ids) {
     const double phase = 0.7 * k++;
     const bool cov = k % 2 == 0;
     EXPECT_TRUE(r.Register({id, "test",
-                            [=](const YAML::Node&) -> StatusOr<std::unique_ptr<Estimator>> {
+                            [=](const Config&) -> StatusOr<std::unique_ptr<Estimator>> {
                               return std::unique_ptr<Estimator>(new Drift(scale, phase, cov));
                             }})
                     .ok());

@@ -10,6 +10,7 @@
 #include <gtest/gtest.h>
 #include <Eigen/Eigenvalues>
 
+#include "config/parsers.h"
 #include "factors/nav_quaternion_manifold.h"
 #include "factors/position_prior_factor.h"
 #include "test_util.h"
@@ -264,16 +265,16 @@ TEST(InsGraphBatch, SameInputSameOutputAndEveryNPlacement) {
 }
 
 TEST(InsGraphBatch, OptionsAndApplicability) {
-  EXPECT_FALSE(InsGraphOptions::FromYaml(YAML::Load("{placement: sometimes}")).ok());
-  EXPECT_FALSE(InsGraphOptions::FromYaml(YAML::Load("{rss_loss: Tukey}")).ok());
+  EXPECT_FALSE(InsGraphOptionsFromYaml(YAML::Load("{placement: sometimes}")).ok());
+  EXPECT_FALSE(InsGraphOptionsFromYaml(YAML::Load("{rss_loss: Tukey}")).ok());
   // The graphs share one list of losses.
-  EXPECT_TRUE(InsGraphOptions::FromYaml(YAML::Load("{rss_loss: tukey}")).ok());
-  EXPECT_FALSE(InsGraphOptions::FromYaml(YAML::Load("{every_n_samples: 0}")).ok());
-  EXPECT_FALSE(InsGraphOptions::FromYaml(YAML::Load("{zupt_sigma: 0.01}")).ok());
-  EXPECT_FALSE(InsGraphOptions::FromYaml(YAML::Load("{initialization: truth}")).ok());
-  EXPECT_FALSE(InsGraphOptions::FromYaml(YAML::Load("{init_lag_s: 0}")).ok());
-  EXPECT_FALSE(InsGraphOptions::FromYaml(YAML::Load("{initial_trust_region_radius: 0}")).ok());
-  auto o = InsGraphOptions::FromYaml(
+  EXPECT_TRUE(InsGraphOptionsFromYaml(YAML::Load("{rss_loss: tukey}")).ok());
+  EXPECT_FALSE(InsGraphOptionsFromYaml(YAML::Load("{every_n_samples: 0}")).ok());
+  EXPECT_FALSE(InsGraphOptionsFromYaml(YAML::Load("{zupt_sigma: 0.01}")).ok());
+  EXPECT_FALSE(InsGraphOptionsFromYaml(YAML::Load("{initialization: truth}")).ok());
+  EXPECT_FALSE(InsGraphOptionsFromYaml(YAML::Load("{init_lag_s: 0}")).ok());
+  EXPECT_FALSE(InsGraphOptionsFromYaml(YAML::Load("{initial_trust_region_radius: 0}")).ok());
+  auto o = InsGraphOptionsFromYaml(
       YAML::Load("{front_end: {zupt_sigma_mps: 0.02}, output_rate_hz: 10, range_loss: huber}"));
   ASSERT_TRUE(o.ok()) << o.status().ToString();
   EXPECT_DOUBLE_EQ(o->front_end.zupt_sigma_mps, 0.02);

@@ -11,6 +11,7 @@
 #include <gtest/gtest.h>
 #include <Eigen/Eigenvalues>
 
+#include "config/parsers.h"
 #include "test_util.h"
 #include "walkgraph/angle.h"
 #include "walkgraph/convert.h"
@@ -315,15 +316,15 @@ TEST(InsGraphWindow, WindowStaysBoundedOnALongWalk) {
 }
 
 TEST(InsGraphWindow, OptionsAndRegistration) {
-  EXPECT_TRUE(InsWindowOptions::FromYaml(YAML::Load("{}"), "fg-ins-window").ok());
-  EXPECT_FALSE(InsWindowOptions::FromYaml(YAML::Load("{lag: 5}"), "fg-ins-window").ok());
-  EXPECT_FALSE(InsWindowOptions::FromYaml(YAML::Load("{lag_s: 0}"), "fg-ins-window").ok());
+  EXPECT_TRUE(InsWindowOptionsFromYaml(YAML::Load("{}"), "fg-ins-window").ok());
+  EXPECT_FALSE(InsWindowOptionsFromYaml(YAML::Load("{lag: 5}"), "fg-ins-window").ok());
+  EXPECT_FALSE(InsWindowOptionsFromYaml(YAML::Load("{lag_s: 0}"), "fg-ins-window").ok());
   EXPECT_FALSE(
-      InsWindowOptions::FromYaml(YAML::Load("{window_output: smoothed}"), "fg-ins-window").ok());
+      InsWindowOptionsFromYaml(YAML::Load("{window_output: smoothed}"), "fg-ins-window").ok());
   EXPECT_FALSE(
-      InsWindowOptions::FromYaml(YAML::Load("{preintegration_bias: x}"), "fg-ins-window").ok());
-  EXPECT_FALSE(InsWindowOptions::FromYaml(YAML::Load("{rss_loss: Tukey}"), "fg-ins-window").ok());
-  auto o = InsWindowOptions::FromYaml(
+      InsWindowOptionsFromYaml(YAML::Load("{preintegration_bias: x}"), "fg-ins-window").ok());
+  EXPECT_FALSE(InsWindowOptionsFromYaml(YAML::Load("{rss_loss: Tukey}"), "fg-ins-window").ok());
+  auto o = InsWindowOptionsFromYaml(
       YAML::Load("{lag_s: 4, window_update_s: 1, receiver_offset_z_m: 1.0, front_end: "
                  "{zupt_sigma_mps: 0.02}}"),
       "fg-ins-window", WindowOutput::kOnline);
@@ -337,13 +338,13 @@ TEST(InsGraphWindow, OptionsAndRegistration) {
   // then creates the estimator from the same node (the window keys were once lost there).
   const YAML::Node node = YAML::Load("{lag_s: 4, use_zaru: false}");
   for (int pass = 0; pass < 2; ++pass) {
-    auto again = InsWindowOptions::FromYaml(node, "fg-ins-window");
+    auto again = InsWindowOptionsFromYaml(node, "fg-ins-window");
     ASSERT_TRUE(again.ok()) << again.status().ToString();
     EXPECT_DOUBLE_EQ(again->lag_s, 4.0) << "pass " << pass;
     EXPECT_FALSE(again->graph.use_zaru) << "pass " << pass;
   }
   // fg-ins-batch still rejects the window's keys.
-  EXPECT_FALSE(InsGraphOptions::FromYaml(YAML::Load("{lag_s: 5}")).ok());
+  EXPECT_FALSE(InsGraphOptionsFromYaml(YAML::Load("{lag_s: 5}")).ok());
   auto waist = SimulateScenario("tarrio-circle", 1, YAML::Load("{duration_s: 20}"));
   ASSERT_TRUE(waist.ok());
   for (const char* id : {"fg-ins-window", "fg-ins-window-online"}) {

@@ -9,6 +9,7 @@
 #include <gtest/gtest.h>
 #include <Eigen/Eigenvalues>
 
+#include "config/parsers.h"
 #include "test_util.h"
 #include "walkgraph/angle.h"
 #include "walkgraph/convert.h"
@@ -44,7 +45,7 @@ double Rmse(const Walk& w, const Trajectory& t, Alignment a = Alignment::kNone) 
 // ------------------------------------------------------------------ options and registry
 
 TEST(JimenezOptions, DefaultsAreThePapers) {
-  auto o = JimenezIezOptions::FromYaml(YAML::Node(), "jimenez-iez", false, false);
+  auto o = JimenezIezOptionsFromYaml(YAML::Node(), "jimenez-iez", false, false);
   ASSERT_TRUE(o.ok()) << o.status().ToString();
   // 004 Sec. III-C: RSS0 = 60 at d0 = 1 m, |p| = 2.3, σ_RSS = 6 (RFCode units).
   EXPECT_EQ(o->rss0, 60.0);
@@ -62,7 +63,7 @@ TEST(JimenezOptions, DefaultsAreThePapers) {
 }
 
 TEST(JimenezOptions, YamlKeysStanceChildAndErrors) {
-  auto o = JimenezIezOptions::FromYaml(
+  auto o = JimenezIezOptionsFromYaml(
       YAML::Load("{path_loss_exponent: 3.0, zupt_sigma_mps: 0.02, stance: {mc_median_window: 5}}"),
       "jimenez-iez-rss", true, false);
   ASSERT_TRUE(o.ok()) << o.status().ToString();
@@ -71,14 +72,14 @@ TEST(JimenezOptions, YamlKeysStanceChildAndErrors) {
   EXPECT_EQ(o->stance.mc_median_window, 5);
   EXPECT_EQ(o->stance.detector, StanceDetector::kMultiCondition);  // kept unless named
   EXPECT_TRUE(o->use_rss);
-  auto g = JimenezIezOptions::FromYaml(YAML::Load("{stance: {detector: glrt}}"), "x", false, false);
+  auto g = JimenezIezOptionsFromYaml(YAML::Load("{stance: {detector: glrt}}"), "x", false, false);
   ASSERT_TRUE(g.ok());
   EXPECT_EQ(g->stance.detector, StanceDetector::kGlrt);
   for (const char* bad :
        {"{no_such_key: 1}", "{zupt_sigma_mps: 0}", "{path_loss_exponent: -2.3}",
         "{imu_sampling: sometimes}", "{stance_source: oracle}", "{range_gate_probability: 1.0}",
         "{stance: {detector: shoe}}", "{stance: {gamma: 3}}", "{output_rate_hz: 0}"}) {
-    EXPECT_FALSE(JimenezIezOptions::FromYaml(YAML::Load(bad), "x", true, false).ok()) << bad;
+    EXPECT_FALSE(JimenezIezOptionsFromYaml(YAML::Load(bad), "x", true, false).ok()) << bad;
   }
 }
 
@@ -103,7 +104,7 @@ TEST(JimenezApplicability, NeedsFootImuAndRadioInRfcode) {
   EXPECT_TRUE((*rss)->CheckApplicable(*foot).ok());
   EXPECT_FALSE((*iez)->CheckApplicable(*waist).ok());  // waist IMU: no ZUPTs
   // The public entry point does the same check.
-  auto options = JimenezIezOptions::FromYaml(YAML::Node(), "jimenez-iez", false, false);
+  auto options = JimenezIezOptionsFromYaml(YAML::Node(), "jimenez-iez", false, false);
   ASSERT_TRUE(options.ok());
   const auto direct = RunJimenezIez(*waist, *options);
   EXPECT_EQ(direct.status().code(), StatusCode::kFailedPrecondition);
@@ -405,7 +406,7 @@ TEST(JimenezConsistency, FirstZuptNisIsChiSquare3) {
   const YAML::Node config = YAML::Load(
       "{stance_source: labels, acc_noise_density: 0.0011, gyro_noise_density: 0.00055, "
       "zaru_sigma_radps: 0.0055, zupt_sigma_mps: 0.0001}");
-  auto options = JimenezIezOptions::FromYaml(config, "jimenez-iez", false, false);
+  auto options = JimenezIezOptionsFromYaml(config, "jimenez-iez", false, false);
   ASSERT_TRUE(options.ok());
   const int runs = MonteCarloRuns(10);
   std::vector<double> nis, zaru;

@@ -10,6 +10,7 @@
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+#include <yaml-cpp/yaml.h>
 #include <nlohmann/json.hpp>
 
 #include "walkgraph/compare.h"
@@ -223,7 +224,7 @@ class TruthOffset : public Estimator {
 EstimatorRegistry TestRegistry() {
   EstimatorRegistry r;
   EXPECT_TRUE(r.Register({"truth-offset", "test: truth + 0.25 m in x",
-                          [](const YAML::Node&) -> StatusOr<std::unique_ptr<Estimator>> {
+                          [](const Config&) -> StatusOr<std::unique_ptr<Estimator>> {
                             return std::unique_ptr<Estimator>(new TruthOffset(0.25));
                           }})
                   .ok());

@@ -9,6 +9,7 @@
 #include <gtest/gtest.h>
 #include <Eigen/Dense>
 
+#include "config/parsers.h"
 #include "test_util.h"
 #include "walkgraph/compare.h"
 #include "walkgraph/kalman.h"
@@ -344,10 +345,10 @@ TEST(Pcrb, FootWalksAndBadInputsAreReported) {
   EXPECT_EQ(f.status().code(), StatusCode::kFailedPrecondition);
   EXPECT_THAT(f.status().message(), HasSubstr("foot"));
   EXPECT_FALSE(ScenarioPcrb("no-such-scenario", YAML::Node(), 1, 1, 1).ok());
-  auto bad = PcrbOptions::FromYaml(YAML::Load("{step_sigma: 1}"), "pcrb");
+  auto bad = PcrbOptionsFromYaml(YAML::Load("{step_sigma: 1}"), "pcrb");
   ASSERT_FALSE(bad.ok());
   EXPECT_THAT(bad.status().message(), HasSubstr("step_sigma"));
-  auto good = PcrbOptions::FromYaml(YAML::Load("{prior_sigma_m: 0.2}"), "pcrb");
+  auto good = PcrbOptionsFromYaml(YAML::Load("{prior_sigma_m: 0.2}"), "pcrb");
   ASSERT_TRUE(good.ok());
   EXPECT_EQ(good->prior_sigma_m, 0.2);
   PcrbInformation a = RandomInformation(5, 1), b = RandomInformation(6, 1);

@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include "config/parsers.h"
 #include "walkgraph/angle.h"
 #include "walkgraph/metrics.h"
 #include "walkgraph/simulate.h"
@@ -192,7 +193,7 @@ TEST(PdrTest, PcaFindsTheForwardAxis) {
   auto by = ComputeSteps(w, o);
   ASSERT_TRUE(by.ok());
   EXPECT_LT(std::fabs(NormalizeAngle(by->steps[60].heading_rad - (mount + kPi / 2))), 0.1);
-  EXPECT_TRUE(PdrOptions::FromYaml(YAML::Load("{forward_axis: body-y}")).ok());
+  EXPECT_TRUE(PdrOptionsFromYaml(YAML::Load("{forward_axis: body-y}")).ok());
 }
 
 TEST(PdrTest, StepsFromOdometryFollowTheIncrementConvention) {
@@ -214,15 +215,15 @@ TEST(PdrTest, StepsFromOdometryFollowTheIncrementConvention) {
 
 TEST(PdrTest, OptionsFromYamlAreStrict) {
   auto ok =
-      PdrOptions::FromYaml(YAML::Load("{detector: energy, length_model: constant, "
-                                      "constant_length_m: 0.65, heading: complementary}"));
+      PdrOptionsFromYaml(YAML::Load("{detector: energy, length_model: constant, "
+                                    "constant_length_m: 0.65, heading: complementary}"));
   ASSERT_TRUE(ok.ok()) << ok.status().ToString();
   EXPECT_EQ(ok->detector, StepDetector::kEnergy);
   EXPECT_EQ(ok->length_model, StepLengthModel::kConstant);
   EXPECT_DOUBLE_EQ(ok->constant_length_m, 0.65);
-  EXPECT_FALSE(PdrOptions::FromYaml(YAML::Load("{detector: peaks}")).ok());
-  EXPECT_FALSE(PdrOptions::FromYaml(YAML::Load("{weinberg: 0.4}")).ok());
-  EXPECT_FALSE(PdrOptions::FromYaml(YAML::Load("{complementary_w: 2.0}")).ok());
+  EXPECT_FALSE(PdrOptionsFromYaml(YAML::Load("{detector: peaks}")).ok());
+  EXPECT_FALSE(PdrOptionsFromYaml(YAML::Load("{weinberg: 0.4}")).ok());
+  EXPECT_FALSE(PdrOptionsFromYaml(YAML::Load("{complementary_w: 2.0}")).ok());
 }
 
 // Issue 4 on the simulator's hip walks: detected step count within 2 % of the true steps.
@@ -269,7 +270,7 @@ TEST(PdrTest, StepCountOnSimulatedHipWalks) {
     for (uint64_t seed : {1, 2}) {
       auto sim = SimulateScenarioDetailed(c.scenario, seed, YAML::Load(c.overrides));
       ASSERT_TRUE(sim.ok()) << sim.status().message();
-      auto options = PdrOptions::FromYaml(YAML::Load(c.pdr));
+      auto options = PdrOptionsFromYaml(YAML::Load(c.pdr));
       ASSERT_TRUE(options.ok()) << options.status().message();
       auto seq = ComputeSteps(sim->walk, *options);
       ASSERT_TRUE(seq.ok()) << seq.status().message();
@@ -333,7 +334,7 @@ TEST(PdrTest, RelativeErrorOfEachPapersFrontEndOnItsHipWalk) {
             "constant_length_m: " +
             std::to_string(sim->walk.meta.extra.at("sim.step_length_m")) + "}";
       }
-      auto options = PdrOptions::FromYaml(YAML::Load(pdr));
+      auto options = PdrOptionsFromYaml(YAML::Load(pdr));
       ASSERT_TRUE(options.ok()) << options.status().message();
       auto seq = ComputeSteps(sim->walk, *options);
       ASSERT_TRUE(seq.ok()) << seq.status().message();
@@ -366,7 +367,7 @@ TEST(PdrTest, RelativeErrorOfEachPapersFrontEndOnItsHipWalk) {
 TEST(PdrTest, PositionOnlyStartTakesTheMagnetometerHeading) {
   auto sim = SimulateScenarioDetailed("correa-classroom", 1, YAML::Load("{laps: 1}"));
   ASSERT_TRUE(sim.ok()) << sim.status().message();
-  auto options = PdrOptions::FromYaml(YAML::Load("{heading: complementary}"));
+  auto options = PdrOptionsFromYaml(YAML::Load("{heading: complementary}"));
   ASSERT_TRUE(options.ok());
   Walk none = sim->walk;
   none.meta.initial_pose.reset();

@@ -7,6 +7,8 @@
 #include <gtest/gtest.h>
 #include <Eigen/Dense>
 
+#include "config/parsers.h"
+#include "filters/prieto_model.h"
 #include "test_util.h"
 #include "walkgraph/angle.h"
 #include "walkgraph/estimator.h"
@@ -155,7 +157,7 @@ TEST(PrietoModels, HeadingCovarianceMatchesNumericDifferentiation) {
 }
 
 TEST(PrietoOptions, PaperDefaultsAndStrictYaml) {
-  auto o = PrietoOptions::FromYaml(YAML::Node(), "prieto-ekf");
+  auto o = PrietoOptionsFromYaml(YAML::Node(), "prieto-ekf");
   ASSERT_TRUE(o.ok()) << o.status().message();
   EXPECT_EQ(o->sigma_jerk_mps3, 450.0);  // Sec. IV-A
   EXPECT_EQ(o->sigma_attitude_rate_ps, 1e-4);
@@ -166,12 +168,12 @@ TEST(PrietoOptions, PaperDefaultsAndStrictYaml) {
   EXPECT_EQ(o->sigma_a0_mps2, 0.3);
   EXPECT_EQ(o->sigma_w0_radps, 5e-2);
   EXPECT_EQ(o->stance.detector, StanceDetector::kMultiCondition);  // [33]
-  EXPECT_FALSE(PrietoOptions::FromYaml(YAML::Load("{sigma_q: 1}"), "p").ok());
-  EXPECT_FALSE(PrietoOptions::FromYaml(YAML::Load("{imu_sampling: magic}"), "p").ok());
-  EXPECT_FALSE(PrietoOptions::FromYaml(YAML::Load("{ukf_alpha: 0}"), "p").ok());
-  EXPECT_FALSE(PrietoOptions::FromYaml(YAML::Load("{stance: {nope: 1}}"), "p").ok());
-  EXPECT_FALSE(PrietoOptions::FromYaml(YAML::Load("{gate_probability: 1.5}"), "p").ok());
-  auto custom = PrietoOptions::FromYaml(
+  EXPECT_FALSE(PrietoOptionsFromYaml(YAML::Load("{sigma_q: 1}"), "p").ok());
+  EXPECT_FALSE(PrietoOptionsFromYaml(YAML::Load("{imu_sampling: magic}"), "p").ok());
+  EXPECT_FALSE(PrietoOptionsFromYaml(YAML::Load("{ukf_alpha: 0}"), "p").ok());
+  EXPECT_FALSE(PrietoOptionsFromYaml(YAML::Load("{stance: {nope: 1}}"), "p").ok());
+  EXPECT_FALSE(PrietoOptionsFromYaml(YAML::Load("{gate_probability: 1.5}"), "p").ok());
+  auto custom = PrietoOptionsFromYaml(
       YAML::Load("{ukf_alpha: 0.5, gate_probability: 0.99, imu_sampling: instantaneous, "
                  "stance: {mc_acc_std_max_mps2: 0.7}}"),
       "p");
@@ -192,7 +194,7 @@ TEST(PrietoOptions, PaperDefaultsAndStrictYaml) {
 
 // The struct default (built without YAML on every construction) is the parsed paper default.
 TEST(PrietoOptions, DefaultStanceEqualsTheParsedPaperDefault) {
-  auto parsed = StanceOptions::FromYaml(YAML::Load("{detector: multi-condition}"));
+  auto parsed = StanceOptionsFromYaml(YAML::Load("{detector: multi-condition}"));
   ASSERT_TRUE(parsed.ok()) << parsed.status().message();
   const StanceOptions d = PrietoOptions().stance;
   EXPECT_EQ(d.detector, parsed->detector);

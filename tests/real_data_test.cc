@@ -10,6 +10,7 @@
 
 #include <gtest/gtest.h>
 
+#include "config/reader.h"
 #include "walkgraph/config.h"
 #include "walkgraph/convert.h"
 #include "walkgraph/estimator.h"

@@ -5,6 +5,7 @@
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+#include <yaml-cpp/yaml.h>
 
 #include "walkgraph/estimator.h"
 
@@ -20,7 +21,7 @@ class Constant : public Estimator {
 };
 
 EstimatorFactory ConstantFactory() {
-  return [](const YAML::Node&) -> StatusOr<std::unique_ptr<Estimator>> {
+  return [](const Config&) -> StatusOr<std::unique_ptr<Estimator>> {
     return std::unique_ptr<Estimator>(new Constant());
   };
 }

@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include <gtest/gtest.h>
+#include <yaml-cpp/yaml.h>
 
 #include "factors/barometric_height_factor.h"
 #include "walkgraph/angle.h"

@@ -8,6 +8,7 @@
 
 #include <gtest/gtest.h>
 
+#include "config/parsers.h"
 #include "walkgraph/angle.h"
 #include "walkgraph/convert.h"
 #include "walkgraph/simulate.h"
@@ -126,14 +127,14 @@ TEST(StanceTest, ThresholdSearchTradesPrecisionForRecall) {
 }
 
 TEST(StanceTest, OptionsFromYaml) {
-  auto o = StanceOptions::FromYaml(YAML::Load("{detector: are, window: 7, are_threshold: 1e4}"));
+  auto o = StanceOptionsFromYaml(YAML::Load("{detector: are, window: 7, are_threshold: 1e4}"));
   ASSERT_TRUE(o.ok()) << o.status().ToString();
   EXPECT_EQ(o->detector, StanceDetector::kAre);
   EXPECT_EQ(o->window, 7);
   EXPECT_DOUBLE_EQ(o->threshold(), 1e4);
-  EXPECT_FALSE(StanceOptions::FromYaml(YAML::Load("{detector: shoe}")).ok());
-  EXPECT_FALSE(StanceOptions::FromYaml(YAML::Load("{window: 0}")).ok());
-  EXPECT_FALSE(StanceOptions::FromYaml(YAML::Load("{gamma: 3}")).ok());
+  EXPECT_FALSE(StanceOptionsFromYaml(YAML::Load("{detector: shoe}")).ok());
+  EXPECT_FALSE(StanceOptionsFromYaml(YAML::Load("{window: 0}")).ok());
+  EXPECT_FALSE(StanceOptionsFromYaml(YAML::Load("{gamma: 3}")).ok());
 }
 
 // Real data: PyShoe VICON trials against zv_vicon. Prints the best-F1 threshold per detector

@@ -12,6 +12,7 @@
 
 #include <ceres/normal_prior.h>
 #include <gtest/gtest.h>
+#include <yaml-cpp/yaml.h>
 
 #include "test_util.h"
 #include "walkgraph/angle.h"

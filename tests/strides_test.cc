@@ -7,6 +7,7 @@
 
 #include <gtest/gtest.h>
 
+#include "config/parsers.h"
 #include "test_util.h"
 #include "walkgraph/angle.h"
 #include "walkgraph/pdr.h"
@@ -155,7 +156,7 @@ TEST(StridesTest, StepsForWalkReturnsStridesForFootWalks) {
   // The absolute heading's σ accumulates the increments' σ.
   EXPECT_GT(steps->steps.back().sigma_heading_rad, steps->steps.front().sigma_heading_rad);
   // The stride options are reachable from the PDR options' YAML.
-  auto pdr = PdrOptions::FromYaml(YAML::Load("{stride: {min_swing_s: 0.3, stance: {window: 7}}}"));
+  auto pdr = PdrOptionsFromYaml(YAML::Load("{stride: {min_swing_s: 0.3, stance: {window: 7}}}"));
   ASSERT_TRUE(pdr.ok()) << pdr.status().ToString();
   EXPECT_DOUBLE_EQ(pdr->stride.min_swing_s, 0.3);
   EXPECT_EQ(pdr->stride.stance.window, 7);
@@ -180,16 +181,16 @@ TEST(StridesTest, StandstillHasNoStrides) {
 }
 
 TEST(StridesTest, OptionsFromYaml) {
-  auto o = StrideOptions::FromYaml(
+  auto o = StrideOptionsFromYaml(
       YAML::Load("{sampling: instantaneous, zupt_sigma_mps: 0.02, stance: {glrt_threshold: 1e5}}"));
   ASSERT_TRUE(o.ok()) << o.status().ToString();
   EXPECT_EQ(o->sampling, ImuSampling::kInstantaneous);
   EXPECT_DOUBLE_EQ(o->zupt_sigma_mps, 0.02);
   EXPECT_DOUBLE_EQ(o->stance.glrt_threshold, 1e5);
-  EXPECT_FALSE(StrideOptions::FromYaml(YAML::Load("{sampling: point}")).ok());
-  EXPECT_FALSE(StrideOptions::FromYaml(YAML::Load("{zupt_sigma: 0.02}")).ok());
-  EXPECT_FALSE(StrideOptions::FromYaml(YAML::Load("{zupt_sigma_mps: 0}")).ok());
-  EXPECT_FALSE(StrideOptions::FromYaml(YAML::Load("{stance: {gamma: 1}}")).ok());
+  EXPECT_FALSE(StrideOptionsFromYaml(YAML::Load("{sampling: point}")).ok());
+  EXPECT_FALSE(StrideOptionsFromYaml(YAML::Load("{zupt_sigma: 0.02}")).ok());
+  EXPECT_FALSE(StrideOptionsFromYaml(YAML::Load("{zupt_sigma_mps: 0}")).ok());
+  EXPECT_FALSE(StrideOptionsFromYaml(YAML::Load("{stance: {gamma: 1}}")).ok());
   Walk no_imu;
   EXPECT_FALSE(RunZuptIns(no_imu, StrideOptions()).ok());
 }

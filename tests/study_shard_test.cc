@@ -10,6 +10,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include "config/reader.h"
 #include "walkgraph/config.h"
 #include "walkgraph/study.h"
 
@@ -61,9 +62,9 @@ const EstimatorRegistry& Registry() {
       const bool s = seeded, f = fails;
       EXPECT_TRUE(
           reg->Register({id, "test",
-                         [s, f](const YAML::Node& config) -> StatusOr<std::unique_ptr<Estimator>> {
+                         [s, f](const Config& config) -> StatusOr<std::unique_ptr<Estimator>> {
                            double v = 0.3;
-                           ConfigReader cr(config, "test");
+                           ConfigReader cr(config.node(), "test");
                            cr.Read("offset_m", &v);
                            WG_RETURN_IF_ERROR(cr.Finish());
                            return std::unique_ptr<Estimator>(new Shifted(v, s, f));

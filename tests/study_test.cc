@@ -12,6 +12,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include "config/reader.h"
 #include "walkgraph/config.h"
 #include "walkgraph/simulate.h"
 
@@ -57,9 +58,9 @@ class Shifted : public Estimator {
 };
 
 EstimatorFactory Factory(Shifted::Kind kind, const char* key, double def) {
-  return [kind, key, def](const YAML::Node& config) -> StatusOr<std::unique_ptr<Estimator>> {
+  return [kind, key, def](const Config& config) -> StatusOr<std::unique_ptr<Estimator>> {
     double v = def;
-    ConfigReader r(config, "test");
+    ConfigReader r(config.node(), "test");
     if (key != nullptr) r.Read(key, &v);
     WG_RETURN_IF_ERROR(r.Finish());
     return std::unique_ptr<Estimator>(new Shifted(kind, v));
@@ -438,7 +439,7 @@ TEST(Study, JimenezTablesManifestIsWellFormed) {
   for (const char* id : {"jimenez-iez-rss", "fg-batch-selfcal"}) {
     ASSERT_TRUE(stand_ins
                     .Register({id, "stand-in",
-                               [](const YAML::Node&) -> StatusOr<std::unique_ptr<Estimator>> {
+                               [](const Config&) -> StatusOr<std::unique_ptr<Estimator>> {
                                  return std::unique_ptr<Estimator>(
                                      new Shifted(Shifted::kOffset, 0.0));
                                }})

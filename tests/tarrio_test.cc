@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 #include <Eigen/Dense>
 
+#include "config/parsers.h"
 #include "test_util.h"
 #include "walkgraph/compare.h"
 #include "walkgraph/metrics.h"
@@ -67,17 +68,17 @@ double MeanError(const Synth& s, const Trajectory& traj) {
 }
 
 TEST(TarrioKfOptionsTest, PaperDefaultsAndStrictYaml) {
-  auto o = TarrioKfOptions::FromYaml(YAML::Node(), "tarrio-kf");
+  auto o = TarrioKfOptionsFromYaml(YAML::Node(), "tarrio-kf");
   ASSERT_TRUE(o.ok());
   EXPECT_EQ(o->sigma_a_mps2, 0.1);
   EXPECT_EQ(o->sigma_v_mps, 0.1);
   EXPECT_EQ(o->sigma_p_m, 2.0);
   EXPECT_EQ(o->prediction, TarrioPrediction::kLastVelocity);
   EXPECT_FALSE(o->smooth);
-  EXPECT_FALSE(TarrioKfOptions::FromYaml(YAML::Load("{sigma_q: 1}"), "tarrio-kf").ok());
-  EXPECT_FALSE(TarrioKfOptions::FromYaml(YAML::Load("{prediction: magic}"), "tarrio-kf").ok());
-  EXPECT_FALSE(TarrioKfOptions::FromYaml(YAML::Load("{sigma_p_m: 0}"), "tarrio-kf").ok());
-  auto custom = TarrioKfOptions::FromYaml(YAML::Load("{sigma_p_m: 3.5, smooth: true}"), "x");
+  EXPECT_FALSE(TarrioKfOptionsFromYaml(YAML::Load("{sigma_q: 1}"), "tarrio-kf").ok());
+  EXPECT_FALSE(TarrioKfOptionsFromYaml(YAML::Load("{prediction: magic}"), "tarrio-kf").ok());
+  EXPECT_FALSE(TarrioKfOptionsFromYaml(YAML::Load("{sigma_p_m: 0}"), "tarrio-kf").ok());
+  auto custom = TarrioKfOptionsFromYaml(YAML::Load("{sigma_p_m: 3.5, smooth: true}"), "x");
   ASSERT_TRUE(custom.ok());
   EXPECT_EQ(custom->sigma_p_m, 3.5);
   EXPECT_TRUE(custom->smooth);

@@ -41,7 +41,7 @@ inline constexpr bool kSanitized =
 inline Comparison ScenarioMonteCarlo(const std::string& scenario, const std::string& overrides,
                                      const std::vector<std::string>& ids, int runs, uint64_t seed,
                                      double score_from_s = 0.0,
-                                     const std::map<std::string, YAML::Node>& configs = {}) {
+                                     const std::map<std::string, Config>& configs = {}) {
   CompareOptions co;
   co.estimator_ids = ids;
   co.score_from_s = score_from_s;

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 #include <Eigen/Eigenvalues>
 
+#include "config/parsers.h"
 #include "walkgraph/metrics.h"
 #include "walkgraph/simulate.h"
 
@@ -48,9 +49,9 @@ TEST(ZuptIns, DeadReckoningDriftAndCovarianceOnJimenezBuilding) {
 }
 
 TEST(ZuptIns, OptionsAndApplicability) {
-  EXPECT_FALSE(ZuptInsOptions::FromYaml(YAML::Load("{output_rate: 10}")).ok());
-  EXPECT_FALSE(ZuptInsOptions::FromYaml(YAML::Load("{output_rate_hz: 0}")).ok());
-  auto o = ZuptInsOptions::FromYaml(YAML::Load("{front_end: {use_zaru: false}}"));
+  EXPECT_FALSE(ZuptInsOptionsFromYaml(YAML::Load("{output_rate: 10}")).ok());
+  EXPECT_FALSE(ZuptInsOptionsFromYaml(YAML::Load("{output_rate_hz: 0}")).ok());
+  auto o = ZuptInsOptionsFromYaml(YAML::Load("{front_end: {use_zaru: false}}"));
   ASSERT_TRUE(o.ok()) << o.status().ToString();
   EXPECT_FALSE(o->front_end.use_zaru);
   Walk waist;

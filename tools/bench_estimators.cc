@@ -29,6 +29,7 @@
 #include <vector>
 
 #include <benchmark/benchmark.h>
+#include <yaml-cpp/yaml.h>
 #include <nlohmann/json.hpp>
 
 #include "walkgraph/estimator.h"

@@ -23,6 +23,7 @@
 #include <map>
 #include <string>
 
+#include "config/parsers.h"
 #include "walkgraph/config.h"
 #include "walkgraph/estimator.h"
 #include "walkgraph/io.h"
@@ -95,8 +96,8 @@ void FuzzConfig(const std::string& text) {
   if (!node.ok()) return;
   const auto& registry = walkgraph::EstimatorRegistry::Builtin();
   for (const std::string& id : registry.Ids()) (void)registry.Create(id, *node);
-  (void)walkgraph::PcrbOptions::FromYaml(*node, "config.yaml");
-  (void)walkgraph::StanceOptions::FromYaml(*node);
+  (void)walkgraph::PcrbOptionsFromYaml(*node, "config.yaml");
+  (void)walkgraph::StanceOptionsFromYaml(*node);
 }
 
 void FuzzManifest(const std::string& text) {

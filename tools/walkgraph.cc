@@ -24,6 +24,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include "config/parsers.h"
 #include "walkgraph/compare.h"
 #include "walkgraph/config.h"
 #include "walkgraph/convert.h"
@@ -347,7 +348,7 @@ struct PcrbArgs {
 
 // compare --config: a map from estimator id to that estimator's options.
 Status ConfigsById(const YAML::Node& config, const std::string& path,
-                   std::map<std::string, YAML::Node>* out) {
+                   std::map<std::string, walkgraph::Config>* out) {
   if (!config.IsDefined() || config.IsNull()) return Status::Ok();
   const auto line = [&](const YAML::Node& n) { return std::to_string(n.Mark().line + 1); };
   if (!config.IsMap()) {
@@ -453,7 +454,7 @@ int RunPcrb(const std::string& scenario, const std::string& scenario_config,
   auto config = LoadConfig(config_path);
   if (!config.ok()) return Fail(config.status());
   auto options =
-      walkgraph::PcrbOptions::FromYaml(*config, config_path.empty() ? "pcrb" : config_path);
+      walkgraph::PcrbOptionsFromYaml(*config, config_path.empty() ? "pcrb" : config_path);
   if (!options.ok()) return Fail(options.status());
   auto bound = walkgraph::ScenarioPcrb(scenario, overrides, runs, seed, threads, *options);
   if (!bound.ok()) {
@@ -636,7 +637,7 @@ int RunStanceSearch(const std::string& walk_dir, const std::string& detector,
   if (!walk.ok()) return Fail(walk.status());
   auto config = LoadConfig(config_path);
   if (!config.ok()) return Fail(config.status());
-  auto options = walkgraph::StanceOptions::FromYaml(*config);
+  auto options = walkgraph::StanceOptionsFromYaml(*config);
   if (!options.ok()) return Fail(InConfig(config_path, options.status()));
   auto type = walkgraph::StanceDetectorFromString(detector);
   if (!type.ok()) return Fail(type.status());

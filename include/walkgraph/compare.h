@@ -31,8 +31,7 @@
 #include <string>
 #include <vector>
 
-#include <yaml-cpp/yaml.h>
-
+#include "walkgraph/config.h"
 #include "walkgraph/divergence.h"
 #include "walkgraph/estimator.h"
 #include "walkgraph/metrics.h"
@@ -47,7 +46,7 @@ struct CompareOptions {
   // Estimators to run, in order; empty = every registered estimator applicable to the walk.
   std::vector<std::string> estimator_ids;
   // Per-estimator configuration (YAML map of options), by id.
-  std::map<std::string, YAML::Node> configs;
+  std::map<std::string, Config> configs;
   Alignment alignment = Alignment::kNone;
   // Score only truth at t >= t_first_truth + score_from_s (0 = the whole walk): a filter's
   // start-up transient left out, as papers that report "the stationary state of the filter"
@@ -170,7 +169,7 @@ StatusOr<Comparison> CompareMonteCarlo(
 // A bound that is not defined for the scenario (FailedPrecondition, e.g. foot-IMU presets)
 // leaves pcrb_rmse_m empty and says why in pcrb_note; other PCRB failures are errors.
 struct ScenarioCompareOptions {
-  YAML::Node overrides;          // SimulateScenario overrides, e.g. {laps: 2, eta: 3.0}
+  Config overrides;              // SimulateScenario overrides, e.g. {laps: 2, eta: 3.0}
   std::string overrides_origin;  // prefixed to simulator errors (e.g. the YAML file's path)
   bool pcrb = true;
   PcrbOptions pcrb_options;

@@ -1,70 +1,46 @@
-// Reading an estimator's Options from YAML: every key must be known, every value well typed.
+// The configuration of an estimator (its options) or of a simulated scenario (its overrides):
+// a YAML map, parsed, held as a value. Absent keys keep the defaults; each reader refuses keys
+// it does not know, with the line.
 //
-//   ConfigReader r(node, "tarrio-kf");
-//   r.Read("sigma_p_m", &opts.sigma_p_m, "process noise of the position random walk (eq. 9)");
-//   WG_RETURN_IF_ERROR(r.Finish());   // reports unknown keys and type errors with line numbers
+//   auto config = walkgraph::Config::Parse("{lag_s: 5, path_loss: global}");
+//   auto est = walkgraph::EstimatorRegistry::Builtin().Create("fg-window", *config);
+//
+// The library reads configurations with yaml-cpp, which stays out of its public headers: code
+// that has yaml-cpp itself (the library, its tests, the Python module) converts a YAML::Node
+// implicitly and reads Config::node(); other code needs neither.
 #ifndef WALKGRAPH_CONFIG_H_
 #define WALKGRAPH_CONFIG_H_
 
 #include <cstdint>
 #include <functional>
-#include <set>
+#include <memory>
 #include <string>
 #include <variant>
 #include <vector>
 
-#include <yaml-cpp/yaml.h>
-
 #include "walkgraph/status.h"
+
+namespace YAML {
+class Node;
+}  // namespace YAML
 
 namespace walkgraph {
 
-class ConfigReader {
+class Config {
  public:
-  ConfigReader(YAML::Node node, std::string context);
+  Config();                        // no keys: every default
+  Config(const YAML::Node& node);  // NOLINT(runtime/explicit): shares the node (no copy)
+  // `yaml_text`: one YAML document holding a map (or nothing); `origin` names it in messages.
+  static StatusOr<Config> Parse(const std::string& yaml_text, const std::string& origin = "config");
+  // A YAML file (at most 16 MiB, one document, no repeated keys); errors name the file and line.
+  static StatusOr<Config> Load(const std::string& path);
 
-  // Reads `key` into `value` if present; the first failure is kept and reported by Finish().
-  // `doc`: what the option does, in one line, shown by `walkgraph list ID` (from this call, so
-  // the list cannot drift from what the reader accepts).
-  void Read(const std::string& key, double* value, const char* doc = nullptr);
-  void Read(const std::string& key, int* value, const char* doc = nullptr);
-  void Read(const std::string& key, bool* value, const char* doc = nullptr);
-  void Read(const std::string& key, std::string* value, const char* doc = nullptr);
-  // A string option with a fixed set of values: any other is an error naming them, and
-  // `walkgraph list ID` shows them (from this same list).
-  void Read(const std::string& key, std::string* value, const std::vector<std::string>& allowed,
-            const char* doc = nullptr);
-  // An enum option by name: `names` is the option's one table of (name, value), which its
-  // error message and `walkgraph list ID` show.
-  template <typename E>
-  void ReadEnum(const std::string& key, E* value,
-                const std::vector<std::pair<std::string, E>>& names, const char* doc = nullptr) {
-    std::string text;
-    std::vector<std::string> allowed;
-    for (const auto& [name, v] : names) {
-      allowed.push_back(name);
-      if (v == *value) text = name;
-    }
-    Read(key, &text, allowed, doc);
-    for (const auto& [name, v] : names) {
-      if (name == text) *value = v;
-    }
-  }
-  // A sub-map, for nested options; returns an undefined node when absent.
-  YAML::Node Child(const std::string& key);
-
-  // OK, or the first type error, or the first key that no Read() asked for.
-  Status Finish() const;
+  bool empty() const;          // null or absent: no keys
+  std::string ToYaml() const;  // the configuration as YAML text
+  const YAML::Node& node() const;
 
  private:
-  template <typename T>
-  void ReadScalar(const std::string& key, T* value, const char* type_name, const char* doc);
-
-  YAML::Node node_;
-  std::string context_;
-  std::string record_path_;  // under RecordOptionDefaults: this reader's prefix ("pdr.")
-  std::set<std::string> known_;
-  Status first_error_;
+  std::shared_ptr<const YAML::Node> node_;
 };
 
 // An option and the value it holds before the YAML is applied: its default.
@@ -91,12 +67,6 @@ bool ParseScalar(const std::string& text, int* value);
 bool ParseScalar(const std::string& text, uint64_t* value);
 bool ParseScalar(const std::string& text, bool* value);
 bool ParseScalar(const std::string& text, std::string* value);
-
-// Loads a YAML file; errors name the file and line. The file must be a regular file of at most
-// 16 MiB holding one YAML document without repeated keys.
-StatusOr<YAML::Node> LoadYamlFile(const std::string& path);
-// The same on text; `path` names it in messages.
-StatusOr<YAML::Node> LoadYamlText(const std::string& text, const std::string& path);
 
 }  // namespace walkgraph
 

@@ -7,8 +7,6 @@
 #ifndef WALKGRAPH_DEAD_RECKONING_H_
 #define WALKGRAPH_DEAD_RECKONING_H_
 
-#include <yaml-cpp/yaml.h>
-
 #include "walkgraph/estimator.h"
 
 namespace walkgraph {
@@ -18,8 +16,7 @@ struct OdometryDeadReckoningOptions {
   double sigma_dist_m = 0.001;      // constant distance noise per increment
   double sigma_dheading_rad = 0.01; // heading-increment noise per increment
 
-  static StatusOr<OdometryDeadReckoningOptions> FromYaml(const YAML::Node& node);
-  // Every rule FromYaml applies; Run refuses options that break one.
+  // Every rule its YAML reader applies; Run refuses options that break one.
   Status Validate() const;
 };
 

@@ -16,8 +16,6 @@
 #include <string>
 #include <vector>
 
-#include <yaml-cpp/yaml.h>
-
 #include "walkgraph/config.h"
 #include "walkgraph/status.h"
 #include "walkgraph/trajectory.h"
@@ -47,8 +45,7 @@ class Estimator {
   virtual StatusOr<EstimateResult> Run(const Walk& walk) const = 0;
 };
 
-using EstimatorFactory =
-    std::function<StatusOr<std::unique_ptr<Estimator>>(const YAML::Node& config)>;
+using EstimatorFactory = std::function<StatusOr<std::unique_ptr<Estimator>>(const Config& config)>;
 
 struct EstimatorInfo {
   std::string id;
@@ -68,7 +65,7 @@ class EstimatorRegistry {
   // it: a registry that dropped an estimator does not pass for a complete one.
   const Status& status() const { return status_; }
   StatusOr<std::unique_ptr<Estimator>> Create(const std::string& id,
-                                              const YAML::Node& config = YAML::Node()) const;
+                                              const Config& config = {}) const;
   const EstimatorInfo* Find(const std::string& id) const;
   // The options `id` accepts (the keys of its YAML config) with their defaults.
   StatusOr<std::vector<OptionDefault>> OptionDefaults(const std::string& id) const;

@@ -62,9 +62,9 @@
 #include <string>
 #include <vector>
 
-#include <yaml-cpp/yaml.h>
 #include <Eigen/Core>
 
+#include "walkgraph/config.h"
 #include "walkgraph/pdr.h"
 #include "walkgraph/simulate.h"
 #include "walkgraph/status.h"
@@ -79,9 +79,7 @@ struct PcrbOptions {
   double prior_sigma_m = 1e-3;  // σ_0 (known start); ≤ 0: the walk's initial_pose σ_xy
   double min_distance_m = 0.5;  // floor of d in the radio information
 
-  // Keys: the field names. Unknown keys are errors.
-  static StatusOr<PcrbOptions> FromYaml(const YAML::Node& node, const std::string& context);
-  // Every rule FromYaml applies; the bound refuses options that break one.
+  // Every rule its YAML reader applies; the bound refuses options that break one.
   Status Validate(const std::string& context = "pcrb") const;
 };
 
@@ -140,7 +138,7 @@ StatusOr<PcrbBound> ComputePcrb(const PcrbInformation& information);
 // The bound of a scenario over `runs` Monte Carlo runs with seeds MonteCarloSeed(seed, i) —
 // the walks CompareMonteCarlo sees for the same (runs, seed). Runs are simulated on `threads`
 // threads (≤ 0: all cores) and averaged in run order: the result does not depend on threads.
-StatusOr<PcrbBound> ScenarioPcrb(const std::string& scenario, const YAML::Node& overrides, int runs,
+StatusOr<PcrbBound> ScenarioPcrb(const std::string& scenario, const Config& overrides, int runs,
                                  uint64_t seed, int threads, const PcrbOptions& options = {});
 
 }  // namespace walkgraph

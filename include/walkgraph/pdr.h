@@ -31,7 +31,6 @@
 #include <string>
 #include <vector>
 
-#include <yaml-cpp/yaml.h>
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
@@ -104,11 +103,7 @@ struct PdrOptions {
   // Foot-mounted IMUs: the stride front end (strides.h) that StepsForWalk uses instead.
   StrideOptions stride;
 
-  // Keys: detector (vertical-peak|fir-magnitude|energy), length_model
-  // (weinberg|constant|linear), heading (gyro|complementary), forward_axis (body-x|body-y|pca), and
-  // every numeric field by its name; stride (a map of StrideOptions keys).
-  static StatusOr<PdrOptions> FromYaml(const YAML::Node& node);
-  // Every rule FromYaml applies (ranges, enum values); DetectSteps and ComputeSteps refuse
+  // Every rule its YAML reader applies (ranges, enum values); DetectSteps and ComputeSteps refuse
   // options that break one.
   Status Validate() const;
 };

@@ -2,7 +2,7 @@
 // the building blocks and their math).
 //
 //   auto walk = SimulateScenario("tarrio-circle", 7);                 // paper defaults
-//   auto walk = SimulateScenario("jimenez-building", 7, YAML::Load("{laps: 2, eta: 3.0}"));
+//   auto walk = SimulateScenario("jimenez-building", 7, *Config::Parse("{laps: 2, eta: 3.0}"));
 //
 // Same name + seed + overrides → identical walk (own Gaussian/uniform transforms over
 // mt19937_64; one forked stream per component). Truth: the IMU position at every IMU sample
@@ -95,8 +95,7 @@
 #include <string>
 #include <vector>
 
-#include <yaml-cpp/yaml.h>
-
+#include "walkgraph/config.h"
 #include "walkgraph/sim_models.h"
 #include "walkgraph/status.h"
 #include "walkgraph/walk.h"
@@ -113,7 +112,7 @@ std::vector<ScenarioInfo> Scenarios();
 // Deterministic for a given seed. `overrides` is an optional YAML map of scenario options
 // (e.g. {eta: 3.0, num_anchors: 8, laps: 4, duration_s: 600, nlos_fraction: 0.2}).
 StatusOr<Walk> SimulateScenario(const std::string& name, uint64_t seed,
-                                const YAML::Node& overrides = YAML::Node());
+                                const Config& overrides = {});
 
 // The walk plus what the simulator knows beyond it (for statistics tests and studies).
 struct Simulation {
@@ -125,7 +124,7 @@ struct Simulation {
   std::vector<PathLossParams> per_anchor;  // true per-anchor path loss (anchor order)
 };
 StatusOr<Simulation> SimulateScenarioDetailed(const std::string& name, uint64_t seed,
-                                              const YAML::Node& overrides = YAML::Node());
+                                              const Config& overrides = {});
 
 }  // namespace walkgraph
 

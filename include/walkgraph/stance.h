@@ -40,8 +40,6 @@
 #include <string>
 #include <vector>
 
-#include <yaml-cpp/yaml.h>
-
 #include "walkgraph/measurements.h"
 #include "walkgraph/status.h"
 #include "walkgraph/walk.h"
@@ -92,11 +90,7 @@ struct StanceOptions {
   double threshold() const;
   void set_threshold(double value);
 
-  // Keys: detector (glrt|mv|mag|are|multi-condition|adaptive) and every numeric field by its name;
-  // a key the map does not name keeps its value in `base` (a front end's own defaults).
-  static StatusOr<StanceOptions> FromYaml(const YAML::Node& node);
-  static StatusOr<StanceOptions> FromYaml(const YAML::Node& node, const StanceOptions& base);
-  // Every rule FromYaml applies; DetectStance refuses options that break one.
+  // Every rule its YAML reader applies; DetectStance refuses options that break one.
   Status Validate() const;
 };
 

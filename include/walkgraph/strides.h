@@ -39,7 +39,6 @@
 
 #include <vector>
 
-#include <yaml-cpp/yaml.h>
 #include <Eigen/Core>
 
 #include "walkgraph/measurements.h"
@@ -95,11 +94,8 @@ struct StrideOptions {
   double min_sigma_heading_rad = 0.002;
   double min_sigma_dheading_rad = 0.002;
 
-  // Keys: sampling (interval-average|instantaneous), stance (a map, StanceOptions keys), and
-  // every other field by its name; a key the map does not name keeps its value in `base`.
-  static StatusOr<StrideOptions> FromYaml(const YAML::Node& node);
-  static StatusOr<StrideOptions> FromYaml(const YAML::Node& node, const StrideOptions& base);
-  // Every rule FromYaml applies; ComputeStrides and RunZuptIns refuse options that break one.
+  // Every rule its YAML reader applies; ComputeStrides and RunZuptIns refuse options that break
+  // one.
   Status Validate() const;
   static StanceOptions DefaultStance();
   // These options for a causal estimator (zupt-ins, the fg-ins window): the adaptive detector's

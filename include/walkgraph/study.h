@@ -58,9 +58,8 @@
 #include <string>
 #include <vector>
 
-#include <yaml-cpp/yaml.h>
-
 #include "walkgraph/compare.h"
+#include "walkgraph/config.h"
 #include "walkgraph/estimator.h"
 #include "walkgraph/output.h"
 #include "walkgraph/pcrb.h"
@@ -73,7 +72,7 @@ struct StudySweep {
   int line = 0;  // 1-based manifest line of the sweep
   // The data: a scenario (with base overrides) or a walk directory.
   std::string scenario;
-  YAML::Node overrides;
+  Config overrides;
   std::string walk_dir;
   // What varies: a simulator override key, or per estimator an option key.
   std::string scenario_override;
@@ -92,7 +91,7 @@ struct StudyManifest {
   std::string path;  // as given (messages name it)
   std::string text;  // the manifest's text (carried by study parts, see below)
   std::string name, description;
-  std::map<std::string, YAML::Node> configs;  // base options per estimator id
+  std::map<std::string, Config> configs;  // base options per estimator id
   bool pcrb = true;
   PcrbOptions pcrb_options;
   std::vector<StudySweep> sweeps;

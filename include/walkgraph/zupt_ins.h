@@ -12,8 +12,6 @@
 #ifndef WALKGRAPH_ZUPT_INS_H_
 #define WALKGRAPH_ZUPT_INS_H_
 
-#include <yaml-cpp/yaml.h>
-
 #include "walkgraph/estimator.h"
 #include "walkgraph/strides.h"
 
@@ -25,10 +23,7 @@ struct ZuptInsOptions {
   double gauge_sigma_m = 1e-3;
   double gauge_sigma_yaw_rad = 1e-3;
 
-  // Keys: front_end (a map of StrideOptions keys), output_rate_hz, gauge_sigma_m,
-  // gauge_sigma_yaw_rad.
-  static StatusOr<ZuptInsOptions> FromYaml(const YAML::Node& node);
-  // Every rule FromYaml applies (and front_end's); Run refuses options that break one.
+  // Every rule its YAML reader applies (and front_end's); Run refuses options that break one.
   Status Validate() const;
 };
 

@@ -7,6 +7,8 @@
 #include <thread>
 #include <vector>
 
+#include <yaml-cpp/yaml.h>
+
 #include "walkgraph/output.h"
 
 namespace walkgraph::python {

@@ -10,6 +10,7 @@
 #include <pybind11/eigen.h>
 #include <pybind11/stl.h>
 
+#include "config/parsers.h"
 #include "convert.h"
 #include "factors/position_prior_factor.h"
 #include "factors/position_random_walk_factor.h"
@@ -211,7 +212,7 @@ void BindGraph(py::module_& m) {
       "step_graph",
       [](const Walk& walk, const py::object& config) {
         const YAML::Node yaml = ToYaml(config, "step_graph");
-        const StepGraphOptions o = Value(StepGraphOptions::FromYaml(
+        const StepGraphOptions o = Value(StepGraphOptionsFromYaml(
             yaml.IsNull() ? YAML::Node() : yaml, "step_graph", StepGraphOptions()));
         auto graph = std::make_unique<FactorGraph>();
         std::vector<double> times;

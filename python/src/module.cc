@@ -10,6 +10,7 @@
 #include <vector>
 
 #include <pybind11/stl.h>
+#include <yaml-cpp/yaml.h>
 
 #include "convert.h"
 #include "walkgraph/compare.h"
@@ -146,8 +147,8 @@ py::dict StatsDict(const ErrorStats& s) {
   return d;
 }
 
-std::map<std::string, YAML::Node> ConfigsById(const py::object& config) {
-  std::map<std::string, YAML::Node> out;
+std::map<std::string, Config> ConfigsById(const py::object& config) {
+  std::map<std::string, Config> out;
   if (config.is_none()) return out;
   for (const auto& [k, v] : config.cast<py::dict>()) {
     const std::string id = py::str(k);

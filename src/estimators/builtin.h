@@ -10,6 +10,9 @@
 #include <memory>
 #include <utility>
 
+#include <yaml-cpp/yaml.h>
+
+#include "config/reader.h"
 #include "walkgraph/estimator.h"
 
 namespace walkgraph::internal {
@@ -19,8 +22,8 @@ namespace walkgraph::internal {
 // EstimatorT(args..., options).
 template <typename EstimatorT, typename Parse, typename... Args>
 EstimatorFactory OptionsFactory(Parse parse, Args... args) {
-  return [parse, args...](const YAML::Node& config) -> StatusOr<std::unique_ptr<Estimator>> {
-    auto options = parse(config);
+  return [parse, args...](const Config& config) -> StatusOr<std::unique_ptr<Estimator>> {
+    auto options = parse(config.node());
     if (!options.ok()) return options.status();
     return std::unique_ptr<Estimator>(new EstimatorT(args..., std::move(*options)));
   };

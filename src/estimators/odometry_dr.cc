@@ -2,6 +2,7 @@
 
 #include <Eigen/Core>
 
+#include "config/parsers.h"
 #include "estimators/builtin.h"
 #include "walkgraph/angle.h"
 #include "walkgraph/config.h"
@@ -9,7 +10,7 @@
 
 namespace walkgraph {
 
-StatusOr<OdometryDeadReckoningOptions> OdometryDeadReckoningOptions::FromYaml(
+StatusOr<OdometryDeadReckoningOptions> OdometryDeadReckoningOptionsFromYaml(
     const YAML::Node& node) {
   OdometryDeadReckoningOptions o;
   ConfigReader r(node, "odometry-dr");
@@ -85,7 +86,7 @@ namespace internal {
 Status RegisterOdometryDeadReckoning(EstimatorRegistry* registry) {
   return registry->Register({"odometry-dr", "dead reckoning from odometry increments (no radio)",
                              OptionsFactory<OdometryDeadReckoning>([](const YAML::Node& config) {
-                               return OdometryDeadReckoningOptions::FromYaml(config);
+                               return OdometryDeadReckoningOptionsFromYaml(config);
                              })});
 }
 

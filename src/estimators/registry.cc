@@ -3,6 +3,8 @@
 #include <variant>
 #include <vector>
 
+#include <yaml-cpp/yaml.h>
+
 #include "estimators/builtin.h"
 #include "util/text.h"
 #include "walkgraph/estimator.h"
@@ -95,7 +97,7 @@ StatusOr<std::vector<OptionDefault>> EstimatorRegistry::OptionDefaults(
 }
 
 StatusOr<std::unique_ptr<Estimator>> EstimatorRegistry::Create(const std::string& id,
-                                                               const YAML::Node& config) const {
+                                                               const Config& config) const {
   if (!status_.ok()) return RegistryBroken(status_);
   const EstimatorInfo* info = Find(id);
   if (info == nullptr) {

@@ -2,13 +2,14 @@
 
 #include <cmath>
 
+#include "config/parsers.h"
 #include "estimators/builtin.h"
 #include "walkgraph/angle.h"
 #include "walkgraph/config.h"
 
 namespace walkgraph {
 
-StatusOr<ZuptInsOptions> ZuptInsOptions::FromYaml(const YAML::Node& node) {
+StatusOr<ZuptInsOptions> ZuptInsOptionsFromYaml(const YAML::Node& node) {
   ZuptInsOptions o;
   ConfigReader r(node, "zupt-ins");
   const YAML::Node front = r.Child("front_end");
@@ -19,7 +20,7 @@ StatusOr<ZuptInsOptions> ZuptInsOptions::FromYaml(const YAML::Node& node) {
   r.Read("gauge_sigma_yaw_rad", &o.gauge_sigma_yaw_rad, "start yaw std-dev without initial_pose");
   WG_RETURN_IF_ERROR(r.Finish());
   if (front.IsDefined()) {
-    WG_ASSIGN_OR_RETURN(o.front_end, StrideOptions::FromYaml(front, o.front_end));
+    WG_ASSIGN_OR_RETURN(o.front_end, StrideOptionsFromYaml(front, o.front_end));
   }
   WG_RETURN_IF_ERROR(o.Validate());
   return o;
@@ -101,7 +102,7 @@ Status RegisterZuptIns(EstimatorRegistry* registry) {
        "ZUPT/ZARU-aided strapdown INS, 15-state error-state EKF (step-wise dead reckoning, "
        "Nilsson et al. 2014; foot IMU)",
        OptionsFactory<ZuptInsDeadReckoning>(
-           [](const YAML::Node& config) { return ZuptInsOptions::FromYaml(config); })});
+           [](const YAML::Node& config) { return ZuptInsOptionsFromYaml(config); })});
 }
 
 }  // namespace internal

@@ -11,6 +11,7 @@
 #include <mutex>
 #include <sstream>
 
+#include <yaml-cpp/yaml.h>
 #include <nlohmann/json.hpp>
 
 #include "util/text.h"
@@ -138,7 +139,7 @@ StatusOr<Comparison> CompareOnWalk(const Walk& walk, const CompareOptions& optio
   const double distance = walk.TruthDistance();
   for (const std::string& id : ids) {
     auto it = options.configs.find(id);
-    const YAML::Node config = it != options.configs.end() ? it->second : YAML::Node();
+    const YAML::Node config = it != options.configs.end() ? it->second.node() : YAML::Node();
     // Monte Carlo runs share the configuration nodes, and a yaml-cpp lookup by key may modify
     // a node: estimators are created one at a time.
     static std::mutex create_mutex;

@@ -9,6 +9,8 @@
 #include <optional>
 #include <sstream>
 
+#include <yaml-cpp/yaml.h>
+
 #include "util/parallel_for.h"
 #include "util/text.h"
 #include "util/text_spill.h"
@@ -315,7 +317,7 @@ StatusOr<Comparison> CompareScenario(const std::string& scenario, const Scenario
   };
   add_pcrb(0, *first);
   first_walk = std::move(first->walk);
-  const YAML::Node overrides = sc.overrides;
+  const YAML::Node overrides = sc.overrides.node();
   const RunGenerator generate = [&](int run, uint64_t seed) -> StatusOr<Walk> {
     YAML::Node node;
     {

@@ -11,6 +11,7 @@
 #include <Eigen/Cholesky>
 #include <Eigen/SparseCholesky>
 
+#include "config/parsers.h"
 #include "util/parallel_for.h"
 #include "walkgraph/compare.h"
 #include "walkgraph/config.h"
@@ -18,7 +19,7 @@
 
 namespace walkgraph {
 
-StatusOr<PcrbOptions> PcrbOptions::FromYaml(const YAML::Node& node, const std::string& context) {
+StatusOr<PcrbOptions> PcrbOptionsFromYaml(const YAML::Node& node, const std::string& context) {
   PcrbOptions o;
   ConfigReader r(node, context);
   r.Read("step_sigma_frac", &o.step_sigma_frac,
@@ -421,8 +422,9 @@ StatusOr<PcrbInformation> PcrbAccumulator::Mean() const {
   return mean;
 }
 
-StatusOr<PcrbBound> ScenarioPcrb(const std::string& scenario, const YAML::Node& overrides, int runs,
+StatusOr<PcrbBound> ScenarioPcrb(const std::string& scenario, const Config& config, int runs,
                                  uint64_t seed, int threads, const PcrbOptions& options) {
+  const YAML::Node& overrides = config.node();
   if (runs < 1) return InvalidArgument("PCRB: runs must be >= 1");
   WG_ASSIGN_OR_RETURN(threads, ResolveThreads(threads, runs));
   PcrbAccumulator sum(runs);

@@ -12,6 +12,7 @@
 #include <set>
 #include <sstream>
 
+#include "config/parsers.h"
 #include "io/input_file.h"
 #include "report/estimator_style.h"
 #include "report/svg.h"
@@ -150,7 +151,7 @@ YAML::Node MapCopy(const YAML::Node& n) {
 
 // The simulator overrides of cell (sweep, value).
 YAML::Node CellOverrides(const StudySweep& sweep, size_t value) {
-  YAML::Node o = MapCopy(sweep.overrides);
+  YAML::Node o = MapCopy(sweep.overrides.node());
   if (!sweep.scenario_override.empty()) o[sweep.scenario_override] = sweep.values[value];
   return o;
 }
@@ -159,7 +160,7 @@ YAML::Node CellOverrides(const StudySweep& sweep, size_t value) {
 YAML::Node CellConfig(const StudyManifest& m, const StudySweep& sweep, size_t value,
                       const std::string& id) {
   const auto base = m.configs.find(id);
-  YAML::Node c = MapCopy(base != m.configs.end() ? base->second : YAML::Node());
+  YAML::Node c = MapCopy(base != m.configs.end() ? base->second.node() : YAML::Node());
   const auto key = sweep.option_keys.find(id);
   if (key != sweep.option_keys.end()) c[key->second] = sweep.values[value];
   return c;
@@ -276,7 +277,7 @@ StatusOr<StudySweep> ParseSweep(const Parser& p, const YAML::Node& node, const S
   if (node["scenario_override"]) {
     WG_ASSIGN_OR_RETURN(s.scenario_override,
                         p.String(node["scenario_override"], "scenario_override"));
-    const YAML::Node& base = s.overrides;  // const: a lookup must not add the key
+    const YAML::Node& base = s.overrides.node();  // const: a lookup must not add the key
     if (base.IsDefined() && base[s.scenario_override]) {
       return p.Error(node["scenario_override"],
                      what + ": '" + s.scenario_override + "' is both swept and in overrides");
@@ -394,7 +395,7 @@ StatusOr<StudyManifest> ParseManifestRoot(const YAML::Node& root, const std::str
   if (root["pcrb_options"]) {
     WG_ASSIGN_OR_RETURN(
         m.pcrb_options,
-        PcrbOptions::FromYaml(root["pcrb_options"], p.At(root["pcrb_options"]) + ": pcrb_options"));
+        PcrbOptionsFromYaml(root["pcrb_options"], p.At(root["pcrb_options"]) + ": pcrb_options"));
   }
   const YAML::Node sweeps = root["sweeps"];
   if (!sweeps || !sweeps.IsSequence() || sweeps.size() == 0) {

@@ -6,6 +6,7 @@
 #include <map>
 #include <sstream>
 
+#include "config/parsers.h"
 #include "estimators/builtin.h"
 #include "walkgraph/angle.h"
 #include "walkgraph/config.h"
@@ -14,8 +15,8 @@
 
 namespace walkgraph {
 
-StatusOr<CorreaEkfOptions> CorreaEkfOptions::FromYaml(const YAML::Node& node,
-                                                      const std::string& context) {
+StatusOr<CorreaEkfOptions> CorreaEkfOptionsFromYaml(const YAML::Node& node,
+                                                    const std::string& context) {
   CorreaEkfOptions o;
   ConfigReader r(node, context);
   r.Read("scmt", &o.scmt, "SCMT switch of 001 eq. 21 (correa-scmt-ekf)");
@@ -269,11 +270,10 @@ CorreaEstimatorOptions CorreaEstimatorOptions::PaperDefaults() {
   return o;
 }
 
-StatusOr<CorreaEstimatorOptions> CorreaEstimatorOptions::FromYaml(const YAML::Node& node,
-                                                                  CorreaVariant variant,
-                                                                  bool smooth,
-                                                                  const std::string& id) {
-  CorreaEstimatorOptions o = PaperDefaults();
+StatusOr<CorreaEstimatorOptions> CorreaEstimatorOptionsFromYaml(const YAML::Node& node,
+                                                                CorreaVariant variant, bool smooth,
+                                                                const std::string& id) {
+  CorreaEstimatorOptions o = CorreaEstimatorOptions::PaperDefaults();
   WG_ASSIGN_OR_RETURN(const YAML::Node own, WithoutKeys(node, {"pdr", "radio"}, id));
   WG_RETURN_IF_ERROR(
       RefuseKeysChosenById(own, {"scmt", "smooth"}, "correa-ekf, correa-scmt-ekf, -rts", id));
@@ -281,14 +281,14 @@ StatusOr<CorreaEstimatorOptions> CorreaEstimatorOptions::FromYaml(const YAML::No
   const YAML::Node radio = r.Child("radio");
   YAML::Node pdr;
   if (variant != CorreaVariant::kLs) {
-    WG_ASSIGN_OR_RETURN(o.filter, CorreaEkfOptions::FromYaml(own, id));
+    WG_ASSIGN_OR_RETURN(o.filter, CorreaEkfOptionsFromYaml(own, id));
     pdr = r.Child("pdr");
     for (const auto& kv : own) r.Child(kv.first.Scalar());
   }
   WG_RETURN_IF_ERROR(r.Finish());  // correa-ls: only radio
   o.filter.scmt = variant == CorreaVariant::kScmtEkf;
   o.filter.smooth = smooth;
-  WG_ASSIGN_OR_RETURN(o.radio, RadioFrontEndOptions::FromYaml(radio, o.radio, id));
+  WG_ASSIGN_OR_RETURN(o.radio, RadioFrontEndOptionsFromYaml(radio, o.radio, id));
   std::map<std::string, std::string> pdr_defaults = {
       {"detector", "fir-magnitude"}, {"length_model", "constant"}, {"heading", "complementary"}};
   if (o.filter.step_length_m > 0) {
@@ -383,7 +383,7 @@ Status RegisterCorrea(EstimatorRegistry* registry) {
     const CorreaVariant variant = e.variant;
     const bool smooth = e.smooth;
     auto parse = [id, variant, smooth](const YAML::Node& config) {
-      return CorreaEstimatorOptions::FromYaml(config, variant, smooth, id);
+      return CorreaEstimatorOptionsFromYaml(config, variant, smooth, id);
     };
     WG_RETURN_IF_ERROR(registry->Register(
         {id, e.description, OptionsFactory<CorreaEstimator>(parse, id, variant)}));

@@ -3,13 +3,14 @@
 #include <algorithm>
 #include <cmath>
 
+#include "config/parsers.h"
 #include "walkgraph/config.h"
 
 namespace walkgraph {
 
-StatusOr<RadioFrontEndOptions> RadioFrontEndOptions::FromYaml(const YAML::Node& node,
-                                                              const RadioFrontEndOptions& defaults,
-                                                              const std::string& context) {
+StatusOr<RadioFrontEndOptions> RadioFrontEndOptionsFromYaml(const YAML::Node& node,
+                                                            const RadioFrontEndOptions& defaults,
+                                                            const std::string& context) {
   RadioFrontEndOptions o = defaults;
   const std::string ctx = context + " radio";
   ConfigReader r(node, ctx);
@@ -53,14 +54,14 @@ StatusOr<PdrOptions> PdrOptionsFromYaml(const YAML::Node& node,
                                         const std::map<std::string, std::string>& paper_defaults,
                                         const std::string& context) {
   // The user's keys alone first: errors then point at the user's lines.
-  StatusOr<PdrOptions> user = PdrOptions::FromYaml(node);
+  StatusOr<PdrOptions> user = PdrOptionsFromYaml(node);
   if (!user.ok()) return InvalidArgument(context + ": " + user.status().message());
   YAML::Node merged(YAML::NodeType::Map);
   for (const auto& [key, value] : paper_defaults) merged[key] = value;
   if (node.IsMap()) {
     for (const auto& kv : node) merged[kv.first.Scalar()] = kv.second;
   }
-  StatusOr<PdrOptions> o = PdrOptions::FromYaml(merged);
+  StatusOr<PdrOptions> o = PdrOptionsFromYaml(merged);
   if (!o.ok()) return InvalidArgument(context + ": " + o.status().message());
   return o;
 }

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "config/parsers.h"
 #include "estimators/builtin.h"
 #include "walkgraph/config.h"
 #include "walkgraph/kalman.h"
@@ -10,8 +11,8 @@
 
 namespace walkgraph {
 
-StatusOr<GadekeKfOptions> GadekeKfOptions::FromYaml(const YAML::Node& node,
-                                                    const std::string& context) {
+StatusOr<GadekeKfOptions> GadekeKfOptionsFromYaml(const YAML::Node& node,
+                                                  const std::string& context) {
   GadekeKfOptions o;
   ConfigReader r(node, context);
   r.Read("velocity_factor", &o.velocity_factor, "velocity decay per processing epoch (003 eq. 6)");
@@ -174,13 +175,12 @@ GadekeEstimatorOptions GadekeEstimatorOptions::PaperDefaults() {
   return o;
 }
 
-StatusOr<GadekeEstimatorOptions> GadekeEstimatorOptions::FromYaml(const YAML::Node& node,
-                                                                  bool smooth,
-                                                                  const std::string& id) {
-  GadekeEstimatorOptions o = PaperDefaults();
+StatusOr<GadekeEstimatorOptions> GadekeEstimatorOptionsFromYaml(const YAML::Node& node, bool smooth,
+                                                                const std::string& id) {
+  GadekeEstimatorOptions o = GadekeEstimatorOptions::PaperDefaults();
   WG_ASSIGN_OR_RETURN(const YAML::Node own, WithoutKeys(node, {"pdr", "radio"}, id));
   WG_RETURN_IF_ERROR(RefuseKeysChosenById(own, {"smooth"}, "gadeke-kf or gadeke-kf-rts", id));
-  WG_ASSIGN_OR_RETURN(o.filter, GadekeKfOptions::FromYaml(own, id));
+  WG_ASSIGN_OR_RETURN(o.filter, GadekeKfOptionsFromYaml(own, id));
   o.filter.smooth = smooth;
   ConfigReader r(node, id);
   const YAML::Node pdr = r.Child("pdr");
@@ -259,7 +259,7 @@ Status RegisterGadeke(EstimatorRegistry* registry) {
   for (const bool smooth : {false, true}) {
     const std::string id = smooth ? "gadeke-kf-rts" : "gadeke-kf";
     auto parse = [id, smooth](const YAML::Node& config) {
-      return GadekeEstimatorOptions::FromYaml(config, smooth, id);
+      return GadekeEstimatorOptionsFromYaml(config, smooth, id);
     };
     WG_RETURN_IF_ERROR(registry->Register(
         {id,

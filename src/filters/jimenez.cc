@@ -10,6 +10,7 @@
 
 #include <Eigen/Cholesky>
 
+#include "config/parsers.h"
 #include "estimators/builtin.h"
 #include "util/enum_define.h"
 #include "walkgraph/angle.h"
@@ -94,9 +95,9 @@ TrajectoryPoint OutputPoint(const JimenezNominal& nominal, const Eigen::MatrixXd
 
 }  // namespace
 
-StatusOr<JimenezIezOptions> JimenezIezOptions::FromYaml(const YAML::Node& node,
-                                                        const std::string& context, bool use_rss,
-                                                        bool smooth) {
+StatusOr<JimenezIezOptions> JimenezIezOptionsFromYaml(const YAML::Node& node,
+                                                      const std::string& context, bool use_rss,
+                                                      bool smooth) {
   JimenezIezOptions o;
   o.use_rss = use_rss;
   o.smooth = smooth;
@@ -175,7 +176,7 @@ StatusOr<JimenezIezOptions> JimenezIezOptions::FromYaml(const YAML::Node& node,
   const YAML::Node stance = r.Child("stance");
   WG_RETURN_IF_ERROR(r.Finish());
   if (stance.IsDefined() && !stance.IsNull()) {
-    auto s = StanceOptions::FromYaml(stance);
+    auto s = StanceOptionsFromYaml(stance);
     if (!s.ok()) return InvalidArgument(context + ": " + s.status().message());
     o.stance = *s;
     // The filter's defaults (multi-condition detector, still_gyro_radps) stay unless named.
@@ -707,7 +708,7 @@ Status RegisterJimenezIez(EstimatorRegistry* registry) {
     const std::string id = v.id;
     const bool use_rss = v.use_rss, smooth = v.smooth;
     auto parse = [id, use_rss, smooth](const YAML::Node& config) {
-      return JimenezIezOptions::FromYaml(config, id, use_rss, smooth);
+      return JimenezIezOptionsFromYaml(config, id, use_rss, smooth);
     };
     WG_RETURN_IF_ERROR(registry->Register({id, v.description, OptionsFactory<JimenezIez>(parse)}));
   }

@@ -11,7 +11,9 @@
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
 
+#include "config/parsers.h"
 #include "estimators/builtin.h"
+#include "filters/prieto_model.h"
 #include "walkgraph/angle.h"
 #include "walkgraph/config.h"
 #include "walkgraph/filters/ranges.h"
@@ -30,13 +32,13 @@ const char* const kStanceDefaults = "{detector: multi-condition}";
 StatusOr<StanceOptions> StanceFromYaml(const YAML::Node& user) {
   YAML::Node merged = YAML::Load(kStanceDefaults);
   if (user.IsDefined() && !user.IsNull()) {
-    if (!user.IsMap()) return StanceOptions::FromYaml(user);  // reports the type error
+    if (!user.IsMap()) return StanceOptionsFromYaml(user);  // reports the type error
     for (const auto& kv : user) {
-      if (!kv.first.IsScalar()) return StanceOptions::FromYaml(user);
+      if (!kv.first.IsScalar()) return StanceOptionsFromYaml(user);
       merged[kv.first.Scalar()] = kv.second;
     }
   }
-  return StanceOptions::FromYaml(merged);
+  return StanceOptionsFromYaml(merged);
 }
 
 }  // namespace
@@ -49,13 +51,12 @@ StanceOptions PrietoDefaultStance() {
   return s;
 }
 
-StatusOr<PrietoOptions> PrietoOptions::FromYaml(const YAML::Node& node,
-                                                const std::string& context) {
-  return FromYaml(node, context, PrietoOptions());
+StatusOr<PrietoOptions> PrietoOptionsFromYaml(const YAML::Node& node, const std::string& context) {
+  return PrietoOptionsFromYaml(node, context, PrietoOptions());
 }
 
-StatusOr<PrietoOptions> PrietoOptions::FromYaml(const YAML::Node& node, const std::string& context,
-                                                const PrietoOptions& defaults) {
+StatusOr<PrietoOptions> PrietoOptionsFromYaml(const YAML::Node& node, const std::string& context,
+                                              const PrietoOptions& defaults) {
   PrietoOptions o = defaults;
   ConfigReader r(node, context);
   r.Read("sigma_jerk_mps3", &o.sigma_jerk_mps3,
@@ -1176,7 +1177,7 @@ Status RegisterPrieto(EstimatorRegistry* registry) {
     }
     const std::string id = v.id;
     auto parse = [id, defaults](const YAML::Node& config) {
-      return PrietoOptions::FromYaml(config, id, defaults);
+      return PrietoOptionsFromYaml(config, id, defaults);
     };
     WG_RETURN_IF_ERROR(
         registry->Register({id, v.description, OptionsFactory<PrietoFilter>(parse)}));

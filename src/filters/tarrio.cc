@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "config/parsers.h"
 #include "estimators/builtin.h"
 #include "util/enum_define.h"
 #include "walkgraph/config.h"
@@ -17,8 +18,8 @@ WALKGRAPH_DEFINE_ENUM_NAMES(TarrioPrediction, "prediction",
 WALKGRAPH_DEFINE_ENUM_NAMES(TarrioStart, "start", {"first-fix", TarrioStart::kFirstFix},
                             {"initial-pose", TarrioStart::kInitialPose})
 
-StatusOr<TarrioKfOptions> TarrioKfOptions::FromYaml(const YAML::Node& node,
-                                                    const std::string& context) {
+StatusOr<TarrioKfOptions> TarrioKfOptionsFromYaml(const YAML::Node& node,
+                                                  const std::string& context) {
   TarrioKfOptions o;
   ConfigReader r(node, context);
   r.Read("sigma_a_mps2", &o.sigma_a_mps2,
@@ -273,13 +274,13 @@ TarrioEstimatorOptions TarrioEstimatorOptions::PaperDefaults() {
   return o;
 }
 
-StatusOr<TarrioEstimatorOptions> TarrioEstimatorOptions::FromYaml(const YAML::Node& node,
-                                                                  TarrioMode mode, bool smooth,
-                                                                  const std::string& id) {
-  TarrioEstimatorOptions o = PaperDefaults();
+StatusOr<TarrioEstimatorOptions> TarrioEstimatorOptionsFromYaml(const YAML::Node& node,
+                                                                TarrioMode mode, bool smooth,
+                                                                const std::string& id) {
+  TarrioEstimatorOptions o = TarrioEstimatorOptions::PaperDefaults();
   WG_ASSIGN_OR_RETURN(const YAML::Node own, WithoutKeys(node, {"pdr", "radio", "start"}, id));
   WG_RETURN_IF_ERROR(RefuseKeysChosenById(own, {"smooth"}, "tarrio-kf or tarrio-kf-rts", id));
-  WG_ASSIGN_OR_RETURN(o.filter, TarrioKfOptions::FromYaml(own, id));
+  WG_ASSIGN_OR_RETURN(o.filter, TarrioKfOptionsFromYaml(own, id));
   o.filter.smooth = smooth;
   // The rest: pdr, radio and (pdr-only) start.
   ConfigReader r(node, id);
@@ -292,7 +293,7 @@ StatusOr<TarrioEstimatorOptions> TarrioEstimatorOptions::FromYaml(const YAML::No
   // The filter's keys were checked above; mark them known for Finish().
   for (const auto& kv : own) r.Child(kv.first.Scalar());
   WG_RETURN_IF_ERROR(r.Finish());
-  WG_ASSIGN_OR_RETURN(o.radio, RadioFrontEndOptions::FromYaml(radio, o.radio, id));
+  WG_ASSIGN_OR_RETURN(o.radio, RadioFrontEndOptionsFromYaml(radio, o.radio, id));
   WG_ASSIGN_OR_RETURN(o.pdr, PdrOptionsFromYaml(pdr,
                                                 {{"detector", "vertical-peak"},
                                                  {"length_model", "weinberg"},
@@ -368,7 +369,7 @@ Status RegisterTarrio(EstimatorRegistry* registry) {
     const TarrioMode mode = e.mode;
     const bool smooth = e.smooth;
     auto parse = [id, mode, smooth](const YAML::Node& config) {
-      return TarrioEstimatorOptions::FromYaml(config, mode, smooth, id);
+      return TarrioEstimatorOptionsFromYaml(config, mode, smooth, id);
     };
     WG_RETURN_IF_ERROR(
         registry->Register({id, e.description, OptionsFactory<TarrioEstimator>(parse, id, mode)}));

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "config/parsers.h"
 #include "walkgraph/angle.h"
 #include "walkgraph/config.h"
 #include "walkgraph/kalman.h"
@@ -281,11 +282,11 @@ StrideOptions StrideOptions::Causal() const {
   return o;
 }
 
-StatusOr<StrideOptions> StrideOptions::FromYaml(const YAML::Node& node) {
-  return FromYaml(node, StrideOptions());
+StatusOr<StrideOptions> StrideOptionsFromYaml(const YAML::Node& node) {
+  return StrideOptionsFromYaml(node, StrideOptions());
 }
 
-StatusOr<StrideOptions> StrideOptions::FromYaml(const YAML::Node& node, const StrideOptions& base) {
+StatusOr<StrideOptions> StrideOptionsFromYaml(const YAML::Node& node, const StrideOptions& base) {
   StrideOptions o = base;
   ConfigReader r(node, "strides");
   r.ReadEnum("sampling", &o.sampling, ImuSamplingNames(),
@@ -321,7 +322,7 @@ StatusOr<StrideOptions> StrideOptions::FromYaml(const YAML::Node& node, const St
   WG_RETURN_IF_ERROR(r.Finish());
   if (stance.IsDefined()) {
     // Keys absent from the map keep this front end's defaults (not stance.h's).
-    WG_ASSIGN_OR_RETURN(o.stance, StanceOptions::FromYaml(stance, o.stance));
+    WG_ASSIGN_OR_RETURN(o.stance, StanceOptionsFromYaml(stance, o.stance));
   }
   WG_RETURN_IF_ERROR(CheckOptions(o));
   return o;

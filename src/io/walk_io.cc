@@ -12,6 +12,7 @@
 #include <sstream>
 #include <unordered_map>
 
+#include "config/reader.h"
 #include "io/csv_reader.h"
 #include "io/input_file.h"
 #include "io/plausibility.h"

@@ -6,6 +6,7 @@
 
 #include <Eigen/Eigenvalues>
 
+#include "config/parsers.h"
 #include "util/enum_define.h"
 #include "walkgraph/angle.h"
 #include "walkgraph/config.h"
@@ -214,7 +215,7 @@ double MagHeading(const ImuSample& m, const Eigen::Quaterniond& q, double declin
 
 }  // namespace
 
-StatusOr<PdrOptions> PdrOptions::FromYaml(const YAML::Node& node) {
+StatusOr<PdrOptions> PdrOptionsFromYaml(const YAML::Node& node) {
   PdrOptions o;
   ConfigReader r(node, "pdr");
   r.ReadEnum("detector", &o.detector, kDetectorNames,
@@ -264,7 +265,7 @@ StatusOr<PdrOptions> PdrOptions::FromYaml(const YAML::Node& node) {
   const YAML::Node stride = r.Child("stride");
   WG_RETURN_IF_ERROR(r.Finish());
   if (stride.IsDefined()) {
-    WG_ASSIGN_OR_RETURN(o.stride, StrideOptions::FromYaml(stride));
+    WG_ASSIGN_OR_RETURN(o.stride, StrideOptionsFromYaml(stride));
   }
   WG_RETURN_IF_ERROR(o.Validate());
   return o;

@@ -2,6 +2,7 @@
 #include <cmath>
 #include <functional>
 
+#include "config/reader.h"
 #include "util/text.h"
 #include "walkgraph/angle.h"
 #include "walkgraph/config.h"
@@ -822,7 +823,8 @@ std::vector<ScenarioInfo> Scenarios() {
 }
 
 StatusOr<Simulation> SimulateScenarioDetailed(const std::string& name, uint64_t seed,
-                                              const YAML::Node& overrides) {
+                                              const Config& config) {
+  const YAML::Node& overrides = config.node();
   if (name == "linear-gaussian") return SimulateLinearGaussian(seed, overrides);
   const Preset* preset = FindPreset(name);
   if (preset == nullptr) {
@@ -982,8 +984,7 @@ StatusOr<Simulation> SimulateScenarioDetailed(const std::string& name, uint64_t 
   return s;
 }
 
-StatusOr<Walk> SimulateScenario(const std::string& name, uint64_t seed,
-                                const YAML::Node& overrides) {
+StatusOr<Walk> SimulateScenario(const std::string& name, uint64_t seed, const Config& overrides) {
   WG_ASSIGN_OR_RETURN(Simulation s, SimulateScenarioDetailed(name, seed, overrides));
   return std::move(s.walk);
 }

@@ -1,5 +1,6 @@
 #include "walkgraph/smoothers/ins_graph.h"
 
+#include "config/parsers.h"
 #include "walkgraph/smoothers/chain_covariance.h"
 #include "walkgraph/smoothers/ins_window.h"
 
@@ -141,12 +142,12 @@ bool HasRadio(const InsGraphContext& c) { return UsesRss(c) || UsesRanges(c); }
 
 }  // namespace
 
-StatusOr<InsGraphOptions> InsGraphOptions::FromYaml(const YAML::Node& node) {
-  return FromYaml(node, InsGraphOptions());
+StatusOr<InsGraphOptions> InsGraphOptionsFromYaml(const YAML::Node& node) {
+  return InsGraphOptionsFromYaml(node, InsGraphOptions());
 }
 
-StatusOr<InsGraphOptions> InsGraphOptions::FromYaml(const YAML::Node& node,
-                                                    const InsGraphOptions& base) {
+StatusOr<InsGraphOptions> InsGraphOptionsFromYaml(const YAML::Node& node,
+                                                  const InsGraphOptions& base) {
   InsGraphOptions o = base;
   ConfigReader r(node, "fg-ins-batch");
   const YAML::Node front = r.Child("front_end");
@@ -213,7 +214,7 @@ StatusOr<InsGraphOptions> InsGraphOptions::FromYaml(const YAML::Node& node,
   r.Read("range_bias_sigma_m", &o.range_bias_sigma_m, "prior sigma of the per-anchor range bias");
   WG_RETURN_IF_ERROR(r.Finish());
   if (front.IsDefined()) {
-    WG_ASSIGN_OR_RETURN(o.front_end, StrideOptions::FromYaml(front, o.front_end));
+    WG_ASSIGN_OR_RETURN(o.front_end, StrideOptionsFromYaml(front, o.front_end));
   }
   WG_RETURN_IF_ERROR(o.Validate());
   return o;
@@ -1003,7 +1004,7 @@ Status RegisterInsGraphBatch(EstimatorRegistry* registry) {
        "foot-INS factor graph: Forster preintegration between stance states, ZUPT, ZARU, bias "
        "random walks; one Ceres problem (foot IMU)",
        OptionsFactory<InsGraphBatch>(
-           [](const YAML::Node& config) { return InsGraphOptions::FromYaml(config); })});
+           [](const YAML::Node& config) { return InsGraphOptionsFromYaml(config); })});
 }
 
 }  // namespace internal

@@ -11,6 +11,7 @@
 
 #include <Eigen/Geometry>
 
+#include "config/parsers.h"
 #include "estimators/builtin.h"
 #include "factors/nav_quaternion_manifold.h"
 #include "walkgraph/angle.h"
@@ -107,12 +108,12 @@ InsGraphOptions WindowGraphDefaults() {
   return o;
 }
 
-StatusOr<InsWindowOptions> InsWindowOptions::FromYaml(const YAML::Node& node,
-                                                      const std::string& context,
-                                                      WindowOutput default_output) {
+StatusOr<InsWindowOptions> InsWindowOptionsFromYaml(const YAML::Node& node,
+                                                    const std::string& context,
+                                                    WindowOutput default_output) {
   InsWindowOptions o;
   o.window_output = default_output;
-  // The window's own keys are read here, the rest by InsGraphOptions::FromYaml.
+  // The window's own keys are read here, the rest by InsGraphOptionsFromYaml.
   YAML::Node window(YAML::NodeType::Map);
   // A clone, never `rest = node; rest = Clone(node)`: yaml-cpp's assignment to a node that
   // aliases the caller's would rebind the caller's node to the clone, and the window keys
@@ -144,7 +145,7 @@ StatusOr<InsWindowOptions> InsWindowOptions::FromYaml(const YAML::Node& node,
   r.Read("gap_release_yaw_sigma_rad", &o.gap_release_yaw_sigma_rad,
          "release the hold at this yaw sigma when the pre-gap one is unknown");
   WG_RETURN_IF_ERROR(r.Finish());
-  StatusOr<InsGraphOptions> graph = InsGraphOptions::FromYaml(rest, o.graph);
+  StatusOr<InsGraphOptions> graph = InsGraphOptionsFromYaml(rest, o.graph);
   if (!graph.ok()) return InvalidArgument(context + ": " + graph.status().message());
   o.graph = *graph;
   WG_RETURN_IF_ERROR(o.Validate(context));
@@ -558,7 +559,7 @@ namespace internal {
 Status RegisterInsGraphWindow(EstimatorRegistry* registry) {
   auto parse = [](const char* id, WindowOutput output) {
     return [id, output](const YAML::Node& config) {
-      return InsWindowOptions::FromYaml(config, id, output);
+      return InsWindowOptionsFromYaml(config, id, output);
     };
   };
   WG_RETURN_IF_ERROR(registry->Register(

@@ -11,6 +11,7 @@
 #include <ceres/normal_prior.h>
 #include <Eigen/Geometry>
 
+#include "config/parsers.h"
 #include "estimators/builtin.h"
 #include "factors/angle_manifold.h"
 #include "factors/barometric_height_factor.h"
@@ -50,9 +51,9 @@ namespace {
 Status CheckStepGraphOptions(const StepGraphOptions& o, const std::string& context);
 }  // namespace
 
-StatusOr<StepGraphOptions> StepGraphOptions::FromYaml(const YAML::Node& node,
-                                                      const std::string& context,
-                                                      StepGraphOptions o) {
+StatusOr<StepGraphOptions> StepGraphOptionsFromYaml(const YAML::Node& node,
+                                                    const std::string& context,
+                                                    StepGraphOptions o) {
   ConfigReader r(node, context);
   const YAML::Node pdr = r.Child("pdr");
   r.Read("sigma_cross_m", &o.sigma_cross_m,
@@ -191,7 +192,7 @@ StatusOr<StepGraphOptions> StepGraphOptions::FromYaml(const YAML::Node& node,
          "initialization window: LM iterations per update");
   WG_RETURN_IF_ERROR(r.Finish());
   if (pdr.IsDefined()) {
-    WG_ASSIGN_OR_RETURN(o.pdr, PdrOptions::FromYaml(pdr));
+    WG_ASSIGN_OR_RETURN(o.pdr, PdrOptionsFromYaml(pdr));
   }
   WG_RETURN_IF_ERROR(CheckStepGraphOptions(o, context));
   return o;
@@ -1579,7 +1580,7 @@ namespace internal {
 Status RegisterStepGraphSmoothers(EstimatorRegistry* registry) {
   auto parse = [](const char* id, StepGraphOptions defaults) {
     return [id, defaults](const YAML::Node& config) {
-      return StepGraphOptions::FromYaml(config, id, defaults);
+      return StepGraphOptionsFromYaml(config, id, defaults);
     };
   };
   StepGraphOptions selfcal;

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 
+#include "config/parsers.h"
 #include "util/text.h"
 #include "walkgraph/config.h"
 
@@ -239,11 +240,11 @@ void StanceOptions::set_threshold(double value) {
   }
 }
 
-StatusOr<StanceOptions> StanceOptions::FromYaml(const YAML::Node& node) {
-  return FromYaml(node, StanceOptions());
+StatusOr<StanceOptions> StanceOptionsFromYaml(const YAML::Node& node) {
+  return StanceOptionsFromYaml(node, StanceOptions());
 }
 
-StatusOr<StanceOptions> StanceOptions::FromYaml(const YAML::Node& node, const StanceOptions& base) {
+StatusOr<StanceOptions> StanceOptionsFromYaml(const YAML::Node& node, const StanceOptions& base) {
   StanceOptions o = base;
   ConfigReader r(node, "stance");
   r.ReadEnum("detector", &o.detector, kNames,

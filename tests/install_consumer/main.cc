@@ -1,5 +1,6 @@
 // A research program linking the installed walkgraph: reads a walk given on the command line,
-// runs an estimator from the registry and prints how many poses came back.
+// runs an estimator from the registry with options given as YAML text (walkgraph::Config: no
+// yaml-cpp needed here) and prints how many poses came back.
 #include <iostream>
 
 #include "walkgraph/estimator.h"
@@ -12,7 +13,9 @@ int main(int argc, char** argv) {
     std::cerr << walk.status().message() << "\n";
     return 1;
   }
-  auto est = walkgraph::EstimatorRegistry::Builtin().Create("odometry-dr");
+  auto config = walkgraph::Config::Parse("{}", "odometry-dr options");
+  if (!config.ok()) return 1;
+  auto est = walkgraph::EstimatorRegistry::Builtin().Create("odometry-dr", *config);
   if (!est.ok()) return 1;
   auto result = (*est)->Run(*walk);
   if (!result.ok()) return 1;

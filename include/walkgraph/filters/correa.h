@@ -37,7 +37,6 @@
 #include <utility>
 #include <vector>
 
-#include <yaml-cpp/yaml.h>
 #include <Eigen/Core>
 
 #include "walkgraph/estimator.h"
@@ -63,8 +62,7 @@ struct CorreaEkfOptions {
   double gate_probability = 0.0;  // χ²(4) gate on the full innovation; 0 = off
   bool smooth = false;            // RTS ("-rts")
 
-  static StatusOr<CorreaEkfOptions> FromYaml(const YAML::Node& node, const std::string& context);
-  // Every rule FromYaml applies; the filter refuses options that break one.
+  // Every rule its YAML reader applies; the filter refuses options that break one.
   Status Validate(const std::string& context = "correa-ekf") const;
 };
 
@@ -93,10 +91,7 @@ struct CorreaEstimatorOptions {
   RadioFrontEndOptions radio;  // 001: 1 s epochs, nonlinear LS (eq. 5) on ML ranges (eq. 14)
 
   static CorreaEstimatorOptions PaperDefaults();
-  // `scmt` and `smooth` come from the id; `id` names the estimator in messages.
-  static StatusOr<CorreaEstimatorOptions> FromYaml(const YAML::Node& node, CorreaVariant variant,
-                                                   bool smooth, const std::string& id);
-  // Every rule FromYaml applies (filter and front ends); Run refuses options that break one.
+  // Every rule its YAML reader applies (filter and front ends); Run refuses options that break one.
   Status Validate(const std::string& id = "correa") const;
 };
 

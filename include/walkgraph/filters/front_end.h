@@ -2,7 +2,7 @@
 // (pdr.h, radio.h, filters/ranges.h), and how their configuration names those front ends.
 //
 // Every paper estimator's YAML config is the filter's own options plus two child maps:
-//   pdr:    PdrOptions keys (PdrOptions::FromYaml), laid over the paper's front-end defaults
+//   pdr:    PdrOptions keys (pdr.h), laid over the paper's front-end defaults
 //   radio:  the RSS/range epoch and positioning options below, laid over the paper's defaults
 // so that the front end is configurable per estimator while a comparison of two estimators
 // with the same front end differs only in the estimator.
@@ -17,8 +17,6 @@
 #include <map>
 #include <string>
 #include <vector>
-
-#include <yaml-cpp/yaml.h>
 
 #include "walkgraph/filters/ranges.h"
 #include "walkgraph/measurements.h"
@@ -42,28 +40,9 @@ struct RadioFrontEndOptions {
   bool weighted = true;
   PositioningOptions positioning;
 
-  // Keys present in `node` replace the fields of `defaults`; unknown keys are errors.
-  static StatusOr<RadioFrontEndOptions> FromYaml(const YAML::Node& node,
-                                                 const RadioFrontEndOptions& defaults,
-                                                 const std::string& context);
-  // Every rule FromYaml applies; messages are prefixed "<context> radio".
+  // Every rule its YAML reader applies; messages are prefixed "<context> radio".
   Status Validate(const std::string& context = "estimator") const;
 };
-
-// The `pdr:` child map: PdrOptions::FromYaml of the paper's defaults (PdrOptions keys and
-// values, e.g. {{"detector", "energy"}, {"forward_axis", "pca"}}) overlaid by `node`.
-StatusOr<PdrOptions> PdrOptionsFromYaml(const YAML::Node& node,
-                                        const std::map<std::string, std::string>& paper_defaults,
-                                        const std::string& context);
-
-// `node` without the listed top-level keys (so that a filter's own FromYaml sees only its keys).
-// Fails when `node` is neither absent, null nor a map.
-StatusOr<YAML::Node> WithoutKeys(const YAML::Node& node, const std::vector<std::string>& keys,
-                                 const std::string& context);
-// Fails when a filter's own options `own` name one of `keys`, options its estimator id chooses
-// (e.g. smooth: the "-rts" ids); `ids` names those ids in the message.
-Status RefuseKeysChosenById(const YAML::Node& own, const std::vector<std::string>& keys,
-                            const std::string& ids, const std::string& id);
 
 // Applicability checks, with messages naming the estimator and the missing input.
 // Steps: odometry.csv, or imu.csv from a waist/hip/handheld IMU; with `need_absolute_heading`,

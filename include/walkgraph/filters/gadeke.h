@@ -32,7 +32,6 @@
 #include <utility>
 #include <vector>
 
-#include <yaml-cpp/yaml.h>
 #include <Eigen/Core>
 
 #include "walkgraph/estimator.h"
@@ -58,8 +57,7 @@ struct GadekeKfOptions {
   double outage_end_frac = -1.0;
   bool smooth = false;  // RTS ("gadeke-kf-rts")
 
-  static StatusOr<GadekeKfOptions> FromYaml(const YAML::Node& node, const std::string& context);
-  // Every rule FromYaml applies; the filter refuses options that break one.
+  // Every rule its YAML reader applies; the filter refuses options that break one.
   Status Validate(const std::string& context = "gadeke-kf") const;
 };
 
@@ -81,9 +79,7 @@ struct GadekeEstimatorOptions {
   RangeConversionOptions ranges;  // bias_corrected = filter.bias_corrected_ranges
 
   static GadekeEstimatorOptions PaperDefaults();
-  static StatusOr<GadekeEstimatorOptions> FromYaml(const YAML::Node& node, bool smooth,
-                                                   const std::string& id);
-  // Every rule FromYaml applies (filter and front ends); Run refuses options that break one.
+  // Every rule its YAML reader applies (filter and front ends); Run refuses options that break one.
   Status Validate(const std::string& id = "gadeke-kf") const;
 };
 

@@ -64,7 +64,6 @@
 #include <string>
 #include <vector>
 
-#include <yaml-cpp/yaml.h>
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
@@ -173,10 +172,7 @@ struct JimenezIezOptions {
   bool use_rss = false;
   bool smooth = false;
 
-  // Every field above by its name (angles in radians), plus `stance:` (StanceOptions keys).
-  static StatusOr<JimenezIezOptions> FromYaml(const YAML::Node& node, const std::string& context,
-                                              bool use_rss, bool smooth);
-  // Every rule FromYaml applies; RunJimenezIez refuses options that break one.
+  // Every rule its YAML reader applies; RunJimenezIez refuses options that break one.
   Status Validate(const std::string& context = "jimenez-iez") const;
 };
 

@@ -34,7 +34,6 @@
 #include <utility>
 #include <vector>
 
-#include <yaml-cpp/yaml.h>
 #include <Eigen/Core>
 
 #include "walkgraph/enum_names.h"
@@ -71,8 +70,7 @@ struct TarrioKfOptions {
   // RTS backward pass over the RSS epochs (estimator id "tarrio-kf-rts").
   bool smooth = false;
 
-  static StatusOr<TarrioKfOptions> FromYaml(const YAML::Node& node, const std::string& context);
-  // Every rule FromYaml applies; RunTarrio refuses options that break one.
+  // Every rule its YAML reader applies; RunTarrio refuses options that break one.
   Status Validate(const std::string& context = "tarrio-kf") const;
 };
 
@@ -101,11 +99,8 @@ struct TarrioEstimatorOptions {
 
   // 000's front-end defaults.
   static TarrioEstimatorOptions PaperDefaults();
-  // `id` names the estimator in messages; `smooth` is set by the id (tarrio-kf-rts).
-  static StatusOr<TarrioEstimatorOptions> FromYaml(const YAML::Node& node, TarrioMode mode,
-                                                   bool smooth, const std::string& id);
-  // Every rule FromYaml applies (filter and front ends); TarrioEstimator::Run refuses options
-  // that break one.
+  // Every rule its YAML reader applies (filter and front ends); TarrioEstimator::Run refuses
+  // options that break one.
   Status Validate(const std::string& id = "tarrio") const;
 };
 

@@ -77,7 +77,6 @@
 #include <ceres/loss_function.h>
 #include <ceres/manifold.h>
 #include <ceres/problem.h>
-#include <yaml-cpp/yaml.h>
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
@@ -183,11 +182,6 @@ struct InsGraphOptions {
 
   // Every rule the YAML reader applies; the estimators' Run refuses options that break one.
   Status Validate() const;
-  // Keys: front_end (a map of StrideOptions keys), placement (stance|every-n) and every other
-  // field by its name.
-  static StatusOr<InsGraphOptions> FromYaml(const YAML::Node& node);
-  // The same over `base`: keys the map does not name keep their value there.
-  static StatusOr<InsGraphOptions> FromYaml(const YAML::Node& node, const InsGraphOptions& base);
 };
 
 // One state's parameter blocks (the caller owns them; they must not move while a ceres::Problem

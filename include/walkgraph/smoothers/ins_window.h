@@ -57,8 +57,6 @@
 
 #include <string>
 
-#include <yaml-cpp/yaml.h>
-
 #include "walkgraph/estimator.h"
 #include "walkgraph/smoothers/ins_graph.h"
 #include "walkgraph/status.h"
@@ -95,11 +93,6 @@ struct InsWindowOptions {
   double gap_hold_max_s = 60.0;
   double gap_release_yaw_sigma_rad = 0.05;
 
-  // Keys: lag_s, window_update_s, window_max_iterations, window_output (absent: the given
-  // default), preintegration_bias, gap_hold_max_s, gap_release_yaw_sigma_rad, and every
-  // InsGraphOptions key at the same level (InsGraphOptions::FromYaml); unknown keys are errors.
-  static StatusOr<InsWindowOptions> FromYaml(const YAML::Node& node, const std::string& context,
-                                             WindowOutput default_output = WindowOutput::kLagged);
   // Every rule the YAML reader applies (and graph.Validate()); the window's Run refuses options
   // that break one. Messages are prefixed with `context`.
   Status Validate(const std::string& context = "fg-ins-window") const;

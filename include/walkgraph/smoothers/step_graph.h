@@ -45,8 +45,6 @@
 #include <string>
 #include <vector>
 
-#include <yaml-cpp/yaml.h>
-
 #include "walkgraph/estimator.h"
 #include "walkgraph/pdr.h"
 #include "walkgraph/smoothers/fixed_lag_smoother.h"
@@ -247,9 +245,6 @@ struct StepGraphOptions {
   // Every rule the YAML reader applies (ranges, names of losses and modes); StepGraph::Build,
   // hence every step-graph estimator's Run, refuses options that break one.
   Status Validate() const;
-  // Keys: every field by its name, `pdr` a PdrOptions map; absent keys keep `defaults`.
-  static StatusOr<StepGraphOptions> FromYaml(const YAML::Node& node, const std::string& context,
-                                             StepGraphOptions defaults);
 };
 
 // Builds the graph of one walk, node by node (shared by the batch and the window smoother).

@@ -1,4 +1,4 @@
-#include "walkgraph/config.h"
+#include "config/reader.h"
 
 #include <algorithm>
 #include <cerrno>
@@ -14,6 +14,23 @@
 #include "util/text.h"
 
 namespace walkgraph {
+
+Config::Config() : node_(std::make_shared<const YAML::Node>()) {}
+Config::Config(const YAML::Node& node) : node_(std::make_shared<const YAML::Node>(node)) {}
+
+StatusOr<Config> Config::Parse(const std::string& yaml_text, const std::string& origin) {
+  WG_ASSIGN_OR_RETURN(YAML::Node node, LoadYamlText(yaml_text, origin));
+  return Config(node);
+}
+
+StatusOr<Config> Config::Load(const std::string& path) {
+  WG_ASSIGN_OR_RETURN(YAML::Node node, LoadYamlFile(path));
+  return Config(node);
+}
+
+bool Config::empty() const { return !node_->IsDefined() || node_->IsNull(); }
+std::string Config::ToYaml() const { return YAML::Dump(*node_); }
+const YAML::Node& Config::node() const { return *node_; }
 
 namespace {
 

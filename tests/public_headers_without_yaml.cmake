@@ -1,0 +1,21 @@
+# Fails when a public header (include/walkgraph/, factors/) includes a yaml-cpp header: yaml-cpp
+# is a private dependency of the library, read by its config layer (src/config/) only.
+#   cmake -DSOURCE_DIR=<repository root> -P public_headers_without_yaml.cmake
+file(GLOB_RECURSE headers "${SOURCE_DIR}/include/walkgraph/*.h" "${SOURCE_DIR}/factors/*.h")
+list(LENGTH headers count)
+if(count EQUAL 0)
+  message(FATAL_ERROR "no public header found under ${SOURCE_DIR}/include/walkgraph")
+endif()
+set(offending)
+foreach(header ${headers})
+  file(STRINGS "${header}" lines REGEX "^[ \t]*#[ \t]*include[ \t]*[<\"]yaml-cpp/")
+  foreach(line ${lines})
+    file(RELATIVE_PATH rel "${SOURCE_DIR}" "${header}")
+    list(APPEND offending "${rel}: ${line}")
+  endforeach()
+endforeach()
+if(offending)
+  list(JOIN offending "\n  " text)
+  message(FATAL_ERROR "public headers include yaml-cpp (a private dependency):\n  ${text}")
+endif()
+message(STATUS "${count} public headers, none includes yaml-cpp")
