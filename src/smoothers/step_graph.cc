@@ -51,145 +51,163 @@ namespace {
 Status CheckStepGraphOptions(const StepGraphOptions& o, const std::string& context);
 }  // namespace
 
+namespace {
+
+// The keys of StepGraphOptionsFromYaml, in the order `walkgraph list` prints them: the motion
+// model (steps, heights, stairs, odometry), the radio, the solvers.
+void ReadMotionKeys(ConfigReader& r, StepGraphOptions* o) {
+  r.Read("sigma_cross_m", &o->sigma_cross_m,
+         "lateral sigma of each StepFactor (across the step direction)");
+  r.Read("floors", &o->floors,
+         "estimate a height per node from pressure.csv (barometric height factors)");
+  r.Read("baro_sigma_m", &o->baro_sigma_m,
+         "barometric height noise per node (sigma^2 = 2 baro_sigma^2 + drift dt)");
+  r.Read("baro_drift_m2ps", &o->baro_drift_m2ps,
+         "barometric height drift rate, a random walk between consecutive nodes");
+  r.Read("baro_window_s", &o->baro_window_s, "span of pressure readings averaged around each node");
+  r.Read("start_height_sigma_m", &o->start_height_sigma_m,
+         "sigma of the start height prior at the start floor");
+  r.Read("stairs", &o->stairs,
+         "stair steps (fast barometric climb) move one tread instead of the PDR length");
+  r.Read("stair_rate_mps", &o->stair_rate_mps,
+         "vertical speed above which a step counts as a stair step");
+  r.Read("stair_window_s", &o->stair_window_s,
+         "span around a step over which the vertical speed is measured");
+  r.Read("stair_tread_m", &o->stair_tread_m, "horizontal length of a stair step (one tread)");
+  r.Read("stair_tread_sigma_m", &o->stair_tread_sigma_m, "sigma of the stair step length");
+  r.Read("stair_min_rise_storeys", &o->stair_min_rise_storeys,
+         "least height change of a run of stair steps, in storeys");
+  r.Read("stair_landing_s", &o->stair_landing_s,
+         "stair runs one way starting within this span are one staircase (landings)");
+  r.Read("level_sigma_m", &o->level_sigma_m,
+         "sigma of the height change over a level walking step (0: the barometer alone)");
+  r.Read("floor_sigma_m", &o->floor_sigma_m,
+         "sigma of the pull of a level step near a floor onto that floor's height");
+  r.Read("floor_snap_storeys", &o->floor_snap_storeys,
+         "a level step this close to a floor's height (in storeys) is pulled onto it");
+  r.Read("step_sigma_scale", &o->step_sigma_scale,
+         "factor on each step's length sigma (Step::sigma_length_m)");
+  r.Read("dheading_sigma_scale", &o->dheading_sigma_scale,
+         "factor on each step's heading-increment sigma");
+  r.Read("min_sigma_length_m", &o->min_sigma_length_m, "floor on the step length sigma");
+  r.Read("min_sigma_dheading_rad", &o->min_sigma_dheading_rad,
+         "floor on the step heading-increment sigma");
+  r.Read("max_step_duration_s", &o->max_step_duration_s,
+         "a step moves the walker only in its last span this long (stops)");
+  r.Read("radio_epoch_s", &o->radio_epoch_s, "radio-only walks: one node per this period");
+  r.Read("motion_sigma_mps", &o->motion_sigma_mps,
+         "radio-only walks: sigma_v of the position random walk between nodes");
+  r.Read("bridge_speed_mps", &o->bridge_speed_mps,
+         "across an IMU gap: displacement sigma per axis = this x gap duration");
+  r.Read("estimate_gyro_bias", &o->estimate_gyro_bias,
+         "estimate a constant vertical gyro bias in the heading increments");
+  r.Read("gyro_bias_prior_sigma_radps", &o->gyro_bias_prior_sigma_radps,
+         "prior sigma of the vertical gyro bias");
+  r.Read("use_mag_heading", &o->use_mag_heading,
+         "add a magnetometer HeadingFactor per step when the steps carry one");
+  r.Read("mag_heading_sigma_rad", &o->mag_heading_sigma_rad,
+         "sigma of the magnetometer heading factor");
+  r.ReadEnum("mag_heading_loss", &o->mag_heading_loss, LossKindNames(),
+             "robust loss of the magnetometer heading factor");
+  r.Read("mag_heading_loss_scale", &o->mag_heading_loss_scale,
+         "scale of that loss, in sigma of the whitened residual");
+  r.Read("odometry_sigma_dist_frac", &o->odometry_sigma_dist_frac,
+         "odometry walks: distance sigma per increment, fraction of its length");
+  r.Read("odometry_sigma_dist_m", &o->odometry_sigma_dist_m,
+         "odometry walks: constant distance sigma per increment");
+  r.Read("odometry_sigma_cross_m", &o->odometry_sigma_cross_m,
+         "odometry walks: lateral sigma per increment");
+  r.Read("odometry_sigma_dheading_rad", &o->odometry_sigma_dheading_rad,
+         "odometry walks: heading-increment sigma per increment");
+}
+
+void ReadRadioKeys(ConfigReader& r, StepGraphOptions* o) {
+  r.ReadEnum("rss_residual", &o->rss_residual, RssResidualNames(),
+             "RSS residual in dB (RssFactor) or as a range (RssRangeFactor, 004 eq. 7)");
+  r.ReadEnum("rss_loss", &o->rss_loss, LossKindNames(), "robust loss of the RSS factors");
+  r.Read("rss_loss_scale", &o->rss_loss_scale,
+         "scale of the RSS loss, in sigma of the whitened residual");
+  r.ReadEnum("range_loss", &o->range_loss, LossKindNames(), "robust loss of the range factors");
+  r.Read("range_loss_scale", &o->range_loss_scale,
+         "scale of the range loss, in sigma of the whitened residual");
+  r.Read("receiver_height_m", &o->receiver_height_m,
+         "receiver height for the planar graph's ranges and RSS");
+  r.Read("range_sigma_m", &o->range_sigma_m,
+         "range sigma; > 0 overrides walk.yaml radio.range_sigma_m");
+  r.Read("A_dbm", &o->A_dbm,
+         "path loss A; unset (NaN): walk.yaml radio's; prior mean when self-calibrating");
+  r.Read("eta", &o->eta,
+         "path loss exponent; 0: walk.yaml radio's; prior mean when self-calibrating");
+  r.Read("sigma_db", &o->sigma_db, "RSS noise sigma; 0: walk.yaml radio's");
+  r.ReadEnum("path_loss", &o->path_loss, PathLossModeNames(),
+             "self-calibration of the path loss (A, eta) of the RSS factors");
+  r.Read("A_prior_sigma_db", &o->A_prior_sigma_db,
+         "prior sigma of estimated A around the walk's value");
+  r.Read("eta_prior_sigma", &o->eta_prior_sigma,
+         "prior sigma of estimated eta around the walk's value");
+  r.Read("A_spread_prior_db", &o->A_spread_prior_db,
+         "hierarchical: sigma of one anchor's A around the walk-wide mean");
+  r.Read("eta_spread_prior", &o->eta_spread_prior,
+         "hierarchical: sigma of one anchor's eta around the walk-wide mean");
+  r.ReadEnum("range_bias", &o->range_bias, CalibrationScopeNames(),
+             "additive range bias b estimated: none, one for the walk, or per anchor");
+  r.Read("range_bias_prior_sigma_m", &o->range_bias_prior_sigma_m,
+         "prior sigma of the range bias b");
+  r.ReadEnum("range_scale", &o->range_scale, CalibrationScopeNames(),
+             "range scale error s (rho = (1 + s) d + b): none, global or per anchor");
+  r.Read("range_scale_prior_sigma", &o->range_scale_prior_sigma,
+         "prior sigma of the range scale error s");
+  r.Read("align_window_s", &o->align_window_s,
+         "span of dead reckoning aligned to the radio fixes for the start check");
+  r.Read("start_check", &o->start_check, "drop a known start heading that the radio contradicts");
+  r.Read("start_check_rad", &o->start_check_rad,
+         "start check: least turn of the aligned dead reckoning to drop it");
+  r.Read("start_check_sigmas", &o->start_check_sigmas,
+         "start check: least turn in heading sigmas to drop it");
+}
+
+void ReadSolverKeys(ConfigReader& r, StepGraphOptions* o) {
+  r.ReadEnum("initialization", &o->initialization, StepGraphInitNames(),
+             "fg-batch start: dead reckoning, a fast fixed-lag pass, or by walk");
+  r.Read("max_iterations", &o->max_iterations, "fg-batch: most Levenberg-Marquardt iterations");
+  r.Read("initial_trust_region_radius", &o->initial_trust_region_radius,
+         "fg-batch: LM starting trust-region radius");
+  r.Read("function_tolerance", &o->function_tolerance, "fg-batch: Ceres relative cost-change stop");
+  r.Read("parameter_tolerance", &o->parameter_tolerance, "fg-batch: Ceres relative step-size stop");
+  r.Read("num_threads", &o->num_threads, "Ceres threads per solve");
+  r.Read("covariance", &o->covariance,
+         "compute each node's (position, heading) covariance for the output");
+  r.Read("lag_s", &o->lag_s, "fg-window: span of the fixed-lag window");
+  r.Read("window_max_iterations", &o->window_max_iterations,
+         "fg-window: most LM iterations per window update");
+  r.ReadEnum("window_output", &o->window_output, WindowOutputNames(),
+             "fg-window: each node's estimate when it leaves the window, or right after added");
+  r.ReadEnum("window_linear_solver", &o->window_linear_solver, WindowLinearSolverNames(),
+             "fg-window: linear solver of each window solve");
+  r.Read("window_update_s", &o->window_update_s,
+         "fg-window: 0 one update per node; > 0 nodes gathered per this period");
+  r.Read("window_marginalize_batch_s", &o->window_marginalize_batch_s,
+         "fg-window: nodes leave the window in batches of this span");
+  r.Read("window_initial_trust_region_radius", &o->window_initial_trust_region_radius,
+         "fg-window: LM starting trust-region radius per solve");
+  r.Read("window_function_tolerance", &o->window_function_tolerance,
+         "fg-window: Ceres relative cost-change stop per solve");
+  r.Read("init_lag_s", &o->init_lag_s, "initialization window: lag of the fast fixed-lag pass");
+  r.Read("init_update_s", &o->init_update_s, "initialization window: one update per this period");
+  r.Read("init_max_iterations", &o->init_max_iterations,
+         "initialization window: LM iterations per update");
+}
+
+}  // namespace
+
 StatusOr<StepGraphOptions> StepGraphOptionsFromYaml(const YAML::Node& node,
                                                     const std::string& context,
                                                     StepGraphOptions o) {
   ConfigReader r(node, context);
   const YAML::Node pdr = r.Child("pdr");
-  r.Read("sigma_cross_m", &o.sigma_cross_m,
-         "lateral sigma of each StepFactor (across the step direction)");
-  r.Read("floors", &o.floors,
-         "estimate a height per node from pressure.csv (barometric height factors)");
-  r.Read("baro_sigma_m", &o.baro_sigma_m,
-         "barometric height noise per node (sigma^2 = 2 baro_sigma^2 + drift dt)");
-  r.Read("baro_drift_m2ps", &o.baro_drift_m2ps,
-         "barometric height drift rate, a random walk between consecutive nodes");
-  r.Read("baro_window_s", &o.baro_window_s, "span of pressure readings averaged around each node");
-  r.Read("start_height_sigma_m", &o.start_height_sigma_m,
-         "sigma of the start height prior at the start floor");
-  r.Read("stairs", &o.stairs,
-         "stair steps (fast barometric climb) move one tread instead of the PDR length");
-  r.Read("stair_rate_mps", &o.stair_rate_mps,
-         "vertical speed above which a step counts as a stair step");
-  r.Read("stair_window_s", &o.stair_window_s,
-         "span around a step over which the vertical speed is measured");
-  r.Read("stair_tread_m", &o.stair_tread_m, "horizontal length of a stair step (one tread)");
-  r.Read("stair_tread_sigma_m", &o.stair_tread_sigma_m, "sigma of the stair step length");
-  r.Read("stair_min_rise_storeys", &o.stair_min_rise_storeys,
-         "least height change of a run of stair steps, in storeys");
-  r.Read("stair_landing_s", &o.stair_landing_s,
-         "stair runs one way starting within this span are one staircase (landings)");
-  r.Read("level_sigma_m", &o.level_sigma_m,
-         "sigma of the height change over a level walking step (0: the barometer alone)");
-  r.Read("floor_sigma_m", &o.floor_sigma_m,
-         "sigma of the pull of a level step near a floor onto that floor's height");
-  r.Read("floor_snap_storeys", &o.floor_snap_storeys,
-         "a level step this close to a floor's height (in storeys) is pulled onto it");
-  r.Read("step_sigma_scale", &o.step_sigma_scale,
-         "factor on each step's length sigma (Step::sigma_length_m)");
-  r.Read("dheading_sigma_scale", &o.dheading_sigma_scale,
-         "factor on each step's heading-increment sigma");
-  r.Read("min_sigma_length_m", &o.min_sigma_length_m, "floor on the step length sigma");
-  r.Read("min_sigma_dheading_rad", &o.min_sigma_dheading_rad,
-         "floor on the step heading-increment sigma");
-  r.Read("max_step_duration_s", &o.max_step_duration_s,
-         "a step moves the walker only in its last span this long (stops)");
-  r.Read("radio_epoch_s", &o.radio_epoch_s, "radio-only walks: one node per this period");
-  r.Read("motion_sigma_mps", &o.motion_sigma_mps,
-         "radio-only walks: sigma_v of the position random walk between nodes");
-  r.Read("bridge_speed_mps", &o.bridge_speed_mps,
-         "across an IMU gap: displacement sigma per axis = this x gap duration");
-  r.Read("estimate_gyro_bias", &o.estimate_gyro_bias,
-         "estimate a constant vertical gyro bias in the heading increments");
-  r.Read("gyro_bias_prior_sigma_radps", &o.gyro_bias_prior_sigma_radps,
-         "prior sigma of the vertical gyro bias");
-  r.Read("use_mag_heading", &o.use_mag_heading,
-         "add a magnetometer HeadingFactor per step when the steps carry one");
-  r.Read("mag_heading_sigma_rad", &o.mag_heading_sigma_rad,
-         "sigma of the magnetometer heading factor");
-  r.ReadEnum("mag_heading_loss", &o.mag_heading_loss, LossKindNames(),
-             "robust loss of the magnetometer heading factor");
-  r.Read("mag_heading_loss_scale", &o.mag_heading_loss_scale,
-         "scale of that loss, in sigma of the whitened residual");
-  r.Read("odometry_sigma_dist_frac", &o.odometry_sigma_dist_frac,
-         "odometry walks: distance sigma per increment, fraction of its length");
-  r.Read("odometry_sigma_dist_m", &o.odometry_sigma_dist_m,
-         "odometry walks: constant distance sigma per increment");
-  r.Read("odometry_sigma_cross_m", &o.odometry_sigma_cross_m,
-         "odometry walks: lateral sigma per increment");
-  r.Read("odometry_sigma_dheading_rad", &o.odometry_sigma_dheading_rad,
-         "odometry walks: heading-increment sigma per increment");
-  r.ReadEnum("rss_residual", &o.rss_residual, RssResidualNames(),
-             "RSS residual in dB (RssFactor) or as a range (RssRangeFactor, 004 eq. 7)");
-  r.ReadEnum("rss_loss", &o.rss_loss, LossKindNames(), "robust loss of the RSS factors");
-  r.Read("rss_loss_scale", &o.rss_loss_scale,
-         "scale of the RSS loss, in sigma of the whitened residual");
-  r.ReadEnum("range_loss", &o.range_loss, LossKindNames(), "robust loss of the range factors");
-  r.Read("range_loss_scale", &o.range_loss_scale,
-         "scale of the range loss, in sigma of the whitened residual");
-  r.Read("receiver_height_m", &o.receiver_height_m,
-         "receiver height for the planar graph's ranges and RSS");
-  r.Read("range_sigma_m", &o.range_sigma_m,
-         "range sigma; > 0 overrides walk.yaml radio.range_sigma_m");
-  r.Read("A_dbm", &o.A_dbm,
-         "path loss A; unset (NaN): walk.yaml radio's; prior mean when self-calibrating");
-  r.Read("eta", &o.eta,
-         "path loss exponent; 0: walk.yaml radio's; prior mean when self-calibrating");
-  r.Read("sigma_db", &o.sigma_db, "RSS noise sigma; 0: walk.yaml radio's");
-  r.ReadEnum("path_loss", &o.path_loss, PathLossModeNames(),
-             "self-calibration of the path loss (A, eta) of the RSS factors");
-  r.Read("A_prior_sigma_db", &o.A_prior_sigma_db,
-         "prior sigma of estimated A around the walk's value");
-  r.Read("eta_prior_sigma", &o.eta_prior_sigma,
-         "prior sigma of estimated eta around the walk's value");
-  r.Read("A_spread_prior_db", &o.A_spread_prior_db,
-         "hierarchical: sigma of one anchor's A around the walk-wide mean");
-  r.Read("eta_spread_prior", &o.eta_spread_prior,
-         "hierarchical: sigma of one anchor's eta around the walk-wide mean");
-  r.ReadEnum("range_bias", &o.range_bias, CalibrationScopeNames(),
-             "additive range bias b estimated: none, one for the walk, or per anchor");
-  r.Read("range_bias_prior_sigma_m", &o.range_bias_prior_sigma_m,
-         "prior sigma of the range bias b");
-  r.ReadEnum("range_scale", &o.range_scale, CalibrationScopeNames(),
-             "range scale error s (rho = (1 + s) d + b): none, global or per anchor");
-  r.Read("range_scale_prior_sigma", &o.range_scale_prior_sigma,
-         "prior sigma of the range scale error s");
-  r.Read("align_window_s", &o.align_window_s,
-         "span of dead reckoning aligned to the radio fixes for the start check");
-  r.Read("start_check", &o.start_check, "drop a known start heading that the radio contradicts");
-  r.Read("start_check_rad", &o.start_check_rad,
-         "start check: least turn of the aligned dead reckoning to drop it");
-  r.Read("start_check_sigmas", &o.start_check_sigmas,
-         "start check: least turn in heading sigmas to drop it");
-  r.ReadEnum("initialization", &o.initialization, StepGraphInitNames(),
-             "fg-batch start: dead reckoning, a fast fixed-lag pass, or by walk");
-  r.Read("max_iterations", &o.max_iterations, "fg-batch: most Levenberg-Marquardt iterations");
-  r.Read("initial_trust_region_radius", &o.initial_trust_region_radius,
-         "fg-batch: LM starting trust-region radius");
-  r.Read("function_tolerance", &o.function_tolerance, "fg-batch: Ceres relative cost-change stop");
-  r.Read("parameter_tolerance", &o.parameter_tolerance, "fg-batch: Ceres relative step-size stop");
-  r.Read("num_threads", &o.num_threads, "Ceres threads per solve");
-  r.Read("covariance", &o.covariance,
-         "compute each node's (position, heading) covariance for the output");
-  r.Read("lag_s", &o.lag_s, "fg-window: span of the fixed-lag window");
-  r.Read("window_max_iterations", &o.window_max_iterations,
-         "fg-window: most LM iterations per window update");
-  r.ReadEnum("window_output", &o.window_output, WindowOutputNames(),
-             "fg-window: each node's estimate when it leaves the window, or right after added");
-  r.ReadEnum("window_linear_solver", &o.window_linear_solver, WindowLinearSolverNames(),
-             "fg-window: linear solver of each window solve");
-  r.Read("window_update_s", &o.window_update_s,
-         "fg-window: 0 one update per node; > 0 nodes gathered per this period");
-  r.Read("window_marginalize_batch_s", &o.window_marginalize_batch_s,
-         "fg-window: nodes leave the window in batches of this span");
-  r.Read("window_initial_trust_region_radius", &o.window_initial_trust_region_radius,
-         "fg-window: LM starting trust-region radius per solve");
-  r.Read("window_function_tolerance", &o.window_function_tolerance,
-         "fg-window: Ceres relative cost-change stop per solve");
-  r.Read("init_lag_s", &o.init_lag_s, "initialization window: lag of the fast fixed-lag pass");
-  r.Read("init_update_s", &o.init_update_s, "initialization window: one update per this period");
-  r.Read("init_max_iterations", &o.init_max_iterations,
-         "initialization window: LM iterations per update");
+  ReadMotionKeys(r, &o);
+  ReadRadioKeys(r, &o);
+  ReadSolverKeys(r, &o);
   WG_RETURN_IF_ERROR(r.Finish());
   if (pdr.IsDefined()) {
     WG_ASSIGN_OR_RETURN(o.pdr, PdrOptionsFromYaml(pdr));
