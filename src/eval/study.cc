@@ -445,6 +445,19 @@ std::vector<std::pair<int, int>> CellIndex(const StudyManifest& m) {
   return cells;
 }
 
+// Reads sweep k's walk into (*walks)[k] unless it is there already.
+Status LoadSweepWalk(const StudyManifest& m, int k, std::vector<std::optional<Walk>>* walks) {
+  const StudySweep& s = m.sweeps[k];
+  if ((*walks)[k]) return Status::Ok();
+  StatusOr<Walk> w = ReadWalk(s.walk_dir);
+  if (!w.ok()) {
+    return InvalidArgument(m.path + ":" + std::to_string(s.line) + ": sweep '" + s.name +
+                           "': " + w.status().message());
+  }
+  (*walks)[k] = std::move(w).value();
+  return Status::Ok();
+}
+
 // The validation pass over `cells`: every scenario cell simulates (run 0), every walk reads.
 Status ValidateCells(const StudyManifest& m, const std::vector<std::pair<int, int>>& cells,
                      std::vector<std::optional<Walk>>* walks) {
@@ -452,13 +465,7 @@ Status ValidateCells(const StudyManifest& m, const std::vector<std::pair<int, in
   for (const auto& [k, i] : cells) {
     const StudySweep& s = m.sweeps[k];
     if (!s.walk_dir.empty()) {
-      if ((*walks)[k]) continue;
-      StatusOr<Walk> w = ReadWalk(s.walk_dir);
-      if (!w.ok()) {
-        return InvalidArgument(m.path + ":" + std::to_string(s.line) + ": sweep '" + s.name +
-                               "': " + w.status().message());
-      }
-      (*walks)[k] = std::move(w).value();
+      WG_RETURN_IF_ERROR(LoadSweepWalk(m, k, walks));
       continue;
     }
     StatusOr<Walk> w = SimulateScenario(s.scenario, MonteCarloSeed(s.seed, 0), CellOverrides(s, i));
@@ -517,10 +524,6 @@ StatusOr<StudyCell> RunCell(const StudyManifest& m, int k, int i, const Walk* wa
   return cell;
 }
 
-}  // namespace
-
-namespace {
-
 // The cells a part runs: its fixed ones, or (claim_cell) the ones it claims as it goes.
 class CellSource {
  public:
@@ -570,13 +573,8 @@ StatusOr<StudyPart> RunStudyPart(const StudyManifest& m, const StudyShard& shard
   int done = 0;
   for (int c = source.Next(); c >= 0; c = source.Next()) {
     const auto [k, i] = all[c];
-    if (!m.sweeps[k].walk_dir.empty() &&
-        !walks[k]) {  // a claimed cell of a sweep not validated here
-      StatusOr<Walk> w = ReadWalk(m.sweeps[k].walk_dir);
-      if (!w.ok())
-        return Status(w.status().code(), CellAt(m, m.sweeps[k], i) + ": " + w.status().message());
-      walks[k] = std::move(w).value();
-    }
+    // A claimed cell may belong to a sweep whose walk another process validated.
+    if (!m.sweeps[k].walk_dir.empty()) WG_RETURN_IF_ERROR(LoadSweepWalk(m, k, &walks));
     const Walk* walk = walks[k] ? &*walks[k] : nullptr;
     WG_ASSIGN_OR_RETURN(StudyCell cell, RunCell(m, k, i, walk, options, registry));
     part.cells.push_back(std::move(cell));

@@ -102,12 +102,6 @@ std::optional<double> YawSigma(FixedLagSmoother* smoother, StateKey q_key) {
 
 }  // namespace
 
-InsGraphOptions WindowGraphDefaults() {
-  InsGraphOptions o;
-  o.front_end = o.front_end.Causal();
-  return o;
-}
-
 StatusOr<InsWindowOptions> InsWindowOptionsFromYaml(const YAML::Node& node,
                                                     const std::string& context,
                                                     WindowOutput default_output) {

@@ -138,9 +138,7 @@ double AdaptiveGamma(const std::vector<double>& statistic, size_t a, size_t b,
   return std::pow(10.0, m0 + o.adaptive_fraction * (m1 - m0));
 }
 
-// Per-sample γ of the adaptive detector: one for the walk, or one per adaptive_step_s from the
-// centred window of adaptive_window_s.
-// Sample index of the first IMU sample at or after t.
+// Index of the first IMU sample at or after t.
 size_t ImuIndexAt(const Walk& walk, double t) {
   return static_cast<size_t>(
       std::lower_bound(walk.imu.begin(), walk.imu.end(), t,
@@ -148,6 +146,8 @@ size_t ImuIndexAt(const Walk& walk, double t) {
       walk.imu.begin());
 }
 
+// Per-sample γ of the adaptive detector: one for the walk, or one per adaptive_step_s from the
+// window of adaptive_window_s centred on the block (or, adaptive_causal, ending at it).
 std::vector<double> AdaptiveThresholds(const Walk& walk, const std::vector<double>& statistic,
                                        const StanceOptions& o) {
   const size_t n = statistic.size();
@@ -274,7 +274,9 @@ StatusOr<StanceOptions> StanceOptionsFromYaml(const YAML::Node& node, const Stan
   r.Read("adaptive_fraction", &o.adaptive_fraction,
          "adaptive: log-threshold's place between the stance and swing class means (0..1)");
   r.Read("adaptive_window_s", &o.adaptive_window_s,
-         "adaptive: centred window of the statistic's distribution (0: the whole walk)");
+         "adaptive: window of the statistic's distribution, centred or (causal) trailing (0: the "
+         "whole "
+         "walk)");
   r.Read("adaptive_causal", &o.adaptive_causal,
          "adaptive: threshold from the adaptive_window_s before each sample only (causal)");
   r.Read("adaptive_step_s", &o.adaptive_step_s, "adaptive: threshold recomputed every step");

@@ -63,13 +63,14 @@
 
 namespace walkgraph {
 
-// fg-ins-batch's defaults with the causal front end (StrideOptions::Causal).
-InsGraphOptions WindowGraphDefaults();
-
 struct InsWindowOptions {
   // The graph (every fg-ins-batch key; max_iterations is the batch's), with the causal stance
   // detector (StrideOptions::Causal: a window's output at t must not depend on the walk after t).
-  InsGraphOptions graph = WindowGraphDefaults();
+  InsGraphOptions graph = [] {
+    InsGraphOptions g;
+    g.front_end = g.front_end.Causal();
+    return g;
+  }();
   double lag_s = 10.0;
   double window_update_s = 0.0;  // 0: one update per state; > 0: states gathered per period
   int window_max_iterations = 10;
