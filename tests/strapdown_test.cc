@@ -5,7 +5,7 @@
 #include <gtest/gtest.h>
 
 #include "walkgraph/angle.h"
-#include "walkgraph/sim_models.h"
+#include "simulate/sim_models.h"
 
 namespace walkgraph {
 namespace {

@@ -1,5 +1,5 @@
-// Seeded walk simulator: the papers' scenarios as walks with exact truth (sim_models.h holds
-// the building blocks and their math).
+// Seeded walk simulator: the papers' scenarios as walks with exact truth (the building blocks
+// and their math are internal: src/simulate/sim_models.h; sim_truth.h holds the truth records).
 //
 //   auto walk = SimulateScenario("tarrio-circle", 7);                 // paper defaults
 //   auto walk = SimulateScenario("jimenez-building", 7, *Config::Parse("{laps: 2, eta: 3.0}"));
@@ -61,8 +61,8 @@
 //   the standard atmosphere of the estimators (BarometricPressureHpa, the inverse of
 //   BarometricHeightM) from [1013.25 hPa] at floor 0, [10 Hz], white noise [0.03 hPa], and
 //   drift: a weather trend [±2 hPa/h, sign drawn from the seed] plus a random walk
-//   [0.3 hPa/√h] (sim_models.h SimulateBarometer). initial_pose.floor 0; duration_s only
-//   cuts the walk.
+//   [0.3 hPa/√h] (src/simulate/sim_models.h SimulateBarometer). initial_pose.floor 0;
+//   duration_s only cuts the walk.
 // linear-gaussian: a linear-Gaussian problem in walk form, for KF+RTS == batch == fixed-lag
 //   tests. Straight walk at known constant heading ψ0 (initial_pose σ_ψ = 1e-6 rad; every
 //   dheading = 0): odometry x_{k+1} = x_k + d_k·(cos ψ0, sin ψ0), d_k = l_k + N(0, σ_d²),
@@ -96,7 +96,7 @@
 #include <vector>
 
 #include "walkgraph/config.h"
-#include "walkgraph/sim_models.h"
+#include "walkgraph/sim_truth.h"
 #include "walkgraph/status.h"
 #include "walkgraph/walk.h"
 

@@ -1,7 +1,7 @@
 #include <cmath>
 
 #include "factors/barometric_height_factor.h"
-#include "walkgraph/sim_models.h"
+#include "simulate/sim_models.h"
 
 namespace walkgraph {
 namespace sim {

@@ -2,7 +2,7 @@
 #include <cmath>
 
 #include "walkgraph/angle.h"
-#include "walkgraph/sim_models.h"
+#include "simulate/sim_models.h"
 #include "walkgraph/strapdown.h"
 
 namespace walkgraph {

@@ -1,7 +1,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include "walkgraph/sim_models.h"
+#include "simulate/sim_models.h"
 
 namespace walkgraph {
 namespace sim {

@@ -3,6 +3,7 @@
 #include <functional>
 
 #include "config/reader.h"
+#include "simulate/sim_models.h"
 #include "util/text.h"
 #include "walkgraph/angle.h"
 #include "walkgraph/config.h"

@@ -1,4 +1,5 @@
-// Building blocks of the walk simulator (simulate.h assembles them into the papers' scenarios).
+// Building blocks of the walk simulator (internal; simulate.h assembles them into the papers'
+// scenarios, sim_truth.h holds the truth records a Simulation returns).
 //
 // Frames: ENU navigation frame n (x east, y north, z up); body frame b of an IMU: x forward,
 // y left, z up when the wearer stands level. Rotations are body→nav (R_nb, q_nb).
@@ -23,8 +24,8 @@
 // (two-state Markov chain per anchor), outage windows, logistic detection probability
 // p(d) = p_max / (1 + exp((d − d50)/w)), sensitivity threshold; TOA ranges z = α + β·d + n
 // (002 eq. 6) with exponential NLOS bias.
-#ifndef WALKGRAPH_SIM_MODELS_H_
-#define WALKGRAPH_SIM_MODELS_H_
+#ifndef WALKGRAPH_SRC_SIMULATE_SIM_MODELS_H_
+#define WALKGRAPH_SRC_SIMULATE_SIM_MODELS_H_
 
 #include <cstdint>
 #include <functional>
@@ -36,6 +37,7 @@
 #include <Eigen/Geometry>
 
 #include "walkgraph/path_loss.h"
+#include "walkgraph/sim_truth.h"
 #include "walkgraph/walk.h"
 
 namespace walkgraph {
@@ -183,12 +185,6 @@ double StepFrequency(const GaitOptions& g, double speed_mps);
 // Amplitude A of the vertical sinusoid: A = (l/K)⁴ / 2.
 double StepAmplitude(const GaitOptions& g, double step_length_m);
 
-struct StepEvent {
-  double t_s = 0.0;       // integer crossing of the step phase
-  double length_m = 0.0;  // path length walked since the previous step event
-  double duration_s = 0.0;
-};
-
 // ------------------------------------------------------------------ IMU error model
 struct ImuNoiseOptions {
   double acc_noise_mps2 = 0.0;  // white, per sample, each axis
@@ -225,17 +221,6 @@ class MagneticField {
   MagneticFieldOptions o_;
   Eigen::Vector3d earth_;
   std::vector<std::pair<Eigen::Vector2d, Eigen::Vector3d>> blobs_;
-};
-
-// Truth of one IMU sample: what the sensor would read without errors, plus its pose.
-struct ImuTruth {
-  double t_s = 0.0;
-  Eigen::Vector3d position_n = Eigen::Vector3d::Zero();
-  Eigen::Vector3d velocity_n = Eigen::Vector3d::Zero();
-  Eigen::Quaterniond q_nb = Eigen::Quaterniond::Identity();
-  Eigen::Vector3d specific_force_b = Eigen::Vector3d::Zero();
-  Eigen::Vector3d angular_rate_b = Eigen::Vector3d::Zero();
-  bool stance = false;  // foot: flat on the ground and still
 };
 
 // Adds noise, biases and sample-and-hold to true samples; the magnetometer reads
@@ -337,18 +322,6 @@ struct RadioOptions {
   double toa_alpha_m = 0.0, toa_beta = 1.0, toa_sigma_m = 1.0;
 };
 
-// Every emission, detected or not (the statistics tests and reports use it).
-struct Emission {
-  double t_s = 0.0;
-  int anchor_id = 0;
-  double distance_m = 0.0;
-  bool nlos = false;
-  bool in_outage = false;
-  bool detected = false;  // survived outage, detection draw and sensitivity
-  double value = 0.0;     // RSS or range (also when lost to sensitivity)
-  double expected = 0.0;  // model mean (per-anchor A/η) or α + β·d
-};
-
 using ReceiverTrack = std::function<Eigen::Vector3d(double t_s)>;
 
 struct RadioResult {
@@ -392,4 +365,4 @@ std::vector<Anchor> SpreadSubset(const std::vector<Anchor>& all, int count);
 }  // namespace sim
 }  // namespace walkgraph
 
-#endif  // WALKGRAPH_SIM_MODELS_H_
+#endif  // WALKGRAPH_SRC_SIMULATE_SIM_MODELS_H_
