@@ -142,7 +142,10 @@ TEST(Robustness, FootInsGraphBridgesAnImuGap) {
     // output is not held to it (2.31x with its causal stance detector, 2.25x with the
     // whole-walk one; 4.19x before the readings were fixed): a causal estimate knows where the
     // walker is after the gap from the radio alone, and which way they face only some 15 s
-    // later.
+    // later. This gap falls on a straight leg. A gap that holds one of the walk's 90° turns is
+    // not met (measured with the CLI on 8 seeds, the gap at 43 % / 46 % of the walk, mean
+    // ratio): fg-ins-batch 2.17x / 2.15x, fg-ins-window 8.5x / 7.2x, online 9.9x / 12.1x: the
+    // states after the gap start from the pre-gap heading and the solves do not turn them.
     const double bound = id == "fg-ins-window-online" ? 3.0 : 2.0;
     if (!testing::kSanitized) EXPECT_LE(rmse, bound * nominal[id]) << id;
   }
