@@ -7,17 +7,32 @@
 // Two shapes:
 // - RunKalmanFilter: a state-space filter with one epoch per event time (correa, gadeke):
 //   Initialize at the first time, Predict from each time to the next, Update at every time;
-//   RTS over every epoch when smoothing. (tarrio takes EventTimes only: its KF epochs are its
-//   fixes, its outputs between them PDR-propagated, and its baselines are not Kalman filters.)
-// - ClonedErrorSmoother: an error-state filter at IMU rate whose output epochs are decimated
-//   (jimenez, prieto): the filter carries a clone of its error at the last output epoch
-//   (stochastic cloning) and records each output epoch here; the RTS runs over those epochs
-//   (kalman.h: FilterEpoch::P_cross) and each smoothed error is retracted into its epoch's
-//   nominal state.
+//   RTS over every epoch when smoothing.
+// - RunErrorStateFilter: an error-state filter at IMU rate (jimenez, prieto, zupt-ins):
+//   Propagate from each sample to the next, Update at every sample (each correction injected
+//   into the nominal state and the error reset); the driver decimates the output epochs and
+//   outputs them filtered, or, when smoothing, records them in a ClonedErrorSmoother: the
+//   filter carries a clone of its error at the last output epoch (stochastic cloning), the RTS
+//   runs over those epochs (kalman.h: FilterEpoch::P_cross) and each smoothed error is
+//   retracted into its epoch's nominal state. These models keep their own update bookkeeping
+//   (NIS per measurement kind, gating counts: their diagnostics differ), through kalman.h's
+//   KalmanUpdate.
+//
+// tarrio (RunTarrio) takes EventTimes only, and does not fit RunKalmanFilter: (1) its KF epochs
+// are its fixes only, but it outputs a point at every event time (steps too), PDR-propagated
+// from the last fix with P = P_fix + Q(t − t_fix); its prior at the next fix is built from the
+// last fix in one step (eq. 9: P_fix + Q(ΔT), and eq. 6's Q(ΔT) grows with ΔT⁴ and ΔT², so it is
+// not the sum of per-event predictions), and with prediction: last-velocity also the state
+// (p_fix + ΔT·v); (2) its smoothed outputs between fixes are the smoothed fix plus the PDR since
+// it with the mismatch at the next smoothed fix spread linearly (SmoothOutputs), not an RTS over
+// every event time; (3) its two baselines (pdr-only, rss-only) run in the same event loop and
+// are not Kalman filters. Its fix epochs do go through kalman.h's KalmanUpdate, RecordOutcome
+// and RtsSmooth.
 #ifndef WALKGRAPH_KALMAN_DRIVER_H_
 #define WALKGRAPH_KALMAN_DRIVER_H_
 
 #include <algorithm>
+#include <functional>
 #include <utility>
 #include <vector>
 
@@ -146,6 +161,95 @@ class ClonedErrorSmoother {
   std::vector<FilterEpoch> epochs_;
   std::vector<Nominal> nominal_;
 };
+
+// An error-state filter at IMU rate (RunErrorStateFilter): the model holds its nominal state,
+// error covariance and measurement models; the driver calls, for k = 0, 1, …, size() − 1,
+//   Propagate(k) (k ≥ 1), Update(k), IsOutputEpoch(k, scheduled) and, at an output epoch,
+//   Output(k) (filtering) or the cloned smoother's record (smoothing).
+class ErrorStateModel {
+ public:
+  virtual ~ErrorStateModel() = default;
+  // The number of samples and the time of sample k.
+  virtual size_t size() const = 0;
+  virtual double Time(size_t k) const = 0;
+  // Sample k−1 → k: the nominal state's mechanization, P ← F P Fᵀ + Q and, when cloning, the
+  // clone's cross-covariance P_cj ← F P_cj.
+  virtual Status Propagate(size_t k) = 0;
+  // The measurement updates due at sample k (k = 0 too), the error estimate injected into the
+  // nominal state and reset.
+  virtual Status Update(size_t k) = 0;
+  // Whether sample k is an output epoch; `scheduled` is the driver's decimation
+  // (ErrorStateRunOptions). Called once per sample, after Update.
+  virtual bool IsOutputEpoch(size_t k, bool scheduled) {
+    (void)k;
+    return scheduled;
+  }
+  // The filtered output of output epoch k (not called when smoothing).
+  virtual void Output(size_t k, std::vector<TrajectoryPoint>* points) = 0;
+};
+
+// An error-state model that carries a clone of its error for the cloned RTS (smoothing).
+template <typename Nominal>
+class ClonedErrorStateModel : public ErrorStateModel {
+ public:
+  // At an output epoch: the nominal state, the covariance of its error and the clone of the
+  // error at the previous output epoch (as carried to now).
+  virtual const Nominal& nominal() const = 0;
+  virtual Eigen::MatrixXd Covariance() const = 0;
+  virtual const ErrorClone& Clone() = 0;
+  // Restarts the clone from the current error (0 after the reset) at an output epoch.
+  virtual void StartClone() = 0;
+  // The trajectory point of an output epoch: its smoothed error retracted into its nominal state.
+  virtual TrajectoryPoint SmoothedPoint(const Nominal& nominal,
+                                        const SmoothedState& smoothed) const = 0;
+};
+
+struct ErrorStateRunOptions {
+  bool smooth = false;  // cloned RTS over the output epochs (ClonedErrorStateModel only)
+  // Output decimation: the first and the last sample and every output_every-th sample or, when
+  // output_period_s > 0, the first sample at or after each multiple of output_period_s from the
+  // first sample's time (1e-9 s tolerance), and the last.
+  size_t output_every = 1;
+  double output_period_s = 0.0;
+};
+
+namespace internal {
+// The sample loop of RunErrorStateFilter: `at_output(k)` at each output epoch.
+Status ErrorStateLoop(ErrorStateModel* model, const ErrorStateRunOptions& options,
+                      const std::function<void(size_t)>& at_output);
+// An upper bound of the number of output epochs (for reserving).
+size_t OutputEpochBound(const ErrorStateModel& model, const ErrorStateRunOptions& options);
+}  // namespace internal
+
+// Runs `model` over its samples and appends the filtered output epochs to `points`;
+// `output_epochs` (optional) receives their number. options.smooth needs a ClonedErrorStateModel.
+Status RunErrorStateFilter(ErrorStateModel* model, const ErrorStateRunOptions& options,
+                           std::vector<TrajectoryPoint>* points, size_t* output_epochs = nullptr);
+
+// The same, smoothed with the cloned RTS over the output epochs when options.smooth.
+template <typename Nominal>
+Status RunErrorStateFilter(ClonedErrorStateModel<Nominal>* model,
+                           const ErrorStateRunOptions& options,
+                           std::vector<TrajectoryPoint>* points, size_t* output_epochs = nullptr) {
+  if (!options.smooth) {
+    return RunErrorStateFilter(static_cast<ErrorStateModel*>(model), options, points,
+                               output_epochs);
+  }
+  ClonedErrorSmoother<Nominal> rts;
+  rts.Reserve(internal::OutputEpochBound(*model, options));
+  WG_RETURN_IF_ERROR(internal::ErrorStateLoop(model, options, [&rts, model](size_t k) {
+    rts.Record(model->Time(k), model->nominal(), model->Covariance(),
+               rts.size() > 0 ? &model->Clone() : nullptr);
+    model->StartClone();
+  }));
+  if (output_epochs != nullptr) *output_epochs = rts.size();
+  WG_ASSIGN_OR_RETURN(std::vector<TrajectoryPoint> smoothed,
+                      rts.Smooth([model](const Nominal& nominal, const SmoothedState& s) {
+                        return model->SmoothedPoint(nominal, s);
+                      }));
+  points->insert(points->end(), smoothed.begin(), smoothed.end());
+  return Status::Ok();
+}
 
 }  // namespace walkgraph
 
