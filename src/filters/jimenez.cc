@@ -457,30 +457,6 @@ void JimenezPredict(const ImuSample& prev, const ImuSample& cur, ImuSampling sam
   f->corrected = false;
 }
 
-using ClonedRts = ClonedErrorSmoother<JimenezNominal>;
-
-// An output epoch for the error-state RTS with stochastic cloning (kalman_driver.h): the clone
-// of the error at the previous epoch closes that epoch; then a new clone of the current error
-// (0 after the reset) starts.
-void RecordEpoch(FilterState* f, ClonedRts* rts) {
-  const ErrorClone clone{f->dx.tail(N), f->P.bottomRightCorner(N, N),
-                         f->P.topRightCorner(N, N)};  // Cov(δx_now, δx_k)
-  rts->Record(f->nominal.nav.t_s, f->nominal, f->P.topLeftCorner(N, N),
-              rts->size() > 0 ? &clone : nullptr);
-  f->dx.tail(N).setZero();
-  f->P.bottomRightCorner(N, N) = f->P.topLeftCorner(N, N);
-  f->P.topRightCorner(N, N) = f->P.topLeftCorner(N, N);
-  f->P.bottomLeftCorner(N, N) = f->P.topLeftCorner(N, N);
-}
-
-// Each smoothed error injected into its epoch's nominal state.
-TrajectoryPoint SmoothedPoint(const JimenezNominal& nominal, const SmoothedState& smoothed) {
-  JimenezNominal y = nominal;
-  Eigen::MatrixXd P = smoothed.P;
-  JimenezInjectError(smoothed.x, &y, &P);
-  return OutputPoint(y, P);
-}
-
 // The measurement models of 004 at one IMU sample (Algorithm 1), on the running filter.
 class IezUpdates {
  public:
@@ -595,6 +571,93 @@ class IezUpdates {
   size_t ri_ = 0;
 };
 
+// The IEZ+ filter of 004 as an error-state model (kalman_driver.h): INS mechanization and EKF
+// prediction at 100 Hz (Algorithm 1), the updates due at each sample, CORRECTINS. With
+// smoothing the error state carries a clone of the error at the last output epoch.
+class IezModel : public ClonedErrorStateModel<JimenezNominal> {
+ public:
+  IezModel(const std::vector<ImuSample>& imu, ImuSampling sampling, const JimenezIezOptions& o,
+           const std::vector<bool>& stance, FilterState f, IezUpdates* updates)
+      : imu_(imu),
+        sampling_(sampling),
+        o_(o),
+        stance_(stance),
+        f_(std::move(f)),
+        updates_(*updates) {}
+
+  size_t size() const override { return imu_.size(); }
+  double Time(size_t k) const override { return imu_[k].t_s; }
+  long stance_samples() const { return stance_samples_; }
+
+  Status Propagate(size_t k) override {
+    JimenezPredict(imu_[k - 1], imu_[k], sampling_, o_, &f_);
+    return Status::Ok();
+  }
+
+  Status Update(size_t k) override {
+    if (k == 0) return Status::Ok();  // the first sample is the initial state
+    if (stance_[k]) ++stance_samples_;
+    WG_RETURN_IF_ERROR(updates_.At(k, &f_));
+    // CORRECTINS: inject the error estimate and reset it.
+    if (f_.corrected) {
+      const JimenezVector dx = f_.dx.head(N);
+      JimenezInjectError(dx, &f_.nominal, &f_.P);
+      f_.dx.head(N).setZero();
+    }
+    return Status::Ok();
+  }
+
+  void Output(size_t, std::vector<TrajectoryPoint>* points) override {
+    points->push_back(OutputPoint(f_.nominal, f_.P));
+  }
+
+  // The error-state RTS with stochastic cloning (kalman_driver.h): the clone of the error at
+  // the previous output epoch closes that epoch; then a new clone of the current error (0
+  // after the reset) starts.
+  const JimenezNominal& nominal() const override { return f_.nominal; }
+  Eigen::MatrixXd Covariance() const override { return f_.P.topLeftCorner(N, N); }
+  const ErrorClone& Clone() override {
+    clone_ = {f_.dx.tail(N), f_.P.bottomRightCorner(N, N),
+              f_.P.topRightCorner(N, N)};  // Cov(δx_now, δx_k)
+    return clone_;
+  }
+  void StartClone() override {
+    f_.dx.tail(N).setZero();
+    f_.P.bottomRightCorner(N, N) = f_.P.topLeftCorner(N, N);
+    f_.P.topRightCorner(N, N) = f_.P.topLeftCorner(N, N);
+    f_.P.bottomLeftCorner(N, N) = f_.P.topLeftCorner(N, N);
+  }
+  // Each smoothed error injected into its epoch's nominal state.
+  TrajectoryPoint SmoothedPoint(const JimenezNominal& nominal,
+                                const SmoothedState& smoothed) const override {
+    JimenezNominal y = nominal;
+    Eigen::MatrixXd P = smoothed.P;
+    JimenezInjectError(smoothed.x, &y, &P);
+    return OutputPoint(y, P);
+  }
+
+ private:
+  const std::vector<ImuSample>& imu_;
+  const ImuSampling sampling_;
+  const JimenezIezOptions& o_;
+  const std::vector<bool>& stance_;
+  FilterState f_;
+  IezUpdates& updates_;
+  ErrorClone clone_;
+  long stance_samples_ = 0;
+};
+
+// The IMU sample convention: the options', or a simulated walk's when imu_sampling_from_walk.
+ImuSampling JimenezSampling(const Walk& walk, const JimenezIezOptions& o) {
+  if (o.imu_sampling_from_walk) {
+    auto it = walk.meta.extra.find("sim.imu_interval_average");
+    if (it != walk.meta.extra.end()) {
+      return it->second != 0.0 ? ImuSampling::kIntervalAverage : ImuSampling::kInstantaneous;
+    }
+  }
+  return o.imu_sampling;
+}
+
 double Mean(const std::vector<double>& v) {
   double s = 0.0;
   for (double x : v) s += x;
@@ -609,13 +672,7 @@ StatusOr<EstimateResult> RunJimenezIez(const Walk& walk, const JimenezIezOptions
   WG_RETURN_IF_ERROR(CheckJimenezApplicable(walk, o));
   const std::vector<ImuSample>& imu = walk.imu;
   const size_t n_imu = imu.size();
-  ImuSampling sampling = o.imu_sampling;
-  if (o.imu_sampling_from_walk) {
-    auto it = walk.meta.extra.find("sim.imu_interval_average");
-    if (it != walk.meta.extra.end()) {
-      sampling = it->second != 0.0 ? ImuSampling::kIntervalAverage : ImuSampling::kInstantaneous;
-    }
-  }
+  const ImuSampling sampling = JimenezSampling(walk, o);
   WG_ASSIGN_OR_RETURN(StanceMask stance, DetectStance(walk, o.stance));
   if (o.stance_source == JimenezStanceSource::kLabels) {
     WG_ASSIGN_OR_RETURN(stance.stance, StanceLabelsAtImu(walk));
@@ -628,8 +685,6 @@ StatusOr<EstimateResult> RunJimenezIez(const Walk& walk, const JimenezIezOptions
 
   MagneticReference mag;
   FilterState f = JimenezInitialState(walk, o, &mag);
-  const int decimation =
-      std::max(1, static_cast<int>(std::lround(1.0 / (o.output_rate_hz * imu_dt))));
   EstimateResult result;
   JimenezDetails local;
   JimenezDetails* d = details != nullptr ? details : &local;
@@ -639,38 +694,18 @@ StatusOr<EstimateResult> RunJimenezIez(const Walk& walk, const JimenezIezOptions
                           "compass_gated", "range_updates", "range_gated"}) {
     diag[key] = 0.0;
   }
-  ClonedRts rts;
-  if (o.smooth) rts.Reserve((n_imu - 1) / static_cast<size_t>(decimation) + 2);
-  auto epoch = [&]() {
-    if (o.smooth) {
-      RecordEpoch(&f, &rts);
-    } else {
-      result.trajectory.points.push_back(OutputPoint(f.nominal, f.P));
-    }
-  };
-  epoch();
   IezUpdates updates(walk, o, stance, CompassSamples(stance.stance, o.compass_every_stance_sample),
                      std::move(ranges), mag, d, &diag);
-  long stance_samples = 0;
-  // 100 Hz loop (Algorithm 1).
-  for (size_t k = 1; k < n_imu; ++k) {
-    JimenezPredict(imu[k - 1], imu[k], sampling, o, &f);
-    if (stance.stance[k]) ++stance_samples;
-    WG_RETURN_IF_ERROR(updates.At(k, &f));
-    // CORRECTINS: inject the error estimate and reset it.
-    if (f.corrected) {
-      const JimenezVector dx = f.dx.head(N);
-      JimenezInjectError(dx, &f.nominal, &f.P);
-      f.dx.head(N).setZero();
-    }
-    if (k % static_cast<size_t>(decimation) == 0 || k + 1 == n_imu) epoch();
-  }
-  if (o.smooth) {
-    StatusOr<std::vector<TrajectoryPoint>> smoothed = rts.Smooth(SmoothedPoint);
-    if (!smoothed.ok()) {
-      return Status(smoothed.status().code(), "jimenez-iez-rts: " + smoothed.status().message());
-    }
-    result.trajectory.points = std::move(*smoothed);
+  IezModel model(imu, sampling, o, stance.stance, std::move(f), &updates);
+  ErrorStateRunOptions run;  // 100 Hz loop (Algorithm 1), output decimated
+  run.smooth = o.smooth;
+  run.output_every = static_cast<size_t>(
+      std::max(1, static_cast<int>(std::lround(1.0 / (o.output_rate_hz * imu_dt)))));
+  size_t epochs = 0;
+  const Status run_status = RunErrorStateFilter(&model, run, &result.trajectory.points, &epochs);
+  if (!run_status.ok()) {
+    return o.smooth ? Status(run_status.code(), "jimenez-iez-rts: " + run_status.message())
+                    : run_status;
   }
 
   result.nis = o.use_rss ? d->nis_range : d->nis_zupt;
@@ -679,8 +714,9 @@ StatusOr<EstimateResult> RunJimenezIez(const Walk& walk, const JimenezIezOptions
   diag["nis_mean_zaru"] = Mean(d->nis_zaru);
   diag["nis_mean_compass"] = Mean(d->nis_compass);
   diag["nis_mean_range"] = Mean(d->nis_range);
-  diag["stance_fraction"] = static_cast<double>(stance_samples) / static_cast<double>(n_imu - 1);
-  diag["smoother_epochs"] = static_cast<double>(rts.size());
+  diag["stance_fraction"] =
+      static_cast<double>(model.stance_samples()) / static_cast<double>(n_imu - 1);
+  diag["smoother_epochs"] = o.smooth ? static_cast<double>(epochs) : 0.0;
   d->stance = std::move(stance);
   d->stance_detector =
       o.stance_source == JimenezStanceSource::kLabels ? "labels" : ToString(o.stance.detector);
