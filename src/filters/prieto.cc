@@ -1006,6 +1006,89 @@ struct StateHealth {
   }
 };
 
+// The filter of 002 as an error-state model (kalman_driver.h) over its timeline: the IMU sample
+// as a measurement (eq. 7–9; an interval average before the prediction over its interval, an
+// instantaneous sample after it), the radio sets due at each time (eq. 5–6). The RTS epochs are
+// the filter state x_{m|m} (chart origin) and, in that chart, x_prior = 0, x_post = δ (the
+// clone's correction), the clone's cross-covariance (see prieto.h).
+class PrietoModel : public ClonedErrorStateModel<NominalState> {
+ public:
+  PrietoModel(const Walk& walk, const PrietoOptions& o, std::vector<double> times,
+              std::vector<RadioGroup> groups, StanceMask stance, PrietoCore* core, UpdateBook* book)
+      : imu_(walk.imu),
+        use_imu_(o.sensors != PrietoSensors::kRadioOnly),
+        interval_(o.imu_sampling == ImuSampling::kIntervalAverage),
+        output_at_radio_(o.sensors == PrietoSensors::kRadioOnly),
+        times_(std::move(times)),
+        groups_(std::move(groups)),
+        stance_(std::move(stance)),
+        core_(*core),
+        book_(*book) {
+    ImuMeasurements(o, &imu_only_, &imu_stance_);  // eq. 7–9
+  }
+
+  size_t size() const override { return times_.size(); }
+  double Time(size_t k) const override { return times_[k]; }
+  const StateHealth& health() const { return health_; }
+
+  Status Propagate(size_t k) override {
+    if (use_imu_ && interval_) WG_RETURN_IF_ERROR(ImuUpdate(k));
+    return core_.Predict(times_[k] - times_[k - 1]);
+  }
+
+  Status Update(size_t k) override {
+    if (use_imu_ && !interval_) WG_RETURN_IF_ERROR(ImuUpdate(k));
+    radio_epoch_ = false;
+    for (; ri_ < groups_.size() && groups_[ri_].t_s <= times_[k]; ++ri_) {
+      WG_RETURN_IF_ERROR(book_.Radio(groups_[ri_].parts));
+      radio_epoch_ = true;
+    }
+    return Status::Ok();
+  }
+
+  // Radio-only: the trajectory holds the estimates at the radio epochs (see prieto.h). The
+  // state's health is checked at each output epoch.
+  bool IsOutputEpoch(size_t, bool scheduled) override {
+    const bool output = output_at_radio_ ? radio_epoch_ : scheduled;
+    if (output) health_.Check(core_.y(), core_.P());
+    return output;
+  }
+
+  void Output(size_t k, std::vector<TrajectoryPoint>* points) override {
+    points->push_back(ToPoint(times_[k], core_.y(), core_.P()));
+  }
+
+  // The clone's P_{mj|m} closes the last epoch: RtsSmooth's C = P_{mj|m}ᵀ P_{m|m}⁻¹.
+  const NominalState& nominal() const override { return core_.y(); }
+  Eigen::MatrixXd Covariance() const override { return core_.P(); }
+  const ErrorClone& Clone() override { return core_.clone(); }
+  void StartClone() override { core_.StartClone(); }
+  TrajectoryPoint SmoothedPoint(const NominalState& y, const SmoothedState& s) const override {
+    return ToPoint(s.t_s, prieto::Retract(y, s.x), s.P);
+  }
+
+ private:
+  Status ImuUpdate(size_t k) {
+    const ImuSample& s = imu_[k];
+    Measurement& m = stance_.stance[k] ? imu_stance_ : imu_only_;
+    m.z.head<3>() = s.acc_mps2;        // eq. 7
+    m.z.segment<3>(3) = s.gyro_radps;  // eq. 8 (stance rows stay 0: eq. 9)
+    return book_.Update(m, 0.0);
+  }
+
+  const std::vector<ImuSample>& imu_;
+  const bool use_imu_, interval_, output_at_radio_;
+  const std::vector<double> times_;
+  const std::vector<RadioGroup> groups_;
+  const StanceMask stance_;
+  PrietoCore& core_;
+  UpdateBook& book_;
+  Measurement imu_only_, imu_stance_;
+  StateHealth health_;
+  size_t ri_ = 0;
+  bool radio_epoch_ = false;
+};
+
 }  // namespace
 
 Status CheckPrietoApplicable(const Walk& walk, const PrietoOptions& options) {
@@ -1045,8 +1128,8 @@ StatusOr<EstimateResult> RunPrietoFilter(const Walk& walk, const PrietoOptions& 
   if (use_radio) {
     WG_ASSIGN_OR_RETURN(radio, PrietoRadioReadings(walk, o, rss_sigma, toa_sigma));
   }
-  const std::vector<RadioGroup> groups = GroupRadio(radio, o.radio_epoch_s);
-  WG_ASSIGN_OR_RETURN(const std::vector<double> times, PrietoTimeline(walk, o, use_imu, radio));
+  std::vector<RadioGroup> groups = GroupRadio(radio, o.radio_epoch_s);
+  WG_ASSIGN_OR_RETURN(std::vector<double> times, PrietoTimeline(walk, o, use_imu, radio));
 
   StanceMask stance;
   if (use_imu) {
@@ -1059,73 +1142,23 @@ StatusOr<EstimateResult> RunPrietoFilter(const Walk& walk, const PrietoOptions& 
   PrietoCore core(o, mp, dim, y0, P0);
   WG_RETURN_IF_ERROR(core.CheckUkfWeights());
 
-  Measurement imu_only, imu_stance;  // eq. 7–9
-  ImuMeasurements(o, &imu_only, &imu_stance);
-
   EstimateResult result;
   UpdateBook book(&core, o.gate_probability, &result.nis);
-  auto imu_update = [&](size_t k) -> Status {
-    const ImuSample& s = walk.imu[k];
-    Measurement& m = stance.stance[k] ? imu_stance : imu_only;
-    m.z.head<3>() = s.acc_mps2;        // eq. 7
-    m.z.segment<3>(3) = s.gyro_radps;  // eq. 8 (stance rows stay 0: eq. 9)
-    return book.Update(m, 0.0);
-  };
-
-  // RTS epochs: the filter state x_{m|m} (chart origin) and, in that chart, x_prior = 0,
-  // x_post = δ (the clone's correction), the clone's cross-covariance (see prieto.h).
-  ClonedErrorSmoother<NominalState> rts;
-  const double period = 1.0 / o.output_rate_hz;
-  double next_out = times.front();
-  size_t ri = 0;
-  const bool interval = o.imu_sampling == ImuSampling::kIntervalAverage;
-  // Radio-only: the trajectory holds the estimates at the radio epochs (see prieto.h).
-  const bool output_at_radio = o.sensors == PrietoSensors::kRadioOnly;
-  StateHealth health;
-  for (size_t k = 0; k < times.size(); ++k) {
-    const double t = times[k];
-    if (k > 0) {
-      if (use_imu && interval) WG_RETURN_IF_ERROR(imu_update(k));
-      WG_RETURN_IF_ERROR(core.Predict(t - times[k - 1]));
-      if (use_imu && !interval) WG_RETURN_IF_ERROR(imu_update(k));
-    } else if (use_imu && !interval) {
-      WG_RETURN_IF_ERROR(imu_update(0));
-    }
-    bool radio_epoch = false;
-    for (; ri < groups.size() && groups[ri].t_s <= t; ++ri) {
-      WG_RETURN_IF_ERROR(book.Radio(groups[ri].parts));
-      radio_epoch = true;
-    }
-    if (output_at_radio) {
-      if (!radio_epoch) continue;
-    } else {
-      if (!(t >= next_out - 1e-9) && k + 1 != times.size()) continue;
-      while (next_out <= t + 1e-9) next_out += period;
-    }
-    health.Check(core.y(), core.P());
-    if (!o.smooth) {
-      result.trajectory.points.push_back(ToPoint(t, core.y(), core.P()));
-      continue;
-    }
-    // The clone's P_{mj|m} closes the last epoch: RtsSmooth's C = P_{mj|m}ᵀ P_{m|m}⁻¹.
-    rts.Record(t, core.y(), core.P(), core.cloning() ? &core.clone() : nullptr);
-    core.StartClone();
-  }
-
-  if (o.smooth) {
-    WG_ASSIGN_OR_RETURN(result.trajectory.points,
-                        rts.Smooth([](const NominalState& y, const SmoothedState& s) {
-                          return ToPoint(s.t_s, prieto::Retract(y, s.x), s.P);
-                        }));
-    result.diagnostics["rts_epochs"] = static_cast<double>(rts.size());
-  }
+  PrietoModel model(walk, o, std::move(times), std::move(groups), std::move(stance), &core, &book);
+  ErrorStateRunOptions run;
+  run.smooth = o.smooth;
+  run.output_period_s = 1.0 / o.output_rate_hz;
+  size_t epochs = 0;
+  WG_RETURN_IF_ERROR(RunErrorStateFilter(&model, run, &result.trajectory.points, &epochs));
+  if (o.smooth) result.diagnostics["rts_epochs"] = static_cast<double>(epochs);
 
   book.Report(&result.diagnostics);
   result.diagnostics["pd_repairs"] = core.pd_repairs();
+  const StateHealth& health = model.health();
   result.diagnostics["quaternion_norm_error_max"] = health.q_norm_error;
   result.diagnostics["covariance_asymmetry_max"] = health.asymmetry;
   result.diagnostics["covariance_not_pd_epochs"] = health.not_pd;
-  result.diagnostics["filter_epochs"] = static_cast<double>(times.size());
+  result.diagnostics["filter_epochs"] = static_cast<double>(model.size());
   return result;
 }
 
