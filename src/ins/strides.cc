@@ -7,6 +7,7 @@
 #include "walkgraph/angle.h"
 #include "walkgraph/config.h"
 #include "walkgraph/kalman.h"
+#include "walkgraph/kalman_driver.h"
 
 namespace walkgraph {
 
@@ -409,6 +410,59 @@ class StrideEmitter {
   double yaw_ref_, t_ref_, heading_var_;
 };
 
+// The ZUPT-aided INS as an error-state model (kalman_driver.h): every sample is an output epoch
+// whose output is the sample's record in the solution, then the stride reset or emission.
+class ZuptInsModel : public ErrorStateModel {
+ public:
+  ZuptInsModel(const std::vector<ImuSample>& imu, const StrideOptions& o, bool zaru,
+               ZuptInsFilter f, StrapdownOptions sd, StrideEmitter strides, ZuptInsSolution* out)
+      : imu_(imu),
+        o_(o),
+        zaru_(zaru),
+        f_(std::move(f)),
+        sd_(sd),
+        strides_(std::move(strides)),
+        out_(*out) {
+    H_zupt_.block<3, 3>(0, kV).setIdentity();
+    H_zaru_.block<3, 3>(0, kBg).setIdentity();
+  }
+
+  size_t size() const override { return imu_.size(); }
+  double Time(size_t k) const override { return imu_[k].t_s; }
+
+  Status Propagate(size_t k) override {
+    f_.Predict(imu_[k - 1], imu_[k], o_, &sd_);
+    return Status::Ok();
+  }
+
+  // ZUPT in the kept stance runs, ZARU when still.
+  Status Update(size_t k) override {
+    if (out_.zupt[k]) WG_RETURN_IF_ERROR(f_.Update(-f_.x.v_n, H_zupt_, o_.zupt_sigma_mps));
+    if (zaru_ && out_.stance.still[k]) {
+      WG_RETURN_IF_ERROR(f_.Update(imu_[k].gyro_radps - f_.bg, H_zaru_, o_.zaru_sigma_radps));
+    }
+    return Status::Ok();
+  }
+
+  void Output(size_t k, std::vector<TrajectoryPoint>*) override {
+    out_.states[k] = f_.x;
+    out_.acc_bias_mps2[k] = f_.ba;
+    out_.gyro_bias_radps[k] = f_.bg;
+    out_.stride_covariance[k] = StrideBlock(f_.P);
+    strides_.At(k, &f_, &out_);
+  }
+
+ private:
+  const std::vector<ImuSample>& imu_;
+  const StrideOptions& o_;
+  const bool zaru_;
+  ZuptInsFilter f_;
+  StrapdownOptions sd_;
+  StrideEmitter strides_;
+  ZuptInsSolution& out_;
+  Eigen::MatrixXd H_zupt_ = Eigen::MatrixXd::Zero(3, kN), H_zaru_ = Eigen::MatrixXd::Zero(3, kN);
+};
+
 }  // namespace
 
 StatusOr<ZuptInsSolution> RunZuptIns(const Walk& walk, const StrideOptions& o) {
@@ -450,25 +504,12 @@ StatusOr<ZuptInsSolution> RunZuptIns(const Walk& walk, const StrideOptions& o) {
   out.stride_covariance.resize(n);
   out.strides.absolute_heading = pose0 != nullptr;
 
-  Eigen::MatrixXd H_zupt = Eigen::MatrixXd::Zero(3, kN);
-  H_zupt.block<3, 3>(0, kV).setIdentity();
-  Eigen::MatrixXd H_zaru = Eigen::MatrixXd::Zero(3, kN);
-  H_zaru.block<3, 3>(0, kBg).setIdentity();
-  StrideEmitter strides(imu, o, first_phase, pose0, f.x);
   // At each sample (the first without a prediction): ZUPT and ZARU, the sample's record, then
   // the stride reset or emission.
-  for (size_t k = 0; k < n; ++k) {
-    if (k > 0) f.Predict(imu[k - 1], imu[k], o, &sd);
-    if (out.zupt[k]) WG_RETURN_IF_ERROR(f.Update(-f.x.v_n, H_zupt, o.zupt_sigma_mps));
-    if (zaru && out.stance.still[k]) {
-      WG_RETURN_IF_ERROR(f.Update(imu[k].gyro_radps - f.bg, H_zaru, o.zaru_sigma_radps));
-    }
-    out.states[k] = f.x;
-    out.acc_bias_mps2[k] = f.ba;
-    out.gyro_bias_radps[k] = f.bg;
-    out.stride_covariance[k] = StrideBlock(f.P);
-    strides.At(k, &f, &out);
-  }
+  StrideEmitter strides(imu, o, first_phase, pose0, f.x);
+  ZuptInsModel model(imu, o, zaru, std::move(f), sd, std::move(strides), &out);
+  std::vector<TrajectoryPoint> none;  // the output epochs are recorded in `out`
+  WG_RETURN_IF_ERROR(RunErrorStateFilter(&model, ErrorStateRunOptions(), &none));
   return out;
 }
 
