@@ -4,25 +4,47 @@
 //   - every factor-graph estimator within 2× (the outage: see below);
 //   - any run more than 10× its nominal RMSE is flagged diverged (divergence.h), never a number
 //     (dead reckoning alone aside: see DeadReckoningOnly).
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <map>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <gtest/gtest.h>
 #include <yaml-cpp/yaml.h>
 
 #include "test_util.h"
+#include "walkgraph/angle.h"
 #include "walkgraph/compare.h"
 #include "walkgraph/simulate.h"
 
 namespace walkgraph {
 namespace {
 
-enum class Fault { kNone, kImuGap, kRssOutage, kNlos };
+enum class Fault { kNone, kImuGap, kImuGapInTurn, kRssOutage, kNlos };
 
-// The walk of `seed` with `fault`: IMU rows of [40 %, 40 % + 10 s) of the walk deleted; RSS
+// The first time at or after `from` at which the truth's direction of travel turns by more than
+// 45° within 2 s (directions over 1 s of truth), or `from` when it never does.
+double FirstTurnAfter(const Walk& w, double from) {
+  auto at = [&w](double t) {
+    auto it = std::lower_bound(w.truth.begin(), w.truth.end(), t,
+                               [](const TruthSample& s, double v) { return s.t_s < v; });
+    return it == w.truth.end() ? w.truth.back().position_m : it->position_m;
+  };
+  auto direction = [&at](double t) {
+    const Eigen::Vector3d d = at(t + 1.0) - at(t);
+    return std::atan2(d.y(), d.x());
+  };
+  for (double t = from; t + 3.0 < w.truth.back().t_s; t += 0.1) {
+    if (std::abs(NormalizeAngle(direction(t + 2.0) - direction(t))) > kPi / 4) return t + 1.0;
+  }
+  return from;
+}
+
+// The walk of `seed` with `fault`: IMU rows of [40 %, 40 % + 10 s) of the walk deleted (in a
+// turn: the 10 s centred on the first turn after 40 % of the walk); RSS
 // rows of its middle half deleted; 20 % of the readings NLOS (the simulator's own model).
 Walk Faulty(uint64_t seed, Fault fault, const std::string& scenario = "tarrio-circle",
             const std::string& overrides = "{}") {
@@ -32,8 +54,10 @@ Walk Faulty(uint64_t seed, Fault fault, const std::string& scenario = "tarrio-ci
   EXPECT_TRUE(w.ok());
   if (!w.ok()) return {};
   const double t0 = w->StartTime(), t1 = w->EndTime();
-  if (fault == Fault::kImuGap) {
-    const double a = t0 + 0.4 * (t1 - t0), b = a + 10.0;
+  if (fault == Fault::kImuGap || fault == Fault::kImuGapInTurn) {
+    double a = t0 + 0.4 * (t1 - t0);
+    if (fault == Fault::kImuGapInTurn) a = FirstTurnAfter(*w, a) - 5.0;
+    const double b = a + 10.0;
     std::vector<ImuSample> kept;
     for (const ImuSample& s : w->imu) {
       if (s.t_s < a || s.t_s >= b) kept.push_back(s);
@@ -110,44 +134,71 @@ TEST(Robustness, FactorGraphsHoldAndRunawaysAreFlagged) {
 // the walk's length: 1 lap gave 2.3-5.2x. jimenez-iez-rss (IMU + RSS) integrates across the
 // gap and must stay within 10x or be flagged. (Every estimator on jimenez-building, 1 lap,
 // seeds 1-6 with the gap: none over 3x unflagged but zupt-ins, dead reckoning alone.)
-TEST(Robustness, FootInsGraphBridgesAnImuGap) {
-  const int runs = testing::kSanitized ? 1 : 3;
+// Mean RMSE over `runs` seeds of jimenez-building (3 laps) without and with `fault`, per
+// factor-graph estimator of `ids`; every estimator that is not flagged stays within 10x.
+std::map<std::string, std::pair<double, double>> FootGapRmse(Fault fault,
+                                                             const std::vector<std::string>& ids,
+                                                             int runs) {
   CompareOptions co;
-  co.estimator_ids = {"fg-ins-batch", "fg-ins-window", "fg-ins-window-online", "jimenez-iez-rss"};
-  std::map<std::string, double> nominal, gap;
+  co.estimator_ids = ids;
+  std::map<std::string, std::pair<double, double>> out;  // id → (nominal, with the fault)
   for (int i = 0; i < runs; ++i) {
     const uint64_t seed = MonteCarloSeed(1718, i);
     auto n = CompareOnWalk(Faulty(seed, Fault::kNone, "jimenez-building", "{laps: 3}"), co);
-    auto g = CompareOnWalk(Faulty(seed, Fault::kImuGap, "jimenez-building", "{laps: 3}"), co);
-    ASSERT_TRUE(n.ok() && g.ok());
+    auto g = CompareOnWalk(Faulty(seed, fault, "jimenez-building", "{laps: 3}"), co);
+    EXPECT_TRUE(n.ok() && g.ok());
+    if (!n.ok() || !g.ok()) return {};
     for (size_t k = 0; k < co.estimator_ids.size(); ++k) {
       const EstimatorOutcome &a = n->outcomes[k], &b = g->outcomes[k];
-      ASSERT_TRUE(a.status.ok() && b.status.ok()) << a.id;
-      ASSERT_TRUE(a.Ranked()) << a.id << " diverged on the clean walk";
+      EXPECT_TRUE(a.status.ok() && b.status.ok()) << a.id;
+      EXPECT_TRUE(a.Ranked()) << a.id << " diverged on the clean walk";
       if (b.Ranked()) {
         EXPECT_LE(b.stats.rmse_m, 10.0 * a.stats.rmse_m) << b.id << ": runaway not flagged";
       }
       if (!FactorGraph(a.id)) continue;
       EXPECT_TRUE(b.Ranked()) << b.id;
-      nominal[a.id] += a.stats.rmse_m / runs;
-      gap[a.id] += b.stats.rmse_m / runs;
+      out[a.id].first += a.stats.rmse_m / runs;
+      out[a.id].second += b.stats.rmse_m / runs;
     }
   }
-  for (const auto& [id, rmse] : gap) {
-    std::printf("%-22s 10 s IMU gap: RMSE %.3f m, nominal %.3f m (%.2fx)\n", id.c_str(), rmse,
-                nominal[id], rmse / nominal[id]);
+  for (const auto& [id, r] : out) {
+    std::printf("%-22s %s: RMSE %.3f m, nominal %.3f m (%.2fx)\n", id.c_str(),
+                fault == Fault::kImuGap ? "10 s IMU gap" : "10 s IMU gap in a turn", r.second,
+                r.first, r.second / r.first);
+  }
+  return out;
+}
+
+TEST(Robustness, FootInsGraphBridgesAnImuGap) {
+  const int runs = testing::kSanitized ? 1 : 3;
+  for (const auto& [id, r] : FootGapRmse(
+           Fault::kImuGap,
+           {"fg-ins-batch", "fg-ins-window", "fg-ins-window-online", "jimenez-iez-rss"}, runs)) {
     // The target is 2x. fg-ins-batch 0.99x and fg-ins-window 1.23x on these seeds (1.12x and
     // 1.70x while the readings of the gap sat on the state before it; 2.82x for the window
     // before it was held open across the gap: InsWindowOptions::gap_hold_max_s). The online
-    // output is not held to it (2.31x with its causal stance detector, 2.25x with the
-    // whole-walk one; 4.19x before the readings were fixed): a causal estimate knows where the
-    // walker is after the gap from the radio alone, and which way they face only some 15 s
-    // later. This gap falls on a straight leg. A gap that holds one of the walk's 90° turns is
-    // not met (measured with the CLI on 8 seeds, the gap at 43 % / 46 % of the walk, mean
-    // ratio): fg-ins-batch 2.17x / 2.15x, fg-ins-window 8.5x / 7.2x, online 9.9x / 12.1x: the
-    // states after the gap start from the pre-gap heading and the solves do not turn them.
+    // output is not held to it (2.48x; 2.31x before the held solves could iterate to
+    // InsWindowOptions::gap_max_iterations, mean over 8 CLI seeds 2.20x → 2.00x; 4.19x before
+    // the readings were fixed): a causal estimate knows where the walker is after the gap from
+    // the radio alone, and which way they face only some 15 s later.
     const double bound = id == "fg-ins-window-online" ? 3.0 : 2.0;
-    if (!testing::kSanitized) EXPECT_LE(rmse, bound * nominal[id]) << id;
+    if (!testing::kSanitized) EXPECT_LE(r.second, bound * r.first) << id;
+  }
+}
+
+// A gap that holds one of the walk's 90° turns: the states after it start from the heading
+// before it. With window_max_iterations (10) per held solve they stayed there: here
+// fg-ins-window 13.3x and online 16.7x, unflagged (CLI, 8 seeds, the gap at 43 % / 46 % of
+// the walk: 8.5x / 7.2x and 9.9x / 12.1x). With gap_max_iterations (100): 1.83x and 3.99x
+// here (CLI: 2.06x / 1.99x and 3.9x / 3.7x). fg-ins-batch 1.69x: the truth's corner inside
+// the gap is scored against the line between the states around it (no estimator has a
+// position inside an IMU gap).
+TEST(Robustness, FootInsWindowTurnsAcrossAGapThatHoldsATurn) {
+  const int runs = testing::kSanitized ? 1 : 3;
+  for (const auto& [id, r] : FootGapRmse(
+           Fault::kImuGapInTurn, {"fg-ins-batch", "fg-ins-window", "fg-ins-window-online"}, runs)) {
+    const double bound = id == "fg-ins-window-online" ? 5.0 : 3.0;
+    if (!testing::kSanitized) EXPECT_LE(r.second, bound * r.first) << id;
   }
 }
 

@@ -97,8 +97,8 @@ StatusOr<InsGraphOptions> InsGraphOptionsFromYaml(const YAML::Node& node,
 
 // walkgraph/smoothers/ins_window.h
 // Keys: lag_s, window_update_s, window_max_iterations, window_output (absent: the given
-// default), preintegration_bias, gap_hold_max_s, gap_release_yaw_sigma_rad, and every
-// InsGraphOptions key at the same level (InsGraphOptionsFromYaml); unknown keys are errors.
+// default), preintegration_bias, gap_hold_max_s, gap_release_yaw_sigma_rad, gap_max_iterations, and
+// every InsGraphOptions key at the same level (InsGraphOptionsFromYaml); unknown keys are errors.
 StatusOr<InsWindowOptions> InsWindowOptionsFromYaml(
     const YAML::Node& node, const std::string& context,
     WindowOutput default_output = WindowOutput::kLagged);

@@ -97,7 +97,11 @@ StatusOr<FixedLagSmoother::UpdateResult> FixedLagSmoother::Update(
   if (informative && problem_->NumResidualBlocks() > 0) {
     solved_ = true;
     ceres::Solver::Summary summary;
-    ceres::Solve(internal::ToCeres(options_.solver), problem_.get(), &summary);
+    SolverOptions solver = options_.solver;
+    if (hold_from_s_ && options_.held_max_iterations > 0) {
+      solver.max_iterations = options_.held_max_iterations;
+    }
+    ceres::Solve(internal::ToCeres(solver), problem_.get(), &summary);
     WG_ASSIGN_OR_RETURN(const Termination termination,
                         internal::CheckSummary(summary, "fixed-lag smoother"));
     result.ceres_iterations = static_cast<int>(summary.iterations.size());

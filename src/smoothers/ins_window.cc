@@ -69,7 +69,8 @@ const char* const kWindowKeys[] = {"lag_s",
                                    "window_marginalize_batch_s",
                                    "window_initial_trust_region_radius",
                                    "gap_hold_max_s",
-                                   "gap_release_yaw_sigma_rad"};
+                                   "gap_release_yaw_sigma_rad",
+                                   "gap_max_iterations"};
 
 // The front end's motion from state a to state b carried into the frame of `estimate_a` (the
 // window's current estimate of a): see the top of ins_window.h.
@@ -138,6 +139,8 @@ StatusOr<InsWindowOptions> InsWindowOptionsFromYaml(const YAML::Node& node,
          "hold the window open this long at most after an IMU gap; 0 no hold");
   r.Read("gap_release_yaw_sigma_rad", &o.gap_release_yaw_sigma_rad,
          "release the hold at this yaw sigma when the pre-gap one is unknown");
+  r.Read("gap_max_iterations", &o.gap_max_iterations,
+         "most LM iterations per window update while held open after an IMU gap");
   WG_RETURN_IF_ERROR(r.Finish());
   StatusOr<InsGraphOptions> graph = InsGraphOptionsFromYaml(rest, o.graph);
   if (!graph.ok()) return InvalidArgument(context + ": " + graph.status().message());
@@ -150,12 +153,12 @@ Status InsWindowOptions::Validate(const std::string& context) const {
   const InsWindowOptions& o = *this;
   if (!(o.lag_s > 0) || !(o.window_update_s >= 0) || o.window_max_iterations < 1 ||
       !(o.window_marginalize_batch_s >= 0) || !(o.window_initial_trust_region_radius > 0) ||
-      !(o.gap_hold_max_s >= 0) || !(o.gap_release_yaw_sigma_rad > 0)) {
+      !(o.gap_hold_max_s >= 0) || !(o.gap_release_yaw_sigma_rad > 0) || o.gap_max_iterations < 1) {
     return InvalidArgument(context +
                            ": need lag_s > 0, window_update_s >= 0, window_max_iterations >= 1, "
                            "window_marginalize_batch_s >= 0, "
                            "window_initial_trust_region_radius > 0, gap_hold_max_s >= 0, "
-                           "gap_release_yaw_sigma_rad > 0");
+                           "gap_release_yaw_sigma_rad > 0, gap_max_iterations >= 1");
   }
   WG_RETURN_IF_ERROR(
       CheckEnumOption(WindowOutputNames(), o.window_output, "window_output", context));
@@ -201,6 +204,7 @@ class InsWindowRun {
     so.solver.parameter_tolerance = o.graph.parameter_tolerance;
     so.marginalize_batch_s = o.window_marginalize_batch_s;
     so.solver.initial_trust_region_radius = o.window_initial_trust_region_radius;
+    so.held_max_iterations = o.gap_max_iterations;
     return so;
   }
   Status Start();

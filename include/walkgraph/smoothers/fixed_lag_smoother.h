@@ -77,6 +77,10 @@ class FixedLagSmoother {
     // covariance query in before_marginalize) runs once per batch instead of once per state.
     // 0: every update marginalizes what is older than the lag (GTSAM's behaviour).
     double marginalize_batch_s = 0.0;
+    // > 0: the iteration limit of an update's solve while the window is held (HoldFrom): the
+    // linearization point there is poor (e.g. after an IMU gap), and a solve cut short leaves
+    // states far from the optimum that later updates start from. 0: solver.max_iterations.
+    int held_max_iterations = 0;
   };
   struct UpdateResult {
     int ceres_iterations = 0;

@@ -93,6 +93,11 @@ struct InsWindowOptions {
   // gap were interpolated across it, ins_graph.h: held 0.296 m, no hold 1.48 m.)
   double gap_hold_max_s = 60.0;
   double gap_release_yaw_sigma_rad = 0.05;
+  // While held, each update's solve may take up to this many LM iterations
+  // (FixedLagSmoother::Options::held_max_iterations): the states after a gap start from the
+  // heading before it and a solve cut at window_max_iterations leaves them there (a gap that
+  // holds a 90° turn: fg-ins-window 8.5x its nominal RMSE with 10 iterations).
+  int gap_max_iterations = 100;
 
   // Every rule the YAML reader applies (and graph.Validate()); the window's Run refuses options
   // that break one. Messages are prefixed with `context`.
