@@ -210,7 +210,7 @@ TEST(ClonedErrorSmootherTest, EqualsFullRateRtsAtTheOutputEpochs) {
 
 // The random walk in error-state form for RunErrorStateFilter: nominal y, error [δ_now] or, with
 // the clone, [δ_now, δ_clone]; each update injected into y and the error reset.
-class RandomWalkModel : public ClonedErrorStateModel<double> {
+class RandomWalkModel final : public ClonedErrorStateModel<double> {
  public:
   RandomWalkModel(std::vector<double> t, std::vector<double> z, double q, double r, double p0,
                   bool clone)

@@ -33,6 +33,7 @@
 
 #include <algorithm>
 #include <functional>
+#include <type_traits>
 #include <utility>
 #include <vector>
 
@@ -192,6 +193,7 @@ class ErrorStateModel {
 template <typename Nominal>
 class ClonedErrorStateModel : public ErrorStateModel {
  public:
+  using nominal_type = Nominal;
   // At an output epoch: the nominal state, the covariance of its error and the clone of the
   // error at the previous output epoch (as carried to now).
   virtual const Nominal& nominal() const = 0;
@@ -214,41 +216,80 @@ struct ErrorStateRunOptions {
 };
 
 namespace internal {
-// The sample loop of RunErrorStateFilter: `at_output(k)` at each output epoch.
-Status ErrorStateLoop(ErrorStateModel* model, const ErrorStateRunOptions& options,
-                      const std::function<void(size_t)>& at_output);
+// The sample loop of RunErrorStateFilter: `at_output(k)` at each output epoch. A template over
+// the model's own type, so that the calls of a `final` model are direct (and may be inlined):
+// the loop runs once per IMU sample.
+template <typename Model, typename AtOutput>
+Status ErrorStateLoop(Model* model, const ErrorStateRunOptions& options, AtOutput&& at_output) {
+  const size_t n = model->size();
+  if (n == 0) return InvalidArgument("RunErrorStateFilter: no samples");
+  const size_t every = std::max<size_t>(options.output_every, 1);
+  const double period = options.output_period_s;
+  double next_out = model->Time(0);
+  for (size_t k = 0; k < n; ++k) {
+    if (k > 0) WG_RETURN_IF_ERROR(model->Propagate(k));
+    WG_RETURN_IF_ERROR(model->Update(k));
+    bool scheduled = k + 1 == n;
+    if (period > 0) {
+      const double t = model->Time(k);
+      scheduled = scheduled || t >= next_out - 1e-9;
+      if (scheduled) {
+        while (next_out <= t + 1e-9) next_out += period;
+      }
+    } else {
+      scheduled = scheduled || k % every == 0;
+    }
+    if (model->IsOutputEpoch(k, scheduled)) at_output(k);
+  }
+  return Status::Ok();
+}
 // An upper bound of the number of output epochs (for reserving).
 size_t OutputEpochBound(const ErrorStateModel& model, const ErrorStateRunOptions& options);
+
+// Whether Model derives from a ClonedErrorStateModel (has the nominal_type it clones).
+template <typename Model, typename = void>
+struct IsClonedModel : std::false_type {};
+template <typename Model>
+struct IsClonedModel<Model, std::void_t<typename Model::nominal_type>>
+    : std::is_base_of<ClonedErrorStateModel<typename Model::nominal_type>, Model> {};
 }  // namespace internal
 
-// Runs `model` over its samples and appends the filtered output epochs to `points`;
-// `output_epochs` (optional) receives their number. options.smooth needs a ClonedErrorStateModel.
-Status RunErrorStateFilter(ErrorStateModel* model, const ErrorStateRunOptions& options,
-                           std::vector<TrajectoryPoint>* points, size_t* output_epochs = nullptr);
-
-// The same, smoothed with the cloned RTS over the output epochs when options.smooth.
-template <typename Nominal>
-Status RunErrorStateFilter(ClonedErrorStateModel<Nominal>* model,
-                           const ErrorStateRunOptions& options,
+// Runs `model` (an ErrorStateModel, best its own `final` type) over its samples and appends the
+// output epochs to `points`, filtered or, when options.smooth (a ClonedErrorStateModel only),
+// smoothed with the cloned RTS over the output epochs; `output_epochs` (optional) receives
+// their number.
+template <typename Model>
+Status RunErrorStateFilter(Model* model, const ErrorStateRunOptions& options,
                            std::vector<TrajectoryPoint>* points, size_t* output_epochs = nullptr) {
+  static_assert(std::is_base_of_v<ErrorStateModel, Model>, "an ErrorStateModel");
   if (!options.smooth) {
-    return RunErrorStateFilter(static_cast<ErrorStateModel*>(model), options, points,
-                               output_epochs);
+    size_t count = 0;
+    WG_RETURN_IF_ERROR(internal::ErrorStateLoop(model, options, [&](size_t k) {
+      model->Output(k, points);
+      ++count;
+    }));
+    if (output_epochs != nullptr) *output_epochs = count;
+    return Status::Ok();
   }
-  ClonedErrorSmoother<Nominal> rts;
-  rts.Reserve(internal::OutputEpochBound(*model, options));
-  WG_RETURN_IF_ERROR(internal::ErrorStateLoop(model, options, [&rts, model](size_t k) {
-    rts.Record(model->Time(k), model->nominal(), model->Covariance(),
-               rts.size() > 0 ? &model->Clone() : nullptr);
-    model->StartClone();
-  }));
-  if (output_epochs != nullptr) *output_epochs = rts.size();
-  WG_ASSIGN_OR_RETURN(std::vector<TrajectoryPoint> smoothed,
-                      rts.Smooth([model](const Nominal& nominal, const SmoothedState& s) {
-                        return model->SmoothedPoint(nominal, s);
-                      }));
-  points->insert(points->end(), smoothed.begin(), smoothed.end());
-  return Status::Ok();
+  if constexpr (!internal::IsClonedModel<Model>::value) {
+    return InvalidArgument("RunErrorStateFilter: smoothing needs a ClonedErrorStateModel");
+  } else {
+    using Nominal = typename Model::nominal_type;
+    ClonedErrorSmoother<Nominal> rts;
+    rts.Reserve(internal::OutputEpochBound(*model, options));
+    WG_RETURN_IF_ERROR(internal::ErrorStateLoop(model, options, [&rts, model](size_t k) {
+      rts.Record(model->Time(k), model->nominal(), model->Covariance(),
+                 rts.size() > 0 ? &model->Clone() : nullptr);
+      model->StartClone();
+    }));
+    if (output_epochs != nullptr) *output_epochs = rts.size();
+    WG_ASSIGN_OR_RETURN(std::vector<TrajectoryPoint> smoothed,
+                        rts.Smooth([model](const Nominal& nominal, const SmoothedState& s) {
+                          return model->SmoothedPoint(nominal, s);
+                        }));
+    points->insert(points->end(), smoothed.begin(), smoothed.end());
+    return Status::Ok();
+  }
 }
 
 }  // namespace walkgraph

@@ -574,7 +574,7 @@ class IezUpdates {
 // The IEZ+ filter of 004 as an error-state model (kalman_driver.h): INS mechanization and EKF
 // prediction at 100 Hz (Algorithm 1), the updates due at each sample, CORRECTINS. With
 // smoothing the error state carries a clone of the error at the last output epoch.
-class IezModel : public ClonedErrorStateModel<JimenezNominal> {
+class IezModel final : public ClonedErrorStateModel<JimenezNominal> {
  public:
   IezModel(const std::vector<ImuSample>& imu, ImuSampling sampling, const JimenezIezOptions& o,
            const std::vector<bool>& stance, FilterState f, IezUpdates* updates)

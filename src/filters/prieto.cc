@@ -1011,7 +1011,7 @@ struct StateHealth {
 // instantaneous sample after it), the radio sets due at each time (eq. 5–6). The RTS epochs are
 // the filter state x_{m|m} (chart origin) and, in that chart, x_prior = 0, x_post = δ (the
 // clone's correction), the clone's cross-covariance (see prieto.h).
-class PrietoModel : public ClonedErrorStateModel<NominalState> {
+class PrietoModel final : public ClonedErrorStateModel<NominalState> {
  public:
   PrietoModel(const Walk& walk, const PrietoOptions& o, std::vector<double> times,
               std::vector<RadioGroup> groups, StanceMask stance, PrietoCore* core, UpdateBook* book)

@@ -412,7 +412,7 @@ class StrideEmitter {
 
 // The ZUPT-aided INS as an error-state model (kalman_driver.h): every sample is an output epoch
 // whose output is the sample's record in the solution, then the stride reset or emission.
-class ZuptInsModel : public ErrorStateModel {
+class ZuptInsModel final : public ErrorStateModel {
  public:
   ZuptInsModel(const std::vector<ImuSample>& imu, const StrideOptions& o, bool zaru,
                ZuptInsFilter f, StrapdownOptions sd, StrideEmitter strides, ZuptInsSolution* out)

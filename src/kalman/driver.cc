@@ -53,31 +53,6 @@ Status RunKalmanFilter(const std::vector<double>& times, KalmanModel* model,
 
 namespace internal {
 
-Status ErrorStateLoop(ErrorStateModel* model, const ErrorStateRunOptions& options,
-                      const std::function<void(size_t)>& at_output) {
-  const size_t n = model->size();
-  if (n == 0) return InvalidArgument("RunErrorStateFilter: no samples");
-  const size_t every = std::max<size_t>(options.output_every, 1);
-  const double period = options.output_period_s;
-  double next_out = model->Time(0);
-  for (size_t k = 0; k < n; ++k) {
-    if (k > 0) WG_RETURN_IF_ERROR(model->Propagate(k));
-    WG_RETURN_IF_ERROR(model->Update(k));
-    bool scheduled = k + 1 == n;
-    if (period > 0) {
-      const double t = model->Time(k);
-      scheduled = scheduled || t >= next_out - 1e-9;
-      if (scheduled) {
-        while (next_out <= t + 1e-9) next_out += period;
-      }
-    } else {
-      scheduled = scheduled || k % every == 0;
-    }
-    if (model->IsOutputEpoch(k, scheduled)) at_output(k);
-  }
-  return Status::Ok();
-}
-
 size_t OutputEpochBound(const ErrorStateModel& model, const ErrorStateRunOptions& options) {
   const size_t n = model.size();
   if (n == 0) return 0;
@@ -89,19 +64,5 @@ size_t OutputEpochBound(const ErrorStateModel& model, const ErrorStateRunOptions
 }
 
 }  // namespace internal
-
-Status RunErrorStateFilter(ErrorStateModel* model, const ErrorStateRunOptions& options,
-                           std::vector<TrajectoryPoint>* points, size_t* output_epochs) {
-  if (options.smooth) {
-    return InvalidArgument("RunErrorStateFilter: smoothing needs a ClonedErrorStateModel");
-  }
-  size_t count = 0;
-  WG_RETURN_IF_ERROR(internal::ErrorStateLoop(model, options, [&](size_t k) {
-    model->Output(k, points);
-    ++count;
-  }));
-  if (output_epochs != nullptr) *output_epochs = count;
-  return Status::Ok();
-}
 
 }  // namespace walkgraph
