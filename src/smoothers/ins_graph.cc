@@ -70,6 +70,7 @@ Status InsGraphOptions::Validate() const {
       CheckEnumOption(InsInitializationNames(), o.initialization, "initialization", context));
   WG_RETURN_IF_ERROR(CheckEnumOption(LossKindNames(), o.rss_loss, "rss_loss", context));
   WG_RETURN_IF_ERROR(CheckEnumOption(LossKindNames(), o.range_loss, "range_loss", context));
+  WG_RETURN_IF_ERROR(CheckEnumOption(LossKindNames(), o.zupt_loss, "zupt_loss", context));
   WG_RETURN_IF_ERROR(CheckEnumOption(InsPathLossNames(), o.path_loss, "path_loss", context));
   if (!(o.init_lag_s > 0) || !(o.init_marginalize_batch_s >= 0) ||
       !(o.initial_trust_region_radius > 0)) {
@@ -84,8 +85,8 @@ Status InsGraphOptions::Validate() const {
       !(o.max_state_interval_s > 0) || !(o.front_end.acc_bias_sigma_mps2 > 0) ||
       !(o.front_end.gyro_bias_sigma_radps > 0) || !(o.front_end.acc_bias_rw_mps2_sqrts > 0) ||
       !(o.front_end.gyro_bias_rw_radps_sqrts > 0) || !(o.rss_loss_scale > 0) ||
-      !(o.range_loss_scale > 0) || !(o.range_bias_sigma_m > 0) || !(o.function_tolerance > 0) ||
-      !(o.parameter_tolerance > 0) || !(o.gradient_tolerance > 0)) {
+      !(o.range_loss_scale > 0) || !(o.zupt_loss_scale > 0) || !(o.range_bias_sigma_m > 0) ||
+      !(o.function_tolerance > 0) || !(o.parameter_tolerance > 0) || !(o.gradient_tolerance > 0)) {
     return InvalidArgument(
         "fg-ins-batch: need every_n_samples >= 1, max_iterations >= 1, max_relinearizations >= "
         "0, and every sigma, rate, interval and threshold > 0 (bias sigmas and random walks "
@@ -158,6 +159,10 @@ StatusOr<InsGraphOptions> InsGraphOptionsFromYaml(const YAML::Node& node,
          "extra states inside longer gaps (standstills)");
   r.Read("zupt_sigma_mps", &o.zupt_sigma_mps,
          "sigma of the zero-velocity update at stance states (OpenShoe's)");
+  r.ReadEnum("zupt_loss", &o.zupt_loss, LossKindNames(),
+             "robust loss of the ZUPT factors (a false stance then costs little)");
+  r.Read("zupt_loss_scale", &o.zupt_loss_scale,
+         "scale of the ZUPT loss, in sigma of the whitened residual");
   r.Read("use_zaru", &o.use_zaru, "zero angular-rate updates when the foot is still");
   r.Read("zaru_sigma_radps", &o.zaru_sigma_radps,
          "ZARU sigma per gyro reading (divided by sqrt of the readings)");
@@ -282,6 +287,7 @@ std::vector<InsFactor> InsStateFactors(const InsGraphContext& c, InsState* s) {
   if (s->zupt) {
     out.push_back(MakeFactor(InsFactorKind::kZupt, ZuptFactor::Create(c.options.zupt_sigma_mps),
                              {s->v.data()}));
+    out.back().loss = internal::MakeLoss(c.options.zupt_loss, c.options.zupt_loss_scale);
   }
   return out;
 }

@@ -90,9 +90,15 @@ std::vector<bool> MedianFilter(const std::vector<bool>& x, int window) {
   return out;
 }
 
-// Otsu's split of the histogram of `v` (sorted ascending): the class means (lower, upper).
-std::pair<double, double> OtsuClassMeans(const std::vector<double>& v, int bins) {
-  const double lo = v[v.size() / 200], hi = v[v.size() - 1 - v.size() / 200];
+// Otsu's split of the histogram of `v` between its 0.5 % and 99.5 % order statistics: the
+// class means (lower, upper). Reorders `v` (the histogram does not depend on the order).
+std::pair<double, double> OtsuClassMeans(std::vector<double>* values, int bins) {
+  std::vector<double>& v = *values;
+  const size_t k_lo = v.size() / 200, k_hi = v.size() - 1 - v.size() / 200;
+  std::nth_element(v.begin(), v.begin() + k_hi, v.end());
+  const double hi = v[k_hi];
+  std::nth_element(v.begin(), v.begin() + k_lo, v.begin() + k_hi);
+  const double lo = v[k_lo];
   if (!(hi > lo)) return {lo, lo};
   std::vector<double> count(bins, 0.0);
   const double width = (hi - lo) / bins;
@@ -124,16 +130,16 @@ std::pair<double, double> OtsuClassMeans(const std::vector<double>& v, int bins)
 
 // γ of the adaptive detector from the statistic of samples [a, b) (see stance.h), `fallback`
 // when they are too few or not bimodal.
-double AdaptiveGamma(const std::vector<double>& statistic, size_t a, size_t b,
+// `log_statistic`: log10 of the statistic, NaN where it is not finite or not positive.
+double AdaptiveGamma(const std::vector<double>& log_statistic, size_t a, size_t b,
                      const StanceOptions& o, double fallback) {
   std::vector<double> v;
   v.reserve(b - a);
   for (size_t i = a; i < b; ++i) {
-    if (std::isfinite(statistic[i]) && statistic[i] > 0) v.push_back(std::log10(statistic[i]));
+    if (!std::isnan(log_statistic[i])) v.push_back(log_statistic[i]);
   }
   if (static_cast<int>(v.size()) < std::max(o.adaptive_min_samples, 2)) return fallback;
-  std::sort(v.begin(), v.end());
-  const auto [m0, m1] = OtsuClassMeans(v, o.adaptive_bins);
+  const auto [m0, m1] = OtsuClassMeans(&v, o.adaptive_bins);
   if (m1 - m0 < o.adaptive_min_separation) return fallback;
   return std::pow(10.0, m0 + o.adaptive_fraction * (m1 - m0));
 }
@@ -151,9 +157,14 @@ size_t ImuIndexAt(const Walk& walk, double t) {
 std::vector<double> AdaptiveThresholds(const Walk& walk, const std::vector<double>& statistic,
                                        const StanceOptions& o) {
   const size_t n = statistic.size();
+  std::vector<double> log_statistic(n, std::numeric_limits<double>::quiet_NaN());
+  for (size_t i = 0; i < n; ++i) {
+    if (std::isfinite(statistic[i]) && statistic[i] > 0)
+      log_statistic[i] = std::log10(statistic[i]);
+  }
   // The causal detector never looks at the whole walk: its fallback is the last bimodal γ.
-  double fallback =
-      o.adaptive_causal ? o.glrt_threshold : AdaptiveGamma(statistic, 0, n, o, o.glrt_threshold);
+  double fallback = o.adaptive_causal ? o.glrt_threshold
+                                      : AdaptiveGamma(log_statistic, 0, n, o, o.glrt_threshold);
   if (o.adaptive_window_s <= 0.0) return std::vector<double>(n, fallback);
   std::vector<double> gamma(n);
   // Blocks of adaptive_step_s from the walk's start (so a walk cut at t gets the same γ up to t).
@@ -162,8 +173,9 @@ std::vector<double> AdaptiveThresholds(const Walk& walk, const std::vector<doubl
     const double tc = walk.imu[i].t_s;
     const double g =
         o.adaptive_causal
-            ? AdaptiveGamma(statistic, ImuIndexAt(walk, tc - o.adaptive_window_s), i, o, fallback)
-            : AdaptiveGamma(statistic, ImuIndexAt(walk, tc - 0.5 * o.adaptive_window_s),
+            ? AdaptiveGamma(log_statistic, ImuIndexAt(walk, tc - o.adaptive_window_s), i, o,
+                            fallback)
+            : AdaptiveGamma(log_statistic, ImuIndexAt(walk, tc - 0.5 * o.adaptive_window_s),
                             ImuIndexAt(walk, tc + 0.5 * o.adaptive_window_s), o, fallback);
     if (o.adaptive_causal) fallback = g;
     const double t_next =
