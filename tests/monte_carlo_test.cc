@@ -1,6 +1,7 @@
 #include <unistd.h>
 
 #include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
@@ -13,9 +14,11 @@
 #include <yaml-cpp/yaml.h>
 #include <nlohmann/json.hpp>
 
+#include "util/text_spill.h"
 #include "walkgraph/compare.h"
 #include "walkgraph/io.h"
 #include "walkgraph/pcrb.h"
+#include "walkgraph/simulate.h"
 
 namespace walkgraph {
 namespace {
@@ -309,6 +312,160 @@ TEST(CompareScenario, OverrideErrorsNameTheirOrigin) {
   auto unknown = CompareScenario("no-such", {}, {}, mc, TestRegistry());
   ASSERT_FALSE(unknown.ok());
   EXPECT_THAT(unknown.status().message(), HasSubstr("tarrio-circle"));
+}
+
+// Test-only estimator that fails on about half the walks (by a bit of the first odometry
+// increment, which the seed decides) and otherwise returns the truth + 0.5 m in y, with a
+// covariance and a floor (all of which the shares' bytes must carry).
+class FlakyOffset : public Estimator {
+ public:
+  Status CheckApplicable(const Walk& walk) const override {
+    return walk.has_truth() && !walk.odometry.empty() ? Status::Ok()
+                                                      : FailedPrecondition("needs odometry");
+  }
+  StatusOr<EstimateResult> Run(const Walk& walk) const override {
+    uint64_t bits;
+    std::memcpy(&bits, &walk.odometry.front().dist_m, sizeof(bits));
+    if ((bits >> 20) & 1) return NumericalError("flaky: failed on this walk");
+    EstimateResult r;
+    for (const TruthSample& t : walk.truth) {
+      TrajectoryPoint p;
+      p.t_s = t.t_s;
+      p.position_m = Eigen::Vector3d(t.position_m.x(), t.position_m.y() + 0.5, 0.0);
+      p.covariance = Eigen::Matrix3d::Identity() * (0.1 + 0.01 * t.t_s);
+      p.floor = 0;
+      r.trajectory.points.push_back(p);
+    }
+    r.nis = {1.0, 2.5};
+    r.diagnostics["points"] = static_cast<double>(r.trajectory.size());
+    return r;
+  }
+};
+
+EstimatorRegistry ShareRegistry() {
+  EstimatorRegistry r = TestRegistry();
+  EXPECT_TRUE(r.Register({"flaky-offset", "test: fails on some walks",
+                          [](const Config&) -> StatusOr<std::unique_ptr<Estimator>> {
+                            return std::unique_ptr<Estimator>(new FlakyOffset());
+                          }})
+                  .ok());
+  return r;
+}
+
+std::string ErrorRowsOf(const Comparison& c) {
+  std::ostringstream out;
+  EXPECT_TRUE(c.errors_csv_rows && c.errors_csv_rows->CopyTo(out).ok());
+  return out.str();
+}
+
+// Runs `n` shares (threads 2 each) and merges their runs in run order.
+StatusOr<Comparison> MergedShares(int n, const ScenarioCompareOptions& sc, MonteCarloOptions mc,
+                                  const EstimatorRegistry& registry) {
+  std::vector<std::string> bytes(mc.runs);
+  mc.threads = 2;
+  for (int i = 0; i < n; ++i) {
+    WG_RETURN_IF_ERROR(CompareScenarioShare(
+        "linear-gaussian", sc, {}, mc, {i, n},
+        [&](int run, std::string b) {
+          EXPECT_EQ(run % n, i);
+          bytes[run] = std::move(b);
+          return Status::Ok();
+        },
+        registry));
+  }
+  ScenarioRunMerger merger(sc, mc);
+  for (int run = 0; run < mc.runs; ++run) {
+    WG_RETURN_IF_ERROR(merger.Add(bytes[run], "run " + std::to_string(run)));
+  }
+  return merger.Finish();
+}
+
+TEST(CompareScenarioShare, MergedSharesGiveCompareScenarioBitForBit) {
+  const EstimatorRegistry registry = ShareRegistry();
+  ScenarioCompareOptions sc;
+  sc.overrides = YAML::Load("{duration_s: 20, range_sigma_m: 0.5}");
+  MonteCarloOptions mc;
+  mc.runs = 7;
+  mc.seed = 4;
+  auto whole = CompareScenario("linear-gaussian", sc, {}, mc, registry);
+  ASSERT_TRUE(whole.ok()) << whole.status().message();
+  ASSERT_EQ(whole->outcomes.size(), 2u);
+  const EstimatorOutcome& flaky = whole->outcomes[1];
+  // Run 0 fails for the flaky estimator, some later run does not: the kept trajectory comes
+  // from a share other than run 0's.
+  auto walk0 = SimulateScenario("linear-gaussian", MonteCarloSeed(mc.seed, 0), sc.overrides);
+  ASSERT_TRUE(walk0.ok());
+  ASSERT_FALSE(FlakyOffset().Run(*walk0).ok());
+  ASSERT_GT(flaky.failed_runs, 0);
+  ASSERT_LT(flaky.failed_runs, mc.runs);
+  ASSERT_TRUE(whole->pcrb_rmse_m.has_value());
+  for (int n : {1, 2, 3, 8}) {
+    SCOPED_TRACE("shares: " + std::to_string(n));
+    auto merged = MergedShares(n, sc, mc, registry);
+    ASSERT_TRUE(merged.ok()) << merged.status().message();
+    EXPECT_EQ(ResultsJsonText(*merged), ResultsJsonText(*whole));
+    EXPECT_EQ(ErrorRowsOf(*merged), ErrorRowsOf(*whole));
+    EXPECT_EQ(merged->pcrb_smoother_m, whole->pcrb_smoother_m);
+    EXPECT_EQ(merged->truth.size(), whole->truth.size());
+    EXPECT_EQ(merged->anchors.size(), whole->anchors.size());
+    for (size_t k = 0; k < whole->outcomes.size(); ++k) {
+      const EstimatorOutcome &a = whole->outcomes[k], &b = merged->outcomes[k];
+      EXPECT_EQ(a.run_rmse_m, b.run_rmse_m);
+      EXPECT_EQ(a.errors.error_m, b.errors.error_m);
+      EXPECT_EQ(a.errors.nees, b.errors.nees);
+      EXPECT_EQ(a.result.nis, b.result.nis);
+      ASSERT_EQ(a.result.trajectory.size(), b.result.trajectory.size());
+      for (size_t p = 0; p < a.result.trajectory.size(); ++p) {
+        const TrajectoryPoint &x = a.result.trajectory.points[p],
+                              &y = b.result.trajectory.points[p];
+        EXPECT_EQ(x.position_m, y.position_m);
+        EXPECT_EQ(x.covariance.has_value(), y.covariance.has_value());
+        if (x.covariance && y.covariance) EXPECT_EQ(*x.covariance, *y.covariance);
+        EXPECT_EQ(x.floor, y.floor);
+      }
+    }
+  }
+}
+
+TEST(CompareScenarioShare, FailuresNameTheRunAndTheMergerKeepsRunOrder) {
+  const EstimatorRegistry registry = TestRegistry();
+  ScenarioCompareOptions sc;
+  sc.overrides = YAML::Load("duration_s: 20\nlapz: 2\n");
+  sc.overrides_origin = "my.yaml";
+  MonteCarloOptions mc;
+  mc.runs = 4;
+  const auto keep = [](int, std::string) { return Status::Ok(); };
+  Status s = CompareScenarioShare("linear-gaussian", sc, {}, mc, {1, 2}, keep, registry);
+  ASSERT_FALSE(s.ok());
+  EXPECT_THAT(s.message(), HasSubstr("run 1 (seed " + std::to_string(MonteCarloSeed(mc.seed, 1))));
+  EXPECT_THAT(s.message(), HasSubstr("my.yaml: "));
+  EXPECT_THAT(s.message(), HasSubstr("(line 2)"));
+  // A share past the last run has nothing to do; a share outside 0..n-1 is refused.
+  EXPECT_TRUE(CompareScenarioShare("linear-gaussian", sc, {}, mc, {5, 6}, keep, registry).ok());
+  EXPECT_FALSE(CompareScenarioShare("linear-gaussian", sc, {}, mc, {2, 2}, keep, registry).ok());
+  // A failing sink stops the share with its status.
+  sc.overrides = YAML::Load("{duration_s: 20}");
+  s = CompareScenarioShare(
+      "linear-gaussian", sc, {}, mc, {0, 1}, [](int, std::string) { return IoError("disk full"); },
+      registry);
+  EXPECT_THAT(s.message(), HasSubstr("disk full"));
+  // Runs must come in run order, each once, and all of them.
+  std::vector<std::string> bytes(mc.runs);
+  ASSERT_TRUE(CompareScenarioShare(
+                  "linear-gaussian", sc, {}, mc, {0, 1},
+                  [&](int run, std::string b) {
+                    bytes[run] = std::move(b);
+                    return Status::Ok();
+                  },
+                  registry)
+                  .ok());
+  ScenarioRunMerger skipped(sc, mc);
+  EXPECT_THAT(skipped.Add(bytes[1], "rank 1").message(), HasSubstr("run 0 was due"));
+  ScenarioRunMerger damaged(sc, mc);
+  EXPECT_THAT(damaged.Add(bytes[0].substr(0, 100), "rank 0").message(), HasSubstr("damaged"));
+  ScenarioRunMerger short_of_runs(sc, mc);
+  ASSERT_TRUE(short_of_runs.Add(bytes[0], "rank 0").ok());
+  EXPECT_THAT(short_of_runs.Finish().status().message(), HasSubstr("1 of 4 runs merged"));
 }
 
 }  // namespace

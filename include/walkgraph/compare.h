@@ -204,6 +204,50 @@ class RunAggregator {
   std::unique_ptr<State> state_;
 };
 
+// ------------------------------------------------------------------ Monte Carlo in shares
+// A scenario's runs shared among processes (the MPI build of the CLI: `mpirun -np N walkgraph
+// compare --scenario NAME --runs R`, docs/studies-on-clusters.md). Share i of n runs the runs r
+// with r % n == i on its own threads (monte_carlo.threads) and hands each finished run, in run
+// order, to a sink as bytes (exact: doubles by their bits; the encoding of the study's parts):
+// what the aggregation takes from a run — per estimator its status, figures, runtime,
+// divergence and error series (times and errors), with the whole result and error series only
+// for the share's first run that counts for the estimator — plus its PCRB information and run
+// 0's truth. A ScenarioRunMerger given the bytes of runs 0, 1, ..., runs − 1 in that order
+// gives the Comparison CompareScenario gives with the same options, bit for bit (the same
+// aggregation, in the same order), whatever n; it holds the aggregate and one run at a time.
+struct MonteCarloShare {
+  int index = 0;  // i: 0 <= i < n
+  int count = 1;  // n
+};
+
+// Fails as CompareScenario does, the message naming the run (and on the first failure stops);
+// a sink that fails stops the share with its Status.
+Status CompareScenarioShare(const std::string& scenario,
+                            const ScenarioCompareOptions& scenario_options,
+                            const CompareOptions& options, const MonteCarloOptions& monte_carlo,
+                            const MonteCarloShare& share,
+                            const std::function<Status(int run, std::string bytes)>& sink,
+                            const EstimatorRegistry& registry = EstimatorRegistry::Builtin());
+
+class ScenarioRunMerger {
+ public:
+  // The options every share was given (runs, seed; the PCRB's).
+  ScenarioRunMerger(const ScenarioCompareOptions& scenario_options,
+                    const MonteCarloOptions& monte_carlo);
+  ~ScenarioRunMerger();
+  ScenarioRunMerger(const ScenarioRunMerger&) = delete;
+  ScenarioRunMerger& operator=(const ScenarioRunMerger&) = delete;
+  // The next run's bytes (run 0 first); `origin` names them in errors. After a failure every
+  // call returns it.
+  Status Add(const std::string& bytes, const std::string& origin);
+  // Once every run is in: the comparison (as CompareScenario's, PCRB included).
+  StatusOr<Comparison> Finish();
+
+ private:
+  struct State;
+  std::unique_ptr<State> state_;
+};
+
 // An aligned text table, one row per estimator; '*' marks the best value of each column.
 std::string FormatComparisonTable(const Comparison& comparison);
 

@@ -11,6 +11,7 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include "eval/monte_carlo_share.h"
 #include "util/parallel_for.h"
 #include "util/text.h"
 #include "util/text_spill.h"
@@ -211,27 +212,45 @@ namespace {
 
 // The walk of run `run` (whose seed is `seed`).
 using RunGenerator = std::function<StatusOr<Walk>(int run, uint64_t seed)>;
+// Receives finished runs in run order (calls are serialized).
+using RunSink = std::function<Status(int run, Comparison comparison)>;
 
-StatusOr<Comparison> RunMonteCarlo(const RunGenerator& generate, const CompareOptions& options,
-                                   const MonteCarloOptions& mc, const EstimatorRegistry& registry) {
-  if (mc.runs < 1) return InvalidArgument("Monte Carlo: runs must be >= 1");
-  WG_ASSIGN_OR_RETURN(const int threads, ResolveThreads(mc.threads, mc.runs));
-  // Finished runs wait in `pending` until every earlier run is aggregated. A run starts only
-  // within `window` runs of the next one to aggregate, so at most that many wait (the run being
-  // waited for never waits itself: it has already started).
+// How many of `runs` runs fall to `share` (runs r with r % count == index).
+int ShareRuns(int runs, const MonteCarloShare& share) {
+  return share.index < runs ? (runs - 1 - share.index) / share.count + 1 : 0;
+}
+
+Status ValidateShare(const MonteCarloShare& share) {
+  if (share.count < 1 || share.index < 0 || share.index >= share.count) {
+    return InvalidArgument("Monte Carlo share " + std::to_string(share.index) + "/" +
+                           std::to_string(share.count) + ": need 0 <= i < n");
+  }
+  return Status::Ok();
+}
+
+// The runs of `share`, compared on a pool of threads and handed to `sink` in run order.
+Status RunShare(const RunGenerator& generate, const CompareOptions& options,
+                const MonteCarloOptions& mc, const MonteCarloShare& share,
+                const EstimatorRegistry& registry, const RunSink& sink) {
+  const int count = ShareRuns(mc.runs, share);
+  if (count == 0) return Status::Ok();
+  WG_ASSIGN_OR_RETURN(const int threads, ResolveThreads(mc.threads, count));
+  // Finished runs wait in `pending` until every earlier run of the share is handed on. A run
+  // starts only within `window` runs of the next one to hand on, so at most that many wait (the
+  // run being waited for never waits itself: it has already started).
   const int window = 2 * threads + 2;
   CompareOptions run_options = options;
   run_options.compact = false;  // the aggregator keeps one run's outcomes and drops the rest
   std::mutex mutex;
   std::condition_variable drained;
-  std::map<int, Comparison> pending;
+  std::map<int, Comparison> pending;  // by position in the share
   int next_to_add = 0, done = 0;
-  RunAggregator aggregator;
-  auto run_one = [&](int i) -> Status {
+  auto run_one = [&](int k) -> Status {
     {
       std::unique_lock<std::mutex> lock(mutex);
-      drained.wait(lock, [&] { return i - next_to_add < window; });
+      drained.wait(lock, [&] { return k - next_to_add < window; });
     }
+    const int i = share.index + k * share.count;
     const uint64_t seed = MonteCarloSeed(mc.seed, i);
     auto located = [&](const Status& s) {
       return Status(s.code(), "run " + std::to_string(i) + " (seed " + std::to_string(seed) +
@@ -243,27 +262,38 @@ StatusOr<Comparison> RunMonteCarlo(const RunGenerator& generate, const CompareOp
     if (!c.ok()) return located(c.status());
     if (i != 0) c->truth.clear();  // only the first run's truth is drawn
     std::lock_guard<std::mutex> lock(mutex);
-    pending.emplace(i, std::move(c).value());
+    pending.emplace(k, std::move(c).value());
     for (auto it = pending.find(next_to_add); it != pending.end(); it = pending.find(next_to_add)) {
-      aggregator.Add(std::move(it->second));
+      Comparison ready = std::move(it->second);
       pending.erase(it);
+      WG_RETURN_IF_ERROR(sink(share.index + next_to_add * share.count, std::move(ready)));
       ++next_to_add;
     }
     drained.notify_all();
-    if (mc.progress) mc.progress(++done, mc.runs);
+    if (mc.progress) mc.progress(++done, count);
     return Status::Ok();
   };
-  const Status s = internal::ParallelFor(0, mc.runs, threads, [&](int i) {
-    Status r = run_one(i);
+  return internal::ParallelFor(0, count, threads, [&](int k) {
+    Status r = run_one(k);
     if (!r.ok()) {
       // Let the runs waiting for this one go on (they stop at the failure).
       std::lock_guard<std::mutex> lock(mutex);
-      next_to_add = mc.runs;
+      next_to_add = count;
       drained.notify_all();
     }
     return r;
   });
-  if (!s.ok()) return s;
+}
+
+StatusOr<Comparison> RunMonteCarlo(const RunGenerator& generate, const CompareOptions& options,
+                                   const MonteCarloOptions& mc, const EstimatorRegistry& registry) {
+  if (mc.runs < 1) return InvalidArgument("Monte Carlo: runs must be >= 1");
+  RunAggregator aggregator;
+  WG_RETURN_IF_ERROR(
+      RunShare(generate, options, mc, MonteCarloShare(), registry, [&](int, Comparison c) {
+        aggregator.Add(std::move(c));
+        return Status::Ok();
+      }));
   WG_ASSIGN_OR_RETURN(Comparison out, aggregator.Finish());
   out.seed = mc.seed;
   return out;
@@ -278,51 +308,90 @@ StatusOr<Comparison> CompareMonteCarlo(const WalkGenerator& generate, const Comp
   return RunMonteCarlo([&](int, uint64_t seed) { return generate(seed); }, options, mc, registry);
 }
 
-StatusOr<Comparison> CompareScenario(const std::string& scenario, const ScenarioCompareOptions& sc,
-                                     const CompareOptions& options, const MonteCarloOptions& mc,
-                                     const EstimatorRegistry& registry) {
+namespace internal {
+
+namespace {
+
+Status CheckScenarioName(const std::string& scenario) {
   bool known = false;
   for (const ScenarioInfo& s : Scenarios()) known |= s.name == scenario;
-  if (!known) {
-    std::string names;
-    for (const ScenarioInfo& s : Scenarios()) names += (names.empty() ? "" : ", ") + s.name;
-    return NotFound("unknown scenario " + internal::Quoted(scenario) + "; known: " + names);
+  if (known) return Status::Ok();
+  std::string names;
+  for (const ScenarioInfo& s : Scenarios()) names += (names.empty() ? "" : ", ") + s.name;
+  return NotFound("unknown scenario " + internal::Quoted(scenario) + "; known: " + names);
+}
+
+// The PCRB information of a share's runs, computed as each is simulated (from any thread) and
+// held until the run is handed on. After a failure no more is computed.
+class SharePcrbs {
+ public:
+  SharePcrbs(bool on, const PcrbOptions& options) : on_(on), options_(options) {}
+  void Compute(int run, const Simulation& s) {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      if (!on_) return;
+    }
+    StatusOr<PcrbInformation> info = PcrbInformationFromSimulation(s, options_);
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (info.ok()) {
+      of_[run].information = std::move(info).value();
+    } else {
+      of_[run].status = info.status();
+      on_ = false;
+    }
   }
+  RunPcrb Take(int run) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    RunPcrb pcrb;
+    auto it = of_.find(run);
+    if (it != of_.end()) {
+      pcrb = std::move(it->second);
+      of_.erase(it);
+    }
+    return pcrb;
+  }
+
+ private:
+  std::mutex mutex_;
+  bool on_;
+  const PcrbOptions& options_;
+  std::map<int, RunPcrb> of_;  // by run
+};
+
+}  // namespace
+
+Status RunScenarioShare(const std::string& scenario, const ScenarioCompareOptions& sc,
+                        const CompareOptions& options, const MonteCarloOptions& mc,
+                        const MonteCarloShare& share, const EstimatorRegistry& registry,
+                        const ScenarioRunSink& sink) {
+  WG_RETURN_IF_ERROR(CheckScenarioName(scenario));
   if (mc.runs < 1) return InvalidArgument("Monte Carlo: runs must be >= 1");
+  WG_RETURN_IF_ERROR(ValidateShare(share));
+  if (ShareRuns(mc.runs, share) == 0) return Status::Ok();
   const std::string prefix = sc.overrides_origin.empty() ? "" : sc.overrides_origin + ": ";
   auto located = [&prefix](const Status& s) { return Status(s.code(), prefix + s.message()); };
-  // Run 0 is simulated first, alone, on the caller's node: override errors keep their YAML line
-  // numbers. Later runs simulate on private copies (a yaml-cpp lookup may modify the node, so
-  // threads must not share one).
-  StatusOr<Simulation> first =
-      SimulateScenarioDetailed(scenario, MonteCarloSeed(mc.seed, 0), sc.overrides);
-  if (!first.ok()) return located(first.status());
-  PcrbAccumulator pcrb_sum(mc.runs);
-  std::mutex mutex;  // guards the fields below
-  Status pcrb_status;
-  bool pcrb_on = sc.pcrb;
-  std::optional<Walk> first_walk;
-  auto add_pcrb = [&](int run, const Simulation& s) {
-    {
-      std::lock_guard<std::mutex> lock(mutex);
-      if (!pcrb_on) return;
-    }
-    StatusOr<PcrbInformation> info = PcrbInformationFromSimulation(s, sc.pcrb_options);
-    Status st = info.ok() ? pcrb_sum.Add(run, std::move(info).value()) : info.status();
-    if (!st.ok()) {
-      std::lock_guard<std::mutex> lock(mutex);
-      if (pcrb_status.ok()) pcrb_status = st;
-      pcrb_on = false;
-    }
-  };
-  add_pcrb(0, *first);
-  first_walk = std::move(first->walk);
+  // The share's first run is simulated first, alone, on the caller's node: override errors keep
+  // their YAML line numbers (and, when the runs are shared, name the run). Later runs simulate
+  // on private copies (a yaml-cpp lookup may modify the node, so threads must not share one).
+  const int first_run = share.index;
+  const uint64_t first_seed = MonteCarloSeed(mc.seed, first_run);
+  StatusOr<Simulation> first = SimulateScenarioDetailed(scenario, first_seed, sc.overrides);
+  if (!first.ok() && share.count == 1) return located(first.status());
+  if (!first.ok()) {
+    return Status(first.status().code(), "run " + std::to_string(first_run) + " (seed " +
+                                             std::to_string(first_seed) +
+                                             "): " + located(first.status()).message());
+  }
+  SharePcrbs pcrbs(sc.pcrb, sc.pcrb_options);
+  pcrbs.Compute(first_run, *first);
+  std::mutex mutex;  // guards first_walk and the cloning of the overrides
+  std::optional<Walk> first_walk = std::move(first->walk);
   const YAML::Node overrides = sc.overrides.node();
   const RunGenerator generate = [&](int run, uint64_t seed) -> StatusOr<Walk> {
     YAML::Node node;
     {
       std::lock_guard<std::mutex> lock(mutex);
-      if (run == 0 && first_walk) {
+      if (run == first_run && first_walk) {
         Walk w = std::move(*first_walk);
         first_walk.reset();
         return w;
@@ -331,19 +400,63 @@ StatusOr<Comparison> CompareScenario(const std::string& scenario, const Scenario
     }
     StatusOr<Simulation> s = SimulateScenarioDetailed(scenario, seed, node);
     if (!s.ok()) return located(s.status());
-    add_pcrb(run, *s);
+    pcrbs.Compute(run, *s);
     return std::move(s->walk);
   };
-  WG_ASSIGN_OR_RETURN(Comparison c, RunMonteCarlo(generate, options, mc, registry));
-  if (!sc.pcrb) return c;
-  if (!pcrb_status.ok()) {
-    if (pcrb_status.code() != StatusCode::kFailedPrecondition) return located(pcrb_status);
-    c.pcrb_note = pcrb_status.message();
-    return c;
+  return RunShare(generate, options, mc, share, registry,
+                  [&](int run, Comparison c) { return sink(run, std::move(c), pcrbs.Take(run)); });
+}
+
+ScenarioPcrbSum::ScenarioPcrbSum(const ScenarioCompareOptions& sc, int runs)
+    : on_(sc.pcrb),
+      prefix_(sc.overrides_origin.empty() ? "" : sc.overrides_origin + ": "),
+      sum_(runs) {}
+
+void ScenarioPcrbSum::Add(int run, RunPcrb pcrb) {
+  if (!on_ || !status_.ok()) return;
+  if (!pcrb.status.ok()) {
+    status_ = pcrb.status;
+    return;
   }
-  WG_ASSIGN_OR_RETURN(PcrbInformation mean, pcrb_sum.Mean());
-  WG_ASSIGN_OR_RETURN(PcrbBound bound, ComputePcrb(mean));
-  AttachPcrb(bound, &c);
+  // A run without information follows a failure that comes later in run order (its share
+  // stopped computing the bound when a run that finished before it failed).
+  if (!pcrb.information) skipped_ = true;
+  if (skipped_) return;
+  status_ = sum_.Add(run, std::move(*pcrb.information));
+}
+
+Status ScenarioPcrbSum::AttachTo(Comparison* c) const {
+  if (!on_) return Status::Ok();
+  if (!status_.ok()) {
+    if (status_.code() != StatusCode::kFailedPrecondition) {
+      return Status(status_.code(), prefix_ + status_.message());
+    }
+    c->pcrb_note = status_.message();
+    return Status::Ok();
+  }
+  WG_ASSIGN_OR_RETURN(const PcrbInformation mean, sum_.Mean());
+  WG_ASSIGN_OR_RETURN(const PcrbBound bound, ComputePcrb(mean));
+  AttachPcrb(bound, c);
+  return Status::Ok();
+}
+
+}  // namespace internal
+
+StatusOr<Comparison> CompareScenario(const std::string& scenario, const ScenarioCompareOptions& sc,
+                                     const CompareOptions& options, const MonteCarloOptions& mc,
+                                     const EstimatorRegistry& registry) {
+  RunAggregator aggregator;
+  internal::ScenarioPcrbSum pcrb(sc, mc.runs);
+  WG_RETURN_IF_ERROR(internal::RunScenarioShare(scenario, sc, options, mc, MonteCarloShare(),
+                                                registry,
+                                                [&](int run, Comparison c, internal::RunPcrb p) {
+                                                  aggregator.Add(std::move(c));
+                                                  pcrb.Add(run, std::move(p));
+                                                  return Status::Ok();
+                                                }));
+  WG_ASSIGN_OR_RETURN(Comparison c, aggregator.Finish());
+  c.seed = mc.seed;
+  WG_RETURN_IF_ERROR(pcrb.AttachTo(&c));
   return c;
 }
 

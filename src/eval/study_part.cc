@@ -1,13 +1,9 @@
 // Studies in parts (study.h): which cells a part runs, a part's bytes, and merging parts.
 #include <algorithm>
-#include <charconv>
-#include <cinttypes>
-#include <cstdio>
-#include <cstring>
 #include <filesystem>
-#include <sstream>
 
 #include "io/input_file.h"
+#include "util/part_bytes.h"
 #include "walkgraph/study.h"
 
 namespace walkgraph {
@@ -85,113 +81,14 @@ namespace {
 // 2: the floor figures (ipin_score_m, floor_hit_rate) in every row's stats.
 constexpr const char kMagic[] = "walkgraph-study-part 3";
 
-// Fields as whitespace-separated tokens; strings as <length>:<bytes>; doubles by their bits.
-class PartWriter {
- public:
-  void Int(long long v) { out_ << v << ' '; }
-  void Unsigned(uint64_t v) { out_ << v << ' '; }
-  void Double(double v) {
-    uint64_t bits;
-    std::memcpy(&bits, &v, sizeof(bits));
-    char buf[24];
-    std::snprintf(buf, sizeof(buf), "%016" PRIx64 " ", bits);
-    out_ << buf;
-  }
-  void OptDouble(const std::optional<double>& v) {
-    Int(v ? 1 : 0);
-    if (v) Double(*v);
-  }
-  void String(const std::string& s) { out_ << s.size() << ':' << s << ' '; }
-  void Line() { out_ << '\n'; }
-  std::string str() const { return out_.str(); }
-
- private:
-  std::ostringstream out_;
-};
-
-class PartReader {
- public:
-  PartReader(const std::string& bytes, std::string origin)
-      : b_(bytes), origin_(std::move(origin)) {}
-  bool ok() const { return ok_; }
-  Status Error() const {
-    return InvalidArgument(origin_ + ": not a walkgraph study part, or damaged (at byte " +
-                           std::to_string(pos_) + ")");
-  }
-  std::string Token() {
-    while (pos_ < b_.size() && (b_[pos_] == ' ' || b_[pos_] == '\n')) ++pos_;
-    const size_t start = pos_;
-    while (pos_ < b_.size() && b_[pos_] != ' ' && b_[pos_] != '\n' && b_[pos_] != ':') ++pos_;
-    if (start == pos_) ok_ = false;
-    return b_.substr(start, pos_ - start);
-  }
-  long long Int(long long lo, long long hi) {
-    long long v = 0;
-    if (!Parse(Token(), 10, &v) || v < lo || v > hi) ok_ = false;
-    return ok_ ? v : lo;
-  }
-  uint64_t Unsigned() {
-    uint64_t v = 0;
-    if (!Parse(Token(), 10, &v)) ok_ = false;
-    return v;
-  }
-  double Double() {
-    const std::string t = Token();
-    uint64_t bits = 0;
-    if (t.size() != 16 || !Parse(t, 16, &bits)) ok_ = false;
-    double v;
-    std::memcpy(&v, &bits, sizeof(v));
-    return v;
-  }
-  std::optional<double> OptDouble() {
-    if (Int(0, 1) == 0) return std::nullopt;
-    return Double();
-  }
-  std::string String() {
-    const long long n = Int(0, static_cast<long long>(b_.size()));
-    if (!ok_ || pos_ >= b_.size() || b_[pos_] != ':' || b_.size() - pos_ - 1 < size_t(n)) {
-      ok_ = false;
-      return "";
-    }
-    std::string s = b_.substr(pos_ + 1, n);
-    pos_ += 1 + n;
-    return s;
-  }
-  // The whole token as an integer in `base` (no sign for unsigned types, no overflow).
-  template <typename T>
-  static bool Parse(const std::string& t, int base, T* v) {
-    const char* end = t.data() + t.size();
-    const auto r = std::from_chars(t.data(), end, *v, base);
-    return !t.empty() && r.ec == std::errc() && r.ptr == end;
-  }
-  bool AtEnd() {
-    while (pos_ < b_.size() && (b_[pos_] == ' ' || b_[pos_] == '\n')) ++pos_;
-    return pos_ == b_.size();
-  }
-
- private:
-  const std::string& b_;
-  std::string origin_;
-  size_t pos_ = 0;
-  bool ok_ = true;
-};
-
-void PutStats(PartWriter& w, const ErrorStats& s) {
-  for (const ErrorStatField& f : ErrorStatFields()) w.Double(s.*f.field);
-  w.Int(s.n_points);
-}
-
-ErrorStats GetStats(PartReader& r) {
-  ErrorStats s;
-  for (const ErrorStatField& f : ErrorStatFields()) s.*f.field = r.Double();
-  s.n_points = static_cast<int>(r.Int(0, INT32_MAX));
-  return s;
-}
+using internal::GetStats;
+using internal::PartReader;
+using internal::PartWriter;
+using internal::PutStats;
 
 void PutRow(PartWriter& w, const StudyRow& row) {
   w.String(row.estimator);
-  w.Int(static_cast<int>(row.status.code()));
-  w.String(row.status.message());
+  internal::PutStatus(w, row.status);
   PutStats(w, row.stats);
   w.Int(row.stats_std ? 1 : 0);
   if (row.stats_std) PutStats(w, *row.stats_std);
@@ -205,9 +102,7 @@ void PutRow(PartWriter& w, const StudyRow& row) {
 StudyRow GetRow(PartReader& r) {
   StudyRow row;
   row.estimator = r.String();
-  const auto code = static_cast<StatusCode>(r.Int(0, static_cast<int>(StatusCode::kCancelled)));
-  std::string message = r.String();
-  row.status = code == StatusCode::kOk ? Status::Ok() : Status(code, std::move(message));
+  row.status = internal::GetStatus(r);
   row.stats = GetStats(r);
   if (r.Int(0, 1) == 1) row.stats_std = GetStats(r);
   row.failed_runs = static_cast<int>(r.Int(0, INT32_MAX));
@@ -247,7 +142,7 @@ std::string SerializeStudyPart(const StudyPart& part) {
 }
 
 StatusOr<StudyPart> ParseStudyPart(const std::string& bytes, const std::string& origin) {
-  PartReader r(bytes, origin);
+  PartReader r(bytes, origin, "walkgraph study part");
   if (r.String() != kMagic || !r.ok()) return r.Error();
   StudyPart part;
   part.shard.index = static_cast<int>(r.Int(0, INT32_MAX));
