@@ -902,6 +902,181 @@ int RunList(const std::string& id) {
   return 0;
 }
 
+// What the command line fills in: one field per option of any command (only one command runs).
+struct CliArgs {
+  std::string walk_dir, out, id, config_path, format, ipin_out, scenario, list_id;
+  std::vector<std::string> sources;
+  walkgraph::ConvertOptions convert_options;
+  bool fit_floors = false;
+  CompareArgs compare;
+  PcrbArgs pcrb;
+  StudyArgs study;
+  std::string compare_seed = "1", pcrb_seed = "1", simulate_seed;
+  std::vector<std::string> merge_parts;
+  std::string merge_out;
+  std::string detector = "glrt";
+  std::vector<double> thresholds;
+  int rc = 0;
+};
+
+void AddWalkCommands(CLI::App* app, CliArgs* a) {
+  CLI::App* validate = app->add_subcommand("validate", "check a walk directory strictly");
+  validate->add_option("WALK", a->walk_dir, "walk directory")->required();
+  validate->callback([a] { a->rc = RunValidate(a->walk_dir); });
+
+  CLI::App* convert = app->add_subcommand("convert", "convert a recording to a walk directory");
+  convert->add_option("FORMAT", a->format, "source format (see walkgraph list)")->required();
+  convert->add_option("SRC", a->sources, "source files or directories")->required();
+  convert->add_option("--out", a->out, "walk directory to write")->required();
+  AddForce(convert);
+  convert->add_flag("--known-start", a->convert_options.known_start,
+                    "ipin: start at the first POSI landmark, its position given as initial_pose "
+                    "(heading unknown), as IPIN's scoring trials provide it; the log before it "
+                    "is dropped");
+  convert->add_option("--known-start-sigma", a->convert_options.known_start_sigma_m,
+                      "ipin: sigma of that start position, m (default 0.5)");
+  convert->add_flag("--strict", a->convert_options.strict,
+                    "refuse a source holding a physically impossible reading (default: drop it, "
+                    "count it in walk.yaml extra convert.<stream>_invalid_dropped, warn with its "
+                    "file:line)");
+  convert->callback([a] { a->rc = RunConvert(a->format, a->sources, a->convert_options, a->out); });
+
+  CLI::App* fit = app->add_subcommand(
+      "fit-path-loss", "fit A, eta, sigma of the log-distance path loss to a walk's RSS vs truth");
+  fit->add_option("WALK", a->walk_dir, "walk directory")->required();
+  fit->add_flag("--floors", a->fit_floors,
+                "multi-floor walk: anchors at their floors' heights, and the floor loss per floor "
+                "crossed (floor_loss_db) fitted with A and eta");
+  fit->callback([a] { a->rc = RunFitPathLoss(a->walk_dir, a->fit_floors); });
+
+  CLI::App* smooth = app->add_subcommand("smooth", "run one estimator, write a TUM trajectory");
+  smooth->add_option("WALK", a->walk_dir, "walk directory")->required();
+  smooth->add_option("--estimator", a->id, "estimator id (see walkgraph list)")->required();
+  smooth->add_option("--config", a->config_path, "YAML file with the estimator's options");
+  smooth->add_option("--out", a->out, "output trajectory (TUM format)")->required();
+  smooth->add_option("--ipin-out", a->ipin_out,
+                     "also write IPIN's submission (lon,lat,floor at 2 Hz from t = 0; walks from "
+                     "convert ipin)");
+  smooth->callback(
+      [a] { a->rc = RunSmooth(a->walk_dir, a->id, a->config_path, a->out, a->ipin_out); });
+}
+
+void AddCompareCommand(CLI::App* app, CliArgs* a) {
+  CompareArgs& c = a->compare;
+  CLI::App* compare = app->add_subcommand(
+      "compare", "run estimators side by side on a walk, or Monte Carlo on a scenario");
+  compare->add_option("WALK", c.walk_dir, "walk directory");
+  compare->add_option("--scenario", c.scenario, "simulated scenario (instead of WALK)");
+  compare->add_option("--scenario-config", c.scenario_config_path,
+                      "YAML file with scenario overrides, e.g. {laps: 2, eta: 3.0}");
+  compare->add_option("--runs", c.runs, "Monte Carlo runs of the scenario")
+      ->check(CLI::PositiveNumber);
+  compare->add_option("--seed", a->compare_seed,
+                      "base seed S (run i uses a seed derived from S, i; default 1)");
+  AddThreads(compare, &c.threads, "worker threads (0 = all cores)");
+  compare->add_option(
+      "--estimators", c.ids,
+      "comma-separated ids, e.g. \"fg-batch, tarrio-kf\" (default: all applicable)");
+  compare->add_option("--config", c.config_path, "YAML file: {estimator id: {option: value}}");
+  compare->add_flag("--align-se2", c.align_se2,
+                    "align each estimate to the truth by a best-fit rotation + translation "
+                    "(for dead-reckoning-only walks)");
+  compare
+      ->add_option("--score-from", c.score_from_s,
+                   "score only truth from S seconds after its first sample on (a filter's "
+                   "start-up left out; default 0: the whole walk)")
+      ->check(CLI::NonNegativeNumber);
+  compare->add_flag("--keep-diverged", c.keep_diverged,
+                    "score diverged estimates (and Monte Carlo runs) like the others; they are "
+                    "still flagged (default: shown as diverged, left out of the figures)");
+  compare->add_option("--out", c.out, "report folder")->required();
+  AddForce(compare);
+  compare->callback([a] {
+    const std::string e = ParseSeed(a->compare_seed, &a->compare.seed);
+    a->rc = e.empty() ? RunCompare(a->compare) : Fail(walkgraph::InvalidArgument(e));
+  });
+}
+
+void AddScenarioCommands(CLI::App* app, CliArgs* a) {
+  CLI::App* simulate = app->add_subcommand("simulate", "simulate a paper's scenario as a walk");
+  simulate->add_option("--scenario", a->scenario, "scenario name (see walkgraph list)")->required();
+  simulate->add_option("--seed", a->simulate_seed, "random seed (same seed, same walk)")
+      ->required();
+  simulate->add_option("--config", a->config_path, "YAML file with scenario overrides");
+  simulate->add_option("--out", a->out, "walk directory to write")->required();
+  AddForce(simulate);
+  simulate->callback([a] {
+    uint64_t seed = 0;
+    const std::string e = ParseSeed(a->simulate_seed, &seed);
+    a->rc = e.empty() ? RunSimulate(a->scenario, seed, a->config_path, a->out)
+                      : Fail(walkgraph::InvalidArgument(e));
+  });
+
+  PcrbArgs& p = a->pcrb;
+  CLI::App* pcrb = app->add_subcommand(
+      "pcrb", "posterior Cramer-Rao bound of a simulated scenario's position RMSE");
+  pcrb->add_option("--scenario", p.scenario, "scenario name (see walkgraph list)")->required();
+  pcrb->add_option("--scenario-config", p.scenario_config, "YAML file with scenario overrides");
+  pcrb->add_option("--config", p.config, "YAML file with PCRB options (see pcrb.h)");
+  pcrb->add_option("--runs", p.runs, "Monte Carlo runs")->check(CLI::PositiveNumber);
+  pcrb->add_option("--seed", a->pcrb_seed, "base seed S (as compare; default 1)");
+  AddThreads(pcrb, &p.threads, "worker threads (0 = all cores)");
+  pcrb->callback([a] {
+    PcrbArgs& q = a->pcrb;
+    const std::string e = ParseSeed(a->pcrb_seed, &q.seed);
+    a->rc = e.empty() ? RunPcrb(q.scenario, q.scenario_config, q.config, q.runs, q.seed, q.threads)
+                      : Fail(walkgraph::InvalidArgument(e));
+  });
+}
+
+void AddStudyCommand(CLI::App* app, CliArgs* a) {
+  StudyArgs& s = a->study;
+  CLI::App* study = app->add_subcommand(
+      "study", "parameter sweeps over walks/scenarios and estimators from a manifest");
+  study->add_option("MANIFEST", s.manifest, "study manifest (YAML, see study.h)");
+  AddThreads(study, &s.threads, "worker threads per cell (0 = all cores)");
+  study->add_option("--out", s.out,
+                    "output folder (study.csv, study.html; with --shard: the part)");
+  study->add_option("--shard", s.shard,
+                    "i/n: run only part i (0-based) of n and write it for `study merge` (clusters "
+                    "without MPI, e.g. Slurm job arrays; docs/studies-on-clusters.md)");
+  AddForce(study);
+  CLI::App* merge = study->add_subcommand(
+      "merge", "combine the parts written by study --shard i/n into the study's output");
+  merge->add_option("PARTS", a->merge_parts, "part folders (or their study.part files)")
+      ->required();
+  merge->add_option("--out", a->merge_out, "output folder (study.csv, study.html)")->required();
+  AddForce(merge);
+  merge->callback([a] { a->rc = RunStudyMerge(a->merge_parts, a->merge_out); });
+  study->callback([a, study, merge] {
+    if (study->got_subcommand(merge)) return;
+    if (a->study.manifest.empty() || a->study.out.empty()) {
+      a->rc =
+          Fail(walkgraph::InvalidArgument("study: give MANIFEST and --out DIR (or: study merge)"));
+      return;
+    }
+    a->rc = RunStudy(a->study, *g_job);
+  });
+}
+
+void AddToolCommands(CLI::App* app, CliArgs* a) {
+  CLI::App* stance = app->add_subcommand(
+      "stance-search", "stance detector precision/recall per threshold vs labelled stance");
+  stance->add_option("WALK", a->walk_dir, "walk directory with stance_truth.csv")->required();
+  stance->add_option("--detector", a->detector, "glrt|mv|mag|are|multi-condition");
+  stance->add_option("--config", a->config_path, "YAML file with stance options");
+  stance
+      ->add_option("--thresholds", a->thresholds,
+                   "comma-separated thresholds (default: 40 log-spaced over the statistic)")
+      ->delimiter(',');
+  stance->callback(
+      [a] { a->rc = RunStanceSearch(a->walk_dir, a->detector, a->config_path, a->thresholds); });
+
+  CLI::App* list = app->add_subcommand("list", "list estimators, converter formats and scenarios");
+  list->add_option("ID", a->list_id, "an estimator id: print its options with their defaults");
+  list->callback([a] { a->rc = RunList(a->list_id); });
+}
+
 int Main(int argc, char** argv) {
   walkgraph::InitLogging(argv[0]);
   if (g_job->size() > 1 && !g_ranks_share) {
@@ -917,163 +1092,12 @@ int Main(int argc, char** argv) {
   app.set_version_flag("--version", std::string("walkgraph ") + WALKGRAPH_VERSION);
   int verbosity = 0;
   app.add_option("-v,--verbosity", verbosity, "library diagnostics level (0 = quiet)");
-
-  std::string walk_dir, out, id, config_path, format;
-  std::vector<std::string> sources;
-  int rc = 0;
-
-  CLI::App* validate = app.add_subcommand("validate", "check a walk directory strictly");
-  validate->add_option("WALK", walk_dir, "walk directory")->required();
-  validate->callback([&] { rc = RunValidate(walk_dir); });
-
-  CLI::App* convert = app.add_subcommand("convert", "convert a recording to a walk directory");
-  convert->add_option("FORMAT", format, "source format (see walkgraph list)")->required();
-  convert->add_option("SRC", sources, "source files or directories")->required();
-  convert->add_option("--out", out, "walk directory to write")->required();
-  AddForce(convert);
-  walkgraph::ConvertOptions convert_options;
-  convert->add_flag("--known-start", convert_options.known_start,
-                    "ipin: start at the first POSI landmark, its position given as initial_pose "
-                    "(heading unknown), as IPIN's scoring trials provide it; the log before it "
-                    "is dropped");
-  convert->add_option("--known-start-sigma", convert_options.known_start_sigma_m,
-                      "ipin: sigma of that start position, m (default 0.5)");
-  convert->add_flag("--strict", convert_options.strict,
-                    "refuse a source holding a physically impossible reading (default: drop it, "
-                    "count it in walk.yaml extra convert.<stream>_invalid_dropped, warn with its "
-                    "file:line)");
-  convert->callback([&] { rc = RunConvert(format, sources, convert_options, out); });
-
-  CLI::App* fit = app.add_subcommand(
-      "fit-path-loss", "fit A, eta, sigma of the log-distance path loss to a walk's RSS vs truth");
-  fit->add_option("WALK", walk_dir, "walk directory")->required();
-  bool fit_floors = false;
-  fit->add_flag("--floors", fit_floors,
-                "multi-floor walk: anchors at their floors' heights, and the floor loss per floor "
-                "crossed (floor_loss_db) fitted with A and eta");
-  fit->callback([&] { rc = RunFitPathLoss(walk_dir, fit_floors); });
-
-  CLI::App* smooth = app.add_subcommand("smooth", "run one estimator, write a TUM trajectory");
-  smooth->add_option("WALK", walk_dir, "walk directory")->required();
-  smooth->add_option("--estimator", id, "estimator id (see walkgraph list)")->required();
-  smooth->add_option("--config", config_path, "YAML file with the estimator's options");
-  smooth->add_option("--out", out, "output trajectory (TUM format)")->required();
-  std::string ipin_out;
-  smooth->add_option("--ipin-out", ipin_out,
-                     "also write IPIN's submission (lon,lat,floor at 2 Hz from t = 0; walks from "
-                     "convert ipin)");
-  smooth->callback([&] { rc = RunSmooth(walk_dir, id, config_path, out, ipin_out); });
-
-  CompareArgs cargs;
-  CLI::App* compare = app.add_subcommand(
-      "compare", "run estimators side by side on a walk, or Monte Carlo on a scenario");
-  compare->add_option("WALK", cargs.walk_dir, "walk directory");
-  compare->add_option("--scenario", cargs.scenario, "simulated scenario (instead of WALK)");
-  compare->add_option("--scenario-config", cargs.scenario_config_path,
-                      "YAML file with scenario overrides, e.g. {laps: 2, eta: 3.0}");
-  compare->add_option("--runs", cargs.runs, "Monte Carlo runs of the scenario")
-      ->check(CLI::PositiveNumber);
-  std::string compare_seed = "1", pcrb_seed = "1", simulate_seed;
-  compare->add_option("--seed", compare_seed,
-                      "base seed S (run i uses a seed derived from S, i; default 1)");
-  AddThreads(compare, &cargs.threads, "worker threads (0 = all cores)");
-  compare->add_option(
-      "--estimators", cargs.ids,
-      "comma-separated ids, e.g. \"fg-batch, tarrio-kf\" (default: all applicable)");
-  compare->add_option("--config", cargs.config_path, "YAML file: {estimator id: {option: value}}");
-  compare->add_flag("--align-se2", cargs.align_se2,
-                    "align each estimate to the truth by a best-fit rotation + translation "
-                    "(for dead-reckoning-only walks)");
-  compare
-      ->add_option("--score-from", cargs.score_from_s,
-                   "score only truth from S seconds after its first sample on (a filter's "
-                   "start-up left out; default 0: the whole walk)")
-      ->check(CLI::NonNegativeNumber);
-  compare->add_flag("--keep-diverged", cargs.keep_diverged,
-                    "score diverged estimates (and Monte Carlo runs) like the others; they are "
-                    "still flagged (default: shown as diverged, left out of the figures)");
-  compare->add_option("--out", cargs.out, "report folder")->required();
-  AddForce(compare);
-  compare->callback([&] {
-    const std::string e = ParseSeed(compare_seed, &cargs.seed);
-    rc = e.empty() ? RunCompare(cargs) : Fail(walkgraph::InvalidArgument(e));
-  });
-
-  std::string scenario;
-  CLI::App* simulate = app.add_subcommand("simulate", "simulate a paper's scenario as a walk");
-  simulate->add_option("--scenario", scenario, "scenario name (see walkgraph list)")->required();
-  simulate->add_option("--seed", simulate_seed, "random seed (same seed, same walk)")->required();
-  simulate->add_option("--config", config_path, "YAML file with scenario overrides");
-  simulate->add_option("--out", out, "walk directory to write")->required();
-  AddForce(simulate);
-  simulate->callback([&] {
-    uint64_t seed = 0;
-    const std::string e = ParseSeed(simulate_seed, &seed);
-    rc = e.empty() ? RunSimulate(scenario, seed, config_path, out)
-                   : Fail(walkgraph::InvalidArgument(e));
-  });
-
-  PcrbArgs pargs;
-  CLI::App* pcrb = app.add_subcommand(
-      "pcrb", "posterior Cramer-Rao bound of a simulated scenario's position RMSE");
-  pcrb->add_option("--scenario", pargs.scenario, "scenario name (see walkgraph list)")->required();
-  pcrb->add_option("--scenario-config", pargs.scenario_config, "YAML file with scenario overrides");
-  pcrb->add_option("--config", pargs.config, "YAML file with PCRB options (see pcrb.h)");
-  pcrb->add_option("--runs", pargs.runs, "Monte Carlo runs")->check(CLI::PositiveNumber);
-  pcrb->add_option("--seed", pcrb_seed, "base seed S (as compare; default 1)");
-  AddThreads(pcrb, &pargs.threads, "worker threads (0 = all cores)");
-  pcrb->callback([&] {
-    const std::string e = ParseSeed(pcrb_seed, &pargs.seed);
-    rc = e.empty() ? RunPcrb(pargs.scenario, pargs.scenario_config, pargs.config, pargs.runs,
-                             pargs.seed, pargs.threads)
-                   : Fail(walkgraph::InvalidArgument(e));
-  });
-
-  StudyArgs sargs;
-  CLI::App* study = app.add_subcommand(
-      "study", "parameter sweeps over walks/scenarios and estimators from a manifest");
-  study->add_option("MANIFEST", sargs.manifest, "study manifest (YAML, see study.h)");
-  AddThreads(study, &sargs.threads, "worker threads per cell (0 = all cores)");
-  study->add_option("--out", sargs.out,
-                    "output folder (study.csv, study.html; with --shard: the part)");
-  study->add_option("--shard", sargs.shard,
-                    "i/n: run only part i (0-based) of n and write it for `study merge` (clusters "
-                    "without MPI, e.g. Slurm job arrays; docs/studies-on-clusters.md)");
-  AddForce(study);
-  std::vector<std::string> merge_parts;
-  std::string merge_out;
-  CLI::App* merge = study->add_subcommand(
-      "merge", "combine the parts written by study --shard i/n into the study's output");
-  merge->add_option("PARTS", merge_parts, "part folders (or their study.part files)")->required();
-  merge->add_option("--out", merge_out, "output folder (study.csv, study.html)")->required();
-  AddForce(merge);
-  merge->callback([&] { rc = RunStudyMerge(merge_parts, merge_out); });
-  study->callback([&] {
-    if (study->got_subcommand(merge)) return;
-    if (sargs.manifest.empty() || sargs.out.empty()) {
-      rc = Fail(walkgraph::InvalidArgument("study: give MANIFEST and --out DIR (or: study merge)"));
-      return;
-    }
-    rc = RunStudy(sargs, *g_job);
-  });
-
-  std::string detector = "glrt";
-  std::vector<double> thresholds;
-  CLI::App* stance = app.add_subcommand(
-      "stance-search", "stance detector precision/recall per threshold vs labelled stance");
-  stance->add_option("WALK", walk_dir, "walk directory with stance_truth.csv")->required();
-  stance->add_option("--detector", detector, "glrt|mv|mag|are|multi-condition");
-  stance->add_option("--config", config_path, "YAML file with stance options");
-  stance
-      ->add_option("--thresholds", thresholds,
-                   "comma-separated thresholds (default: 40 log-spaced over the statistic)")
-      ->delimiter(',');
-  stance->callback([&] { rc = RunStanceSearch(walk_dir, detector, config_path, thresholds); });
-
-  CLI::App* list = app.add_subcommand("list", "list estimators, converter formats and scenarios");
-  std::string list_id;
-  list->add_option("ID", list_id, "an estimator id: print its options with their defaults");
-  list->callback([&] { rc = RunList(list_id); });
+  CliArgs args;
+  AddWalkCommands(&app, &args);
+  AddCompareCommand(&app, &args);
+  AddScenarioCommands(&app, &args);
+  AddStudyCommand(&app, &args);
+  AddToolCommands(&app, &args);
 
   app.parse_complete_callback([&] { walkgraph::InitLogging(argv[0], verbosity); });
   try {
@@ -1090,7 +1114,7 @@ int Main(int argc, char** argv) {
     std::cerr << "walkgraph: " << what << "\n(walkgraph --help, or walkgraph COMMAND --help)\n";
     return 1;
   }
-  return Finish(rc);
+  return Finish(args.rc);
 }
 
 }  // namespace
