@@ -304,6 +304,62 @@ TEST(Simulate, FootWalkHasStancePhasesOfConfiguredShare) {
   for (size_t k = 0; k < 500; ++k) EXPECT_NEAR(w->imu[k].acc_mps2.norm(), 9.81, 0.15);
 }
 
+// The foot presets' gaits (issue 21): the truth's velocity is its position's derivative (central
+// difference at 1 kHz; the readings are the velocity's own differences, SampleFootImu), running
+// spends a fifth of each stride flat and moves at 3 m/s, stairs put every stance on a tread (a
+// whole number of rises, up to flight_rises = 12 of them) and climb and descend every leg.
+TEST(Simulate, FootGaitsRunAndStairs) {
+  for (const char* gait : {"walk", "run", "stairs"}) {
+    SCOPED_TRACE(gait);
+    auto s = SimulateScenarioDetailed(
+        "jimenez-building", 3,
+        YAML::Load(std::string("{gait: ") + gait + ", imu_rate_hz: 1000, duration_s: 45}"));
+    ASSERT_TRUE(s.ok()) << s.status().ToString();
+    const std::vector<sim::ImuTruth>& t = s->imu_truth;
+    double worst = 0.0, z_min = 1e9, z_max = -1e9, off_tread = 0.0, n = 0, st = 0;
+    for (size_t k = 1; k + 1 < t.size(); ++k) {
+      const double dt = t[k + 1].t_s - t[k].t_s;
+      const Eigen::Vector3d v = (t[k + 1].position_n - t[k - 1].position_n) / (2.0 * dt);
+      worst = std::max(worst, (v - t[k].velocity_n).norm());
+      z_min = std::min(z_min, t[k].position_n.z());
+      z_max = std::max(z_max, t[k].position_n.z());
+      if (t[k].stance) {
+        const double rises = t[k].position_n.z() / 0.175;
+        off_tread = std::max(off_tread, std::fabs(rises - std::round(rises)));
+      }
+      if (t[k].t_s > 15.0 && t[k].t_s < 45.0) {
+        n += 1;
+        st += t[k].stance;
+      }
+    }
+    std::printf("%s: worst |v - dp/dt| %.2e m/s, z in [%.3f, %.3f] m, stance share %.3f\n", gait,
+                worst, z_min, z_max, st / n);
+    EXPECT_LT(worst, 1e-3);  // the central difference's own error at 1 kHz
+    const std::string g = gait;
+    EXPECT_NEAR(st / n, g == "run" ? 0.2 : 0.35, 0.05);
+    if (g == "stairs") {
+      EXPECT_LT(off_tread, 1e-6);
+      EXPECT_NEAR(z_min, 0.0, 1e-9);
+      EXPECT_NEAR(z_max, 12 * 0.175 + 0.10, 0.1);  // the top tread plus at most the lift
+      EXPECT_EQ(s->walk.meta.extra.at("sim.stair_rise_m"), 0.175);
+    } else {
+      EXPECT_NEAR(z_min, 0.0, 1e-9);
+      EXPECT_LT(z_max, g == "run" ? 0.16 : 0.11);
+    }
+    EXPECT_EQ(s->walk.meta.extra.at("sim.speed_mps"), g == "run"      ? 3.0
+                                                      : g == "stairs" ? 0.45
+                                                                      : 1.0);
+  }
+  auto bad = SimulateScenario("jimenez-building", 3, YAML::Load("{gait: hop}"));
+  ASSERT_FALSE(bad.ok());
+  EXPECT_NE(bad.status().message().find("walk, run, stairs"), std::string::npos)
+      << bad.status().ToString();
+  EXPECT_FALSE(SimulateScenario("jimenez-building", 3, YAML::Load("{speed_mps: 4}")).ok());
+  EXPECT_TRUE(
+      SimulateScenario("jimenez-building", 3, YAML::Load("{gait: run, speed_mps: 4}")).ok());
+  EXPECT_FALSE(SimulateScenario("tarrio-circle", 3, YAML::Load("{gait: run}")).ok());  // no foot
+}
+
 TEST(Simulate, LinearGaussianIsCollinearAndHasConfiguredNoise) {
   auto w = SimulateScenario("linear-gaussian", 3, YAML::Load("{duration_s: 600}"));
   ASSERT_TRUE(w.ok());

@@ -83,7 +83,10 @@
 //   detection_d50_m, detection_width_m, nlos_fraction, nlos_episode_s, nlos_rss_bias_db,
 //   initial_sigma_xy_m, initial_sigma_heading_deg; loops: laps; prieto-laps: toa_sigma_m,
 //   toa_alpha_m, toa_beta, nlos_range_bias_m; gadeke-outage: run_length_m, outage_start_frac,
-//   outage_end_frac; foot presets: stance_fraction; two-floor-building: storey_height_m,
+//   outage_end_frac; foot presets: gait (walk | run: 3 m/s, stance_fraction 0.2, a higher
+//   swing | stairs: every leg up 12 rises and down 12, a tread per step, at 0.45 m/s; the
+//   gait's defaults first, then the other keys), stance_fraction, with gait stairs
+//   stair_rise_m and stair_tread_m; two-floor-building: storey_height_m,
 //   stair_rise_m, stair_tread_m, stair_speed_mps, floor_loss_db, anchor_mount_m, baro_rate_hz,
 //   baro_ref_hpa, baro_noise_hpa, baro_drift_hpa_per_h, baro_drift_rw_hpa_per_sqrt_h.
 //   linear-gaussian: duration_s, step_period_s, step_sigma_m, range_sigma_m, heading_deg,

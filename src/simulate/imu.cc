@@ -1,8 +1,8 @@
 #include <algorithm>
 #include <cmath>
 
-#include "walkgraph/angle.h"
 #include "simulate/sim_models.h"
+#include "walkgraph/angle.h"
 #include "walkgraph/strapdown.h"
 
 namespace walkgraph {
@@ -207,6 +207,48 @@ void Bump(double u, double* b, double* db, double* ddb) {
   *ddb = 5120.0 * q3 * (4.0 * dq * dq - 2.0 * q);
 }
 
+// The height of the tread reached after `steps` steps of stairs: up flight_rises rises, down as
+// many, and again (0 on level ground).
+double StairHeight(const FootImuOptions& o, long steps) {
+  if (!(o.stair_rise_m > 0.0)) return 0.0;
+  const long f = std::max(1, o.flight_rises);
+  const long m = steps % (2 * f);
+  return o.stair_rise_m * static_cast<double>(m <= f ? m : 2 * f - m);
+}
+
+// The footprints of one leg, evenly spaced in arc length (a stride apart, or two treads on
+// stairs), at the times the plan's profile passes them; *steps counts the walk's steps.
+void LegFootprints(const MotionPlan::Phase& p, const FootImuOptions& o, long* steps,
+                   std::vector<double>* times, std::vector<Footprint>* prints) {
+  const bool stairs = o.stair_rise_m > 0.0;
+  const double stride = stairs ? 2.0 * o.stair_tread_m : 2.0 * StepLength(o.gait, p.cruise_mps);
+  const int n = std::max(1, static_cast<int>(std::lround(p.length_m / stride)));
+  times->assign(n + 1, 0.0);
+  prints->assign(n + 1, Footprint());
+  for (int j = 0; j <= n; ++j) {
+    const double target = p.length_m * j / n;
+    double lo = 0.0, hi = p.t1_s - p.t0_s;
+    if (j == 0) hi = 0.0;
+    for (int it = 0; j > 0 && j < n && it < 60; ++it) {
+      const double mid = 0.5 * (lo + hi);
+      double s, v, a;
+      MotionPlan::LegProfile(p, mid, &s, &v, &a);
+      (s < target ? lo : hi) = mid;
+    }
+    (*times)[j] = p.t0_s + (j == n ? p.t1_s - p.t0_s : hi);
+    // The footprint lies on the path at arc length `target`.
+    size_t i = std::upper_bound(p.cumulative_m.begin(), p.cumulative_m.end(), target) -
+               p.cumulative_m.begin();
+    i = i == 0 ? 0 : i - 1;
+    const PathSegment& seg = p.segments[i];
+    const double ls = std::min(target - p.cumulative_m[i], seg.length_m);
+    (*prints)[j].position = seg.PositionAt(ls);
+    (*prints)[j].heading_rad = seg.HeadingAt(ls);
+    (*prints)[j].z_m = StairHeight(o, *steps + 2L * j);
+  }
+  *steps += 2L * n;
+}
+
 }  // namespace
 
 FootMotion::FootMotion(const MotionPlan& plan, const FootImuOptions& options) : o_(options) {
@@ -214,33 +256,13 @@ FootMotion::FootMotion(const MotionPlan& plan, const FootImuOptions& options) : 
   const double rho = o_.stance_fraction;
   first_.position = plan.At(0.0).position_m;
   first_.heading_rad = plan.At(0.0).heading_rad;
+  long steps = 0;
   for (const auto& p : plan.phases()) {
     if (p.kind == MotionPlan::PhaseKind::kLeg) {
-      const double stride = 2.0 * StepLength(o_.gait, p.cruise_mps);
-      const int n = std::max(1, static_cast<int>(std::lround(p.length_m / stride)));
-      std::vector<double> times(n + 1);
-      std::vector<Footprint> prints(n + 1);
-      for (int j = 0; j <= n; ++j) {
-        const double target = p.length_m * j / n;
-        double lo = 0.0, hi = p.t1_s - p.t0_s;
-        if (j == 0) hi = 0.0;
-        for (int it = 0; j > 0 && j < n && it < 60; ++it) {
-          const double mid = 0.5 * (lo + hi);
-          double s, v, a;
-          MotionPlan::LegProfile(p, mid, &s, &v, &a);
-          (s < target ? lo : hi) = mid;
-        }
-        times[j] = p.t0_s + (j == n ? p.t1_s - p.t0_s : hi);
-        // The footprint lies on the path at arc length `target`.
-        size_t i = std::upper_bound(p.cumulative_m.begin(), p.cumulative_m.end(), target) -
-                   p.cumulative_m.begin();
-        i = i == 0 ? 0 : i - 1;
-        const PathSegment& seg = p.segments[i];
-        const double ls = std::min(target - p.cumulative_m[i], seg.length_m);
-        prints[j].position = seg.PositionAt(ls);
-        prints[j].heading_rad = seg.HeadingAt(ls);
-      }
-      for (int j = 0; j < n; ++j) {
+      std::vector<double> times;
+      std::vector<Footprint> prints;
+      LegFootprints(p, o_, &steps, &times, &prints);
+      for (size_t j = 0; j + 1 < prints.size(); ++j) {
         const double gap = times[j + 1] - times[j];
         FootSwing s;
         s.t0_s = times[j] + 0.5 * rho * gap;
@@ -259,6 +281,7 @@ FootMotion::FootMotion(const MotionPlan& plan, const FootImuOptions& options) : 
         s.t0_s = p.t0_s + j * gap + 0.5 * rho * gap;
         s.t1_s = p.t0_s + (j + 1) * gap - 0.5 * rho * gap;
         s.from.position = s.to.position = p.start;
+        s.from.z_m = s.to.z_m = StairHeight(o_, steps);
         s.from.heading_rad = p.heading0_rad + p.dheading_rad * j / n;
         s.to.heading_rad = p.heading0_rad + p.dheading_rad * (j + 1) / n;
         swings_.push_back(s);
@@ -293,7 +316,7 @@ ImuTruth FootMotion::At(double t_s) const {
   }
   const Eigen::Vector3d g_up(0.0, 0.0, kGravityMps2);
   if (swing == nullptr) {
-    s.position_n = Eigen::Vector3d(rest.position.x(), rest.position.y(), 0.0);
+    s.position_n = Eigen::Vector3d(rest.position.x(), rest.position.y(), rest.z_m);
     const Eigen::Matrix3d R = Rz(rest.heading_rad);
     s.q_nb = Eigen::Quaterniond(R);
     s.specific_force_b = R.transpose() * g_up;
@@ -310,10 +333,11 @@ ImuTruth FootMotion::At(double t_s) const {
   const Eigen::Vector2d p = swing->from.position + sg * dp;
   const Eigen::Vector2d v = dsg / T * dp;
   const Eigen::Vector2d a = ddsg / (T * T) * dp;
-  const double h = o_.lift_m;
-  s.position_n = Eigen::Vector3d(p.x(), p.y(), h * b);
-  s.velocity_n = Eigen::Vector3d(v.x(), v.y(), h * db / T);
-  const Eigen::Vector3d a_n(a.x(), a.y(), h * ddb / (T * T));
+  // Height: the straight line between the treads plus the lift bump.
+  const double h = o_.lift_m, dz = swing->to.z_m - swing->from.z_m;
+  s.position_n = Eigen::Vector3d(p.x(), p.y(), swing->from.z_m + sg * dz + h * b);
+  s.velocity_n = Eigen::Vector3d(v.x(), v.y(), (dsg * dz + h * db) / T);
+  const Eigen::Vector3d a_n(a.x(), a.y(), (ddsg * dz + h * ddb) / (T * T));
   const double psi = swing->from.heading_rad + dpsi * sg;
   const double psi_rate = dpsi * dsg / T;
   const double amp = DegToRad(o_.pitch_amplitude_deg) / pitch_norm_;

@@ -254,10 +254,17 @@ struct FootImuOptions {
   double lift_m = 0.10;           // peak foot height in swing
   double pitch_amplitude_deg = 30.0;
   double max_pivot_deg = 90.0;  // turns in place: at most this much yaw per pivot swing
+  // Stairs (stair_rise_m > 0): every leg is a run of stair flights, flight_rises rises up, then
+  // as many down (a landing at the top), one tread stair_tread_m per step, so a stride climbs
+  // or descends two rises; turns in place stay on their tread. 0: level ground.
+  double stair_rise_m = 0.0;
+  double stair_tread_m = 0.28;
+  int flight_rises = 12;
 };
 struct Footprint {
   Eigen::Vector2d position = Eigen::Vector2d::Zero();
   double heading_rad = 0.0;
+  double z_m = 0.0;  // height of the tread the foot stands on
 };
 struct FootSwing {
   double t0_s = 0.0, t1_s = 0.0;  // lift-off, touch-down
