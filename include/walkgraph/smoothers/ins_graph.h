@@ -113,7 +113,11 @@ struct InsGraphOptions {
   // over-detect: adaptive_fraction 0.8): quadratic fg-ins-batch 0.94–1.17 m RMSE, fg-ins-window
   // 0.60–1.09 m; cauchy 10σ within 0.005 m of the right detector's (0.15–0.40 m), which it
   // leaves unchanged (8 seeds, prieto-laps, PyShoe trials ±0.001 m). Cauchy 3σ lost the ZUPTs
-  // of real stances on a PyShoe trial (0.036 → 0.123 m). ZARU stays quadratic.
+  // of real stances on a PyShoe trial (0.036 → 0.123 m). ZARU stays quadratic. With stance
+  // placement every detected stance interval is one state with one ZUPT, so this is the stance
+  // hypothesis per interval that the solve can turn down: a robust kernel such as Cauchy is a
+  // weight (switch) variable per factor eliminated in closed form (Black and Rangarajan, IJCV
+  // 1996; Agarwal et al., ICRA 2013, show it for switchable constraints).
   LossKind zupt_loss = LossKind::kCauchy;
   double zupt_loss_scale = 10.0;
   bool use_zaru = true;
