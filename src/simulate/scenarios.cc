@@ -573,6 +573,91 @@ Status CheckBuilding(const Params& p) {
   return Status::Ok();
 }
 
+// The parameters' ranges once the overrides are read (the building's own in CheckBuilding).
+Status CheckParams(const Params& p) {
+  if (p.building) WG_RETURN_IF_ERROR(CheckBuilding(p));
+  const std::string ctx = "simulate " + p.name + ": ";
+  const double max_speed = p.foot_gait == FootGait::kRun ? 6.0 : 3.0;
+  if (!(p.speed_mps > 0.1 && p.speed_mps < max_speed)) {
+    return InvalidArgument(ctx + "speed_mps must be in (0.1, " + internal::Num(max_speed) + ")");
+  }
+  if (p.foot_gait == FootGait::kStairs && !(p.stair_rise_m >= 0.1 && p.stair_rise_m <= 0.25 &&
+                                            p.stair_tread_m >= 0.2 && p.stair_tread_m <= 0.4)) {
+    return InvalidArgument(ctx +
+                           "stair_rise_m must be in [0.1, 0.25], stair_tread_m in [0.2, 0.4]");
+  }
+  if (!(p.imu_rate_hz >= 5.0 && p.imu_rate_hz <= 2000.0)) {
+    return InvalidArgument(ctx + "imu_rate_hz must be in [5, 2000]");
+  }
+  // Sizes are checked before anything is allocated (the walk's size is checked again once its
+  // duration is known, in SimulateScenarioDetailed).
+  if (p.laps < 1 || p.laps > kMaxLaps) {
+    return InvalidArgument(ctx + "laps must be in [1, " + std::to_string(kMaxLaps) + "]");
+  }
+  if (!(p.duration_s >= 0.0 && p.duration_s <= kMaxDurationS) ||
+      !(p.start_still_s >= 0.0 && p.start_still_s <= 3600.0) ||
+      !(p.end_still_s >= 0.0 && p.end_still_s <= 3600.0)) {
+    return InvalidArgument(ctx + "duration_s must be in [0, " + internal::Num(kMaxDurationS) +
+                           "] s, start_still_s and end_still_s in [0, 3600] s");
+  }
+  if (p.num_anchors > kMaxAnchors) {
+    return InvalidArgument(ctx + "num_anchors must be in [0, " + std::to_string(kMaxAnchors) + "]");
+  }
+  if (!(p.radio.period_s >= 0.01 && p.radio.period_s <= 3600.0)) {
+    return InvalidArgument(ctx + "beacon_period_s must be in [0.01, 3600] s");
+  }
+  const PathLossParams& pl = p.radio.path_loss;
+  if (!(pl.eta > 0.0) || !(pl.sigma_db > 0.0) || !(p.radio.period_s > 0.0)) {
+    return InvalidArgument(ctx + "eta, sigma_db and beacon_period_s must be > 0");
+  }
+  // Physical plausibility: beyond these the simulated readings fail the walk's own validation.
+  const bool rfcode = p.radio.units == RssUnits::kRfcode;  // 004's units: larger is weaker
+  const struct {
+    const char* key;
+    double value, lo, hi;
+  } kRanges[] = {
+      {"A_dbm", pl.A_dbm, rfcode ? 0.0 : -150.0, rfcode ? 300.0 : 30.0},
+      {"eta", pl.eta, 0.0, 10.0},
+      {"sigma_db", pl.sigma_db, 0.0, 50.0},
+      {"A_spread_db", p.radio.A_spread_db, 0.0, 50.0},
+      {"eta_spread", p.radio.eta_spread, 0.0, 5.0},
+      {"acc_noise_mps2", p.noise.acc_noise_mps2, 0.0, 10.0},
+      {"gyro_noise_radps", p.noise.gyro_noise_radps, 0.0, 5.0},
+      {"acc_bias_sigma_mps2", p.noise.acc_bias_sigma_mps2, 0.0, 10.0},
+      {"gyro_bias_sigma_radps", p.noise.gyro_bias_sigma_radps, 0.0, 5.0},
+      {"gyro_bias_dph", p.gyro_bias_dph, -36000.0, 36000.0},
+      {"mag_noise_ut", p.noise.mag_noise_ut, 0.0, 1000.0},
+      {"mag_disturbance_ut", p.field.disturbance_ut, 0.0, 1000.0},
+      {"weinberg_k", p.gait.weinberg_k, 0.0, 2.0},
+  };
+  for (const auto& r : kRanges) {
+    if (!(r.value >= r.lo && r.value <= r.hi)) {
+      return InvalidArgument(ctx + r.key + " " + internal::Num(r.value) + " outside [" +
+                             internal::Num(r.lo) + ", " + internal::Num(r.hi) + "]");
+    }
+  }
+  if (p.radio.nlos.fraction < 0.0 || p.radio.nlos.fraction > 1.0) {
+    return InvalidArgument(ctx + "nlos_fraction must be in [0, 1]");
+  }
+  if (p.num_anchors < 0 || p.field.disturbance_count < 0 || p.field.disturbance_count > 1000) {
+    return InvalidArgument(ctx + "num_anchors and mag_disturbance_count must be >= 0");
+  }
+  if (!(p.gait.weinberg_k > 0.0) || !(p.sigma_xy_m > 0.0) || !(p.sigma_heading_deg > 0.0)) {
+    return InvalidArgument(ctx + "weinberg_k and initial sigmas must be > 0");
+  }
+  if (!(p.run_length_m >= 10.0 && p.run_length_m <= 20000.0) ||
+      !(0.0 <= p.outage_start_frac && p.outage_start_frac <= p.outage_end_frac &&
+        p.outage_end_frac <= 1.0)) {
+    return InvalidArgument(ctx +
+                           "run_length_m in [10, 20000], 0 <= outage_start_frac <= "
+                           "outage_end_frac <= 1");
+  }
+  if (!(p.stance_fraction >= 0.1 && p.stance_fraction <= 0.7)) {
+    return InvalidArgument(ctx + "stance_fraction must be in [0.1, 0.7]");
+  }
+  return Status::Ok();
+}
+
 // A foot preset's gait and the defaults it brings, which the other keys may then override:
 // running 3 m/s with a short foot-flat (a fifth of the stride), a higher lift and more pitch;
 // stairs at the building's stair speed (horizontal), treads of stair_tread_m. The numbers are
@@ -645,87 +730,7 @@ Status ReadOverrides(const YAML::Node& node, Params* p) {
   }
   if (p->building) ReadBuildingKeys(&r, p);
   WG_RETURN_IF_ERROR(r.Finish());
-  if (p->building) WG_RETURN_IF_ERROR(CheckBuilding(*p));
-  const std::string ctx = "simulate " + p->name + ": ";
-  const double max_speed = p->foot_gait == FootGait::kRun ? 6.0 : 3.0;
-  if (!(p->speed_mps > 0.1 && p->speed_mps < max_speed)) {
-    return InvalidArgument(ctx + "speed_mps must be in (0.1, " + internal::Num(max_speed) + ")");
-  }
-  if (p->foot_gait == FootGait::kStairs && !(p->stair_rise_m >= 0.1 && p->stair_rise_m <= 0.25 &&
-                                             p->stair_tread_m >= 0.2 && p->stair_tread_m <= 0.4)) {
-    return InvalidArgument(ctx +
-                           "stair_rise_m must be in [0.1, 0.25], stair_tread_m in [0.2, 0.4]");
-  }
-  if (!(p->imu_rate_hz >= 5.0 && p->imu_rate_hz <= 2000.0)) {
-    return InvalidArgument(ctx + "imu_rate_hz must be in [5, 2000]");
-  }
-  // Sizes are checked before anything is allocated (the walk's size is checked again once its
-  // duration is known, in SimulateScenarioDetailed).
-  if (p->laps < 1 || p->laps > kMaxLaps) {
-    return InvalidArgument(ctx + "laps must be in [1, " + std::to_string(kMaxLaps) + "]");
-  }
-  if (!(p->duration_s >= 0.0 && p->duration_s <= kMaxDurationS) ||
-      !(p->start_still_s >= 0.0 && p->start_still_s <= 3600.0) ||
-      !(p->end_still_s >= 0.0 && p->end_still_s <= 3600.0)) {
-    return InvalidArgument(ctx + "duration_s must be in [0, " + internal::Num(kMaxDurationS) +
-                           "] s, start_still_s and end_still_s in [0, 3600] s");
-  }
-  if (p->num_anchors > kMaxAnchors) {
-    return InvalidArgument(ctx + "num_anchors must be in [0, " + std::to_string(kMaxAnchors) + "]");
-  }
-  if (!(p->radio.period_s >= 0.01 && p->radio.period_s <= 3600.0)) {
-    return InvalidArgument(ctx + "beacon_period_s must be in [0.01, 3600] s");
-  }
-  const PathLossParams& pl = p->radio.path_loss;
-  if (!(pl.eta > 0.0) || !(pl.sigma_db > 0.0) || !(p->radio.period_s > 0.0)) {
-    return InvalidArgument(ctx + "eta, sigma_db and beacon_period_s must be > 0");
-  }
-  // Physical plausibility: beyond these the simulated readings fail the walk's own validation.
-  const bool rfcode = p->radio.units == RssUnits::kRfcode;  // 004's units: larger is weaker
-  const struct {
-    const char* key;
-    double value, lo, hi;
-  } kRanges[] = {
-      {"A_dbm", pl.A_dbm, rfcode ? 0.0 : -150.0, rfcode ? 300.0 : 30.0},
-      {"eta", pl.eta, 0.0, 10.0},
-      {"sigma_db", pl.sigma_db, 0.0, 50.0},
-      {"A_spread_db", p->radio.A_spread_db, 0.0, 50.0},
-      {"eta_spread", p->radio.eta_spread, 0.0, 5.0},
-      {"acc_noise_mps2", p->noise.acc_noise_mps2, 0.0, 10.0},
-      {"gyro_noise_radps", p->noise.gyro_noise_radps, 0.0, 5.0},
-      {"acc_bias_sigma_mps2", p->noise.acc_bias_sigma_mps2, 0.0, 10.0},
-      {"gyro_bias_sigma_radps", p->noise.gyro_bias_sigma_radps, 0.0, 5.0},
-      {"gyro_bias_dph", p->gyro_bias_dph, -36000.0, 36000.0},
-      {"mag_noise_ut", p->noise.mag_noise_ut, 0.0, 1000.0},
-      {"mag_disturbance_ut", p->field.disturbance_ut, 0.0, 1000.0},
-      {"weinberg_k", p->gait.weinberg_k, 0.0, 2.0},
-  };
-  for (const auto& r : kRanges) {
-    if (!(r.value >= r.lo && r.value <= r.hi)) {
-      return InvalidArgument(ctx + r.key + " " + internal::Num(r.value) + " outside [" +
-                             internal::Num(r.lo) + ", " + internal::Num(r.hi) + "]");
-    }
-  }
-  if (p->radio.nlos.fraction < 0.0 || p->radio.nlos.fraction > 1.0) {
-    return InvalidArgument(ctx + "nlos_fraction must be in [0, 1]");
-  }
-  if (p->num_anchors < 0 || p->field.disturbance_count < 0 || p->field.disturbance_count > 1000) {
-    return InvalidArgument(ctx + "num_anchors and mag_disturbance_count must be >= 0");
-  }
-  if (!(p->gait.weinberg_k > 0.0) || !(p->sigma_xy_m > 0.0) || !(p->sigma_heading_deg > 0.0)) {
-    return InvalidArgument(ctx + "weinberg_k and initial sigmas must be > 0");
-  }
-  if (!(p->run_length_m >= 10.0 && p->run_length_m <= 20000.0) ||
-      !(0.0 <= p->outage_start_frac && p->outage_start_frac <= p->outage_end_frac &&
-        p->outage_end_frac <= 1.0)) {
-    return InvalidArgument(ctx +
-                           "run_length_m in [10, 20000], 0 <= outage_start_frac <= "
-                           "outage_end_frac <= 1");
-  }
-  if (!(p->stance_fraction >= 0.1 && p->stance_fraction <= 0.7)) {
-    return InvalidArgument(ctx + "stance_fraction must be in [0.1, 0.7]");
-  }
-  return Status::Ok();
+  return CheckParams(*p);
 }
 
 // ------------------------------------------------------------------ linear-gaussian
@@ -858,6 +863,107 @@ std::vector<ScenarioInfo> Scenarios() {
   return out;
 }
 
+namespace {
+
+// The IMU's true motion and noiseless readings (foot presets: the foot, whose model the radio
+// then needs too, returned; else the waist, with its steps).
+std::unique_ptr<sim::FootMotion> SimulateImuTruth(const Params& p, const sim::MotionPlan& plan,
+                                                  Simulation* sim) {
+  Simulation& s = *sim;
+  std::unique_ptr<sim::FootMotion> foot;
+  if (p.foot) {
+    sim::FootImuOptions fo;
+    fo.rate_hz = p.imu_rate_hz;
+    fo.gait = p.gait;
+    fo.stance_fraction = p.stance_fraction;
+    fo.lift_m = p.lift_m;
+    fo.pitch_amplitude_deg = p.pitch_amplitude_deg;
+    if (p.foot_gait == FootGait::kStairs) {
+      fo.stair_rise_m = p.stair_rise_m;
+      fo.stair_tread_m = p.stair_tread_m;
+    }
+    foot = std::make_unique<sim::FootMotion>(plan, fo);
+    s.imu_truth = sim::SampleFootImu(*foot, p.imu_rate_hz);
+  } else {
+    sim::WaistImuOptions wo;
+    wo.rate_hz = p.imu_rate_hz;
+    wo.gait = p.gait;
+    auto waist = sim::SimulateWaistImu(plan, wo);
+    // The truth: the walked path on the ground (its height changes on stairs only).
+    for (auto& t : waist.truth) t.position_n.z() -= wo.height_m;
+    s.imu_truth = std::move(waist.truth);
+    s.steps = std::move(waist.steps);
+  }
+  return foot;
+}
+
+// The walk's metadata: where it comes from, its radio model, the true start (initial_pose)
+// and, in extra, the simulator's numbers (sim.*).
+void SetMeta(const std::string& name, uint64_t seed, const Params& p, const sim::MotionPlan& plan,
+             size_t num_anchors, double t_end, Simulation* sim) {
+  const Simulation& s = *sim;
+  WalkMeta& m = sim->walk.meta;
+  m.name = name;
+  m.source = "walkgraph simulate --scenario " + name + " --seed " + std::to_string(seed) +
+             "; follows " + p.source;
+  m.licence = "CC0-1.0";
+  m.imu_placement = p.placement;
+  m.truth_kind = TruthKind::kContinuous;
+  m.radio.kind = RadioKind::kRss;
+  m.radio.units = p.radio.units;
+  m.radio.path_loss = p.radio.path_loss;
+  // Calibrated: the readings were drawn from this model — unless the anchors spread around it
+  // (A_spread_db, eta_spread), when the declared model is only their mean.
+  m.radio.calibrated = p.radio.A_spread_db == 0.0 && p.radio.eta_spread == 0.0;
+  m.radio.range_sigma_m = p.radio.toa_sigma_m;
+  const sim::BodyState b0 = plan.At(0.0);
+  m.initial_pose = InitialPose{Q(s.imu_truth.front().position_n.x(), 1e-6),
+                               Q(s.imu_truth.front().position_n.y(), 1e-6),
+                               NormalizeAngle(b0.heading_rad),
+                               p.sigma_xy_m,
+                               DegToRad(p.sigma_heading_deg),
+                               true,
+                               p.building ? std::optional<int>(0) : std::nullopt};
+  auto& x = m.extra;
+  x = p.extra;
+  x["sim.seed"] = static_cast<double>(seed);
+  x["sim.speed_mps"] = p.speed_mps;
+  x["sim.step_length_m"] = sim::StepLength(p.gait, p.speed_mps);
+  x["sim.step_frequency_hz"] = sim::StepFrequency(p.gait, p.speed_mps);
+  x["sim.weinberg_k"] = p.gait.weinberg_k;
+  x["sim.imu_rate_hz"] = p.imu_rate_hz;
+  x["sim.imu_interval_average"] = p.foot ? 1.0 : 0.0;
+  x["sim.acc_noise_mps2"] = p.noise.acc_noise_mps2;
+  x["sim.gyro_noise_radps"] = p.noise.gyro_noise_radps;
+  x["sim.acc_bias_sigma_mps2"] = p.noise.acc_bias_sigma_mps2;
+  x["sim.gyro_bias_sigma_radps"] = p.noise.gyro_bias_sigma_radps;
+  x["sim.gyro_bias_fixed_radps"] = DegToRad(p.gyro_bias_dph) / 3600.0;
+  x["sim.gravity_mps2"] = sim::kGravityMps2;
+  x["sim.num_anchors"] = static_cast<double>(num_anchors);
+  x["sim.beacon_period_s"] = p.radio.period_s;
+  x["sim.sensitivity"] = p.radio.sensitivity;
+  x["sim.nlos_fraction"] = p.radio.nlos.fraction;
+  x["sim.rx_height_offset_m"] = p.rx_height_offset_m;
+  x["sim.duration_s"] = t_end;
+  if (p.radio.detection.d50_m > 0.0) x["sim.detection_d50_m"] = p.radio.detection.d50_m;
+  if (p.foot) {
+    x["sim.stance_fraction"] = p.stance_fraction;
+    x["sim.foot_lift_m"] = p.lift_m;
+    if (p.foot_gait == FootGait::kRun) x["sim.gait_run"] = 1.0;
+    if (p.foot_gait == FootGait::kStairs) {
+      x["sim.stair_rise_m"] = p.stair_rise_m;
+      x["sim.step_length_m"] = p.stair_tread_m;
+      x["sim.step_frequency_hz"] = p.speed_mps / p.stair_tread_m;
+    }
+  }
+  if (p.toa_on) {
+    x["sim.toa_alpha_m"] = p.radio.toa_alpha_m;
+    x["sim.toa_beta"] = p.radio.toa_beta;
+  }
+}
+
+}  // namespace
+
 StatusOr<Simulation> SimulateScenarioDetailed(const std::string& name, uint64_t seed,
                                               const Config& config) {
   const YAML::Node& overrides = config.node();
@@ -894,30 +1000,7 @@ StatusOr<Simulation> SimulateScenarioDetailed(const std::string& name, uint64_t 
   Rng rng(seed);
   Simulation s;
   // IMU truth, then errors.
-  std::unique_ptr<sim::FootMotion> foot;
-  if (p.foot) {
-    sim::FootImuOptions fo;
-    fo.rate_hz = p.imu_rate_hz;
-    fo.gait = p.gait;
-    fo.stance_fraction = p.stance_fraction;
-    fo.lift_m = p.lift_m;
-    fo.pitch_amplitude_deg = p.pitch_amplitude_deg;
-    if (p.foot_gait == FootGait::kStairs) {
-      fo.stair_rise_m = p.stair_rise_m;
-      fo.stair_tread_m = p.stair_tread_m;
-    }
-    foot = std::make_unique<sim::FootMotion>(plan, fo);
-    s.imu_truth = sim::SampleFootImu(*foot, p.imu_rate_hz);
-  } else {
-    sim::WaistImuOptions wo;
-    wo.rate_hz = p.imu_rate_hz;
-    wo.gait = p.gait;
-    auto waist = sim::SimulateWaistImu(plan, wo);
-    // The truth: the walked path on the ground (its height changes on stairs only).
-    for (auto& t : waist.truth) t.position_n.z() -= wo.height_m;
-    s.imu_truth = std::move(waist.truth);
-    s.steps = std::move(waist.steps);
-  }
+  std::unique_ptr<sim::FootMotion> foot = SimulateImuTruth(p, plan, &s);
   while (!s.imu_truth.empty() && s.imu_truth.back().t_s > t_end + 1e-9) s.imu_truth.pop_back();
   while (!s.steps.empty() && s.steps.back().t_s > t_end) s.steps.pop_back();
   sim::MagneticFieldOptions field_options = p.field;
@@ -974,64 +1057,7 @@ StatusOr<Simulation> SimulateScenarioDetailed(const std::string& name, uint64_t 
 
   if (p.building) AddBarometer(plan, t_end, rng.Fork(30), &p, &w);
 
-  WalkMeta& m = w.meta;
-  m.name = name;
-  m.source = "walkgraph simulate --scenario " + name + " --seed " + std::to_string(seed) +
-             "; follows " + p.source;
-  m.licence = "CC0-1.0";
-  m.imu_placement = p.placement;
-  m.truth_kind = TruthKind::kContinuous;
-  m.radio.kind = RadioKind::kRss;
-  m.radio.units = p.radio.units;
-  m.radio.path_loss = p.radio.path_loss;
-  // Calibrated: the readings were drawn from this model — unless the anchors spread around it
-  // (A_spread_db, eta_spread), when the declared model is only their mean.
-  m.radio.calibrated = p.radio.A_spread_db == 0.0 && p.radio.eta_spread == 0.0;
-  m.radio.range_sigma_m = p.radio.toa_sigma_m;
-  const sim::BodyState b0 = plan.At(0.0);
-  m.initial_pose = InitialPose{Q(s.imu_truth.front().position_n.x(), 1e-6),
-                               Q(s.imu_truth.front().position_n.y(), 1e-6),
-                               NormalizeAngle(b0.heading_rad),
-                               p.sigma_xy_m,
-                               DegToRad(p.sigma_heading_deg),
-                               true,
-                               p.building ? std::optional<int>(0) : std::nullopt};
-  auto& x = m.extra;
-  x = p.extra;
-  x["sim.seed"] = static_cast<double>(seed);
-  x["sim.speed_mps"] = p.speed_mps;
-  x["sim.step_length_m"] = sim::StepLength(p.gait, p.speed_mps);
-  x["sim.step_frequency_hz"] = sim::StepFrequency(p.gait, p.speed_mps);
-  x["sim.weinberg_k"] = p.gait.weinberg_k;
-  x["sim.imu_rate_hz"] = p.imu_rate_hz;
-  x["sim.imu_interval_average"] = p.foot ? 1.0 : 0.0;
-  x["sim.acc_noise_mps2"] = p.noise.acc_noise_mps2;
-  x["sim.gyro_noise_radps"] = p.noise.gyro_noise_radps;
-  x["sim.acc_bias_sigma_mps2"] = p.noise.acc_bias_sigma_mps2;
-  x["sim.gyro_bias_sigma_radps"] = p.noise.gyro_bias_sigma_radps;
-  x["sim.gyro_bias_fixed_radps"] = DegToRad(p.gyro_bias_dph) / 3600.0;
-  x["sim.gravity_mps2"] = sim::kGravityMps2;
-  x["sim.num_anchors"] = static_cast<double>(anchors.size());
-  x["sim.beacon_period_s"] = p.radio.period_s;
-  x["sim.sensitivity"] = p.radio.sensitivity;
-  x["sim.nlos_fraction"] = p.radio.nlos.fraction;
-  x["sim.rx_height_offset_m"] = p.rx_height_offset_m;
-  x["sim.duration_s"] = t_end;
-  if (p.radio.detection.d50_m > 0.0) x["sim.detection_d50_m"] = p.radio.detection.d50_m;
-  if (p.foot) {
-    x["sim.stance_fraction"] = p.stance_fraction;
-    x["sim.foot_lift_m"] = p.lift_m;
-    if (p.foot_gait == FootGait::kRun) x["sim.gait_run"] = 1.0;
-    if (p.foot_gait == FootGait::kStairs) {
-      x["sim.stair_rise_m"] = p.stair_rise_m;
-      x["sim.step_length_m"] = p.stair_tread_m;
-      x["sim.step_frequency_hz"] = p.speed_mps / p.stair_tread_m;
-    }
-  }
-  if (p.toa_on) {
-    x["sim.toa_alpha_m"] = p.radio.toa_alpha_m;
-    x["sim.toa_beta"] = p.radio.toa_beta;
-  }
+  SetMeta(name, seed, p, plan, anchors.size(), t_end, &s);
   return s;
 }
 
