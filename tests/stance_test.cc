@@ -273,16 +273,22 @@ TEST(StanceTest, AdaptiveFallsBackWithoutTwoClusters) {
 
 // The default detector of the foot front end against the simulator's truth on both foot
 // presets (walking at 100 Hz, the Xsens noise of 004 Table I).
+// The foot front end's stance (the adaptive default after the turn-on gyro bias is removed) on
+// simulated walk `name` (seed 5, `overrides`) against the simulator's truth.
+StanceScore SimulatedFrontEndScore(const char* name, const std::string& overrides = "{}") {
+  auto w = SimulateScenario(name, 5, YAML::Load(overrides));
+  EXPECT_TRUE(w.ok()) << w.status().ToString();
+  if (!w.ok()) return {};
+  auto labels = StanceLabelsAtImu(*w);
+  auto front = RunZuptIns(*w, StrideOptions());
+  EXPECT_TRUE(labels.ok() && front.ok());
+  if (!labels.ok() || !front.ok()) return {};
+  return ScoreStance(front->stance.stance, *labels);
+}
+
 TEST(StanceTest, AdaptiveOnTheSimulatedFootPresets) {
   for (const char* scenario : {"jimenez-building", "prieto-laps"}) {
-    auto w = SimulateScenario(scenario, 5);
-    ASSERT_TRUE(w.ok()) << w.status().ToString();
-    auto labels = StanceLabelsAtImu(*w);
-    ASSERT_TRUE(labels.ok()) << labels.status().ToString();
-    // The front end's detection: the adaptive default after the turn-on gyro bias is removed.
-    auto front = RunZuptIns(*w, StrideOptions());
-    ASSERT_TRUE(front.ok()) << front.status().ToString();
-    const StanceScore s = ScoreStance(front->stance.stance, *labels);
+    const StanceScore s = SimulatedFrontEndScore(scenario);
     std::printf("%s adaptive: precision %.3f recall %.3f F1 %.3f\n", scenario, s.precision(),
                 s.recall(), F1(s));
     // Measured (seed 5): precision 0.836 / 0.830, recall 1.000 / 1.000, F1 0.911 / 0.907; the
@@ -297,14 +303,8 @@ TEST(StanceTest, AdaptiveOnTheSimulatedFootPresets) {
 // fifth of each 0.7 s stride flat) and stairs (every leg up and down twelve rises).
 TEST(StanceTest, AdaptiveOnSimulatedRunAndStairs) {
   for (const char* gait : {"run", "stairs"}) {
-    auto w =
-        SimulateScenario("jimenez-building", 5, YAML::Load(std::string("{gait: ") + gait + "}"));
-    ASSERT_TRUE(w.ok()) << w.status().ToString();
-    auto labels = StanceLabelsAtImu(*w);
-    ASSERT_TRUE(labels.ok()) << labels.status().ToString();
-    auto front = RunZuptIns(*w, StrideOptions());
-    ASSERT_TRUE(front.ok()) << front.status().ToString();
-    const StanceScore s = ScoreStance(front->stance.stance, *labels);
+    const StanceScore s =
+        SimulatedFrontEndScore("jimenez-building", std::string("{gait: ") + gait + "}");
     std::printf("%s adaptive: precision %.3f recall %.3f F1 %.3f\n", gait, s.precision(),
                 s.recall(), F1(s));
     // Measured (seed 5): run precision 0.791 recall 1.000 F1 0.884; stairs 0.810 / 1.000 /

@@ -542,31 +542,38 @@ void ReadBuildingKeys(ConfigReader* r, Params* p) {
   r->Read("baro_drift_rw_hpa_per_sqrt_h", &p->baro.drift_rw_hpa_per_sqrt_h);
 }
 
-// The two-floor building's own keys: physical ranges (a staircase that fits between floors,
-// a barometer that reads).
-Status CheckBuilding(const Params& p) {
-  const struct {
-    const char* key;
-    double value, lo, hi;
-  } kRanges[] = {
-      {"storey_height_m", p.radio.storey_height_m, 2.4, 6.0},
-      {"stair_rise_m", p.stair_rise_m, 0.1, 0.25},
-      {"stair_tread_m", p.stair_tread_m, 0.2, 0.4},
-      {"stair_speed_mps", p.stair_speed_mps, 0.2, 1.0},
-      {"floor_loss_db", p.radio.path_loss.floor_loss_db, 0.0, 50.0},
-      {"anchor_mount_m", p.anchor_mount_m, 0.0, 6.0},
-      {"baro_rate_hz", p.baro.rate_hz, 0.1, 200.0},
-      {"baro_ref_hpa", p.baro.ref_hpa, 300.0, 1100.0},
-      {"baro_noise_hpa", p.baro.noise_hpa, 0.0, 1.0},
-      {"baro_drift_hpa_per_h", p.baro.drift_hpa_per_h, 0.0, 20.0},
-      {"baro_drift_rw_hpa_per_sqrt_h", p.baro.drift_rw_hpa_per_sqrt_h, 0.0, 10.0},
-  };
-  for (const auto& r : kRanges) {
+struct Range {
+  const char* key;
+  double value, lo, hi;
+};
+// OK, or "simulate NAME: KEY VALUE outside [LO, HI]" for the first value outside its range.
+Status CheckRanges(const std::string& name, std::initializer_list<Range> ranges) {
+  for (const Range& r : ranges) {
     if (!(r.value >= r.lo && r.value <= r.hi)) {
-      return InvalidArgument("simulate " + p.name + ": " + r.key + " " + internal::Num(r.value) +
+      return InvalidArgument("simulate " + name + ": " + r.key + " " + internal::Num(r.value) +
                              " outside [" + internal::Num(r.lo) + ", " + internal::Num(r.hi) + "]");
     }
   }
+  return Status::Ok();
+}
+
+// The two-floor building's own keys: physical ranges (a staircase that fits between floors,
+// a barometer that reads).
+Status CheckBuilding(const Params& p) {
+  WG_RETURN_IF_ERROR(CheckRanges(
+      p.name, {
+                  {"storey_height_m", p.radio.storey_height_m, 2.4, 6.0},
+                  {"stair_rise_m", p.stair_rise_m, 0.1, 0.25},
+                  {"stair_tread_m", p.stair_tread_m, 0.2, 0.4},
+                  {"stair_speed_mps", p.stair_speed_mps, 0.2, 1.0},
+                  {"floor_loss_db", p.radio.path_loss.floor_loss_db, 0.0, 50.0},
+                  {"anchor_mount_m", p.anchor_mount_m, 0.0, 6.0},
+                  {"baro_rate_hz", p.baro.rate_hz, 0.1, 200.0},
+                  {"baro_ref_hpa", p.baro.ref_hpa, 300.0, 1100.0},
+                  {"baro_noise_hpa", p.baro.noise_hpa, 0.0, 1.0},
+                  {"baro_drift_hpa_per_h", p.baro.drift_hpa_per_h, 0.0, 20.0},
+                  {"baro_drift_rw_hpa_per_sqrt_h", p.baro.drift_rw_hpa_per_sqrt_h, 0.0, 10.0},
+              }));
   if (!(p.anchor_mount_m < p.radio.storey_height_m)) {
     return InvalidArgument("simulate " + p.name + ": anchor_mount_m must be below storey_height_m");
   }
@@ -581,10 +588,9 @@ Status CheckParams(const Params& p) {
   if (!(p.speed_mps > 0.1 && p.speed_mps < max_speed)) {
     return InvalidArgument(ctx + "speed_mps must be in (0.1, " + internal::Num(max_speed) + ")");
   }
-  if (p.foot_gait == FootGait::kStairs && !(p.stair_rise_m >= 0.1 && p.stair_rise_m <= 0.25 &&
-                                            p.stair_tread_m >= 0.2 && p.stair_tread_m <= 0.4)) {
-    return InvalidArgument(ctx +
-                           "stair_rise_m must be in [0.1, 0.25], stair_tread_m in [0.2, 0.4]");
+  if (p.foot_gait == FootGait::kStairs) {
+    WG_RETURN_IF_ERROR(CheckRanges(p.name, {{"stair_rise_m", p.stair_rise_m, 0.1, 0.25},
+                                            {"stair_tread_m", p.stair_tread_m, 0.2, 0.4}}));
   }
   if (!(p.imu_rate_hz >= 5.0 && p.imu_rate_hz <= 2000.0)) {
     return InvalidArgument(ctx + "imu_rate_hz must be in [5, 2000]");
@@ -612,30 +618,22 @@ Status CheckParams(const Params& p) {
   }
   // Physical plausibility: beyond these the simulated readings fail the walk's own validation.
   const bool rfcode = p.radio.units == RssUnits::kRfcode;  // 004's units: larger is weaker
-  const struct {
-    const char* key;
-    double value, lo, hi;
-  } kRanges[] = {
-      {"A_dbm", pl.A_dbm, rfcode ? 0.0 : -150.0, rfcode ? 300.0 : 30.0},
-      {"eta", pl.eta, 0.0, 10.0},
-      {"sigma_db", pl.sigma_db, 0.0, 50.0},
-      {"A_spread_db", p.radio.A_spread_db, 0.0, 50.0},
-      {"eta_spread", p.radio.eta_spread, 0.0, 5.0},
-      {"acc_noise_mps2", p.noise.acc_noise_mps2, 0.0, 10.0},
-      {"gyro_noise_radps", p.noise.gyro_noise_radps, 0.0, 5.0},
-      {"acc_bias_sigma_mps2", p.noise.acc_bias_sigma_mps2, 0.0, 10.0},
-      {"gyro_bias_sigma_radps", p.noise.gyro_bias_sigma_radps, 0.0, 5.0},
-      {"gyro_bias_dph", p.gyro_bias_dph, -36000.0, 36000.0},
-      {"mag_noise_ut", p.noise.mag_noise_ut, 0.0, 1000.0},
-      {"mag_disturbance_ut", p.field.disturbance_ut, 0.0, 1000.0},
-      {"weinberg_k", p.gait.weinberg_k, 0.0, 2.0},
-  };
-  for (const auto& r : kRanges) {
-    if (!(r.value >= r.lo && r.value <= r.hi)) {
-      return InvalidArgument(ctx + r.key + " " + internal::Num(r.value) + " outside [" +
-                             internal::Num(r.lo) + ", " + internal::Num(r.hi) + "]");
-    }
-  }
+  WG_RETURN_IF_ERROR(
+      CheckRanges(p.name, {
+                              {"A_dbm", pl.A_dbm, rfcode ? 0.0 : -150.0, rfcode ? 300.0 : 30.0},
+                              {"eta", pl.eta, 0.0, 10.0},
+                              {"sigma_db", pl.sigma_db, 0.0, 50.0},
+                              {"A_spread_db", p.radio.A_spread_db, 0.0, 50.0},
+                              {"eta_spread", p.radio.eta_spread, 0.0, 5.0},
+                              {"acc_noise_mps2", p.noise.acc_noise_mps2, 0.0, 10.0},
+                              {"gyro_noise_radps", p.noise.gyro_noise_radps, 0.0, 5.0},
+                              {"acc_bias_sigma_mps2", p.noise.acc_bias_sigma_mps2, 0.0, 10.0},
+                              {"gyro_bias_sigma_radps", p.noise.gyro_bias_sigma_radps, 0.0, 5.0},
+                              {"gyro_bias_dph", p.gyro_bias_dph, -36000.0, 36000.0},
+                              {"mag_noise_ut", p.noise.mag_noise_ut, 0.0, 1000.0},
+                              {"mag_disturbance_ut", p.field.disturbance_ut, 0.0, 1000.0},
+                              {"weinberg_k", p.gait.weinberg_k, 0.0, 2.0},
+                          }));
   if (p.radio.nlos.fraction < 0.0 || p.radio.nlos.fraction > 1.0) {
     return InvalidArgument(ctx + "nlos_fraction must be in [0, 1]");
   }
