@@ -167,16 +167,20 @@ StatusOr<Eigen::MatrixXd> CeresMarginalCovariance(ceres::Problem* problem,
 StatusOr<std::vector<Eigen::MatrixXd>> KeyedMarginalCovariances(
     ceres::Problem* problem, const std::map<Key, KeyedBlock>& blocks,
     const std::vector<std::vector<Key>>& groups, const char* who) {
-  // The graph as a chain: timed states grouped by timestamp, in time order; the rest static.
-  std::map<double, std::vector<Key>> by_time;
+  // The graph as a chain: timed states grouped by timestamp, in time order (each timestamp's
+  // keys in key order); the rest static.
+  std::vector<std::pair<double, Key>> timed;
+  timed.reserve(blocks.size());
   std::vector<double*> statics;
   for (const auto& [key, b] : blocks) {
     if (b.t_s) {
-      by_time[*b.t_s].push_back(key);
+      timed.emplace_back(*b.t_s, key);
     } else {
       statics.push_back(b.value);
     }
   }
+  std::stable_sort(timed.begin(), timed.end(),
+                   [](const auto& a, const auto& b) { return a.first < b.first; });
   // Per timed key: its chain state, tangent offset in it and size, and whether it is held
   // (each asked of Ceres once: its lookups dominate on long walks).
   struct Place {
@@ -187,15 +191,19 @@ StatusOr<std::vector<Eigen::MatrixXd>> KeyedMarginalCovariances(
   std::vector<std::vector<double*>> chain;
   std::unordered_map<Key, Place> where;
   where.reserve(blocks.size());
-  for (const auto& [t, keys] : by_time) {
+  for (size_t i = 0; i < timed.size();) {
+    size_t j = i;
+    while (j < timed.size() && timed[j].first == timed[i].first) ++j;
     std::vector<double*> g;
+    g.reserve(j - i);
     int off = 0;
-    for (Key k : keys) {
+    for (; i < j; ++i) {
+      const Key k = timed[i].second;
       double* b = blocks.at(k).value;
       Place p{chain.size(), off, problem->ParameterBlockTangentSize(b),
               problem->IsParameterBlockConstant(b)};
       if (!p.constant) off += p.size;
-      where[k] = p;
+      where.emplace(k, p);
       g.push_back(b);
     }
     chain.push_back(std::move(g));
@@ -204,6 +212,7 @@ StatusOr<std::vector<Eigen::MatrixXd>> KeyedMarginalCovariances(
   std::vector<std::vector<Key>> variable(groups.size());
   bool usable = true;  // every group within one chain state (one timestamp)
   for (size_t i = 0; i < groups.size(); ++i) {
+    variable[i].reserve(groups[i].size());
     for (Key k : groups[i]) {
       auto it = blocks.find(k);
       if (it == blocks.end()) {
@@ -242,7 +251,10 @@ StatusOr<std::vector<Eigen::MatrixXd>> KeyedMarginalCovariances(
       WG_ASSIGN_OR_RETURN(Eigen::MatrixXd c, CeresMarginalCovariance(problem, blocks, g, who));
       out.push_back(std::move(c));
     } else {
+      size_t n = 0;
+      for (Key k : g) n += static_cast<size_t>(where.at(k).size);
       std::vector<int> idx;
+      idx.reserve(n);
       for (Key k : g) {
         const Place& p = where.at(k);
         for (int i = 0; i < p.size; ++i) idx.push_back(p.offset + i);
@@ -295,14 +307,14 @@ FactorGraph::~FactorGraph() {
 }
 
 Status FactorGraph::AddState(GraphState s) {
-  const std::string name = KeyToString(s.key);
-  if (states_.count(s.key)) return InvalidArgument("factor graph: " + name + " added twice");
-  if (s.value.empty()) return InvalidArgument("factor graph: " + name + " has an empty value");
+  auto name = [&s] { return KeyToString(s.key); };  // for messages only
+  if (states_.count(s.key)) return InvalidArgument("factor graph: " + name() + " added twice");
+  if (s.value.empty()) return InvalidArgument("factor graph: " + name() + " has an empty value");
   if (s.manifold && s.manifold->AmbientSize() != static_cast<int>(s.value.size())) {
-    return InvalidArgument("factor graph: the manifold of " + name + " has another size");
+    return InvalidArgument("factor graph: the manifold of " + name() + " has another size");
   }
   if (s.t_s && !std::isfinite(*s.t_s)) {
-    return InvalidArgument("factor graph: " + name + " has a non-finite time");
+    return InvalidArgument("factor graph: " + name() + " has a non-finite time");
   }
   State& st = states_[s.key];
   st.spec = std::move(s);
@@ -405,7 +417,9 @@ StatusOr<SolveSummary> SolveBatch(FactorGraph* graph, const SolverOptions& optio
 StatusOr<std::vector<Eigen::MatrixXd>> MarginalCovariances(
     FactorGraph* graph, const std::vector<std::vector<Key>>& groups) {
   std::map<Key, internal::KeyedBlock> blocks;
-  for (auto& [key, st] : graph->states_) blocks[key] = {st.spec.value.data(), st.spec.t_s};
+  for (auto& [key, st] : graph->states_) {  // in key order: each goes at the end
+    blocks.emplace_hint(blocks.end(), key, internal::KeyedBlock{st.spec.value.data(), st.spec.t_s});
+  }
   return internal::KeyedMarginalCovariances(graph->problem_.get(), blocks, groups, "factor graph");
 }
 
