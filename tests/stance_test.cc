@@ -271,8 +271,6 @@ TEST(StanceTest, AdaptiveFallsBackWithoutTwoClusters) {
   EXPECT_FALSE(DetectStance(still, o).ok());
 }
 
-// The default detector of the foot front end against the simulator's truth on both foot
-// presets (walking at 100 Hz, the Xsens noise of 004 Table I).
 // The foot front end's stance (the adaptive default after the turn-on gyro bias is removed) on
 // simulated walk `name` (seed 5, `overrides`) against the simulator's truth.
 StanceScore SimulatedFrontEndScore(const char* name, const std::string& overrides = "{}") {
@@ -286,6 +284,8 @@ StanceScore SimulatedFrontEndScore(const char* name, const std::string& override
   return ScoreStance(front->stance.stance, *labels);
 }
 
+// The default detector of the foot front end against the simulator's truth on both foot
+// presets (walking at 100 Hz, the Xsens noise of 004 Table I).
 TEST(StanceTest, AdaptiveOnTheSimulatedFootPresets) {
   for (const char* scenario : {"jimenez-building", "prieto-laps"}) {
     const StanceScore s = SimulatedFrontEndScore(scenario);
