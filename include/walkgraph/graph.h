@@ -149,7 +149,8 @@ class FactorGraph {
   friend StatusOr<std::vector<Eigen::MatrixXd>> MarginalCovariances(
       FactorGraph* graph, const std::vector<std::vector<Key>>& groups);
   struct State {
-    GraphState spec;  // spec.value is the solver's parameter block (stable address)
+    GraphState spec;          // spec.value is the solver's parameter block (stable address)
+    std::uint64_t order = 0;  // states added before it
   };
   std::map<Key, State> states_;
   std::vector<GraphFactor> factors_;

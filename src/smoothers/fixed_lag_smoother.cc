@@ -63,6 +63,7 @@ StatusOr<FixedLagSmoother::UpdateResult> FixedLagSmoother::Update(
       return InvalidArgument("fixed-lag smoother: manifold size mismatch on " + KeyName(s.key));
     }
     State& st = states_[s.key];
+    st.order = next_state_order_++;
     st.value = s.value;
     st.spec = std::move(s);
     problem_->AddParameterBlock(st.value.data(), static_cast<int>(st.value.size()),
@@ -191,10 +192,13 @@ StatusOr<Eigen::MatrixXd> FixedLagSmoother::MarginalCovariance(StateKey key) {
 
 namespace {
 template <class States>
-std::map<StateKey, internal::KeyedBlock> BlocksOf(States* states) {
-  std::map<StateKey, internal::KeyedBlock> blocks;
-  for (auto& [key, st] : *states) blocks[key] = {st.value.data(), st.spec.t_s};
-  return blocks;
+internal::KeyedBlocks BlocksOf(States* states) {
+  internal::KeyedBlocks blocks;
+  blocks.reserve(states->size());
+  for (auto& [key, st] : *states) {
+    blocks.push_back({key, st.value.data(), st.spec.t_s, st.order});
+  }
+  return blocks;  // in key order: a std::map's
 }
 }  // namespace
 

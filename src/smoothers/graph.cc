@@ -6,6 +6,7 @@
 #include <map>
 #include <numeric>
 #include <string>
+#include <tuple>
 #include <unordered_map>
 #include <utility>
 
@@ -119,18 +120,31 @@ StatusOr<Termination> CheckSummary(const ceres::Solver::Summary& s, const char* 
                                                   : Termination::kNoConvergence;
 }
 
+void SortKeyedBlocks(KeyedBlocks* blocks) {
+  auto by_key = [](const KeyedBlock& a, const KeyedBlock& b) { return a.key < b.key; };
+  if (!std::is_sorted(blocks->begin(), blocks->end(), by_key)) {
+    std::sort(blocks->begin(), blocks->end(), by_key);
+  }
+}
+
+const KeyedBlock* FindKeyedBlock(const KeyedBlocks& blocks, Key key) {
+  auto it = std::lower_bound(blocks.begin(), blocks.end(), key,
+                             [](const KeyedBlock& b, Key k) { return b.key < k; });
+  return it != blocks.end() && it->key == key ? &*it : nullptr;
+}
+
 StatusOr<Eigen::MatrixXd> CeresMarginalCovariance(ceres::Problem* problem,
-                                                  const std::map<Key, KeyedBlock>& blocks_by_key,
+                                                  const KeyedBlocks& blocks_by_key,
                                                   const std::vector<Key>& keys, const char* who) {
   std::vector<const double*> blocks;
   std::vector<int> offsets;
   int n = 0;
   for (Key key : keys) {
-    auto it = blocks_by_key.find(key);
-    if (it == blocks_by_key.end()) {
+    const KeyedBlock* kb = FindKeyedBlock(blocks_by_key, key);
+    if (kb == nullptr) {
       return NotFound(std::string(who) + ": " + KeyToString(key) + " not in the graph");
     }
-    const double* block = it->second.value;
+    const double* block = kb->value;
     if (problem->IsParameterBlockConstant(block)) {
       return FailedPrecondition(std::string(who) + ": " + KeyToString(key) + " is held constant");
     }
@@ -164,78 +178,130 @@ StatusOr<Eigen::MatrixXd> CeresMarginalCovariance(ceres::Problem* problem,
   return out;
 }
 
-StatusOr<std::vector<Eigen::MatrixXd>> KeyedMarginalCovariances(
-    ceres::Problem* problem, const std::map<Key, KeyedBlock>& blocks,
-    const std::vector<std::vector<Key>>& groups, const char* who) {
-  // The graph as a chain: timed states grouped by timestamp, in time order (each timestamp's
-  // keys in key order); the rest static.
-  std::vector<std::pair<double, Key>> timed;
+namespace {
+
+// A keyed block's place in the chain (KeyedMarginalCovariances): its chain state (kStatic:
+// none), tangent offset in it and size, and whether it is held constant (each asked of Ceres
+// once: its lookups dominate on long walks).
+constexpr size_t kStatic = static_cast<size_t>(-1);
+struct ChainPlace {
+  size_t state = kStatic;
+  int offset = 0, size = 0;
+  bool constant = false;
+};
+
+// The graph as a chain: timed blocks grouped by timestamp, in time order (each timestamp's
+// blocks by KeyedBlock::order, then key); the rest static. Fills `place` (by index into `blocks`).
+std::vector<std::vector<double*>> ChainOf(ceres::Problem* problem, const KeyedBlocks& blocks,
+                                          std::vector<ChainPlace>* place,
+                                          std::vector<double*>* statics) {
+  std::vector<std::tuple<double, std::uint64_t, size_t>> timed;  // (t, order, index in blocks)
   timed.reserve(blocks.size());
-  std::vector<double*> statics;
-  for (const auto& [key, b] : blocks) {
-    if (b.t_s) {
-      timed.emplace_back(*b.t_s, key);
+  for (size_t i = 0; i < blocks.size(); ++i) {
+    if (blocks[i].t_s) {
+      timed.emplace_back(*blocks[i].t_s, blocks[i].order, i);
     } else {
-      statics.push_back(b.value);
+      statics->push_back(blocks[i].value);
     }
   }
-  std::stable_sort(timed.begin(), timed.end(),
-                   [](const auto& a, const auto& b) { return a.first < b.first; });
-  // Per timed key: its chain state, tangent offset in it and size, and whether it is held
-  // (each asked of Ceres once: its lookups dominate on long walks).
-  struct Place {
-    size_t group = 0;
-    int offset = 0, size = 0;
-    bool constant = false;
-  };
+  std::sort(timed.begin(), timed.end());
+  place->assign(blocks.size(), ChainPlace{});
   std::vector<std::vector<double*>> chain;
-  std::unordered_map<Key, Place> where;
-  where.reserve(blocks.size());
   for (size_t i = 0; i < timed.size();) {
     size_t j = i;
-    while (j < timed.size() && timed[j].first == timed[i].first) ++j;
+    while (j < timed.size() && std::get<0>(timed[j]) == std::get<0>(timed[i])) ++j;
     std::vector<double*> g;
     g.reserve(j - i);
     int off = 0;
     for (; i < j; ++i) {
-      const Key k = timed[i].second;
-      double* b = blocks.at(k).value;
-      Place p{chain.size(), off, problem->ParameterBlockTangentSize(b),
-              problem->IsParameterBlockConstant(b)};
+      const size_t b = std::get<2>(timed[i]);
+      double* v = blocks[b].value;
+      ChainPlace& p = (*place)[b];
+      p = {chain.size(), off, problem->ParameterBlockTangentSize(v),
+           problem->IsParameterBlockConstant(v)};
       if (!p.constant) off += p.size;
-      where.emplace(k, p);
-      g.push_back(b);
+      g.push_back(v);
     }
     chain.push_back(std::move(g));
   }
-  // Constant states contribute nothing to a group; unknown keys are an error.
-  std::vector<std::vector<Key>> variable(groups.size());
+  return chain;
+}
+
+// A group's joint marginal from its chain state's (`banded`, by chain state): the state's
+// whole marginal itself (moved when no other group needs it) when the group is all of the
+// state's variable blocks in order, else its rows and columns.
+Eigen::MatrixXd GroupMarginal(const std::vector<ChainPlace>& place, const size_t* first,
+                              const size_t* last, const std::vector<int>& uses,
+                              std::vector<Eigen::MatrixXd>* banded) {
+  const size_t state = place[*first].state;
+  Eigen::MatrixXd& full = (*banded)[state];
+  int n = 0;
+  bool whole = true;
+  for (const size_t* b = first; b != last; ++b) {
+    whole = whole && place[*b].offset == n;
+    n += place[*b].size;
+  }
+  if (whole && n == full.rows()) {
+    if (uses[state] == 1) return std::move(full);
+    return full;
+  }
+  Eigen::MatrixXd c(n, n);
+  int r = 0;
+  for (const size_t* bi = first; bi != last; ++bi) {
+    const ChainPlace& pi = place[*bi];
+    int col = 0;
+    for (const size_t* bj = first; bj != last; ++bj) {
+      const ChainPlace& pj = place[*bj];
+      c.block(r, col, pi.size, pj.size) = full.block(pi.offset, pj.offset, pi.size, pj.size);
+      col += pj.size;
+    }
+    r += pi.size;
+  }
+  return c;
+}
+
+}  // namespace
+
+StatusOr<std::vector<Eigen::MatrixXd>> KeyedMarginalCovariances(
+    ceres::Problem* problem, const KeyedBlocks& blocks, const std::vector<std::vector<Key>>& groups,
+    const char* who) {
+  std::vector<ChainPlace> place;
+  std::vector<double*> statics;
+  const std::vector<std::vector<double*>> chain = ChainOf(problem, blocks, &place, &statics);
+  // Each group's variable blocks (constant ones contribute nothing; unknown keys are an
+  // error), group after group: group i is var[begin[i], begin[i + 1]).
+  std::vector<size_t> var, begin;
+  var.reserve(blocks.size());
+  begin.reserve(groups.size() + 1);
   bool usable = true;  // every group within one chain state (one timestamp)
-  for (size_t i = 0; i < groups.size(); ++i) {
-    variable[i].reserve(groups[i].size());
-    for (Key k : groups[i]) {
-      auto it = blocks.find(k);
-      if (it == blocks.end()) {
+  for (const std::vector<Key>& g : groups) {
+    begin.push_back(var.size());
+    for (Key k : g) {
+      const KeyedBlock* kb = FindKeyedBlock(blocks, k);
+      if (kb == nullptr) {
         return NotFound(std::string(who) + ": " + KeyToString(k) + " not in the graph");
       }
-      auto w = where.find(k);
-      if (w == where.end()) {  // a static state: no chain state holds it
-        if (!problem->IsParameterBlockConstant(it->second.value)) {
-          variable[i].push_back(k);
+      const size_t b = static_cast<size_t>(kb - blocks.data());
+      if (place[b].state == kStatic) {
+        if (!problem->IsParameterBlockConstant(kb->value)) {
+          var.push_back(b);
           usable = false;
         }
-      } else if (!w->second.constant) {
-        variable[i].push_back(k);
+      } else if (!place[b].constant) {
+        var.push_back(b);
       }
     }
   }
+  begin.push_back(var.size());
   // Only the chain states of requested groups get their marginals formed.
   std::vector<bool> wanted(chain.size(), false);
-  for (const auto& g : variable) {
-    for (Key k : g) {
-      if (usable && where.at(k).group != where.at(g.front()).group) usable = false;
-    }
-    if (usable && !g.empty()) wanted[where.at(g.front()).group] = true;
+  std::vector<int> uses(chain.size(), 0);
+  for (size_t i = 0; usable && i < groups.size(); ++i) {
+    if (begin[i] == begin[i + 1]) continue;
+    const size_t state = place[var[begin[i]]].state;
+    for (size_t v = begin[i]; v < begin[i + 1]; ++v)
+      usable = usable && place[var[v]].state == state;
+    if (usable) wanted[state] = true, ++uses[state];
   }
   StatusOr<std::vector<Eigen::MatrixXd>> banded = InternalError("not computed");
   if (usable) {
@@ -244,27 +310,18 @@ StatusOr<std::vector<Eigen::MatrixXd>> KeyedMarginalCovariances(
     usable = banded.ok();
   }
   std::vector<Eigen::MatrixXd> out;
-  for (const auto& g : variable) {
-    if (g.empty()) {
+  out.reserve(groups.size());
+  for (size_t i = 0; i < groups.size(); ++i) {
+    if (begin[i] == begin[i + 1]) {
       out.emplace_back(0, 0);
     } else if (!usable) {  // fall back to Ceres, one group at a time
-      WG_ASSIGN_OR_RETURN(Eigen::MatrixXd c, CeresMarginalCovariance(problem, blocks, g, who));
+      std::vector<Key> keys;
+      for (size_t v = begin[i]; v < begin[i + 1]; ++v) keys.push_back(blocks[var[v]].key);
+      WG_ASSIGN_OR_RETURN(Eigen::MatrixXd c, CeresMarginalCovariance(problem, blocks, keys, who));
       out.push_back(std::move(c));
     } else {
-      size_t n = 0;
-      for (Key k : g) n += static_cast<size_t>(where.at(k).size);
-      std::vector<int> idx;
-      idx.reserve(n);
-      for (Key k : g) {
-        const Place& p = where.at(k);
-        for (int i = 0; i < p.size; ++i) idx.push_back(p.offset + i);
-      }
-      const Eigen::MatrixXd& full = (*banded)[where.at(g.front()).group];
-      Eigen::MatrixXd c(idx.size(), idx.size());
-      for (size_t i = 0; i < idx.size(); ++i) {
-        for (size_t j = 0; j < idx.size(); ++j) c(i, j) = full(idx[i], idx[j]);
-      }
-      out.push_back(std::move(c));
+      out.push_back(
+          GroupMarginal(place, var.data() + begin[i], var.data() + begin[i + 1], uses, &*banded));
     }
   }
   return out;
@@ -318,6 +375,7 @@ Status FactorGraph::AddState(GraphState s) {
   }
   State& st = states_[s.key];
   st.spec = std::move(s);
+  st.order = states_.size() - 1;
   problem_->AddParameterBlock(st.spec.value.data(), static_cast<int>(st.spec.value.size()),
                               const_cast<ceres::Manifold*>(st.spec.manifold.get()));
   if (st.spec.constant) problem_->SetParameterBlockConstant(st.spec.value.data());
@@ -416,9 +474,10 @@ StatusOr<SolveSummary> SolveBatch(FactorGraph* graph, const SolverOptions& optio
 
 StatusOr<std::vector<Eigen::MatrixXd>> MarginalCovariances(
     FactorGraph* graph, const std::vector<std::vector<Key>>& groups) {
-  std::map<Key, internal::KeyedBlock> blocks;
-  for (auto& [key, st] : graph->states_) {  // in key order: each goes at the end
-    blocks.emplace_hint(blocks.end(), key, internal::KeyedBlock{st.spec.value.data(), st.spec.t_s});
+  internal::KeyedBlocks blocks;
+  blocks.reserve(graph->states_.size());
+  for (auto& [key, st] : graph->states_) {  // in key order
+    blocks.push_back({key, st.spec.value.data(), st.spec.t_s, st.order});
   }
   return internal::KeyedMarginalCovariances(graph->problem_.get(), blocks, groups, "factor graph");
 }

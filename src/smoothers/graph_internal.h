@@ -4,6 +4,7 @@
 #define WALKGRAPH_SRC_SMOOTHERS_GRAPH_INTERNAL_H_
 
 #include <algorithm>
+#include <cstdint>
 #include <map>
 #include <memory>
 #include <optional>
@@ -55,21 +56,36 @@ std::vector<Key> KeysByTime(const StateMap& states) {
   return keys;
 }
 
-// A keyed parameter block of a problem: its storage and time (none: static).
+// A keyed parameter block of a problem: its key, storage and time (none: static), and its
+// place among the blocks of its time in the chain layout (KeyedMarginalCovariances; ties: key
+// order): the order the states were added. A chain's half-bandwidth, and with it the banded
+// solve's cost, depends on it: the INS states added p, v, q, b_g, b_a span 23 columns per
+// IMU segment, in key order (a, g, q, v, x) 29.
 struct KeyedBlock {
+  Key key = 0;
   double* value = nullptr;
   std::optional<double> t_s;
+  std::uint64_t order = 0;
 };
+// A problem's keyed blocks, sorted by key, each key once (SortKeyedBlocks).
+using KeyedBlocks = std::vector<KeyedBlock>;
+
+// Sorts `blocks` by key (their keys must be distinct).
+void SortKeyedBlocks(KeyedBlocks* blocks);
+
+// The block of `key` in sorted `blocks`, nullptr when there is none.
+const KeyedBlock* FindKeyedBlock(const KeyedBlocks& blocks, Key key);
 
 // Joint marginal covariances of `groups` (see MarginalCovariances in graph.h): the banded chain
-// solve when every group lies at one timestamp, else ceres::Covariance per group.
+// solve when every group lies at one timestamp (the timed blocks by time, then `order`), else
+// ceres::Covariance per group.
 StatusOr<std::vector<Eigen::MatrixXd>> KeyedMarginalCovariances(
-    ceres::Problem* problem, const std::map<Key, KeyedBlock>& blocks,
-    const std::vector<std::vector<Key>>& groups, const char* who);
+    ceres::Problem* problem, const KeyedBlocks& blocks, const std::vector<std::vector<Key>>& groups,
+    const char* who);
 
 // ceres::Covariance (sparse QR) for one group of keys: the fallback, and small queries.
 StatusOr<Eigen::MatrixXd> CeresMarginalCovariance(ceres::Problem* problem,
-                                                  const std::map<Key, KeyedBlock>& blocks,
+                                                  const KeyedBlocks& blocks,
                                                   const std::vector<Key>& keys, const char* who);
 
 // Do the anchors disagree with one walk-wide path loss? `residuals` holds each RSS reading's

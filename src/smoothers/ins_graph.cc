@@ -788,30 +788,36 @@ Key InsPathLossKey(const InsRadioBlocks& radio) {
 
 bool InsPoseCovariances(ceres::Problem* problem, std::vector<InsState>* states,
                         InsRadioBlocks* radio, std::vector<std::optional<Eigen::Matrix3d>>* out) {
-  std::map<Key, internal::KeyedBlock> blocks;
+  internal::KeyedBlocks blocks;
+  blocks.reserve(5 * states->size() + 1);
   std::vector<std::vector<Key>> groups;
+  groups.reserve(states->size());
   for (size_t i = 0; i < states->size(); ++i) {
     InsState& s = (*states)[i];
-    blocks[Symbol('x', i)] = {s.p.data(), s.t_s};
-    blocks[Symbol('v', i)] = {s.v.data(), s.t_s};
-    blocks[Symbol('q', i)] = {s.q.data(), s.t_s};
-    blocks[Symbol('g', i)] = {s.bg.data(), s.t_s};
-    blocks[Symbol('a', i)] = {s.ba.data(), s.t_s};
+    blocks.push_back({Symbol('x', i), s.p.data(), s.t_s, blocks.size()});
+    blocks.push_back({Symbol('v', i), s.v.data(), s.t_s, blocks.size()});
+    blocks.push_back({Symbol('q', i), s.q.data(), s.t_s, blocks.size()});
+    blocks.push_back({Symbol('g', i), s.bg.data(), s.t_s, blocks.size()});
+    blocks.push_back({Symbol('a', i), s.ba.data(), s.t_s, blocks.size()});
     groups.push_back({Symbol('x', i), Symbol('q', i)});
   }
   if (problem->HasParameterBlock(radio->path_loss.data())) {
-    blocks[InsPathLossKey(*radio)] = {radio->path_loss.data(), std::nullopt};
+    blocks.push_back(
+        {InsPathLossKey(*radio), radio->path_loss.data(), std::nullopt, blocks.size()});
   }
   for (auto& [id, v] : radio->anchor_path_loss) {
     if (problem->HasParameterBlock(v.data())) {
-      blocks[Symbol('l', static_cast<uint64_t>(id))] = {v.data(), std::nullopt};
+      blocks.push_back(
+          {Symbol('l', static_cast<uint64_t>(id)), v.data(), std::nullopt, blocks.size()});
     }
   }
   for (auto& [id, bias] : radio->range_bias_m) {
     if (problem->HasParameterBlock(&bias)) {
-      blocks[Symbol('b', static_cast<uint64_t>(id))] = {&bias, std::nullopt};
+      blocks.push_back(
+          {Symbol('b', static_cast<uint64_t>(id)), &bias, std::nullopt, blocks.size()});
     }
   }
+  internal::SortKeyedBlocks(&blocks);  // each key once: the letters differ, ids are unique
   StatusOr<std::vector<Eigen::MatrixXd>> cov =
       internal::KeyedMarginalCovariances(problem, blocks, groups, "fg-ins-batch covariance");
   if (!cov.ok()) return false;

@@ -31,6 +31,7 @@
 #ifndef WALKGRAPH_SMOOTHERS_FIXED_LAG_SMOOTHER_H_
 #define WALKGRAPH_SMOOTHERS_FIXED_LAG_SMOOTHER_H_
 
+#include <cstdint>
 #include <functional>
 #include <map>
 #include <memory>
@@ -145,6 +146,7 @@ class FixedLagSmoother {
     SmootherState spec;
     std::vector<double> value;  // the solver's parameter block (stable address)
     std::set<int> factors;      // ids of factors touching it
+    std::uint64_t order = 0;    // states added before it (marginalized ones included)
   };
   struct Factor {
     SmootherFactor spec;
@@ -159,6 +161,7 @@ class FixedLagSmoother {
   std::map<StateKey, State> states_;
   std::map<int, Factor> factors_;
   int next_factor_id_ = 0;
+  std::uint64_t next_state_order_ = 0;
   std::optional<double> newest_t_;
   std::optional<double> hold_from_s_;
   bool solved_ = false;  // a solve has run: the estimate is (near) optimal

@@ -1,0 +1,160 @@
+// StepGraph's internals shared by step_graph.cc (building the graph, the estimators) and
+// step_graph_factors.cc (its states and factors, node by node). The factors' autodiff (Jet) code
+// is instantiated in step_graph_factors.cc alone, which CMakeLists.txt compiles with room to
+// inline it (WALKGRAPH_JET_UNITS: GCC left the odometry factor's Jet arithmetic as calls, ~2x
+// its instructions, once its unit's inlining budget was spent).
+#ifndef WALKGRAPH_SRC_SMOOTHERS_STEP_GRAPH_IMPL_H_
+#define WALKGRAPH_SRC_SMOOTHERS_STEP_GRAPH_IMPL_H_
+
+#include <algorithm>
+#include <cmath>
+#include <memory>
+#include <optional>
+#include <vector>
+
+#include <ceres/ceres.h>
+#include <ceres/normal_prior.h>
+#include <Eigen/Core>
+
+#include "factors/angle_manifold.h"
+#include "walkgraph/angle.h"
+#include "walkgraph/graph.h"
+#include "walkgraph/smoothers/step_graph.h"
+#include "walkgraph/walk.h"
+
+namespace walkgraph {
+namespace internal {
+
+// σ-whitened Gaussian prior r = diag(1/σ)(x − μ) (Ceres' NormalPrior).
+inline std::unique_ptr<ceres::CostFunction> DiagonalPrior(const Eigen::VectorXd& mean,
+                                                          const Eigen::VectorXd& sigma) {
+  ceres::Matrix A = sigma.cwiseInverse().asDiagonal();
+  return std::make_unique<ceres::NormalPrior>(A, mean);
+}
+
+// The static states' keys (graph.h lists the letters); group: the anchor index or 0.
+inline constexpr StateKey kGyroBiasKey = Symbol('g', 0);
+inline StateKey PathLossKey(int group) { return Symbol('l', static_cast<uint64_t>(group)); }
+inline constexpr StateKey kPathLossMeanKey =
+    Symbol('m', 0);  // hierarchical: the walk's mean (A, η)
+inline StateKey RangeBiasKey(int group) { return Symbol('b', static_cast<uint64_t>(group)); }
+inline StateKey RangeScaleKey(int group) { return Symbol('s', static_cast<uint64_t>(group)); }
+
+}  // namespace internal
+
+struct StepGraph::Impl {
+  // A measurement at one instant, attached to the node(s) around it.
+  struct Reading {
+    enum class Kind { kRss, kRange, kWaypoint };
+    int index = 0;  // into walk.anchors (RSS, range) or walk.waypoints
+    Kind kind = Kind::kRss;
+    double value = 0.0;           // RSS or range
+    int node_a = 0, node_b = -1;  // node_b < 0: at node_a alone
+    double alpha = 0.0;
+  };
+
+  StepGraphOptions o;
+  bool odometry = false;
+  bool radio_only = false;           // no steps: random-walk motion between radio epochs
+  std::vector<Step> steps;           // node k ≥ 1 ends steps[k − 1] (PDR walks)
+  std::vector<bool> bridged;         // node k's step spans an IMU gap (Walk::ImuGaps)
+  std::vector<OdometrySample> odom;  // node k ≥ 1 ends odom[k − 1] (odometry walks)
+  std::vector<Anchor> anchors;
+  std::vector<Waypoint> waypoints;
+  RadioDefaults radio;
+  std::optional<InitialPose> start;
+  std::vector<std::vector<Reading>> readings_at;  // by newest node
+  bool any_rss = false, any_range = false;
+  // Floors: the barometric height of each node above node 0's, the start height, the storey.
+  bool floors = false;
+  std::vector<double> baro_z;
+  double start_z = 0.0, storey_m = kDefaultStoreyHeightM;
+  void MakeHeights(const Walk& walk, const std::vector<double>& node_t);
+  // Staircases: on_stairs[k] for node k's step; with StepGraphOptions::stairs their horizontal
+  // length is a tread. Returns how many steps were given a tread.
+  int MarkStairs(const Walk& walk, const std::vector<double>& node_t);
+  std::vector<int> StairCandidates(const Walk& walk, const std::vector<double>& node_t) const;
+  int stair_steps = 0;
+  std::vector<bool> on_stairs;
+  // σ of the barometric height change over dt (BarometricHeightFactor).
+  double BaroSigma(double dt) const {
+    return std::sqrt(2.0 * o.baro_sigma_m * o.baro_sigma_m + o.baro_drift_m2ps * std::max(dt, 0.0));
+  }
+  // The heights' causal estimate (ChainHeights): the readings' receiver heights; the floor
+  // level each level node is held at (NaN: none).
+  std::vector<double> node_z, floor_level;
+  Status ChainHeights(const std::vector<double>& node_t);
+  // Whether node k's step is a walking step on the level (StepGraphOptions::level_sigma_m).
+  bool LevelStep(int k, double dt) const {
+    return floors && o.level_sigma_m > 0 && !odometry && !radio_only && !bridged[k] &&
+           !on_stairs[k] && dt <= o.max_step_duration_s;
+  }
+  // Anchors with floors: each anchor's height (Walk::AnchorHeightM) and floor.
+  std::vector<double> anchor_z;
+  std::vector<std::optional<int>> anchor_floor;
+  int Floor(double z_m) const { return static_cast<int>(std::lround(z_m / storey_m)); }
+  // A reading's receiver height: its nodes' estimated heights (node_z; the start floor's
+  // height without a barometer).
+  double ReceiverHeight(int node_a, int node_b, double alpha) const {
+    if (!floors) return start_z;
+    const double za = node_z[node_a];
+    return node_b < 0 ? za : (1.0 - alpha) * za + alpha * node_z[node_b];
+  }
+  // An RSS reading of anchor a from a multi-floor walk: the anchor at its height, the receiver
+  // receiver_height_m above its nodes' estimated height, and the reading raised by the floor loss
+  // of the floors in between (the expected RSS lowered by it). Leaves `rss`, `anchor_m`,
+  // `receiver_m` as they are for an anchor without a floor, and for every anchor while the
+  // walk's radio has no floor loss (floor_loss_db 0: the planar model, which its A and η were
+  // fitted for: `fit-path-loss` without --floors).
+  void FloorAware(int a, int node_a, int node_b, double alpha, double sign, double* rss,
+                  Eigen::Vector3d* anchor_m, double* receiver_m) const {
+    if (!anchor_floor[a] || !(radio.path_loss.floor_loss_db > 0.0)) return;
+    const double z = ReceiverHeight(node_a, node_b, alpha);
+    anchor_m->z() = anchor_z[a];
+    *receiver_m += z;  // receiver_height_m above the floor
+    *rss += sign * radio.path_loss.floor_loss_db * std::abs(Floor(z) - *anchor_floor[a]);
+  }
+  std::vector<bool> anchor_has_rss, anchor_has_range;
+  std::shared_ptr<const ceres::Manifold> angle = std::make_shared<AngleManifold>();
+  std::shared_ptr<const ceres::LossFunction> rss_loss, range_loss, mag_loss;
+
+  bool PathLossPerAnchor() const {
+    return o.path_loss == PathLossMode::kPerAnchor || o.path_loss == PathLossMode::kHierarchical;
+  }
+  int PathLossGroup(int anchor) const { return PathLossPerAnchor() ? anchor : 0; }
+  void CheckStartHeading(const Walk& walk, StepGraph* g);
+  Status AddUserFactors(const Walk& walk, const std::vector<double>& node_t);
+  // Build's steps, in order: node times; dead-reckoned initial values; the readings attached
+  // to their nodes; the start placed (radio fixes, alignment or the start check).
+  Status MakeNodes(const Walk& walk, StepGraph* g);
+  void DeadReckon(const Walk& walk, StepGraph* g);
+  Status AttachReadings(const Walk& walk, StepGraph* g);
+  void PlaceStart(const Walk& walk, StepGraph* g);
+  void AddReadingFactors(int k, std::vector<SmootherFactor>* out) const;
+  std::vector<std::vector<GraphFactor>> user_at;  // the user's factors, by newest node
+
+  // Dead reckoning: node k's (p, θ) from node k − 1's by its increment (odometry: move along
+  // the heading, then turn; a step: turn, then move along the new heading; radio-only: stay).
+  Eigen::Vector3d Predict(int k, Eigen::Vector3d x) const {
+    if (odometry) {
+      const OdometrySample& s = odom[k - 1];
+      x.head<2>() += s.dist_m * Eigen::Vector2d(std::cos(x[2]), std::sin(x[2]));
+      x[2] = NormalizeAngle(x[2] + s.dheading_rad);
+    } else if (!radio_only) {
+      const Step& s = steps[k - 1];
+      x[2] = NormalizeAngle(x[2] + s.dheading_rad);
+      x.head<2>() += s.length_m * Eigen::Vector2d(std::cos(x[2]), std::sin(x[2]));
+    }
+    return x;
+  }
+  int RangeBiasGroup(int anchor) const {
+    return o.range_bias == CalibrationScope::kPerAnchor ? anchor : 0;
+  }
+  int RangeScaleGroup(int anchor) const {
+    return o.range_scale == CalibrationScope::kPerAnchor ? anchor : 0;
+  }
+};
+
+}  // namespace walkgraph
+
+#endif  // WALKGRAPH_SRC_SMOOTHERS_STEP_GRAPH_IMPL_H_
