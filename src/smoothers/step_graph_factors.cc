@@ -31,19 +31,26 @@ using internal::RangeScaleKey;
 std::vector<SmootherState> StepGraph::StaticStates() const {
   const Impl& m = *impl_;
   std::vector<SmootherState> out;
-  const PathLossParams& pl = m.radio.path_loss;
-  if (m.any_rss && m.o.rss_residual == RssResidual::kDb) {
+  // One state per calibration group of the anchors with that kind of reading (group: the
+  // anchor index or 0), each starting at `value`.
+  auto per_group = [&](const std::vector<bool>& has, int (Impl::*group)(int) const,
+                       StateKey (*key)(int), std::vector<double> value, bool constant) {
     std::set<int> groups;
     for (size_t a = 0; a < m.anchors.size(); ++a) {
-      if (m.anchor_has_rss[a]) groups.insert(m.PathLossGroup(static_cast<int>(a)));
+      if (has[a]) groups.insert((m.*group)(static_cast<int>(a)));
     }
     for (int gr : groups) {
       SmootherState s;
-      s.key = PathLossKey(gr);
-      s.value = {pl.A_dbm, pl.eta};
-      s.constant = m.o.path_loss == PathLossMode::kFixed;
+      s.key = key(gr);
+      s.value = value;
+      s.constant = constant;
       out.push_back(std::move(s));
     }
+  };
+  const PathLossParams& pl = m.radio.path_loss;
+  if (m.any_rss && m.o.rss_residual == RssResidual::kDb) {
+    per_group(m.anchor_has_rss, &Impl::PathLossGroup, PathLossKey, {pl.A_dbm, pl.eta},
+              m.o.path_loss == PathLossMode::kFixed);
     if (m.o.path_loss == PathLossMode::kHierarchical) {
       SmootherState s;
       s.key = kPathLossMeanKey;
@@ -52,28 +59,10 @@ std::vector<SmootherState> StepGraph::StaticStates() const {
     }
   }
   if (m.any_range) {
-    std::set<int> groups;
-    for (size_t a = 0; a < m.anchors.size(); ++a) {
-      if (m.anchor_has_range[a]) groups.insert(m.RangeBiasGroup(static_cast<int>(a)));
-    }
-    for (int gr : groups) {
-      SmootherState s;
-      s.key = RangeBiasKey(gr);
-      s.value = {0.0};
-      s.constant = m.o.range_bias == CalibrationScope::kNone;
-      out.push_back(std::move(s));
-    }
-    std::set<int> scale_groups;
-    for (size_t a = 0; a < m.anchors.size(); ++a) {
-      if (m.anchor_has_range[a]) scale_groups.insert(m.RangeScaleGroup(static_cast<int>(a)));
-    }
-    for (int gr : scale_groups) {
-      SmootherState s;
-      s.key = RangeScaleKey(gr);
-      s.value = {0.0};
-      s.constant = m.o.range_scale == CalibrationScope::kNone;
-      out.push_back(std::move(s));
-    }
+    per_group(m.anchor_has_range, &Impl::RangeBiasGroup, RangeBiasKey, {0.0},
+              m.o.range_bias == CalibrationScope::kNone);
+    per_group(m.anchor_has_range, &Impl::RangeScaleGroup, RangeScaleKey, {0.0},
+              m.o.range_scale == CalibrationScope::kNone);
   }
   if (!m.odometry && !m.radio_only && m.o.estimate_gyro_bias) {
     SmootherState s;
