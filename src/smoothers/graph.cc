@@ -301,7 +301,10 @@ StatusOr<std::vector<Eigen::MatrixXd>> KeyedMarginalCovariances(
     const size_t state = place[var[begin[i]]].state;
     for (size_t v = begin[i]; v < begin[i + 1]; ++v)
       usable = usable && place[var[v]].state == state;
-    if (usable) wanted[state] = true, ++uses[state];
+    if (usable) {
+      wanted[state] = true;
+      ++uses[state];
+    }
   }
   StatusOr<std::vector<Eigen::MatrixXd>> banded = InternalError("not computed");
   if (usable) {
