@@ -1,13 +1,18 @@
-// src/smoothers/graph.cc's statistics: the anchors' χ² test of one shared path loss
-// (internal::TestAnchorOffsets), on residuals drawn here with known offsets and correlation.
+// src/smoothers/graph.cc: the anchors' χ² test of one shared path loss
+// (internal::TestAnchorOffsets), on residuals drawn here with known offsets and correlation;
+// the marginal covariances of a FactorGraph's key groups (banded chain solve) against
+// ceres::Covariance.
 #include <cmath>
+#include <memory>
 #include <random>
 #include <utility>
 #include <vector>
 
+#include <ceres/autodiff_cost_function.h>
 #include <gtest/gtest.h>
 
 #include "smoothers/graph_internal.h"
+#include "walkgraph/graph.h"
 
 namespace walkgraph {
 namespace {
@@ -78,6 +83,100 @@ TEST(AnchorOffsetTest, FewReadingsAndOutliers) {
   EXPECT_EQ(a.anchors, 10);
   EXPECT_DOUBLE_EQ(a.statistic, b.statistic);
   EXPECT_FALSE(a.disagree);
+}
+
+// r = (x − z) / σ on an N-vector state.
+template <int N>
+struct PriorN {
+  Eigen::Matrix<double, N, 1> z;
+  double sigma;
+  template <typename T>
+  bool operator()(const T* x, T* r) const {
+    for (int i = 0; i < N; ++i) r[i] = (x[i] - z[i]) / sigma;
+    return true;
+  }
+};
+// r = (x_b − x_a − d) / σ between two 2-vectors, and (h_b − h_a − dh) / σ_h between their
+// headings-like 1-vectors; and a tie of state k's two blocks: (x0 + x1 − h − c) / σ.
+struct Between2 {
+  double d0, d1, sigma;
+  template <typename T>
+  bool operator()(const T* a, const T* b, T* r) const {
+    r[0] = (b[0] - a[0] - d0) / sigma;
+    r[1] = (b[1] - a[1] - d1) / sigma;
+    return true;
+  }
+};
+struct Tie {
+  double c, sigma;
+  template <typename T>
+  bool operator()(const T* x, const T* h, T* r) const {
+    r[0] = (x[0] + x[1] - h[0] - c) / sigma;
+    return true;
+  }
+};
+
+// A chain of 5 timestamps, each with a 2-D block x(k) and a 1-D block h(k) (h sorts before x by
+// key; `x_first` adds x first), linked step to step; solved.
+std::unique_ptr<FactorGraph> TwoBlockChain(bool x_first) {
+  auto g = std::make_unique<FactorGraph>();
+  for (int k = 0; k < 5; ++k) {
+    const Key x = Symbol('x', k), h = Symbol('h', k);
+    GraphState sx{x, double(k), {0.0, 0.0}}, sh{h, double(k), {0.0}};
+    EXPECT_TRUE(g->AddState(x_first ? sx : sh).ok());
+    EXPECT_TRUE(g->AddState(x_first ? sh : sx).ok());
+    auto add = [&](ceres::CostFunction* c, std::vector<Key> keys) {
+      EXPECT_TRUE(g->AddFactor({std::shared_ptr<ceres::CostFunction>(c), nullptr, keys}).ok());
+    };
+    add(new ceres::AutoDiffCostFunction<Tie, 1, 2, 1>(new Tie{0.1 * k, 0.5}), {x, h});
+    if (k == 0) {
+      add(new ceres::AutoDiffCostFunction<PriorN<2>, 2, 2>(
+              new PriorN<2>{Eigen::Vector2d(0.2, -0.1), 0.3}),
+          {x});
+      add(new ceres::AutoDiffCostFunction<PriorN<1>, 1, 1>(
+              new PriorN<1>{Eigen::Matrix<double, 1, 1>(0.05), 0.2}),
+          {h});
+    } else {
+      add(new ceres::AutoDiffCostFunction<Between2, 2, 2, 2>(
+              new Between2{1.0, 0.2 * std::sin(k), 0.4}),
+          {Symbol('x', k - 1), x});
+      add(new ceres::AutoDiffCostFunction<PriorN<1>, 1, 1>(
+              new PriorN<1>{Eigen::Matrix<double, 1, 1>(0.1 * k), 0.7}),
+          {h});
+    }
+  }
+  EXPECT_TRUE(SolveBatch(g.get(), SolverOptions()).ok());
+  return g;
+}
+
+// Groups within one timestamp take the banded chain solve; a group across two timestamps sends
+// every group to ceres::Covariance (sparse QR). Both must agree, whatever the layout (the
+// blocks of a timestamp go in the order they were added) and however a group lists its keys:
+// a whole timestamp in layout order, in the other order, one block, one timestamp asked twice.
+TEST(MarginalCovariancesTest, BandedChainAgreesWithCeresForEveryGroupShape) {
+  const std::vector<std::vector<Key>> groups = {{Symbol('x', 1), Symbol('h', 1)},
+                                                {Symbol('h', 2), Symbol('x', 2)},
+                                                {Symbol('x', 3)},
+                                                {Symbol('h', 0)},
+                                                {Symbol('x', 4), Symbol('h', 4)},
+                                                {Symbol('x', 4), Symbol('h', 4)}};
+  std::vector<std::vector<Key>> with_cross = groups;
+  with_cross.push_back({Symbol('x', 0), Symbol('x', 4)});
+  for (bool x_first : {true, false}) {
+    auto g = TwoBlockChain(x_first);
+    auto banded = MarginalCovariances(g.get(), groups);
+    auto ceres = MarginalCovariances(g.get(), with_cross);
+    ASSERT_TRUE(banded.ok() && ceres.ok()) << banded.status().message();
+    for (size_t i = 0; i < groups.size(); ++i) {
+      const Eigen::MatrixXd& a = (*banded)[i];
+      const Eigen::MatrixXd& b = (*ceres)[i];
+      ASSERT_EQ(a.rows(), b.rows()) << i;
+      EXPECT_LT((a - b).cwiseAbs().maxCoeff(), 1e-9 * b.cwiseAbs().maxCoeff())
+          << "group " << i << (x_first ? ", x added first" : ", h added first");
+    }
+    EXPECT_EQ(MarginalCovariances(g.get(), {{Symbol('x', 9)}}).status().code(),
+              StatusCode::kNotFound);
+  }
 }
 
 }  // namespace

@@ -7,7 +7,6 @@
 #include <numeric>
 #include <string>
 #include <tuple>
-#include <unordered_map>
 #include <utility>
 
 #include <ceres/ceres.h>

@@ -5,7 +5,6 @@
 #include <cmath>
 #include <limits>
 #include <map>
-#include <set>
 
 #include <ceres/ceres.h>
 #include <Eigen/Geometry>
