@@ -2,7 +2,9 @@
 
 #include <algorithm>
 #include <limits>
+#include <utility>
 
+#include "util/median.h"
 #include "walkgraph/trajectory.h"
 
 namespace walkgraph {
@@ -75,8 +77,7 @@ double MedianImuIntervalS(const std::vector<ImuSample>& imu) {
   std::vector<double> dt;
   dt.reserve(imu.size() - 1);
   for (size_t i = 1; i < imu.size(); ++i) dt.push_back(imu[i].t_s - imu[i - 1].t_s);
-  std::nth_element(dt.begin(), dt.begin() + static_cast<std::ptrdiff_t>(dt.size() / 2), dt.end());
-  return dt[dt.size() / 2];
+  return internal::Median(std::move(dt));
 }
 
 double ImuGapThresholdS(const std::vector<ImuSample>& imu) {

@@ -1,9 +1,12 @@
 #include "walkgraph/smoothers/ins_graph.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <functional>
 #include <map>
+#include <memory>
 #include <string>
 
 #include <ceres/problem.h>
@@ -14,6 +17,7 @@
 #include "factors/nav_quaternion_manifold.h"
 #include "factors/position_prior_factor.h"
 #include "test_util.h"
+#include "walkgraph/angle.h"
 #include "walkgraph/convert.h"
 #include "walkgraph/estimator.h"
 #include "walkgraph/metrics.h"
@@ -221,36 +225,70 @@ TEST(InsGraphBatch, SegmentFactorsComposeToTheBatchGraph) {
   EXPECT_FALSE(InsSegmentFactors(c, &*states, last, 1).ok());
 }
 
+// A simulated walk with a hole in its IMU stream from begin_s after its start, for length_s;
+// the front end on it, the graph's initial states, their factor context, and the last state
+// before the hole. `edit` changes the walk before the front end runs. Heap-held: the context
+// points into the walk and the front end.
+struct GapSetup {
+  Walk walk;
+  ZuptInsSolution front;
+  std::vector<InsState> states;
+  InsGraphContext context;
+  size_t before = 0;
+  double gap_begin = 0.0, gap_end = 0.0;
+};
+std::unique_ptr<GapSetup> MakeGapSetup(const std::string& scenario, uint64_t seed,
+                                       const std::string& overrides, double begin_s,
+                                       double length_s, const InsGraphOptions& o,
+                                       const std::function<void(Walk*)>& edit = nullptr) {
+  auto w = SimulateScenario(scenario, seed, YAML::Load(overrides));
+  EXPECT_TRUE(w.ok());
+  if (!w.ok()) return nullptr;
+  auto g = std::make_unique<GapSetup>();
+  g->walk = std::move(*w);
+  g->gap_begin = g->walk.StartTime() + begin_s;
+  g->gap_end = g->gap_begin + length_s;
+  std::vector<ImuSample> kept;
+  for (const ImuSample& s : g->walk.imu) {
+    if (s.t_s < g->gap_begin || s.t_s >= g->gap_end) kept.push_back(s);
+  }
+  g->walk.imu = kept;
+  if (edit) edit(&g->walk);
+  auto front = RunZuptIns(g->walk, o.front_end);
+  EXPECT_TRUE(front.ok());
+  if (!front.ok()) return nullptr;
+  g->front = std::move(*front);
+  auto states = InitialInsStates(g->walk, g->front, o);
+  EXPECT_TRUE(states.ok());
+  if (!states.ok()) return nullptr;
+  g->states = std::move(*states);
+  g->context.walk = &g->walk;
+  g->context.still = &g->front.stance.still;
+  g->context.path = &g->front.states;
+  g->context.options = o;
+  g->context.imu_gap_s = ImuGapThresholdS(g->walk.imu);
+  while (g->before + 1 < g->states.size() && g->states[g->before + 1].t_s < g->gap_begin) {
+    ++g->before;
+  }
+  EXPECT_LT(g->before + 1, g->states.size());
+  EXPECT_GE(g->states[g->before + 1].t_s, g->gap_end);
+  return g;
+}
+
 // A reading inside an IMU gap sits between the states around the gap, interpolated by time:
 // the front end's path stands still across a gap, so its progress (the interpolation used
 // elsewhere) would put every reading of the gap onto the state before it. Measured on the 10 s
 // gap of Robustness.FootInsGraphBridgesAnImuGap: fg-ins-window-online 4.19x → 2.25x nominal.
 TEST(InsGraphBatch, ReadingsInAnImuGapAreInterpolatedAcrossIt) {
-  auto w = SimulateScenario("prieto-laps", 9, YAML::Load("{duration_s: 40}"));
-  ASSERT_TRUE(w.ok());
-  const double gap_begin = w->StartTime() + 15.0, gap_end = gap_begin + 6.0;
-  std::vector<ImuSample> kept;
-  for (const ImuSample& s : w->imu) {
-    if (s.t_s < gap_begin || s.t_s >= gap_end) kept.push_back(s);
-  }
-  w->imu = kept;
-  InsGraphOptions o;
-  auto front = RunZuptIns(*w, o.front_end);
-  ASSERT_TRUE(front.ok());
-  auto states = InitialInsStates(*w, *front, o);
-  ASSERT_TRUE(states.ok());
-  InsGraphContext c;
-  c.walk = &*w;
-  c.still = &front->stance.still;
-  c.path = &front->states;
-  c.options = o;
-  c.imu_gap_s = ImuGapThresholdS(w->imu);
-  size_t before = 0;  // the last state before the gap
-  while (before + 1 < states->size() && (*states)[before + 1].t_s < gap_begin) ++before;
-  ASSERT_LT(before + 1, states->size());
-  ASSERT_GE((*states)[before + 1].t_s, gap_end);
+  auto g = MakeGapSetup("prieto-laps", 9, "{duration_s: 40}", 15.0, 6.0, InsGraphOptions());
+  ASSERT_TRUE(g);
+  const Walk* w = &g->walk;
+  const InsGraphContext& c = g->context;
+  std::vector<InsState>* states = &g->states;
+  const size_t before = g->before;
+  const double gap_begin = g->gap_begin, gap_end = g->gap_end;
   InsRadioBlocks radio;
-  auto f = InsRadioFactors(c, &*states, 0, states->size() - 1, &radio);
+  auto f = InsRadioFactors(c, states, 0, states->size() - 1, &radio);
   ASSERT_TRUE(f.ok());
   std::vector<const RssSample*> readings;
   for (const RssSample& r : w->rss) {
@@ -269,6 +307,77 @@ TEST(InsGraphBatch, ReadingsInAnImuGapAreInterpolatedAcrossIt) {
   }
   EXPECT_EQ(next, readings.size());
   EXPECT_GT(inside, 10u);
+}
+
+// Across an IMU gap the segment's factors include the reach bound and, with a magnetometer,
+// the magnetic yaw tie (InsGraphOptions::use_gap_reach, use_gap_magnetometer), learnt from the
+// walk before the gap; a segment without a gap has neither.
+TEST(InsGraphBatch, GapFactorsTieTheStatesEitherSideOfAnImuGap) {
+  auto count = [](const std::vector<InsFactor>& f, InsFactorKind kind) {
+    return std::count_if(f.begin(), f.end(), [kind](const InsFactor& x) { return x.kind == kind; });
+  };
+  // The factors of the segment across the gap; those of the segment before it are the same
+  // less the gap's.
+  auto across_gap = [&count](GapSetup* g) {
+    std::vector<InsState>& s = g->states;
+    auto across = InsBetweenFactors(g->context, &s[g->before], &s[g->before + 1]);
+    auto plain = InsBetweenFactors(g->context, &s[g->before - 1], &s[g->before]);
+    EXPECT_TRUE(across.ok() && plain.ok());
+    EXPECT_EQ(plain->size(), across->size() - count(*across, InsFactorKind::kGapReach) -
+                                 count(*across, InsFactorKind::kGapMagneticHeading));
+    return std::move(*across);
+  };
+  InsGraphOptions o;
+  auto g = MakeGapSetup("jimenez-building", 4, "{duration_s: 80}", 45.0, 10.0, o);
+  ASSERT_TRUE(g);
+  std::vector<InsFactor> f = across_gap(g.get());
+  ASSERT_EQ(count(f, InsFactorKind::kGapReach), 1);
+  ASSERT_EQ(count(f, InsFactorKind::kGapMagneticHeading), 1);
+  InsState a = g->states[g->before], b = g->states[g->before + 1];
+  auto truth_at = [&g](double t) {  // the truth sample at or after t (100 Hz)
+    auto it = std::lower_bound(g->walk.truth.begin(), g->walk.truth.end(), t,
+                               [](const TruthSample& s, double x) { return s.t_s < x; });
+    return it->position_m;
+  };
+  const double truth_chord = (truth_at(b.t_s) - truth_at(a.t_s)).head<2>().norm();
+  for (const InsFactor& x : f) {
+    double r = NAN;
+    if (x.kind == InsFactorKind::kGapReach) {
+      // The walker's own pace: the true chord (a straight leg) is within the reach, three
+      // times it is not.
+      a.p = {0, 0, 0};
+      b.p = {truth_chord, 0, 0};
+      double* blocks[2] = {a.p.data(), b.p.data()};
+      ASSERT_TRUE(x.cost->Evaluate(blocks, &r, nullptr));
+      EXPECT_EQ(r, 0.0) << "chord " << truth_chord;
+      b.p = {0, 3.0 * truth_chord, 0};
+      ASSERT_TRUE(x.cost->Evaluate(blocks, &r, nullptr));
+      EXPECT_GT(r, 3.0);
+    } else if (x.kind == InsFactorKind::kGapMagneticHeading) {
+      // The gap is on a straight leg: the same yaw either side fits (within 3σ); a 90° turn
+      // costs over 5σ (the σ learnt from 35 s of walking: 0.2 rad, measured).
+      b.q = a.q;
+      double* blocks[2] = {a.q.data(), b.q.data()};
+      ASSERT_TRUE(x.cost->Evaluate(blocks, &r, nullptr));
+      EXPECT_LT(std::fabs(r), 3.0);
+      const Eigen::Quaterniond turned =
+          Eigen::Quaterniond(Eigen::AngleAxisd(kPi / 2, Eigen::Vector3d::UnitZ())) * a.attitude();
+      b.q = {turned.x(), turned.y(), turned.z(), turned.w()};
+      ASSERT_TRUE(x.cost->Evaluate(blocks, &r, nullptr));
+      EXPECT_GT(std::fabs(r), 5.0);
+    }
+  }
+  o.use_gap_reach = false;
+  f = across_gap(MakeGapSetup("jimenez-building", 4, "{duration_s: 80}", 45.0, 10.0, o).get());
+  EXPECT_EQ(count(f, InsFactorKind::kGapReach), 0);
+  EXPECT_EQ(count(f, InsFactorKind::kGapMagneticHeading), 1);
+  o.use_gap_reach = true;
+  f = across_gap(
+      MakeGapSetup("jimenez-building", 4, "{duration_s: 80}", 45.0, 10.0, o, [](Walk* w) {
+        for (ImuSample& s : w->imu) s.has_mag = false;
+      }).get());
+  EXPECT_EQ(count(f, InsFactorKind::kGapReach), 1);
+  EXPECT_EQ(count(f, InsFactorKind::kGapMagneticHeading), 0);
 }
 
 TEST(InsGraphBatch, SameInputSameOutputAndEveryNPlacement) {

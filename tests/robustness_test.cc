@@ -174,14 +174,16 @@ TEST(Robustness, FootInsGraphBridgesAnImuGap) {
   for (const auto& [id, r] : FootGapRmse(
            Fault::kImuGap,
            {"fg-ins-batch", "fg-ins-window", "fg-ins-window-online", "jimenez-iez-rss"}, runs)) {
-    // The target is 2x. fg-ins-batch 0.99x and fg-ins-window 1.23x on these seeds (1.12x and
+    // The target is 2x. fg-ins-batch 0.99x and fg-ins-window 1.20x on these seeds (1.12x and
     // 1.70x while the readings of the gap sat on the state before it; 2.82x for the window
     // before it was held open across the gap: InsWindowOptions::gap_hold_max_s). The online
-    // output is not held to it (2.48x; 2.31x before the held solves could iterate to
-    // InsWindowOptions::gap_max_iterations, mean over 8 CLI seeds 2.20x → 2.00x; 4.19x before
-    // the readings were fixed): a causal estimate knows where the walker is after the gap from
-    // the radio alone, and which way they face only some 15 s later.
-    const double bound = id == "fg-ins-window-online" ? 3.0 : 2.0;
+    // output is not held to it: 2.13x (2.48x before the gap's reach bound and magnetic yaw tie,
+    // InsGraphOptions::use_gap_reach / use_gap_magnetometer; 2.31x before the held solves could
+    // iterate to InsWindowOptions::gap_max_iterations; 4.19x before the readings were fixed). A
+    // causal estimate knows where the walker is after the gap from the radio and the walker's
+    // pace, and which way they face from the magnetometer only as well as the building's
+    // field allows.
+    const double bound = id == "fg-ins-window-online" ? 2.5 : 2.0;
     if (!testing::kSanitized) EXPECT_LE(r.second, bound * r.first) << id;
   }
 }
@@ -190,14 +192,15 @@ TEST(Robustness, FootInsGraphBridgesAnImuGap) {
 // before it. With window_max_iterations (10) per held solve they stayed there: here
 // fg-ins-window 13.3x and online 16.7x, unflagged (CLI, 8 seeds, the gap at 43 % / 46 % of
 // the walk: 8.5x / 7.2x and 9.9x / 12.1x). With gap_max_iterations (100): 1.83x and 3.99x
-// here (CLI: 2.06x / 1.99x and 3.9x / 3.7x). fg-ins-batch 1.69x: the truth's corner inside
+// here (CLI: 2.06x / 1.99x and 3.9x / 3.7x); with the magnetic yaw tie across the gap 1.81x
+// and 3.64x (the reach bound is inactive in a turn). fg-ins-batch 1.69x: the truth's corner inside
 // the gap is scored against the line between the states around it (no estimator has a
 // position inside an IMU gap).
 TEST(Robustness, FootInsWindowTurnsAcrossAGapThatHoldsATurn) {
   const int runs = testing::kSanitized ? 1 : 3;
   for (const auto& [id, r] : FootGapRmse(
            Fault::kImuGapInTurn, {"fg-ins-batch", "fg-ins-window", "fg-ins-window-online"}, runs)) {
-    const double bound = id == "fg-ins-window-online" ? 5.0 : 3.0;
+    const double bound = id == "fg-ins-window-online" ? 4.5 : 3.0;
     if (!testing::kSanitized) EXPECT_LE(r.second, bound * r.first) << id;
   }
 }

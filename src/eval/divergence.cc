@@ -7,6 +7,7 @@
 
 #include <Eigen/Eigenvalues>
 
+#include "util/median.h"
 #include "util/text.h"
 
 namespace walkgraph {
@@ -85,12 +86,7 @@ std::optional<Divergence> FirstBadPoint(const Trajectory& trajectory, const Box&
   return std::nullopt;
 }
 
-double Median(std::vector<double> v) {
-  if (v.empty()) return 0.0;
-  auto mid = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
-  std::nth_element(v.begin(), mid, v.end());
-  return *mid;
-}
+using internal::Median;
 
 // The first window of nees_window_s (scored from from_t_s on) in which more than half of the
 // points have a NEES above nees_limit at an error above nees_min_error_m: a median test, so one

@@ -16,8 +16,10 @@
 #include "estimators/builtin.h"
 #include "factors/bias_random_walk_factor.h"
 #include "factors/difference_prior_factor.h"
+#include "factors/gap_reach_factor.h"
 #include "factors/imu_preintegration_factor.h"
 #include "factors/ins_prior_factor.h"
+#include "factors/magnetic_heading_change_factor.h"
 #include "factors/nav_quaternion_manifold.h"
 #include "factors/position_prior_factor.h"
 #include "factors/range_factor.h"
@@ -26,24 +28,24 @@
 #include "factors/zupt_factor.h"
 #include "smoothers/graph_internal.h"
 #include "util/enum_define.h"
+#include "util/median.h"
 #include "walkgraph/angle.h"
 #include "walkgraph/config.h"
 #include "walkgraph/kalman.h"
 
 namespace walkgraph {
 
-WALKGRAPH_DEFINE_ENUM_NAMES(InsFactorKind, "InsFactor kind", {"imu", InsFactorKind::kImu},
-                            {"bias_rw_gyro", InsFactorKind::kBiasRwGyro},
-                            {"bias_rw_acc", InsFactorKind::kBiasRwAcc},
-                            {"zupt", InsFactorKind::kZupt}, {"zaru", InsFactorKind::kZaru},
-                            {"prior", InsFactorKind::kPrior},
-                            {"bias_prior_gyro", InsFactorKind::kBiasPriorGyro},
-                            {"bias_prior_acc", InsFactorKind::kBiasPriorAcc},
-                            {"path_loss_spread", InsFactorKind::kPathLossSpread},
-                            {"path_loss_prior", InsFactorKind::kPathLossPrior},
-                            {"rss", InsFactorKind::kRss}, {"range", InsFactorKind::kRange},
-                            {"range_bias_prior", InsFactorKind::kRangeBiasPrior},
-                            {"waypoint", InsFactorKind::kWaypoint})
+WALKGRAPH_DEFINE_ENUM_NAMES(
+    InsFactorKind, "InsFactor kind", {"imu", InsFactorKind::kImu},
+    {"bias_rw_gyro", InsFactorKind::kBiasRwGyro}, {"bias_rw_acc", InsFactorKind::kBiasRwAcc},
+    {"zupt", InsFactorKind::kZupt}, {"zaru", InsFactorKind::kZaru},
+    {"prior", InsFactorKind::kPrior}, {"bias_prior_gyro", InsFactorKind::kBiasPriorGyro},
+    {"bias_prior_acc", InsFactorKind::kBiasPriorAcc},
+    {"path_loss_spread", InsFactorKind::kPathLossSpread},
+    {"path_loss_prior", InsFactorKind::kPathLossPrior}, {"rss", InsFactorKind::kRss},
+    {"range", InsFactorKind::kRange}, {"range_bias_prior", InsFactorKind::kRangeBiasPrior},
+    {"waypoint", InsFactorKind::kWaypoint}, {"gap_reach", InsFactorKind::kGapReach},
+    {"gap_magnetic_heading", InsFactorKind::kGapMagneticHeading})
 
 namespace {
 
@@ -97,6 +99,10 @@ Status InsGraphOptions::Validate() const {
     return InvalidArgument(
         "fg-ins-batch: A_prior_sigma_db, eta_prior_sigma, A_spread_prior_db and "
         "eta_spread_prior must be > 0, path_loss_anchor_test_z >= 0");
+  }
+  if (!(o.gap_magnetic_min_sigma_rad > 0) || o.gap_min_spans < 2) {
+    return InvalidArgument(
+        "fg-ins-batch: need gap_magnetic_min_sigma_rad > 0 and gap_min_spans >= 2");
   }
   return Status::Ok();
 }
@@ -164,6 +170,16 @@ StatusOr<InsGraphOptions> InsGraphOptionsFromYaml(const YAML::Node& node,
   r.Read("zupt_loss_scale", &o.zupt_loss_scale,
          "scale of the ZUPT loss, in sigma of the whitened residual");
   r.Read("use_zaru", &o.use_zaru, "zero angular-rate updates when the foot is still");
+  r.Read("use_gap_reach", &o.use_gap_reach,
+         "across an IMU gap, bound the distance by how far the walker went in as long before "
+         "it");
+  r.Read("use_gap_magnetometer", &o.use_gap_magnetometer,
+         "across an IMU gap, tie the yaw either side by the magnetometer (sigma learnt from the "
+         "walk)");
+  r.Read("gap_magnetic_min_sigma_rad", &o.gap_magnetic_min_sigma_rad,
+         "floor on the learnt sigma of the gap's magnetic yaw factor");
+  r.Read("gap_min_spans", &o.gap_min_spans,
+         "spans before a gap needed to learn its reach or magnetic sigma (fewer: no factor)");
   r.Read("zaru_sigma_radps", &o.zaru_sigma_radps,
          "ZARU sigma per gyro reading (divided by sqrt of the readings)");
   r.Read("use_bias_prior", &o.use_bias_prior,
@@ -292,6 +308,99 @@ std::vector<InsFactor> InsStateFactors(const InsGraphContext& c, InsState* s) {
   return out;
 }
 
+namespace {
+
+// The last sample at or before IMU sample `index`, within 0.1 s of it, that has a magnetometer
+// reading (at or before: the online output at a state uses no later reading).
+std::optional<size_t> MagnetometerNear(const std::vector<ImuSample>& imu, size_t index) {
+  for (size_t k = index + 1; k-- > 0 && imu[index].t_s - imu[k].t_s <= 0.1;) {
+    if (imu[k].has_mag) return k;
+  }
+  return std::nullopt;
+}
+
+// What the walk before an IMU gap shows of spans as long as the gap's (InsGraphOptions::
+// use_gap_reach, use_gap_magnetometer): on the front end's path, for spans starting every
+// 0.5 s and crossing no earlier gap, the horizontal path length walked (spans of at least
+// 0.1 m/s only: standing does not say how far the walker goes) and the change of the
+// magnetic field's horizontal direction in the navigation frame.
+struct GapHistory {
+  std::vector<double> reach_m;
+  std::vector<double> field_turn_rad;
+};
+
+double FieldDirection(const InsGraphContext& c, size_t k) {
+  const Eigen::Vector3d m = (*c.path)[k].q_nb * c.walk->imu[k].mag_ut;
+  return std::atan2(m.y(), m.x());
+}
+
+GapHistory LearnGapHistory(const InsGraphContext& c, size_t k_end, double span_s) {
+  const std::vector<ImuSample>& imu = c.walk->imu;
+  const std::vector<NavState>& path = *c.path;
+  std::vector<double> arc(k_end + 1, 0.0);  // cumulative horizontal path length
+  std::vector<int> gaps(k_end + 1, 0);      // gaps among the intervals up to each sample
+  for (size_t i = 1; i <= k_end; ++i) {
+    const bool gap = imu[i].t_s - imu[i - 1].t_s > c.imu_gap_s;
+    gaps[i] = gaps[i - 1] + (gap ? 1 : 0);
+    arc[i] = arc[i - 1] + (gap ? 0.0 : (path[i].p_n - path[i - 1].p_n).head<2>().norm());
+  }
+  GapHistory h;
+  double next_t = -std::numeric_limits<double>::infinity();
+  for (size_t i = 0, j = 0; i <= k_end; ++i) {
+    if (imu[i].t_s < next_t) continue;
+    next_t = imu[i].t_s + 0.5;
+    j = std::max(j, i);
+    while (j <= k_end && imu[j].t_s < imu[i].t_s + span_s) ++j;
+    if (j > k_end) break;
+    if (gaps[j] != gaps[i]) continue;
+    const double reach = arc[j] - arc[i];
+    if (reach >= 0.1 * span_s) h.reach_m.push_back(reach);
+    const auto mi = MagnetometerNear(imu, i), mj = MagnetometerNear(imu, j);
+    if (mi && mj) {
+      h.field_turn_rad.push_back(NormalizeAngle(FieldDirection(c, *mj) - FieldDirection(c, *mi)));
+    }
+  }
+  return h;
+}
+
+// The yaw tie and the reach bound across an IMU gap between a and b (see the options).
+std::vector<InsFactor> GapFactors(const InsGraphContext& c, InsState* a, InsState* b) {
+  const InsGraphOptions& o = c.options;
+  const std::vector<ImuSample>& imu = c.walk->imu;
+  std::vector<InsFactor> out;
+  if (!(o.use_gap_reach || o.use_gap_magnetometer) || c.path == nullptr ||
+      c.path->size() != imu.size()) {
+    return out;
+  }
+  const GapHistory h = LearnGapHistory(c, a->imu_index, b->t_s - a->t_s);
+  const size_t enough = static_cast<size_t>(o.gap_min_spans);
+  if (o.use_gap_reach && h.reach_m.size() >= enough) {
+    std::vector<double> r = h.reach_m;
+    std::sort(r.begin(), r.end());
+    const double reach = r[r.size() * 9 / 10], med = internal::Median(r);
+    for (double& x : r) x = std::fabs(x - med);
+    const double sigma = std::max(1.4826 * internal::Median(r), 0.05 * reach + 0.05);
+    out.push_back(MakeFactor(InsFactorKind::kGapReach, GapReachFactor::Create(reach, sigma),
+                             {a->p.data(), b->p.data()}));
+  }
+  const auto ma = MagnetometerNear(imu, a->imu_index), mb = MagnetometerNear(imu, b->imu_index);
+  if (o.use_gap_magnetometer && ma && mb && h.field_turn_rad.size() >= enough) {
+    const double med = internal::Median(h.field_turn_rad);
+    double sum2 = 0.0;
+    for (double x : h.field_turn_rad) sum2 += std::pow(NormalizeAngle(x - med), 2);
+    const double sigma = std::max(std::sqrt(sum2 / static_cast<double>(h.field_turn_rad.size())),
+                                  o.gap_magnetic_min_sigma_rad);
+    out.push_back(
+        MakeFactor(InsFactorKind::kGapMagneticHeading,
+                   MagneticHeadingChangeFactor::Create(imu[*ma].mag_ut, imu[*mb].mag_ut, sigma),
+                   {a->q.data(), b->q.data()}));
+    out.back().loss = internal::MakeLoss(LossKind::kCauchy, 1.0);
+  }
+  return out;
+}
+
+}  // namespace
+
 StatusOr<std::vector<InsFactor>> InsBetweenFactors(const InsGraphContext& c, InsState* a,
                                                    InsState* b) {
   const std::vector<ImuSample>& imu = c.walk->imu;
@@ -301,6 +410,7 @@ StatusOr<std::vector<InsFactor>> InsBetweenFactors(const InsGraphContext& c, Ins
   }
   const Eigen::Vector3d bg = a->gyro_bias(), ba = a->acc_bias();
   ImuPreintegration pim(bg, ba, o.front_end.gyro_noise_radps, o.front_end.acc_noise_mps2);
+  bool spans_gap = false;
   for (size_t k = a->imu_index + 1; k <= b->imu_index; ++k) {
     const double dt = imu[k].t_s - imu[k - 1].t_s;
     if (dt > c.imu_gap_s) {
@@ -315,6 +425,7 @@ StatusOr<std::vector<InsFactor>> InsBetweenFactors(const InsGraphContext& c, Ins
           Eigen::Vector3d::Constant(kImuGapSpeedMps * kImuGapSpeedMps),
           Eigen::Vector3d::Constant(std::pow(kImuGapSpeedMps * dt, 2));
       pim.AddCovariance(q);
+      spans_gap = true;
       continue;
     }
     if (o.front_end.sampling == ImuSampling::kIntervalAverage) {
@@ -340,6 +451,9 @@ StatusOr<std::vector<InsFactor>> InsBetweenFactors(const InsGraphContext& c, Ins
   out.push_back(MakeFactor(InsFactorKind::kBiasRwAcc,
                            BiasRandomWalkFactor::Create(o.front_end.acc_bias_rw_mps2_sqrts, dt),
                            {a->ba.data(), b->ba.data()}));
+  if (spans_gap) {
+    for (InsFactor& f : GapFactors(c, a, b)) out.push_back(std::move(f));
+  }
   if (o.use_zaru && c.still != nullptr && c.still->size() == imu.size()) {
     Eigen::Vector3d sum = Eigen::Vector3d::Zero();
     int m = 0;
