@@ -170,21 +170,18 @@ std::map<std::string, std::pair<double, double>> FootGapRmse(Fault fault,
 }
 
 TEST(Robustness, FootInsGraphBridgesAnImuGap) {
-  const int runs = testing::kSanitized ? 1 : 3;
+  const int runs = testing::kSanitized ? 1 : 8;
   for (const auto& [id, r] : FootGapRmse(
            Fault::kImuGap,
            {"fg-ins-batch", "fg-ins-window", "fg-ins-window-online", "jimenez-iez-rss"}, runs)) {
-    // The target is 2x. fg-ins-batch 0.99x and fg-ins-window 1.20x on these seeds (1.12x and
-    // 1.70x while the readings of the gap sat on the state before it; 2.82x for the window
-    // before it was held open across the gap: InsWindowOptions::gap_hold_max_s). The online
-    // output is not held to it: 2.13x (2.48x before the gap's reach bound and magnetic yaw tie,
-    // InsGraphOptions::use_gap_reach / use_gap_magnetometer; 2.31x before the held solves could
-    // iterate to InsWindowOptions::gap_max_iterations; 4.19x before the readings were fixed). A
-    // causal estimate knows where the walker is after the gap from the radio and the walker's
-    // pace, and which way they face from the magnetometer only as well as the building's
-    // field allows.
-    const double bound = id == "fg-ins-window-online" ? 2.5 : 2.0;
-    if (!testing::kSanitized) EXPECT_LE(r.second, bound * r.first) << id;
+    // The target is 2x, for the online output too. On these 8 seeds fg-ins-batch 1.07x,
+    // fg-ins-window 1.26x, fg-ins-window-online 1.69x; on the first 3 alone (the test's count
+    // until the gap's reach bound and magnetic yaw tie, InsGraphOptions::use_gap_reach /
+    // use_gap_magnetometer) 0.99x, 1.20x and 2.13x (online 2.48x before those factors, 2.31x
+    // before the held solves could iterate to InsWindowOptions::gap_max_iterations, 4.19x
+    // before the readings of the gap were interpolated across it; fg-ins-window 1.70x before
+    // that, 2.82x before it was held open across the gap: InsWindowOptions::gap_hold_max_s).
+    if (!testing::kSanitized) EXPECT_LE(r.second, 2.0 * r.first) << id;
   }
 }
 
