@@ -320,10 +320,12 @@ std::optional<size_t> MagnetometerNear(const std::vector<ImuSample>& imu, size_t
 }
 
 // What the walk before an IMU gap shows of spans as long as the gap's (InsGraphOptions::
-// use_gap_reach, use_gap_magnetometer): on the front end's path, for spans starting every
-// 0.5 s and crossing no earlier gap, the horizontal path length walked (spans of at least
-// 0.1 m/s only: standing does not say how far the walker goes) and the change of the
-// magnetic field's horizontal direction in the navigation frame.
+// use_gap_reach, use_gap_magnetometer): on the front end's path over the kGapHistoryS before
+// the gap, for spans starting every 0.5 s and crossing no earlier gap, the horizontal path
+// length walked (spans of at least 0.1 m/s only: standing does not say how far the walker
+// goes) and the change of the magnetic field's horizontal direction in the navigation frame.
+// The bounded history keeps a walk with many gaps linear in its length (and follows the
+// walker's recent pace).
 struct GapHistory {
   std::vector<double> reach_m;
   std::vector<double> field_turn_rad;
@@ -334,26 +336,32 @@ double FieldDirection(const InsGraphContext& c, size_t k) {
   return std::atan2(m.y(), m.x());
 }
 
+constexpr double kGapHistoryS = 300.0;
+
 GapHistory LearnGapHistory(const InsGraphContext& c, size_t k_end, double span_s) {
   const std::vector<ImuSample>& imu = c.walk->imu;
   const std::vector<NavState>& path = *c.path;
-  std::vector<double> arc(k_end + 1, 0.0);  // cumulative horizontal path length
-  std::vector<int> gaps(k_end + 1, 0);      // gaps among the intervals up to each sample
-  for (size_t i = 1; i <= k_end; ++i) {
+  size_t k0 = k_end;  // the first sample of the history
+  while (k0 > 0 && imu[k_end].t_s - imu[k0 - 1].t_s <= kGapHistoryS) --k0;
+  const size_t n = k_end - k0 + 1;
+  std::vector<double> arc(n, 0.0);  // cumulative horizontal path length from k0
+  std::vector<int> gaps(n, 0);      // gaps among the intervals from k0
+  for (size_t m = 1; m < n; ++m) {
+    const size_t i = k0 + m;
     const bool gap = imu[i].t_s - imu[i - 1].t_s > c.imu_gap_s;
-    gaps[i] = gaps[i - 1] + (gap ? 1 : 0);
-    arc[i] = arc[i - 1] + (gap ? 0.0 : (path[i].p_n - path[i - 1].p_n).head<2>().norm());
+    gaps[m] = gaps[m - 1] + (gap ? 1 : 0);
+    arc[m] = arc[m - 1] + (gap ? 0.0 : (path[i].p_n - path[i - 1].p_n).head<2>().norm());
   }
   GapHistory h;
   double next_t = -std::numeric_limits<double>::infinity();
-  for (size_t i = 0, j = 0; i <= k_end; ++i) {
+  for (size_t i = k0, j = k0; i <= k_end; ++i) {
     if (imu[i].t_s < next_t) continue;
     next_t = imu[i].t_s + 0.5;
     j = std::max(j, i);
     while (j <= k_end && imu[j].t_s < imu[i].t_s + span_s) ++j;
     if (j > k_end) break;
-    if (gaps[j] != gaps[i]) continue;
-    const double reach = arc[j] - arc[i];
+    if (gaps[j - k0] != gaps[i - k0]) continue;
+    const double reach = arc[j - k0] - arc[i - k0];
     if (reach >= 0.1 * span_s) h.reach_m.push_back(reach);
     const auto mi = MagnetometerNear(imu, i), mj = MagnetometerNear(imu, j);
     if (mi && mj) {

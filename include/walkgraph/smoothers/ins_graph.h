@@ -124,8 +124,9 @@ struct InsGraphOptions {
   double zaru_sigma_radps = 0.0055;  // per reading (the gyro white noise); ÷√m for m readings
   // Across an IMU gap the bridge allows any rotation and walking speed (the IMU says nothing
   // there). Two factors tie the states either side with what the walk itself shows, learnt on
-  // the front end's path before the gap (causal, so the window's online output uses them too)
-  // from spans as long as the gap, starting every 0.5 s; none with fewer than gap_min_spans:
+  // the front end's path over the 300 s before the gap (causal, so the window's online output
+  // uses them too) from spans as long as the gap, starting every 0.5 s; none with fewer than
+  // gap_min_spans:
   // - use_gap_reach: the horizontal distance is at most the reach L, the 90th percentile of the
   //   path length walked in those spans (spans of at least 0.1 m/s), one-sided, σ = 1.4826 ·
   //   MAD of those lengths, at least 5 % of L + 0.05 m (factors/gap_reach_factor.h);
