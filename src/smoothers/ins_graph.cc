@@ -385,7 +385,7 @@ std::vector<InsFactor> GapFactors(const InsGraphContext& c, InsState* a, InsStat
   if (o.use_gap_reach && h.reach_m.size() >= enough) {
     std::vector<double> r = h.reach_m;
     std::sort(r.begin(), r.end());
-    const double reach = r[r.size() * 9 / 10], med = internal::Median(r);
+    const double reach = r[r.size() * 9 / 10], med = r[r.size() / 2];  // as internal::Median
     for (double& x : r) x = std::fabs(x - med);
     const double sigma = std::max(1.4826 * internal::Median(r), 0.05 * reach + 0.05);
     out.push_back(MakeFactor(InsFactorKind::kGapReach, GapReachFactor::Create(reach, sigma),

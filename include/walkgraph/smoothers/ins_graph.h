@@ -137,9 +137,8 @@ struct InsGraphOptions {
   //   gap_magnetic_min_sigma_rad, under a Cauchy loss at 1σ.
   // Measured (jimenez-building, 3 laps, a 10-s gap at 40 % of the walk, on a straight leg; mean
   // RMSE over seeds 1-8 against the same walks without the gap, CLI): fg-ins-window-online
-  // 1.76x -> 1.42x, fg-ins-window 1.26x -> 1.24x, fg-ins-batch 1.23x -> 1.22x; the reach
-  // alone (seeds 1-3, an earlier form) took online 2.32x to 1.81x and both to 1.51x. With the
-  // gap in a turn (seeds 1-3) online 4.44x -> 4.24x: the reach bound is inactive there.
+  // 1.76x -> 1.42x, fg-ins-window 1.26x -> 1.24x, fg-ins-batch 1.23x -> 1.22x. With the gap
+  // in a turn (seeds 1-3) online 4.44x -> 4.24x: the reach bound is inactive there.
   // Robustness.FootInsGraphBridgesAnImuGap: its first 3 seeds online 2.48x -> 2.13x; its 8
   // seeds 1.69x.
   bool use_gap_reach = true;
