@@ -12,8 +12,10 @@
 //   Σ ← A Σ Aᵀ + B σ_g² Bᵀ + C σ_a² Cᵀ,                                                (eq. 63)
 //   A = [ΔR_{k,k+1}ᵀ 0 0; −ΔR_k[a]×δt I 0; −½ΔR_k[a]×δt² Iδt I],
 //   B = [J_r(ωδt)δt; 0; 0],  C = [0; ΔR_k δt; ½ΔR_k δt²],
-// a = f̃_k − b̄_a, ω = ω̃_k − b̄_g, J_r the right Jacobian of SO(3). Bias Jacobians, recursively
-// (App. B, eq. 69–70 in their incremental form):
+// a = f̃_k − b̄_a, ω = ω̃_k − b̄_g, J_r the right Jacobian of SO(3). With SetScaleNoise(s_g, s_a)
+// each reading's σ² grows by (s·‖reading‖)²: σ_g,k² = σ_g² + s_g²‖ω̃_k‖², σ_a,k² = σ_a² +
+// s_a²‖f̃_k‖² (our addition, not Forster's: a scale-factor-like error treated as white). Bias
+// Jacobians, recursively (App. B, eq. 69–70 in their incremental form):
 //   ∂Δp/∂b_a += ∂Δv/∂b_a δt − ½ΔR_k δt²,   ∂Δp/∂b_g += ∂Δv/∂b_g δt − ½ΔR_k[a]×∂ΔR/∂b_g δt²,
 //   ∂Δv/∂b_a −= ΔR_k δt,                  ∂Δv/∂b_g −= ΔR_k[a]×∂ΔR/∂b_g δt,
 //   ∂ΔR/∂b_g ← ΔR_{k,k+1}ᵀ ∂ΔR/∂b_g − J_r(ωδt) δt.
@@ -65,6 +67,14 @@ class ImuPreintegration {
         sigma_g2_(gyro_noise_radps * gyro_noise_radps),
         sigma_a2_(acc_noise_mps2 * acc_noise_mps2) {}
 
+  // Scale-factor noise: each reading's σ² gains (s·‖reading‖)², s relative (e.g. 0.01 = 1 %),
+  // for what the white noise leaves out and grows with the motion (scale factor, axis
+  // misalignment, g-sensitivity, vibration at heel strike); treated as white, per reading.
+  void SetScaleNoise(double gyro_scale, double acc_scale) {
+    gyro_scale2_ = gyro_scale * gyro_scale;
+    acc_scale2_ = acc_scale * acc_scale;
+  }
+
   // One interval of length dt with its (average) rate and specific force, body frame.
   void Integrate(double dt, const Eigen::Vector3d& gyro_radps, const Eigen::Vector3d& acc_mps2) {
     const Eigen::Vector3d w = gyro_radps - bg_;
@@ -85,7 +95,9 @@ class ImuPreintegration {
     B.block<3, 3>(0, 0) = jr * dt;
     C.block<3, 3>(3, 0) = dR * dt;
     C.block<3, 3>(6, 0) = 0.5 * dR * dt * dt;
-    cov_ = A * cov_ * A.transpose() + sigma_g2_ * B * B.transpose() + sigma_a2_ * C * C.transpose();
+    const double sg2 = sigma_g2_ + gyro_scale2_ * gyro_radps.squaredNorm();
+    const double sa2 = sigma_a2_ + acc_scale2_ * acc_mps2.squaredNorm();
+    cov_ = A * cov_ * A.transpose() + sg2 * B * B.transpose() + sa2 * C * C.transpose();
     cov_ = 0.5 * (cov_ + cov_.transpose());
     // Bias Jacobians (App. B), before Δv and ΔR move on.
     dp_dba_ += dv_dba_ * dt - 0.5 * dR * dt * dt;
@@ -137,6 +149,7 @@ class ImuPreintegration {
  private:
   Eigen::Vector3d bg_, ba_;
   double sigma_g2_, sigma_a2_;
+  double gyro_scale2_ = 0.0, acc_scale2_ = 0.0;
   double dt_ = 0.0;
   Eigen::Quaterniond dq_ = Eigen::Quaterniond::Identity();
   Eigen::Vector3d dv_ = Eigen::Vector3d::Zero(), dp_ = Eigen::Vector3d::Zero();

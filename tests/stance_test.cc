@@ -197,7 +197,7 @@ TEST(StanceTest, AdaptiveFollowsTheWalksOwnStatistic) {
   // walk's γ.
   for (double window_s : {0.0, 5.0}) {
     StanceOptions o = StrideOptions::DefaultStance();
-    ASSERT_EQ(o.detector, StanceDetector::kAdaptiveGlrt);
+    o.detector = StanceDetector::kAdaptiveGlrt;  // the gait detector's base split
     o.adaptive_window_s = window_s;
     auto m = DetectStance(w, o);
     ASSERT_TRUE(m.ok()) << m.status().ToString();
@@ -217,8 +217,9 @@ TEST(StanceTest, CausalAdaptiveUsesOnlyThePast) {
   for (ImuSample& s : w.imu) {
     for (int k = 0; k < 3; ++k) s.gyro_radps[k] += 0.1 * n01(rng);  // γ far from the fallback
   }
-  const StanceOptions o = StrideOptions().Causal().stance;
+  StanceOptions o = StrideOptions().Causal().stance;
   ASSERT_TRUE(o.adaptive_causal);
+  o.detector = StanceDetector::kAdaptiveGlrt;  // the gait detector: GaitCausalLooksAheadBounded
   auto full = DetectStance(w, o);
   ASSERT_TRUE(full.ok()) << full.status().ToString();
   auto labels = StanceLabelsAtImu(w);
@@ -342,6 +343,195 @@ TEST(StanceTest, PyshoeDefaultsAgainstViconLabels) {
       if (d == StanceDetector::kAdaptiveGlrt) {
         EXPECT_GE(F1(s), kAdaptivePyshoeF1) << trial;
       }
+    }
+  }
+}
+
+// Stance events: the walk's labelled stance runs, runs closer than min_swing_s merged (the Vicon
+// labels of a running stance are broken into 5–50 ms pieces), as [begin, end] times.
+std::vector<std::pair<double, double>> LabelledStances(const Walk& w, double min_swing_s) {
+  std::vector<std::pair<double, double>> events;
+  for (size_t i = 0; i < w.stance_truth.size(); ++i) {
+    if (!w.stance_truth[i].stance) continue;
+    const double t = w.stance_truth[i].t_s;
+    if (!events.empty() && t - events.back().second < min_swing_s) {
+      events.back().second = t;
+    } else {
+      events.push_back({t, t});
+    }
+  }
+  return events;
+}
+
+struct EventScore {
+  double recall = 0.0;         // labelled stances that a ZUPT phase touches (±slack)
+  double precision = 0.0;      // ZUPT phases that touch a labelled stance (±slack)
+  double longest_gap_s = 0.0;  // longest time between consecutive phases
+};
+
+// The front end's stance phases (what the graph puts its ZUPT states on) against the labels.
+EventScore ScorePhases(const Walk& w, const ZuptInsSolution& front, double slack_s) {
+  const auto events = LabelledStances(w, StrideOptions().min_swing_s);
+  auto touches = [&](double a, double b, double c, double d) {
+    return a <= d + slack_s && c <= b + slack_s;
+  };
+  EventScore s;
+  size_t hit = 0, good = 0;
+  for (const auto& [a, b] : events) {
+    for (const StancePhase& p : front.phases) {
+      if (touches(a, b, w.imu[p.begin].t_s, w.imu[p.end].t_s)) {
+        ++hit;
+        break;
+      }
+    }
+  }
+  for (size_t k = 0; k < front.phases.size(); ++k) {
+    const double c = w.imu[front.phases[k].begin].t_s, d = w.imu[front.phases[k].end].t_s;
+    for (const auto& [a, b] : events) {
+      if (touches(a, b, c, d)) {
+        ++good;
+        break;
+      }
+    }
+    if (k > 0) {
+      s.longest_gap_s = std::max(s.longest_gap_s, c - w.imu[front.phases[k - 1].end].t_s);
+    }
+  }
+  s.recall = events.empty() ? 1.0 : static_cast<double>(hit) / static_cast<double>(events.size());
+  s.precision = front.phases.empty()
+                    ? 1.0
+                    : static_cast<double>(good) / static_cast<double>(front.phases.size());
+  return s;
+}
+
+// Issue 40: every detector at its default on all five shared PyShoe trials (two walking, three
+// running), scored as the graph uses them — stance phases against the Vicon stance events. The
+// adaptive split finds almost none of the running stances (their GLRT statistic stays decades
+// above a standstill's); the gait detector (the front end's default) finds them all.
+TEST(StanceTest, EveryDetectorOnEveryPyshoeGait) {
+  const std::string dir = std::string(WALKGRAPH_SHARED_DATASETS) + "/pyshoe_vicon";
+  if (!std::filesystem::exists(dir)) GTEST_SKIP() << dir << " not present";
+  for (const char* trial : {"2017-11-22-11-22-03", "2017-11-22-11-48-35", "2017-11-27-11-11-53",
+                            "2017-11-27-11-13-10", "2017-12-15-18-02-28"}) {
+    auto w = Convert("pyshoe", {dir + "/" + trial + ".csv"});
+    ASSERT_TRUE(w.ok()) << w.status().ToString();
+    const bool running = std::string(trial) > "2017-11-27";
+    for (StanceDetector d : {StanceDetector::kGlrt, StanceDetector::kMv, StanceDetector::kMag,
+                             StanceDetector::kAre, StanceDetector::kMultiCondition,
+                             StanceDetector::kAdaptiveGlrt, StanceDetector::kGaitGlrt}) {
+      StrideOptions o;
+      o.stance.detector = d;
+      auto front = RunZuptIns(*w, o);
+      ASSERT_TRUE(front.ok()) << front.status().ToString();
+      const EventScore s = ScorePhases(*w, *front, 0.05);
+      std::printf(
+          "pyshoe %s %-15s: %3zu phases, event recall %.3f precision %.3f, longest gap "
+          "%.2f s\n",
+          trial, ToString(d), front->phases.size(), s.recall, s.precision, s.longest_gap_s);
+      if (d == StanceDetector::kGaitGlrt) {
+        EXPECT_GE(s.recall, 0.9) << trial;
+        EXPECT_GE(s.precision, 0.95) << trial;
+      }
+      if (d == StanceDetector::kAdaptiveGlrt && running) EXPECT_LT(s.recall, 0.5) << trial;
+    }
+  }
+}
+
+// The gait detector is the front end's default, and on the simulated gaits it finds what the
+// adaptive split finds (their stances are as quiet as walking ones: every cycle minimum falls
+// inside an adaptive run, so the stance samples are the same).
+TEST(StanceTest, GaitOnTheSimulatedGaits) {
+  ASSERT_EQ(StrideOptions().stance.detector, StanceDetector::kGaitGlrt);
+  for (const char* gait : {"walk", "run", "stairs"}) {
+    auto w = SimulateScenario("jimenez-building", 5,
+                              YAML::Load(std::string("{laps: 1, gait: ") + gait + "}"));
+    ASSERT_TRUE(w.ok()) << w.status().ToString();
+    StanceOptions adaptive = StrideOptions().stance;
+    adaptive.detector = StanceDetector::kAdaptiveGlrt;
+    auto a = DetectStance(*w, adaptive);
+    auto g = DetectStance(*w, StrideOptions().stance);
+    ASSERT_TRUE(a.ok() && g.ok());
+    size_t minima = 0, differ = 0;
+    for (size_t i = 0; i < g->stance.size(); ++i) {
+      minima += g->cycle_minimum[i] ? 1 : 0;
+      differ += g->stance[i] != a->stance[i] ? 1 : 0;
+    }
+    std::printf("%s: %zu cycle minima, %zu stance samples differ from the adaptive split\n", gait,
+                minima, differ);
+    EXPECT_GT(minima, 20u) << gait;
+    EXPECT_EQ(differ, 0u) << gait;
+  }
+}
+
+// The causal gait detector looks ahead by at most gait_step_s + gait_half_fraction ·
+// gait_period_max_s (2 s at the defaults): a walk cut at t gets the same stance up to t − 2 s.
+TEST(StanceTest, GaitCausalLooksAheadBounded) {
+  const Walk w = MakeFootWalk(7);
+  const StanceOptions o = StrideOptions().Causal().stance;
+  ASSERT_EQ(o.detector, StanceDetector::kGaitGlrt);
+  auto full = DetectStance(w, o);
+  ASSERT_TRUE(full.ok()) << full.status().ToString();
+  const double lookahead = o.gait_step_s + o.gait_half_fraction * o.gait_period_max_s;
+  for (double cut_s : {4.3, 6.9, 9.5}) {
+    Walk cut = w;
+    cut.imu.erase(std::remove_if(cut.imu.begin(), cut.imu.end(),
+                                 [&](const ImuSample& s) { return s.t_s > cut_s; }),
+                  cut.imu.end());
+    auto part = DetectStance(cut, o);
+    ASSERT_TRUE(part.ok());
+    size_t compared = 0, differ = 0;
+    for (size_t i = 0; i < part->stance.size() && w.imu[i].t_s < cut_s - lookahead; ++i) {
+      ++compared;
+      differ += (part->stance[i] != full->stance[i]) ||
+                (part->cycle_minimum[i] != full->cycle_minimum[i]);
+    }
+    EXPECT_GT(compared, 200u);
+    EXPECT_EQ(differ, 0u) << "cut at " << cut_s << " s";
+  }
+}
+
+// Running: the adaptive split alone marks no stance in a gait whose stance is never as quiet as
+// the standstill (a synthetic run: 0.7 s strides whose "stance" keeps 1 rad/s of roll and 3 m/s²
+// of shock, after a 3 s standstill); the gait detector puts one stance in every stride.
+TEST(StanceTest, GaitFindsEveryStrideOfASyntheticRun) {
+  std::mt19937_64 rng(11);
+  std::normal_distribution<double> n01(0.0, 1.0);
+  Walk w;
+  w.meta.imu_placement = ImuPlacement::kFoot;
+  const double rate = 200.0, period = 0.7;
+  const size_t strides = static_cast<size_t>((23.0 - 3.0) / period) + 1;  // the last one cut
+  for (int i = 0; i < static_cast<int>(23.0 * rate); ++i) {
+    const double t = i / rate;
+    ImuSample s;
+    s.t_s = t;
+    s.acc_mps2 = Eigen::Vector3d(0, 0, 9.81);
+    if (t >= 3.0) {
+      const double u = std::fmod(t - 3.0, period) / period;  // 0..1 through the stride
+      // Roll-through "stance" around u = 0.1, swing elsewhere.
+      const double contact = std::exp(-std::pow((u - 0.1) / 0.05, 2));
+      const double swing = 1.0 - contact;
+      s.acc_mps2 += Eigen::Vector3d(30.0 * swing * std::sin(2 * kPi * u), 0.0,
+                                    20.0 * swing * std::sin(kPi * u) + 3.0 * contact);
+      s.gyro_radps = Eigen::Vector3d(0.0, 8.0 * swing * std::sin(2 * kPi * u) + 1.0, 0.0);
+    }
+    for (int k = 0; k < 3; ++k) {
+      s.acc_mps2[k] += 0.03 * n01(rng);
+      s.gyro_radps[k] += 0.003 * n01(rng);
+    }
+    w.imu.push_back(s);
+  }
+  for (StanceDetector d : {StanceDetector::kAdaptiveGlrt, StanceDetector::kGaitGlrt}) {
+    StrideOptions o;
+    o.stance.detector = d;
+    auto front = RunZuptIns(w, o);
+    ASSERT_TRUE(front.ok()) << front.status().ToString();
+    std::printf("synthetic run, %zu strides: %s %zu stance phases\n", strides, ToString(d),
+                front->phases.size());
+    if (d == StanceDetector::kAdaptiveGlrt) {
+      EXPECT_LT(front->phases.size(), strides / 4);
+    } else {
+      EXPECT_GE(front->phases.size(), strides - 1);
+      EXPECT_LE(front->phases.size(), strides + 2);
     }
   }
 }

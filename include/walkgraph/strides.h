@@ -37,10 +37,12 @@
 #ifndef WALKGRAPH_STRIDES_H_
 #define WALKGRAPH_STRIDES_H_
 
+#include <string>
 #include <vector>
 
 #include <Eigen/Core>
 
+#include "walkgraph/enum_names.h"
 #include "walkgraph/measurements.h"
 #include "walkgraph/stance.h"
 #include "walkgraph/status.h"
@@ -48,6 +50,12 @@
 #include "walkgraph/walk.h"
 
 namespace walkgraph {
+
+// StrideOptions::scale_noise_adaptation: fixed | walk | causal.
+enum class ScaleNoiseAdaptation { kFixed, kWalk, kCausal };
+const EnumNames<ScaleNoiseAdaptation>& ScaleNoiseAdaptationNames();
+const char* ToString(ScaleNoiseAdaptation a);
+StatusOr<ScaleNoiseAdaptation> ScaleNoiseAdaptationFromString(const std::string& name);
 
 struct StrideOptions {
   // Stance detector: the adaptive GLRT (stance.h: γ from the walk's own statistic, α = 0.3),
@@ -79,6 +87,26 @@ struct StrideOptions {
   double gyro_bias_sigma_radps = 0.017453292519943295;  // 1 °/s
   double acc_bias_rw_mps2_sqrts = 1e-4;
   double gyro_bias_rw_radps_sqrts = 1e-4;
+  // Scale-factor noise: each reading's σ² gains (scale_noise·‖reading‖)² (for what the white
+  // noise leaves out and grows with the motion: scale factor, misalignment, g-sensitivity, heel
+  // strike; ImuPreintegration::SetScaleNoise — the foot-INS graph's preintegration takes the
+  // front end's value). Adapted to the walk by default: the NIS of each stance phase's first
+  // ZUPT is the velocity error the swing accumulated against what the model predicted (χ²(3),
+  // median 2.37, when the model holds), so the value is a rung of the ladder 0, 0.002, 0.005,
+  // 0.01, 0.02, 0.05 (from the first rung at or above scale_noise):
+  //   walk:   the least rung whose median first-ZUPT NIS over the walk is at most
+  //           max_median_zupt_nis (else the last), the filter run once per rung tried;
+  //   causal: (Causal(), for zupt-ins and the window) one rung up whenever the median of the
+  //           last 5 first-ZUPT NIS at the current rung exceeds it — the value at a sample
+  //           depends on the past only;
+  //   fixed:  scale_noise as given.
+  // Measured (issue 40): the median first-ZUPT NIS without scale noise is 0.16–0.37 on the
+  // simulated foot presets (walk, run, stairs: the rung stays 0), 12–14 on the two walking
+  // PyShoe trials and 150–290 on the three running ones (their heel strikes reach 8–9 g);
+  // 10 gives 0.005 walking and 0.02–0.05 running there.
+  double scale_noise = 0.0;
+  ScaleNoiseAdaptation scale_noise_adaptation = ScaleNoiseAdaptation::kWalk;
+  double max_median_zupt_nis = 10.0;
   // Pseudo-measurements: OpenShoe's ZUPT σ 0.01 m/s; ZARU σ = the gyro's white noise.
   double zupt_sigma_mps = 0.01;
   double zaru_sigma_radps = 0.0055;
@@ -127,6 +155,8 @@ struct ZuptInsSolution {
   size_t reference_index = 0;      // IMU index where the first stride starts
   // Per stride: Cov of (d_x, d_y, dheading) from the filter (floored σ not applied).
   std::vector<Eigen::Matrix3d> stride_increment_covariance;
+  std::vector<double> scale_noise;     // per IMU sample, StrideOptions::scale_noise as adapted
+  std::vector<double> first_zupt_nis;  // NIS of each stance phase's first ZUPT
 };
 
 // Runs the ZUPT-aided INS over a foot-mounted walk's IMU.

@@ -2,8 +2,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iterator>
 
 #include "config/parsers.h"
+#include "util/enum_define.h"
+#include "util/median.h"
 #include "walkgraph/angle.h"
 #include "walkgraph/config.h"
 #include "walkgraph/kalman.h"
@@ -11,10 +14,27 @@
 
 namespace walkgraph {
 
+WALKGRAPH_DEFINE_ENUM_NAMES(ScaleNoiseAdaptation, "scale_noise_adaptation",
+                            {"fixed", ScaleNoiseAdaptation::kFixed},
+                            {"walk", ScaleNoiseAdaptation::kWalk},
+                            {"causal", ScaleNoiseAdaptation::kCausal})
+
 namespace {
 
 // Error-state layout.
 constexpr int kP = 0, kV = 3, kTh = 6, kBa = 9, kBg = 12, kN = 15;
+
+// The scale noise's values (strides.h), and how many first ZUPTs the causal adaptation weighs.
+constexpr double kScaleNoiseLadder[] = {0.0, 0.002, 0.005, 0.01, 0.02, 0.05};
+constexpr size_t kCausalNisCount = 5;
+constexpr size_t kBankStances = 10;
+
+// The ladder's first rung at or above `s` (the last rung when none is).
+size_t LadderRung(double s) {
+  size_t r = 0;
+  while (r + 1 < std::size(kScaleNoiseLadder) && kScaleNoiseLadder[r] < s) ++r;
+  return r;
+}
 
 // Yaw of a body-to-ENU rotation: the ENU angle of the body x axis on the horizontal.
 double Yaw(const Eigen::Quaterniond& q) {
@@ -34,19 +54,25 @@ Eigen::Quaterniond LevelledAttitude(const Eigen::Vector3d& f, double yaw) {
 
 // Stance runs → phases: drop runs shorter than min_stance_s, merge runs whose gap is shorter
 // than min_swing_s. `zupt` marks the samples of the kept runs.
-std::vector<StancePhase> StancePhases(const std::vector<ImuSample>& imu,
-                                      const std::vector<bool>& stance, const StrideOptions& o,
-                                      std::vector<bool>* zupt) {
+std::vector<StancePhase> StancePhases(const std::vector<ImuSample>& imu, const StanceMask& mask,
+                                      const StrideOptions& o, std::vector<bool>* zupt) {
   std::vector<StancePhase> runs;
+  const std::vector<bool>& stance = mask.stance;
   const size_t n = stance.size();
+  const bool cycles = mask.cycle_minimum.size() == n;
   for (size_t i = 0; i < n;) {
     if (!stance[i]) {
       ++i;
       continue;
     }
     size_t j = i;
-    while (j + 1 < n && stance[j + 1]) ++j;
-    if (imu[j].t_s - imu[i].t_s >= o.min_stance_s) runs.push_back({i, j});
+    bool cycle_minimum = cycles && mask.cycle_minimum[i];
+    while (j + 1 < n && stance[j + 1]) {
+      ++j;
+      cycle_minimum = cycle_minimum || (cycles && mask.cycle_minimum[j]);
+    }
+    // A gait cycle's stance is kept however short (a running foot is still for milliseconds).
+    if (cycle_minimum || imu[j].t_s - imu[i].t_s >= o.min_stance_s) runs.push_back({i, j});
     i = j + 1;
   }
   zupt->assign(n, false);
@@ -63,14 +89,18 @@ std::vector<StancePhase> StancePhases(const std::vector<ImuSample>& imu,
 }
 
 Status CheckOptions(const StrideOptions& o) {
+  WG_RETURN_IF_ERROR(CheckEnumOption(ScaleNoiseAdaptationNames(), o.scale_noise_adaptation,
+                                     "scale_noise_adaptation", "strides"));
   if (!(o.gravity_mps2 > 0) || !(o.acc_noise_mps2 > 0) || !(o.gyro_noise_radps > 0) ||
       o.acc_bias_sigma_mps2 < 0 || o.gyro_bias_sigma_radps < 0 || o.acc_bias_rw_mps2_sqrts < 0 ||
       o.gyro_bias_rw_radps_sqrts < 0 || !(o.zupt_sigma_mps > 0) || !(o.zaru_sigma_radps > 0) ||
       o.tilt_sigma_rad < 0 || o.min_stance_s < 0 || o.min_swing_s < 0 || o.min_sigma_length_m < 0 ||
+      !(o.scale_noise >= 0 && o.scale_noise < 1) || !(o.max_median_zupt_nis > 0) ||
       o.min_sigma_heading_rad < 0 || o.min_sigma_dheading_rad < 0) {
     return InvalidArgument(
-        "strides: need gravity, white noises and pseudo-measurement sigmas > 0, every other "
-        "sigma and duration >= 0");
+        "strides: need gravity, white noises, pseudo-measurement sigmas and max_median_zupt_nis > "
+        "0, "
+        "scale_noise in [0, 1), every other sigma and duration >= 0");
   }
   return Status::Ok();
 }
@@ -195,11 +225,12 @@ Eigen::MatrixXd InitialCovariance(const StrideOptions& o) {
 // and bias-corrected specific force f_b before the step. An IMU gap longer than max_dt_s is held
 // by StrapdownStep: the walker went anywhere within walking speed (kImuGapSpeedMps × dt per
 // axis), at any speed and heading.
-void ErrorTransition(const Eigen::Matrix3d& R, const Eigen::Vector3d& f_b, double dt,
-                     double max_dt_s, const StrideOptions& o, Eigen::MatrixXd* F,
-                     Eigen::MatrixXd* Q) {
-  const double sa2 = o.acc_noise_mps2 * o.acc_noise_mps2;
-  const double sg2 = o.gyro_noise_radps * o.gyro_noise_radps;
+void ErrorTransition(const Eigen::Matrix3d& R, const Eigen::Vector3d& f_b, double w_norm, double dt,
+                     double max_dt_s, const StrideOptions& o, double scale_noise,
+                     Eigen::MatrixXd* F, Eigen::MatrixXd* Q) {
+  const double s2 = scale_noise * scale_noise;
+  const double sa2 = o.acc_noise_mps2 * o.acc_noise_mps2 + s2 * f_b.squaredNorm();
+  const double sg2 = o.gyro_noise_radps * o.gyro_noise_radps + s2 * w_norm * w_norm;
   const Eigen::Matrix3d fx = Skew(R * f_b);
   F->setIdentity();
   F->block<3, 3>(kP, kV) = Eigen::Matrix3d::Identity() * dt;
@@ -271,13 +302,16 @@ Step MakeStride(double t_s, double t_ref, const Eigen::Vector2d& d, double yaw, 
 
 StanceOptions StrideOptions::DefaultStance() {
   StanceOptions s;
-  s.detector = StanceDetector::kAdaptiveGlrt;
+  s.detector = StanceDetector::kGaitGlrt;
   s.glrt_threshold = 3e3;  // the adaptive detector's fallback (and the fixed GLRT's γ)
   return s;
 }
 
 StrideOptions StrideOptions::Causal() const {
   StrideOptions o = *this;
+  if (o.scale_noise_adaptation == ScaleNoiseAdaptation::kWalk) {
+    o.scale_noise_adaptation = ScaleNoiseAdaptation::kCausal;
+  }
   o.stance.adaptive_causal = true;
   o.stance.adaptive_window_s = 60.0;
   return o;
@@ -308,6 +342,14 @@ StatusOr<StrideOptions> StrideOptionsFromYaml(const YAML::Node& node, const Stri
          "accelerometer bias random walk per sqrt(s) (no paper value)");
   r.Read("gyro_bias_rw_radps_sqrts", &o.gyro_bias_rw_radps_sqrts,
          "gyro bias random walk per sqrt(s) (no paper value)");
+  r.Read("scale_noise", &o.scale_noise,
+         "scale-factor noise: each reading's sigma grows by this fraction of its norm (the least "
+         "value tried when adapted)");
+  r.ReadEnum("scale_noise_adaptation", &o.scale_noise_adaptation, ScaleNoiseAdaptationNames(),
+             "scale_noise as given (fixed), or the least whose first-ZUPT NIS is plausible over "
+             "the walk (walk) or, stepping up, over the last stances (causal)");
+  r.Read("max_median_zupt_nis", &o.max_median_zupt_nis,
+         "adapted scale noise: largest median NIS of the stances' first ZUPTs");
   r.Read("zupt_sigma_mps", &o.zupt_sigma_mps, "ZUPT std-dev per axis (OpenShoe)");
   r.Read("zaru_sigma_radps", &o.zaru_sigma_radps, "ZARU std-dev per axis (the gyro's white noise)");
   r.Read("use_zaru", &o.use_zaru, "zero angular-rate updates when still");
@@ -334,18 +376,32 @@ Status StrideOptions::Validate() const { return CheckOptions(*this); }
 namespace {
 
 // The running filter: nominal state, biases and the error covariance. Each update of the error
-// state is injected into the nominal state at once (the error resets).
+// state is injected into the nominal state at once (the error resets). While the causal
+// adaptation has not settled, `bank` holds the covariance at every rung of the ladder: the same
+// transitions and updates with each rung's process noise (the mean follows P's gains), so that
+// each first ZUPT's NIS is known at every rung.
 struct ZuptInsFilter {
   NavState x;
   Eigen::Vector3d ba = Eigen::Vector3d::Zero(), bg = Eigen::Vector3d::Zero();
   Eigen::MatrixXd P;
   Eigen::MatrixXd F = Eigen::MatrixXd::Identity(kN, kN), Q = Eigen::MatrixXd::Zero(kN, kN);
+  double scale_noise = 0.0;  // StrideOptions::scale_noise as adapted for the walk
+  std::vector<Eigen::MatrixXd> bank;
 
-  Status Update(const Eigen::VectorXd& innovation, const Eigen::MatrixXd& H, double sigma) {
+  // The update's NIS goes to *nis, the bank's (per rung) to *bank_nis, when given.
+  Status Update(const Eigen::VectorXd& innovation, const Eigen::MatrixXd& H, double sigma,
+                double* nis = nullptr, std::vector<double>* bank_nis = nullptr) {
     Eigen::VectorXd dx = Eigen::VectorXd::Zero(kN);
     const Eigen::MatrixXd R =
         Eigen::MatrixXd::Identity(innovation.size(), innovation.size()) * (sigma * sigma);
-    WG_RETURN_IF_ERROR(KalmanUpdate(innovation, H, R, 0.0, &dx, &P).status());
+    if (bank_nis != nullptr) bank_nis->clear();
+    for (Eigen::MatrixXd& Pr : bank) {
+      Eigen::VectorXd dx_r = Eigen::VectorXd::Zero(kN);
+      WG_ASSIGN_OR_RETURN(const UpdateOutcome o, KalmanUpdate(innovation, H, R, 0.0, &dx_r, &Pr));
+      if (bank_nis != nullptr) bank_nis->push_back(o.nis);
+    }
+    WG_ASSIGN_OR_RETURN(const UpdateOutcome outcome, KalmanUpdate(innovation, H, R, 0.0, &dx, &P));
+    if (nis != nullptr) *nis = outcome.nis;
     x.p_n += dx.segment<3>(kP);
     x.v_n += dx.segment<3>(kV);
     x.q_nb = (QuaternionExp(dx.segment<3>(kTh)) * x.q_nb).normalized();
@@ -362,7 +418,13 @@ struct ZuptInsFilter {
     const Eigen::Vector3d f_b = o.sampling == ImuSampling::kIntervalAverage
                                     ? Eigen::Vector3d(cur.acc_mps2 - ba)
                                     : Eigen::Vector3d(0.5 * (prev.acc_mps2 + cur.acc_mps2) - ba);
-    ErrorTransition(R, f_b, dt, sd->max_dt_s, o, &F, &Q);
+    const double w_norm = cur.gyro_radps.norm();
+    for (size_t r = 0; r < bank.size(); ++r) {
+      ErrorTransition(R, f_b, w_norm, dt, sd->max_dt_s, o, kScaleNoiseLadder[r], &F, &Q);
+      bank[r] = F * bank[r] * F.transpose() + Q;
+      Symmetrize(&bank[r]);
+    }
+    ErrorTransition(R, f_b, w_norm, dt, sd->max_dt_s, o, scale_noise, &F, &Q);
     sd->acc_bias_mps2 = ba;
     sd->gyro_bias_radps = bg;
     x = StrapdownStep(x, prev, cur, *sd);
@@ -400,6 +462,7 @@ class StrideEmitter {
     yaw_ref_ = Yaw(f->x.q_nb);
     t_ref_ = imu_[k].t_s;
     ResetStrideRows(&f->P);
+    for (Eigen::MatrixXd& Pr : f->bank) ResetStrideRows(&Pr);
   }
 
  private:
@@ -414,11 +477,13 @@ class StrideEmitter {
 // whose output is the sample's record in the solution, then the stride reset or emission.
 class ZuptInsModel final : public ErrorStateModel {
  public:
-  ZuptInsModel(const std::vector<ImuSample>& imu, const StrideOptions& o, bool zaru,
+  ZuptInsModel(const std::vector<ImuSample>& imu, const StrideOptions& o, bool zaru, size_t rung,
                ZuptInsFilter f, StrapdownOptions sd, StrideEmitter strides, ZuptInsSolution* out)
       : imu_(imu),
         o_(o),
         zaru_(zaru),
+        first_rung_(rung),
+        rung_(rung),
         f_(std::move(f)),
         sd_(sd),
         strides_(std::move(strides)),
@@ -437,7 +502,13 @@ class ZuptInsModel final : public ErrorStateModel {
 
   // ZUPT in the kept stance runs, ZARU when still.
   Status Update(size_t k) override {
-    if (out_.zupt[k]) WG_RETURN_IF_ERROR(f_.Update(-f_.x.v_n, H_zupt_, o_.zupt_sigma_mps));
+    if (out_.zupt[k]) {
+      // The first ZUPT of a stance phase tests the swing's propagation (its NIS).
+      double nis = 0.0;
+      std::vector<double> bank_nis;
+      WG_RETURN_IF_ERROR(f_.Update(-f_.x.v_n, H_zupt_, o_.zupt_sigma_mps, &nis, &bank_nis));
+      if (k > 0 && !out_.zupt[k - 1]) FirstZupt(nis, bank_nis);
+    }
     if (zaru_ && out_.stance.still[k]) {
       WG_RETURN_IF_ERROR(f_.Update(imu_[k].gyro_radps - f_.bg, H_zaru_, o_.zaru_sigma_radps));
     }
@@ -445,6 +516,7 @@ class ZuptInsModel final : public ErrorStateModel {
   }
 
   void Output(size_t k, std::vector<TrajectoryPoint>*) override {
+    out_.scale_noise[k] = f_.scale_noise;
     out_.states[k] = f_.x;
     out_.acc_bias_mps2[k] = f_.ba;
     out_.gyro_bias_radps[k] = f_.bg;
@@ -453,9 +525,41 @@ class ZuptInsModel final : public ErrorStateModel {
   }
 
  private:
+  // Records a first-ZUPT NIS. Causal adaptation: at each of the first kBankStances first ZUPTs,
+  // the least rung whose median NIS over them so far is at most max_median_zupt_nis (from the
+  // bank); after them, one rung up whenever the median of the last kCausalNisCount exceeds it.
+  void FirstZupt(double nis, const std::vector<double>& bank_nis) {
+    out_.first_zupt_nis.push_back(nis);
+    if (o_.scale_noise_adaptation != ScaleNoiseAdaptation::kCausal) return;
+    if (!f_.bank.empty()) {
+      bank_nis_.resize(bank_nis.size());
+      for (size_t r = 0; r < bank_nis.size(); ++r) bank_nis_[r].push_back(bank_nis[r]);
+      rung_ = first_rung_;
+      while (rung_ + 1 < bank_nis_.size() &&
+             internal::Median(bank_nis_[rung_]) > o_.max_median_zupt_nis) {
+        ++rung_;
+      }
+      f_.P = f_.bank[rung_];
+      f_.scale_noise = kScaleNoiseLadder[rung_];
+      if (bank_nis_[0].size() >= kBankStances) f_.bank.clear();
+      return;
+    }
+    recent_nis_.push_back(nis);
+    if (recent_nis_.size() < kCausalNisCount) return;
+    const double median = internal::Median(recent_nis_);
+    recent_nis_.erase(recent_nis_.begin());
+    if (median <= o_.max_median_zupt_nis || rung_ + 1 >= std::size(kScaleNoiseLadder)) return;
+    f_.scale_noise = kScaleNoiseLadder[++rung_];
+    recent_nis_.clear();
+  }
+
   const std::vector<ImuSample>& imu_;
   const StrideOptions& o_;
   const bool zaru_;
+  size_t first_rung_ = 0;  // the rung of StrideOptions::scale_noise
+  size_t rung_ = 0;        // causal adaptation: index of f_.scale_noise in kScaleNoiseLadder
+  std::vector<std::vector<double>> bank_nis_;  // per rung, the first ZUPTs' NIS so far
+  std::vector<double> recent_nis_;
   ZuptInsFilter f_;
   StrapdownOptions sd_;
   StrideEmitter strides_;
@@ -465,15 +569,19 @@ class ZuptInsModel final : public ErrorStateModel {
 
 }  // namespace
 
-StatusOr<ZuptInsSolution> RunZuptIns(const Walk& walk, const StrideOptions& o) {
-  WG_RETURN_IF_ERROR(CheckOptions(o));
-  WG_RETURN_IF_ERROR(CheckImu(walk));
+namespace {
+
+// The ZUPT-aided INS with the given stance, gyro bias and scale noise (its rung of the ladder,
+// or a value of the user's off it with kFixed).
+StatusOr<ZuptInsSolution> RunZuptInsWith(const Walk& walk, const StrideOptions& o,
+                                         const StanceMask& stance, const Eigen::Vector3d& bg0,
+                                         size_t rung, double scale_noise) {
   const std::vector<ImuSample>& imu = walk.imu;
   const size_t n = imu.size();
   ZuptInsSolution out;
-  Eigen::Vector3d bg0;
-  WG_ASSIGN_OR_RETURN(out.stance, StanceWithGyroBias(walk, o, &bg0));
-  out.phases = StancePhases(imu, out.stance.stance, o, &out.zupt);
+  out.stance = stance;
+  out.scale_noise.assign(n, scale_noise);
+  out.phases = StancePhases(imu, out.stance, o, &out.zupt);
   const bool zaru = o.use_zaru && out.stance.still.size() == n;
 
   // Reference: the end of a stance phase the walk starts in, else the first sample.
@@ -491,7 +599,11 @@ StatusOr<ZuptInsSolution> RunZuptIns(const Walk& walk, const StrideOptions& o) {
   f.x.q_nb = LevelledAttitude(f_mean, pose0 ? pose0->heading_rad : 0.0);
   if (pose0) f.x.p_n = Eigen::Vector3d(pose0->x_m, pose0->y_m, 0.0);
   f.bg = bg0;
+  f.scale_noise = scale_noise;
   f.P = InitialCovariance(o);
+  if (o.scale_noise_adaptation == ScaleNoiseAdaptation::kCausal) {
+    f.bank.assign(std::size(kScaleNoiseLadder), f.P);
+  }
 
   StrapdownOptions sd;
   sd.gravity_mps2 = o.gravity_mps2;
@@ -507,10 +619,35 @@ StatusOr<ZuptInsSolution> RunZuptIns(const Walk& walk, const StrideOptions& o) {
   // At each sample (the first without a prediction): ZUPT and ZARU, the sample's record, then
   // the stride reset or emission.
   StrideEmitter strides(imu, o, first_phase, pose0, f.x);
-  ZuptInsModel model(imu, o, zaru, std::move(f), sd, std::move(strides), &out);
+  ZuptInsModel model(imu, o, zaru, rung, std::move(f), sd, std::move(strides), &out);
   std::vector<TrajectoryPoint> none;  // the output epochs are recorded in `out`
   WG_RETURN_IF_ERROR(RunErrorStateFilter(&model, ErrorStateRunOptions(), &none));
   return out;
+}
+
+}  // namespace
+
+StatusOr<ZuptInsSolution> RunZuptIns(const Walk& walk, const StrideOptions& o) {
+  WG_RETURN_IF_ERROR(CheckOptions(o));
+  WG_RETURN_IF_ERROR(CheckImu(walk));
+  Eigen::Vector3d bg0;
+  WG_ASSIGN_OR_RETURN(const StanceMask stance, StanceWithGyroBias(walk, o, &bg0));
+  size_t rung = LadderRung(o.scale_noise);
+  if (o.scale_noise_adaptation != ScaleNoiseAdaptation::kWalk) {
+    const double s = o.scale_noise_adaptation == ScaleNoiseAdaptation::kFixed
+                         ? o.scale_noise
+                         : kScaleNoiseLadder[rung];
+    return RunZuptInsWith(walk, o, stance, bg0, rung, s);
+  }
+  // The least rung whose first-ZUPT NIS is plausible over the whole walk (see strides.h).
+  for (;; ++rung) {
+    WG_ASSIGN_OR_RETURN(ZuptInsSolution sol,
+                        RunZuptInsWith(walk, o, stance, bg0, rung, kScaleNoiseLadder[rung]));
+    if (internal::Median(sol.first_zupt_nis) <= o.max_median_zupt_nis ||
+        rung + 1 == std::size(kScaleNoiseLadder)) {
+      return sol;
+    }
+  }
 }
 
 StatusOr<StepSequence> ComputeStrides(const Walk& walk, const StrideOptions& options) {

@@ -418,6 +418,10 @@ StatusOr<std::vector<InsFactor>> InsBetweenFactors(const InsGraphContext& c, Ins
   }
   const Eigen::Vector3d bg = a->gyro_bias(), ba = a->acc_bias();
   ImuPreintegration pim(bg, ba, o.front_end.gyro_noise_radps, o.front_end.acc_noise_mps2);
+  const double scale_noise = c.scale_noise != nullptr && a->imu_index < c.scale_noise->size()
+                                 ? (*c.scale_noise)[a->imu_index]
+                                 : 0.0;
+  pim.SetScaleNoise(scale_noise, scale_noise);
   bool spans_gap = false;
   for (size_t k = a->imu_index + 1; k <= b->imu_index; ++k) {
     const double dt = imu[k].t_s - imu[k - 1].t_s;
@@ -1080,6 +1084,7 @@ StatusOr<EstimateResult> InsGraphBatch::Run(const Walk& walk) const {
   context.walk = &walk;
   context.imu_gap_s = ImuGapThresholdS(walk.imu);
   context.still = &front.stance.still;
+  context.scale_noise = &front.scale_noise;
   context.path = &front.states;
   context.options = o;
   WG_ASSIGN_OR_RETURN(const std::vector<std::vector<GraphFactor>> user,

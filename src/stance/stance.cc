@@ -18,7 +18,13 @@ const std::vector<std::pair<std::string, StanceDetector>> kNames = {
     {"mag", StanceDetector::kMag},
     {"are", StanceDetector::kAre},
     {"multi-condition", StanceDetector::kMultiCondition},
-    {"adaptive", StanceDetector::kAdaptiveGlrt}};
+    {"adaptive", StanceDetector::kAdaptiveGlrt},
+    {"gait", StanceDetector::kGaitGlrt}};
+
+bool IsGlrt(StanceDetector d) {
+  return d == StanceDetector::kGlrt || d == StanceDetector::kAdaptiveGlrt ||
+         d == StanceDetector::kGaitGlrt;
+}
 
 // T_k of the OpenShoe detectors for the window starting at k (k = 0..n−W).
 std::vector<double> WindowStatistic(const std::vector<ImuSample>& imu, const StanceOptions& o) {
@@ -36,7 +42,8 @@ std::vector<double> WindowStatistic(const std::vector<ImuSample>& imu, const Sta
       const Eigen::Vector3d& g = imu[i].gyro_radps;
       switch (o.detector) {
         case StanceDetector::kGlrt:
-        case StanceDetector::kAdaptiveGlrt: {
+        case StanceDetector::kAdaptiveGlrt:
+        case StanceDetector::kGaitGlrt: {
           const Eigen::Vector3d up =
               mean.norm() > 0 ? Eigen::Vector3d(mean.normalized()) : Eigen::Vector3d::UnitZ();
           sum += (a - o.gravity_mps2 * up).squaredNorm() / sa2 + g.squaredNorm() / sg2;
@@ -187,6 +194,119 @@ std::vector<double> AdaptiveThresholds(const Walk& walk, const std::vector<doubl
   return gamma;
 }
 
+// ‖ω‖ averaged over bins of kGaitBinS from the walk's first sample (empty bins take the last
+// value): the stride period's signal at one rate whatever the IMU's.
+constexpr double kGaitBinS = 0.02;
+
+std::vector<double> BinnedGyroNorm(const std::vector<ImuSample>& imu) {
+  const double t0 = imu.front().t_s;
+  const size_t bins = static_cast<size_t>((imu.back().t_s - t0) / kGaitBinS) + 1;
+  std::vector<double> sum(bins, 0.0), count(bins, 0.0);
+  for (const ImuSample& s : imu) {
+    const size_t b = std::min(bins - 1, static_cast<size_t>((s.t_s - t0) / kGaitBinS));
+    sum[b] += s.gyro_radps.norm();
+    count[b] += 1.0;
+  }
+  double last = 0.0;
+  for (size_t b = 0; b < bins; ++b) {
+    if (count[b] > 0) last = sum[b] / count[b];
+    sum[b] = last;
+  }
+  return sum;
+}
+
+// The stride period (s) of bins [a, b) of `x`: the lag of the largest normalized
+// autocorrelation in [gait_period_min_s, gait_period_max_s] (and at most half the span), 0 when
+// that peak is under gait_min_periodicity or the span is shorter than two shortest periods.
+double StridePeriod(const std::vector<double>& x, size_t a, size_t b, const StanceOptions& o) {
+  const size_t lo = static_cast<size_t>(std::ceil(o.gait_period_min_s / kGaitBinS));
+  if (b <= a || lo < 2 || b - a < 2 * lo + 2) return 0.0;
+  const size_t hi = std::min(static_cast<size_t>(o.gait_period_max_s / kGaitBinS), (b - a) / 2);
+  const size_t n = b - a;
+  double mean = 0.0;
+  for (size_t i = a; i < b; ++i) mean += x[i];
+  mean /= static_cast<double>(n);
+  double c0 = 0.0;
+  for (size_t i = a; i < b; ++i) c0 += (x[i] - mean) * (x[i] - mean);
+  if (!(c0 > 0.0)) return 0.0;
+  // Autocorrelation at lags lo − 1 … hi + 1; the period is its largest local peak inside
+  // [lo, hi] (a maximum at an end of the range is a decay, not a rhythm).
+  std::vector<double> c(hi + 2 - (lo - 1), 0.0);
+  for (size_t lag = lo - 1; lag <= hi + 1; ++lag) {
+    double sum = 0.0;
+    for (size_t i = a; i + lag < b; ++i) sum += (x[i] - mean) * (x[i + lag] - mean);
+    c[lag - (lo - 1)] = sum / c0;
+  }
+  double best = -1.0;
+  size_t best_lag = 0;
+  for (size_t k = 1; k + 1 < c.size(); ++k) {
+    if (c[k] >= c[k - 1] && c[k] >= c[k + 1] && c[k] > best) {
+      best = c[k];
+      best_lag = k + lo - 1;
+    }
+  }
+  return best >= o.gait_min_periodicity ? kGaitBinS * static_cast<double>(best_lag) : 0.0;
+}
+
+// Per IMU sample, the stride period of its block (0: no rhythm there); see stance.h.
+std::vector<double> StridePeriods(const Walk& walk, const StanceOptions& o) {
+  const std::vector<double> x = BinnedGyroNorm(walk.imu);
+  const size_t n = walk.imu.size(), bins = x.size();
+  const size_t window = std::min(bins, static_cast<size_t>(o.gait_window_s / kGaitBinS));
+  const double t0 = walk.imu.front().t_s;
+  std::vector<double> period(n, 0.0);
+  for (size_t i = 0; i < n;) {
+    const double tc = walk.imu[i].t_s;
+    const size_t block = static_cast<size_t>((tc - t0) / o.gait_step_s);
+    const size_t centre = static_cast<size_t>((block + 0.5) * o.gait_step_s / kGaitBinS);
+    // Causal: the window ends where the block ends (a look-ahead of at most gait_step_s, as
+    // the cycle minimum's own); else it is centred on the block. Clamped to the walk so that
+    // its ends get a whole window.
+    const size_t end_bin =
+        o.adaptive_causal
+            ? std::min(bins, static_cast<size_t>((block + 1) * o.gait_step_s / kGaitBinS))
+            : std::min(bins, std::max(window, centre + window / 2));
+    const size_t begin_bin = end_bin >= window ? end_bin - window : 0;
+    const double p = StridePeriod(x, begin_bin, end_bin, o);
+    const size_t next = ImuIndexAt(walk, t0 + (block + 1) * o.gait_step_s);
+    for (size_t k = i; k < std::max(next, i + 1) && k < n; ++k) period[k] = p;
+    i = std::max(next, i + 1);
+  }
+  return period;
+}
+
+// Adds one stance per gait cycle (stance.h): marks each cycle minimum and its region.
+void AddCycleStances(const Walk& walk, const std::vector<double>& statistic, const StanceOptions& o,
+                     StanceMask* m) {
+  const size_t n = statistic.size();
+  const std::vector<double> period = StridePeriods(walk, o);
+  std::vector<double> l(n);
+  for (size_t i = 0; i < n; ++i) {
+    l[i] = std::isfinite(statistic[i]) && statistic[i] > 0 ? std::log10(statistic[i])
+                                                           : std::numeric_limits<double>::max();
+  }
+  m->cycle_minimum.assign(n, false);
+  for (size_t i = 0; i < n; ++i) {
+    if (period[i] <= 0.0 || l[i] == std::numeric_limits<double>::max()) continue;
+    const double half = o.gait_half_fraction * period[i];
+    const size_t a = ImuIndexAt(walk, walk.imu[i].t_s - half);
+    const size_t b = std::min(n, ImuIndexAt(walk, walk.imu[i].t_s + half) + 1);
+    bool least = true;
+    double most = l[i];
+    for (size_t k = a; k < b && least; ++k) {
+      // Ties go to the earliest sample, so that a flat minimum counts once.
+      least = l[k] > l[i] || (l[k] == l[i] && k >= i);
+      if (l[k] != std::numeric_limits<double>::max()) most = std::max(most, l[k]);
+    }
+    if (!least || most - l[i] < o.gait_min_depth_decades) continue;
+    m->cycle_minimum[i] = true;
+    const double limit = l[i] + o.gait_region_decades;
+    for (size_t k = i; k < n && l[k] < limit; ++k) m->stance[k] = true;
+    for (size_t k = i; k-- > 0 && l[k] < limit;) m->stance[k] = true;
+    m->stance[i] = true;
+  }
+}
+
 Status CheckImu(const Walk& walk, const StanceOptions& o) {
   if (walk.imu.size() < static_cast<size_t>(std::max(o.window, 2))) {
     return FailedPrecondition("stance: the walk needs at least W IMU samples");
@@ -208,7 +328,7 @@ StatusOr<StanceDetector> StanceDetectorFromString(const std::string& name) {
     if (n == name) return value;
   }
   return InvalidArgument("stance: unknown detector " + internal::Quoted(name) +
-                         " (glrt|mv|mag|are|multi-condition|adaptive)");
+                         " (glrt|mv|mag|are|multi-condition|adaptive|gait)");
 }
 
 double StanceOptions::threshold() const {
@@ -224,6 +344,7 @@ double StanceOptions::threshold() const {
     case StanceDetector::kMultiCondition:
       return mc_acc_std_max_mps2;
     case StanceDetector::kAdaptiveGlrt:
+    case StanceDetector::kGaitGlrt:
       return adaptive_fraction;
   }
   return 0.0;
@@ -247,6 +368,7 @@ void StanceOptions::set_threshold(double value) {
       mc_acc_std_max_mps2 = value;
       break;
     case StanceDetector::kAdaptiveGlrt:
+    case StanceDetector::kGaitGlrt:
       adaptive_fraction = value;
       break;
   }
@@ -261,7 +383,8 @@ StatusOr<StanceOptions> StanceOptionsFromYaml(const YAML::Node& node, const Stan
   ConfigReader r(node, "stance");
   r.ReadEnum("detector", &o.detector, kNames,
              "stance detector (OpenShoe's GLRT, MV, MAG, ARE, multi-condition, or adaptive: the "
-             "GLRT with a threshold from the walk's own statistic)");
+             "GLRT with a threshold from the walk's own statistic, or gait: adaptive plus one "
+             "stance per gait cycle)");
   r.Read("window", &o.window, "samples per detector window W");
   r.Read("sigma_acc_mps2", &o.sigma_acc_mps2,
          "accelerometer noise sigma_a of the detector statistics");
@@ -297,6 +420,18 @@ StatusOr<StanceOptions> StanceOptionsFromYaml(const YAML::Node& node, const Stan
          "adaptive: least decades between the class means, else glrt_threshold is used");
   r.Read("adaptive_min_samples", &o.adaptive_min_samples,
          "adaptive: least samples in the window, else glrt_threshold is used");
+  r.Read("gait_window_s", &o.gait_window_s, "gait: window of the stride period's estimate");
+  r.Read("gait_step_s", &o.gait_step_s, "gait: stride period estimated every step");
+  r.Read("gait_period_min_s", &o.gait_period_min_s, "gait: shortest stride period");
+  r.Read("gait_period_max_s", &o.gait_period_max_s, "gait: longest stride period");
+  r.Read("gait_min_periodicity", &o.gait_min_periodicity,
+         "gait: least autocorrelation of the gyro norm at the stride period, else no cycles");
+  r.Read("gait_half_fraction", &o.gait_half_fraction,
+         "gait: a cycle minimum is the least statistic within this fraction of a period");
+  r.Read("gait_min_depth_decades", &o.gait_min_depth_decades,
+         "gait: least decades between a cycle minimum and the swing around it");
+  r.Read("gait_region_decades", &o.gait_region_decades,
+         "gait: a cycle minimum's stance holds the samples within this of its log statistic");
   r.Read("still_window_s", &o.still_window_s, "ZARU still detection: window span");
   r.Read("still_gyro_radps", &o.still_gyro_radps, "ZARU still detection: largest angular rate");
   r.Read("still_acc_std_mps2", &o.still_acc_std_mps2,
@@ -317,6 +452,15 @@ Status StanceOptions::Validate() const {
     return InvalidArgument(
         "stance: adaptive_fraction must be in [0, 1], adaptive_bins >= 2, adaptive_step_s > 0, "
         "adaptive_window_s and adaptive_min_separation >= 0");
+  }
+  if (!(o.gait_window_s > 0) || !(o.gait_step_s > 0) || !(o.gait_period_min_s > 0) ||
+      !(o.gait_period_max_s > o.gait_period_min_s) || !(o.gait_half_fraction > 0) ||
+      !(o.gait_half_fraction <= 1.0) || o.gait_min_depth_decades < 0 || o.gait_region_decades < 0 ||
+      !(o.gait_min_periodicity >= 0 && o.gait_min_periodicity <= 1)) {
+    return InvalidArgument(
+        "stance: gait_window_s, gait_step_s, gait_period_min_s > 0, gait_period_max_s > "
+        "gait_period_min_s, gait_half_fraction in (0, 1], gait_min_periodicity in [0, 1], the "
+        "gait decades >= 0");
   }
   if (o.adaptive_causal && !(o.adaptive_window_s > 0)) {
     return InvalidArgument(
@@ -352,11 +496,12 @@ StatusOr<StanceMask> DetectStance(const Walk& walk, const StanceOptions& o) {
     for (size_t k = 0; k < t.size(); ++k) {
       for (size_t i = k; i < k + w; ++i) m.statistic[i] = std::min(m.statistic[i], t[k]);
     }
-    const std::vector<double> gamma = o.detector == StanceDetector::kAdaptiveGlrt
-                                          ? AdaptiveThresholds(walk, m.statistic, o)
-                                          : std::vector<double>(n, o.threshold());
+    const std::vector<double> gamma = o.detector == StanceDetector::kGlrt || !IsGlrt(o.detector)
+                                          ? std::vector<double>(n, o.threshold())
+                                          : AdaptiveThresholds(walk, m.statistic, o);
     m.stance.resize(n);
     for (size_t i = 0; i < n; ++i) m.stance[i] = m.statistic[i] < gamma[i];
+    if (o.detector == StanceDetector::kGaitGlrt) AddCycleStances(walk, m.statistic, o, &m);
   }
 
   // ZARU: centred window of still_window_s.
@@ -421,7 +566,8 @@ StatusOr<std::vector<StanceScore>> StanceThresholdSearch(const Walk& walk,
                                                          const StanceOptions& base,
                                                          std::vector<double> thresholds) {
   WG_ASSIGN_OR_RETURN(const std::vector<bool> labels, StanceLabelsAtImu(walk));
-  if (thresholds.empty() && base.detector == StanceDetector::kAdaptiveGlrt) {
+  if (thresholds.empty() && (base.detector == StanceDetector::kAdaptiveGlrt ||
+                             base.detector == StanceDetector::kGaitGlrt)) {
     for (int i = 1; i <= 19; ++i) thresholds.push_back(0.05 * i);
   }
   if (thresholds.empty()) {

@@ -278,6 +278,9 @@ struct InsGraphContext {
   // Per IMU sample, the front end's path (radio interpolation); null: α = time fraction.
   const std::vector<NavState>* path = nullptr;
   InsGraphOptions options;
+  // Per IMU sample, the preintegration's scale-factor noise (the front end's,
+  // ZuptInsSolution::scale_noise; a segment takes its first sample's); null: none.
+  const std::vector<double>* scale_noise = nullptr;
   // Longer IMU intervals are gaps (ImuGapThresholdS): bridged, not integrated.
   double imu_gap_s = std::numeric_limits<double>::infinity();
 };
