@@ -259,6 +259,11 @@ TEST(RealData, PyshoeFootInsOnEveryGait) {
       const auto diverged = CheckDivergence(*w, r->trajectory, *e, 0.0);
       EXPECT_FALSE(diverged.has_value()) << t.name << " " << id << ": " << ToString(*diverged);
       rmse[id] = SummarizeErrors(e->error_m, w->TruthDistance()).rmse_m;
+      if (std::string(id) == "fg-ins-batch") {  // the front end says what it found
+        EXPECT_GT(r->diagnostics.at("stance_cycle_minima"), 10.0) << t.name;
+        EXPECT_EQ(r->diagnostics.at("stance_hypotheses"), 0.0) << t.name;
+        EXPECT_GT(r->diagnostics.at("scale_noise"), 0.0) << t.name;
+      }
     }
     std::printf(
         "pyshoe %s RMSE: jimenez-iez %.3f, -rts %.3f, zupt-ins %.3f, fg-ins-batch %.3f "

@@ -490,16 +490,15 @@ TEST(StanceTest, GaitCausalLooksAheadBounded) {
   }
 }
 
-// Running: the adaptive split alone marks no stance in a gait whose stance is never as quiet as
-// the standstill (a synthetic run: 0.7 s strides whose "stance" keeps 1 rad/s of roll and 3 m/s²
-// of shock, after a 3 s standstill); the gait detector puts one stance in every stride.
-TEST(StanceTest, GaitFindsEveryStrideOfASyntheticRun) {
-  std::mt19937_64 rng(11);
+// A synthetic run: 0.7 s strides whose "stance" (the quietest part of each stride) keeps
+// 0.3 rad/s of roll and 1 m/s² of shock, never as quiet as a standstill, after a 3 s
+// standstill; 23 s at 200 Hz.
+Walk MakeRunWalk(uint64_t seed) {
+  std::mt19937_64 rng(seed);
   std::normal_distribution<double> n01(0.0, 1.0);
   Walk w;
   w.meta.imu_placement = ImuPlacement::kFoot;
   const double rate = 200.0, period = 0.7;
-  const size_t strides = static_cast<size_t>((23.0 - 3.0) / period) + 1;  // the last one cut
   for (int i = 0; i < static_cast<int>(23.0 * rate); ++i) {
     const double t = i / rate;
     ImuSample s;
@@ -511,8 +510,12 @@ TEST(StanceTest, GaitFindsEveryStrideOfASyntheticRun) {
       const double contact = std::exp(-std::pow((u - 0.1) / 0.05, 2));
       const double swing = 1.0 - contact;
       s.acc_mps2 += Eigen::Vector3d(30.0 * swing * std::sin(2 * kPi * u), 0.0,
-                                    20.0 * swing * std::sin(kPi * u) + 3.0 * contact);
-      s.gyro_radps = Eigen::Vector3d(0.0, 8.0 * swing * std::sin(2 * kPi * u) + 1.0, 0.0);
+                                    20.0 * swing * std::sin(kPi * u) + 1.0 * contact);
+      s.gyro_radps =
+          Eigen::Vector3d(0.0, 8.0 * swing * std::sin(2 * kPi * u) + swing + 0.3 * contact, 0.0);
+      w.stance_truth.push_back({t, u > 0.05 && u < 0.15});
+    } else {
+      w.stance_truth.push_back({t, true});
     }
     for (int k = 0; k < 3; ++k) {
       s.acc_mps2[k] += 0.03 * n01(rng);
@@ -520,6 +523,14 @@ TEST(StanceTest, GaitFindsEveryStrideOfASyntheticRun) {
     }
     w.imu.push_back(s);
   }
+  return w;
+}
+
+// Running: the adaptive split alone marks no stance in the synthetic run; the gait detector
+// puts one stance in every stride.
+TEST(StanceTest, GaitFindsEveryStrideOfASyntheticRun) {
+  const Walk w = MakeRunWalk(11);
+  const size_t strides = static_cast<size_t>((23.0 - 3.0) / 0.7) + 1;  // the last one cut
   for (StanceDetector d : {StanceDetector::kAdaptiveGlrt, StanceDetector::kGaitGlrt}) {
     StrideOptions o;
     o.stance.detector = d;
@@ -534,6 +545,31 @@ TEST(StanceTest, GaitFindsEveryStrideOfASyntheticRun) {
       EXPECT_LE(front->phases.size(), strides + 2);
     }
   }
+}
+
+// Without a rhythm to follow (gait_min_periodicity 1: no stride period is accepted), the gait
+// detector still puts a stance hypothesis in every gait_max_gap_s of motion without stance,
+// at the stillest sample there: here inside a contact (measured: 13 of 14, the last stretch
+// ends with the walk).
+TEST(StanceTest, GaitHypothesesFillStretchesWithoutStance) {
+  const Walk w = MakeRunWalk(12);
+  StanceOptions o = StrideOptions().stance;
+  o.gait_min_periodicity = 1.0;
+  auto m = DetectStance(w, o);
+  ASSERT_TRUE(m.ok()) << m.status().ToString();
+  auto labels = StanceLabelsAtImu(w);
+  ASSERT_TRUE(labels.ok());
+  size_t hypotheses = 0, in_contact = 0;
+  for (size_t i = 0; i < m->stance.size(); ++i) {
+    if (!m->hypothesis[i]) continue;
+    ++hypotheses;
+    EXPECT_TRUE(m->cycle_minimum[i] && m->stance[i]);
+    in_contact += (*labels)[i] ? 1 : 0;
+  }
+  std::printf("%zu hypotheses over 20 s of running, %zu in a contact\n", hypotheses, in_contact);
+  EXPECT_GE(hypotheses, 13u);  // 20 s / 1.5 s
+  EXPECT_LE(hypotheses, 15u);
+  EXPECT_GE(in_contact + 1, hypotheses);  // the last stretch may end before its contact
 }
 
 }  // namespace

@@ -44,8 +44,10 @@ struct StanceMask {
   std::vector<double> statistic;  // detector statistic (GLRT T_k, variance, ...)
   std::vector<bool> stance;       // statistic below threshold (after any filtering)
   std::vector<bool> still;        // ZARU: the whole body still (no rotation); may be empty
-  // The gait detector's cycle minima (stance.h); empty for the other detectors.
+  // The gait detector's cycle minima and, among them, its stance hypotheses (stance.h); empty
+  // for the other detectors.
   std::vector<bool> cycle_minimum;
+  std::vector<bool> hypothesis;
 };
 
 // A position fix from radio positioning (LS/WLS on ranges, hyperbolic RSS, ...).

@@ -54,6 +54,11 @@
 // apart. The decision looks ahead by gait_half_fraction·P (≤ 1 s) and the period's window by
 // up to gait_step_s even in the causal mode: a detection delay of at most 2 s at the defaults,
 // like any detector window's (StanceTest.GaitCausalLooksAheadBounded).
+// The detector does not bet on finding them: a stretch of more than gait_max_gap_s without
+// stance (a stride is at most ≈1.3 s at walking pace; a standstill is stance) gets a stance
+// hypothesis at the least statistic of each gait_max_gap_s of it (StanceMask::hypothesis):
+// the front end's filter gates them (χ² test of the ZUPT, 99.9 %), the foot-INS graph's robust
+// ZUPT may turn them down, and the estimators count them in diagnostics (stance_hypotheses).
 // Where it fails: a gait whose stance is not the quietest part of its cycle by a decade
 // (shuffling with the foot never planted) adds nothing beyond the adaptive split, and an
 // arrhythmic walk (turning on the spot, single steps) has no period.
@@ -115,6 +120,7 @@ struct StanceOptions {
   double gait_half_fraction = 0.4;
   double gait_min_depth_decades = 1.0;
   double gait_region_decades = 0.3;
+  double gait_max_gap_s = 1.5;
   // ZARU still detection.
   double still_window_s = 1.0;
   double still_gyro_radps = 0.05;

@@ -37,6 +37,7 @@
 #ifndef WALKGRAPH_STRIDES_H_
 #define WALKGRAPH_STRIDES_H_
 
+#include <map>
 #include <string>
 #include <vector>
 
@@ -157,10 +158,16 @@ struct ZuptInsSolution {
   std::vector<Eigen::Matrix3d> stride_increment_covariance;
   std::vector<double> scale_noise;     // per IMU sample, StrideOptions::scale_noise as adapted
   std::vector<double> first_zupt_nis;  // NIS of each stance phase's first ZUPT
+  size_t hypotheses_gated = 0;         // stance hypotheses (stance.h) the χ² gate turned down
 };
 
 // Runs the ZUPT-aided INS over a foot-mounted walk's IMU.
 StatusOr<ZuptInsSolution> RunZuptIns(const Walk& walk, const StrideOptions& options);
+
+// The front end's diagnostics for an estimator that uses it: num_strides, stance_cycle_minima,
+// stance_hypotheses (stance.h), stance_hypotheses_gated, scale_noise (the last value used).
+void AddFrontEndDiagnostics(const ZuptInsSolution& front,
+                            std::map<std::string, double>* diagnostics);
 
 // The strides alone (RunZuptIns(...).strides). absolute_heading = the walk has initial_pose.
 StatusOr<StepSequence> ComputeStrides(const Walk& walk, const StrideOptions& options);

@@ -90,7 +90,7 @@ StatusOr<EstimateResult> ZuptInsDeadReckoning::Run(const Walk& walk) const {
       if (stride_end) ++next_stride;
     }
   }
-  result.diagnostics["num_strides"] = static_cast<double>(s.strides.steps.size());
+  AddFrontEndDiagnostics(s, &result.diagnostics);
   return result;
 }
 

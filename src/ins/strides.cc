@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 #include <iterator>
+#include <map>
+#include <string>
 
 #include "config/parsers.h"
 #include "util/enum_define.h"
@@ -28,6 +30,8 @@ constexpr int kP = 0, kV = 3, kTh = 6, kBa = 9, kBg = 12, kN = 15;
 constexpr double kScaleNoiseLadder[] = {0.0, 0.002, 0.005, 0.01, 0.02, 0.05};
 constexpr size_t kCausalNisCount = 5;
 constexpr size_t kBankStances = 10;
+// The χ² gate of a stance hypothesis's ZUPT (stance.h).
+constexpr double kHypothesisGate = 0.999;
 
 // The ladder's first rung at or above `s` (the last rung when none is).
 size_t LadderRung(double s) {
@@ -389,12 +393,23 @@ struct ZuptInsFilter {
   std::vector<Eigen::MatrixXd> bank;
 
   // The update's NIS goes to *nis, the bank's (per rung) to *bank_nis, when given.
+  // A gated update (gate_probability > 0, kalman.h) changes nothing and returns false in
+  // *accepted.
   Status Update(const Eigen::VectorXd& innovation, const Eigen::MatrixXd& H, double sigma,
-                double* nis = nullptr, std::vector<double>* bank_nis = nullptr) {
+                double* nis = nullptr, std::vector<double>* bank_nis = nullptr,
+                double gate_probability = 0.0, bool* accepted = nullptr) {
     Eigen::VectorXd dx = Eigen::VectorXd::Zero(kN);
     const Eigen::MatrixXd R =
         Eigen::MatrixXd::Identity(innovation.size(), innovation.size()) * (sigma * sigma);
     if (bank_nis != nullptr) bank_nis->clear();
+    if (gate_probability > 0.0) {
+      Eigen::VectorXd dx_test = Eigen::VectorXd::Zero(kN);
+      Eigen::MatrixXd P_test = P;
+      WG_ASSIGN_OR_RETURN(const UpdateOutcome test,
+                          KalmanUpdate(innovation, H, R, gate_probability, &dx_test, &P_test));
+      if (accepted != nullptr) *accepted = test.accepted;
+      if (!test.accepted) return Status::Ok();
+    }
     for (Eigen::MatrixXd& Pr : bank) {
       Eigen::VectorXd dx_r = Eigen::VectorXd::Zero(kN);
       WG_ASSIGN_OR_RETURN(const UpdateOutcome o, KalmanUpdate(innovation, H, R, 0.0, &dx_r, &Pr));
@@ -503,11 +518,16 @@ class ZuptInsModel final : public ErrorStateModel {
   // ZUPT in the kept stance runs, ZARU when still.
   Status Update(size_t k) override {
     if (out_.zupt[k]) {
-      // The first ZUPT of a stance phase tests the swing's propagation (its NIS).
+      // The first ZUPT of a stance run tests the swing's propagation (its NIS). A stance
+      // hypothesis (stance.h) only when its χ² test passes.
       double nis = 0.0;
       std::vector<double> bank_nis;
-      WG_RETURN_IF_ERROR(f_.Update(-f_.x.v_n, H_zupt_, o_.zupt_sigma_mps, &nis, &bank_nis));
-      if (k > 0 && !out_.zupt[k - 1]) FirstZupt(nis, bank_nis);
+      const bool hypothesis = !out_.stance.hypothesis.empty() && out_.stance.hypothesis[k];
+      bool accepted = true;
+      WG_RETURN_IF_ERROR(f_.Update(-f_.x.v_n, H_zupt_, o_.zupt_sigma_mps, &nis, &bank_nis,
+                                   hypothesis ? kHypothesisGate : 0.0, &accepted));
+      if (!accepted) ++out_.hypotheses_gated;
+      if (accepted && k > 0 && !out_.zupt[k - 1]) FirstZupt(nis, bank_nis);
     }
     if (zaru_ && out_.stance.still[k]) {
       WG_RETURN_IF_ERROR(f_.Update(imu_[k].gyro_radps - f_.bg, H_zaru_, o_.zaru_sigma_radps));
@@ -648,6 +668,22 @@ StatusOr<ZuptInsSolution> RunZuptIns(const Walk& walk, const StrideOptions& o) {
       return sol;
     }
   }
+}
+
+void AddFrontEndDiagnostics(const ZuptInsSolution& front,
+                            std::map<std::string, double>* diagnostics) {
+  auto& d = *diagnostics;
+  d["num_strides"] = static_cast<double>(front.strides.steps.size());
+  size_t cycles = 0, hypotheses = 0;
+  for (size_t k = 0; k < front.stance.cycle_minimum.size(); ++k) {
+    if (!front.stance.cycle_minimum[k]) continue;
+    const bool hypothesis = k < front.stance.hypothesis.size() && front.stance.hypothesis[k];
+    (hypothesis ? hypotheses : cycles) += 1;
+  }
+  d["stance_cycle_minima"] = static_cast<double>(cycles);
+  d["stance_hypotheses"] = static_cast<double>(hypotheses);
+  d["stance_hypotheses_gated"] = static_cast<double>(front.hypotheses_gated);
+  d["scale_noise"] = front.scale_noise.empty() ? 0.0 : front.scale_noise.back();
 }
 
 StatusOr<StepSequence> ComputeStrides(const Walk& walk, const StrideOptions& options) {

@@ -1118,7 +1118,7 @@ StatusOr<EstimateResult> InsGraphBatch::Run(const Walk& walk) const {
   result.trajectory = InsStatesTrajectory(walk, states, state_cov, o, /*close_segments=*/true);
   auto& d = result.diagnostics;
   d["num_states"] = static_cast<double>(states.size());
-  d["num_strides"] = static_cast<double>(front.strides.steps.size());
+  AddFrontEndDiagnostics(front, &d);
   d["num_radio_factors"] = static_cast<double>(solve.num_radio);
   AddInsPathLossDiagnostics(walk, radio, &d);
   if (test) {

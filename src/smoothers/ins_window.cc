@@ -486,7 +486,7 @@ EstimateResult InsWindowRun::Finish() {
       std::count_if(cov_.begin(), cov_.end(), [](const auto& c) { return !c.has_value(); }));
   auto& d = result.diagnostics;
   d["num_states"] = static_cast<double>(n_);
-  d["num_strides"] = static_cast<double>(front_.strides.steps.size());
+  AddFrontEndDiagnostics(front_, &d);
   d["num_radio_factors"] = static_cast<double>(num_radio_);
   d["ceres_iterations"] = iterations_;
   d["window_solves"] = solves_;

@@ -275,16 +275,49 @@ std::vector<double> StridePeriods(const Walk& walk, const StanceOptions& o) {
   return period;
 }
 
-// Adds one stance per gait cycle (stance.h): marks each cycle minimum and its region.
+// log10 of the statistic; the largest double where it is not finite or not positive.
+std::vector<double> LogStatistic(const std::vector<double>& statistic) {
+  std::vector<double> l(statistic.size());
+  for (size_t i = 0; i < statistic.size(); ++i) {
+    l[i] = std::isfinite(statistic[i]) && statistic[i] > 0 ? std::log10(statistic[i])
+                                                           : std::numeric_limits<double>::max();
+  }
+  return l;
+}
+
+// Stance hypotheses (stance.h): in every stretch of more than gait_max_gap_s without stance,
+// the least statistic of each gait_max_gap_s of it.
+void AddStanceHypotheses(const Walk& walk, const std::vector<double>& l, const StanceOptions& o,
+                         StanceMask* m) {
+  const size_t n = l.size();
+  m->hypothesis.assign(n, false);
+  for (size_t a = 0; a < n;) {
+    if (m->stance[a]) {
+      ++a;
+      continue;
+    }
+    size_t b = a;
+    while (b < n && !m->stance[b]) ++b;  // [a, b) holds no stance
+    const double span = walk.imu[b - 1].t_s - walk.imu[a].t_s;
+    const int chunks = static_cast<int>(std::ceil(span / o.gait_max_gap_s));
+    for (int c = 0; chunks > 1 && c < chunks; ++c) {
+      const size_t lo = a + (b - a) * c / chunks, hi = a + (b - a) * (c + 1) / chunks;
+      if (hi <= lo) continue;
+      const size_t k =
+          static_cast<size_t>(std::min_element(l.begin() + lo, l.begin() + hi) - l.begin());
+      m->stance[k] = m->cycle_minimum[k] = m->hypothesis[k] = true;
+    }
+    a = b;
+  }
+}
+
+// Adds one stance per gait cycle (stance.h): marks each cycle minimum and its region, then the
+// stance hypotheses.
 void AddCycleStances(const Walk& walk, const std::vector<double>& statistic, const StanceOptions& o,
                      StanceMask* m) {
   const size_t n = statistic.size();
   const std::vector<double> period = StridePeriods(walk, o);
-  std::vector<double> l(n);
-  for (size_t i = 0; i < n; ++i) {
-    l[i] = std::isfinite(statistic[i]) && statistic[i] > 0 ? std::log10(statistic[i])
-                                                           : std::numeric_limits<double>::max();
-  }
+  const std::vector<double> l = LogStatistic(statistic);
   m->cycle_minimum.assign(n, false);
   for (size_t i = 0; i < n; ++i) {
     if (period[i] <= 0.0 || l[i] == std::numeric_limits<double>::max()) continue;
@@ -305,6 +338,7 @@ void AddCycleStances(const Walk& walk, const std::vector<double>& statistic, con
     for (size_t k = i; k-- > 0 && l[k] < limit;) m->stance[k] = true;
     m->stance[i] = true;
   }
+  AddStanceHypotheses(walk, l, o, m);
 }
 
 Status CheckImu(const Walk& walk, const StanceOptions& o) {
@@ -432,6 +466,8 @@ StatusOr<StanceOptions> StanceOptionsFromYaml(const YAML::Node& node, const Stan
          "gait: least decades between a cycle minimum and the swing around it");
   r.Read("gait_region_decades", &o.gait_region_decades,
          "gait: a cycle minimum's stance holds the samples within this of its log statistic");
+  r.Read("gait_max_gap_s", &o.gait_max_gap_s,
+         "gait: a longer stretch without stance gets a stance hypothesis per this span");
   r.Read("still_window_s", &o.still_window_s, "ZARU still detection: window span");
   r.Read("still_gyro_radps", &o.still_gyro_radps, "ZARU still detection: largest angular rate");
   r.Read("still_acc_std_mps2", &o.still_acc_std_mps2,
@@ -458,7 +494,8 @@ Status StanceOptions::Validate() const {
       !(o.gait_half_fraction <= 1.0) || o.gait_min_depth_decades < 0 || o.gait_region_decades < 0 ||
       !(o.gait_min_periodicity >= 0 && o.gait_min_periodicity <= 1)) {
     return InvalidArgument(
-        "stance: gait_window_s, gait_step_s, gait_period_min_s > 0, gait_period_max_s > "
+        "stance: gait_window_s, gait_step_s, gait_period_min_s, gait_max_gap_s > 0, "
+        "gait_period_max_s > "
         "gait_period_min_s, gait_half_fraction in (0, 1], gait_min_periodicity in [0, 1], the "
         "gait decades >= 0");
   }
