@@ -268,7 +268,10 @@ TarrioEstimatorOptions TarrioEstimatorOptions::PaperDefaults() {
   o.pdr.detector = StepDetector::kVerticalPeak;     // 000 Sec. IV: low-pass, local maxima/minima
   o.pdr.length_model = StepLengthModel::kWeinberg;  // eq. 3
   o.pdr.weinberg_k = 0.45;                          // Sec. IV
-  o.pdr.heading = HeadingMethod::kGyro;             // eq. 4
+  // eq. 4 (gyro) from a known start heading; a walk without one but with a magnetometer gets
+  // its absolute heading from 001 eq. 7's blend (heading 'auto', our choice: 000 starts from a
+  // known pose, and a gyro heading alone has no anchor-frame direction).
+  o.pdr.heading = HeadingMethod::kAuto;
   o.radio.epochs.window_s = 2.0;                    // ΔT = 2 s (Sec. IV)
   o.radio.method = PositioningMethod::kHyperbolic;  // eq. 2
   return o;
@@ -298,7 +301,7 @@ StatusOr<TarrioEstimatorOptions> TarrioEstimatorOptionsFromYaml(const YAML::Node
                                                 {{"detector", "vertical-peak"},
                                                  {"length_model", "weinberg"},
                                                  {"weinberg_k", "0.45"},
-                                                 {"heading", "gyro"}},
+                                                 {"heading", "auto"}},
                                                 id + " pdr"));
   WG_RETURN_IF_ERROR(o.Validate(id));
   return o;
@@ -337,6 +340,7 @@ StatusOr<EstimateResult> TarrioEstimator::Run(const Walk& walk) const {
   StatusOr<EstimateResult> result = RunTarrio(steps, fixes.fixes, options_.filter, mode_, start);
   if (!result.ok()) return Status(result.status().code(), id_ + ": " + result.status().message());
   result->diagnostics["steps"] = static_cast<double>(steps.steps.size());
+  if (UsesSteps()) AddFrontEndDiagnostics(steps.report, &result->diagnostics);
   result->diagnostics["radio_epochs"] = fixes.epochs;
   result->diagnostics["radio_epochs_without_fix"] = fixes.failed_epochs;
   return result;

@@ -10,8 +10,8 @@
 #include <Eigen/Geometry>
 
 #include "config/parsers.h"
-#include "factors/barometric_height_factor.h"
 #include "estimators/builtin.h"
+#include "factors/barometric_height_factor.h"
 #include "smoothers/graph_internal.h"
 #include "smoothers/step_graph_impl.h"
 #include "util/text.h"
@@ -480,6 +480,7 @@ Status StepGraph::Impl::MakeNodes(const Walk& walk, StepGraph* g) {
   } else {
     WG_ASSIGN_OR_RETURN(StepSequence seq, StepsForWalk(walk, o.pdr));
     steps = std::move(seq.steps);
+    front_end = seq.report;
     for (const Step& s : steps) t.push_back(s.t_s);
   }
   if (t.empty()) return FailedPrecondition("step graph: the walk has no steps or odometry");
@@ -675,6 +676,8 @@ int StepGraph::FloorOfHeight(double z_m) const { return impl_->Floor(z_m); }
 
 int StepGraph::stair_steps() const { return impl_->stair_steps; }
 
+const StepFrontEndReport& StepGraph::front_end_report() const { return impl_->front_end; }
+
 namespace {
 
 // The mean pressure of the readings within ±window/2 of t, else the reading nearest in time.
@@ -860,6 +863,7 @@ void AddGraphDiagnostics(const StepGraph& graph, const Walk& walk,
     (*d)["start_heading_contradicted_rad"] = graph.start_heading_contradicted_rad();
   }
   if (graph.has_floors()) (*d)["stair_steps"] = graph.stair_steps();
+  if (walk.has_imu() && !walk.has_odometry()) AddFrontEndDiagnostics(graph.front_end_report(), d);
 }
 
 // A node's height and the floor it is on.

@@ -222,7 +222,7 @@ struct StepGraphOptions {
   // SimplicialLDLT (less set-up per solve, which dominates on a window of ~100 blocks:
   // Plaza1 without covariances 2.62 → 2.28 s); dense: DENSE_NORMAL_CHOLESKY.
   WindowLinearSolver window_linear_solver = WindowLinearSolver::kEigenSparse;
-  double window_update_s = 0.0;          // 0: one update per node; > 0: nodes gathered per period
+  double window_update_s = 0.0;  // 0: one update per node; > 0: nodes gathered per period
   WindowOutput window_output = WindowOutput::kLagged;
   // States leave the window in batches of this span (FixedLagSmoother::Options): one
   // marginalization and one covariance solve per batch instead of per node; 0: per update.
@@ -267,6 +267,8 @@ class StepGraph {
   int FloorOfHeight(double z_m) const;
   // How many steps were taken for stair steps (StepGraphOptions::stairs).
   int stair_steps() const;
+  // What the step front end chose from the walk (pdr.h; defaults for odometry/radio-only).
+  const StepFrontEndReport& front_end_report() const;
 
   // Static (untimed) states: path loss, range bias, gyro bias blocks.
   std::vector<SmootherState> StaticStates() const;
