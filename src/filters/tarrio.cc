@@ -330,17 +330,29 @@ StatusOr<EstimateResult> TarrioEstimator::Run(const Walk& walk) const {
     WG_ASSIGN_OR_RETURN(steps, StepsFromFrontEnd(walk, options_.pdr, true, id_));
   }
   FixesFromFrontEnd fixes;
+  // pdr-only from the first fix on a walk whose radio never gives one (IPIN trials 05/21/52:
+  // never three beacons in an epoch) starts at walk.yaml's initial_pose when it has one
+  // (diagnostic start_from_initial_pose = 1; our choice, so that the walk needs no config).
+  bool start_from_pose = mode_ == TarrioMode::kPdrOnly && !UsesFixes();
   if (UsesFixes()) {
-    WG_ASSIGN_OR_RETURN(fixes, PositionFixesFromFrontEnd(walk, options_.radio, id_));
+    StatusOr<FixesFromFrontEnd> f = PositionFixesFromFrontEnd(walk, options_.radio, id_);
+    if (f.ok()) {
+      fixes = std::move(*f);
+    } else if (mode_ == TarrioMode::kPdrOnly && walk.meta.initial_pose) {
+      start_from_pose = true;
+    } else {
+      return f.status();
+    }
   }
   std::optional<Eigen::Vector2d> start;
-  if (mode_ == TarrioMode::kPdrOnly && !UsesFixes()) {
+  if (start_from_pose) {
     start = Eigen::Vector2d(walk.meta.initial_pose->x_m, walk.meta.initial_pose->y_m);
   }
   StatusOr<EstimateResult> result = RunTarrio(steps, fixes.fixes, options_.filter, mode_, start);
   if (!result.ok()) return Status(result.status().code(), id_ + ": " + result.status().message());
   result->diagnostics["steps"] = static_cast<double>(steps.steps.size());
   if (UsesSteps()) AddFrontEndDiagnostics(steps.report, &result->diagnostics);
+  if (start_from_pose && UsesFixes()) result->diagnostics["start_from_initial_pose"] = 1.0;
   result->diagnostics["radio_epochs"] = fixes.epochs;
   result->diagnostics["radio_epochs_without_fix"] = fixes.failed_epochs;
   return result;
