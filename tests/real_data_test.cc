@@ -193,7 +193,7 @@ TEST(RealData, IpinTrial52FloorsAndIpinScore) {
 // defaults: fg-batch's landmark p75 at most 1.1x what datasets/configs/ipin.yaml (forward axis
 // body y, magnetometer heading, peaks 0.8/1.5 m/s², set by hand) gave before issue 41 —
 // 6.25 / 3.05 / 4.59 / 3.55 m — and every estimator that ran with that config runs (the others
-// never get three beacons in a radio epoch). Measured: 6.39 / 2.22 / 2.50 / 3.83 m (without
+// never get three beacons in a radio epoch). Measured: 6.39 / 2.22 / 2.50 / 3.05 m (without
 // the config before issue 41: 31.6 / 24.2 / 21.7 / 9.4 m).
 TEST(PhoneWalkRealData, IpinKnownStartNeedsNoConfig) {
   const std::string dir = kShared + "/ipin2023_t3";

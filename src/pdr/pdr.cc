@@ -304,9 +304,10 @@ double PcaForwardAngle(const Walk& walk, const ImuSignals& s, const std::vector<
 // consecutive steps at most 1.5 s apart: walking, not pauses) the vector
 //   d_s = Σ_{k=1..L} Σ_i [h_i·v_{i+k} − h_{i+k}·v_i]
 // (h the levelled horizontal acceleration less its walk mean, v the filtered vertical one, L half
-// a median step) points forward; the forward axis is the direction of D = Σ d_s, accepted when
-// the steps agree by Rayleigh's test, z = n·R² ≥ auto_forward_min_z with R = |D| / Σ|d_s|
-// (random directions give z ≈ 1), and snapped to the nearest body axis within
+// a median step) points forward; the forward axis is the mean direction of the unit vectors
+// u_s = d_s/|d_s| (one vote per step, so that a few jolts of the hand do not outweigh the
+// walk), accepted when the steps agree by Rayleigh's test, z = n·R² ≥ auto_forward_min_z with
+// R = |Σ u_s| / n (random directions give z ≈ 1), and snapped to the nearest body axis within
 // forward_axis_snap_rad. Otherwise: body y for a walk.yaml handheld device (a phone in portrait),
 // else body x.
 double AutoForwardAngle(const Walk& walk, const ImuSignals& s, const std::vector<StepEvent>& ev,
@@ -335,7 +336,6 @@ double AutoForwardAngle(const Walk& walk, const ImuSignals& s, const std::vector
   const size_t lags =
       static_cast<size_t>(std::max(1.0, std::floor(0.5 * Quantile(&durations, 0.5) * s.rate_hz)));
   Eigen::Vector2d sum = Eigen::Vector2d::Zero();
-  double norms = 0.0;
   for (const auto& [a, b] : segments) {
     std::vector<Eigen::Vector2d> h;
     for (size_t i = a; i <= b; ++i) h.push_back(levelled(i) - mean);
@@ -345,10 +345,9 @@ double AutoForwardAngle(const Walk& walk, const ImuSignals& s, const std::vector
         d += h[i] * s.vertical_lp[a + i + k] - h[i + k] * s.vertical_lp[a + i];
       }
     }
-    sum += d;
-    norms += d.norm();
+    if (d.norm() > 0) sum += d.normalized();  // one vote per step: a jolt of the hand is one
   }
-  const double consistency = norms > 0 ? sum.norm() / norms : 0.0;
+  const double consistency = sum.norm() / static_cast<double>(segments.size());
   report->forward_axis_consistency = consistency;
   const double z = static_cast<double>(segments.size()) * consistency * consistency;
   if (!(z >= o.auto_forward_min_z)) return fallback;
