@@ -154,6 +154,26 @@ TEST(PdrTest, ComplementaryHeadingFollowsMagnetometerWithoutInitialPose) {
   auto gyro = ComputeSteps(w, o);
   ASSERT_TRUE(gyro.ok());
   EXPECT_FALSE(gyro->absolute_heading);
+
+  // auto (the default): the magnetometer blend when walk.yaml gives no start heading, the gyro
+  // from a known one; the report says which.
+  o.heading = HeadingMethod::kAuto;
+  auto automatic = ComputeSteps(w, o);
+  ASSERT_TRUE(automatic.ok());
+  EXPECT_TRUE(automatic->absolute_heading);
+  EXPECT_EQ(automatic->report.heading_source, HeadingSource::kMagnetometer);
+  EXPECT_EQ(automatic->steps.back().heading_rad, seq->steps.back().heading_rad);
+  EXPECT_EQ(ResolveHeadingMethod(w, o), HeadingMethod::kComplementary);
+  Walk known = w;
+  known.meta.initial_pose = InitialPose();
+  known.meta.initial_pose->heading_rad = c.heading0_rad;
+  EXPECT_EQ(ResolveHeadingMethod(known, o), HeadingMethod::kGyro);
+  auto from_start = ComputeSteps(known, o);
+  ASSERT_TRUE(from_start.ok());
+  EXPECT_EQ(from_start->report.heading_source, HeadingSource::kInitialPose);
+  Walk no_mag = w;
+  for (ImuSample& s : no_mag.imu) s.has_mag = false;
+  EXPECT_EQ(ResolveHeadingMethod(no_mag, o), HeadingMethod::kGyro);
 }
 
 TEST(PdrTest, PcaFindsTheForwardAxis) {
@@ -194,6 +214,114 @@ TEST(PdrTest, PcaFindsTheForwardAxis) {
   ASSERT_TRUE(by.ok());
   EXPECT_LT(std::fabs(NormalizeAngle(by->steps[60].heading_rad - (mount + kPi / 2))), 0.1);
   EXPECT_TRUE(PdrOptionsFromYaml(YAML::Load("{forward_axis: body-y}")).ok());
+}
+
+// The straight walk of PcaFindsTheForwardAxis with the sensor yawed by `mount` on the body and,
+// with `forward`, a forward oscillation leading the vertical one by a quarter step; with
+// `sway`, a lateral sway at half the step frequency (one period per stride).
+Walk YawedStraightWalk(double mount, bool forward, bool sway) {
+  CircleWalk c;
+  c.radius_m = 1e6;
+  c.pitch_rad = 0.0;
+  c.with_mag = true;
+  c.heading0_rad = 0.0;
+  Walk w = MakeCircleWalk(c, 4);
+  const Eigen::Matrix3d m = Eigen::AngleAxisd(mount, Eigen::Vector3d::UnitZ()).matrix();
+  for (ImuSample& s : w.imu) {
+    const double phase = 2 * kPi * c.step_hz * (s.t_s - 1.0);
+    if (s.t_s > 1.0 && forward) s.acc_mps2.x() += 1.5 * std::cos(phase);
+    if (s.t_s > 1.0 && sway) s.acc_mps2.y() += 1.5 * std::sin(0.5 * phase);
+    s.acc_mps2 = m.transpose() * s.acc_mps2;
+    s.gyro_radps = m.transpose() * s.gyro_radps;
+    s.mag_ut = m.transpose() * s.mag_ut;
+  }
+  w.meta.initial_pose.reset();
+  return w;
+}
+
+TEST(PdrTest, AutoForwardAxisIsTheDirectionThatLeadsTheVertical) {
+  // Yawed by 1 rad (no body axis near): the data's direction, the steps heading east.
+  auto yawed = ComputeSteps(YawedStraightWalk(1.0, true, true), PdrOptions());
+  ASSERT_TRUE(yawed.ok()) << yawed.status().ToString();
+  ASSERT_GT(yawed->steps.size(), 50u);
+  EXPECT_LT(std::fabs(NormalizeAngle(yawed->report.forward_axis_rad + 1.0)), 0.1);
+  EXPECT_GT(yawed->report.forward_axis_consistency, 0.5);
+  EXPECT_LT(std::fabs(NormalizeAngle(yawed->steps[60].heading_rad)), 0.1);
+  // A phone in portrait, 0.1 rad off its y axis: snapped to body y exactly.
+  auto portrait = ComputeSteps(YawedStraightWalk(-kPi / 2 - 0.1, true, false), PdrOptions());
+  ASSERT_TRUE(portrait.ok());
+  EXPECT_EQ(portrait->report.forward_axis_rad, kPi / 2);
+  EXPECT_NEAR(portrait->report.forward_axis_data_rad, kPi / 2 + 0.1, 0.05);
+  // Only a lateral sway (the simulated hips): the steps do not agree on a direction, so the
+  // device's default axis — body x, or body y for a handheld device.
+  Walk sway = YawedStraightWalk(0.0, false, true);
+  auto hip = ComputeSteps(sway, PdrOptions());
+  ASSERT_TRUE(hip.ok());
+  EXPECT_EQ(hip->report.forward_axis_rad, 0.0);
+  EXPECT_LT(hip->report.forward_axis_consistency, 0.2);
+  EXPECT_TRUE(std::isnan(hip->report.forward_axis_data_rad));
+  sway.meta.imu_placement = ImuPlacement::kHandheld;
+  auto phone = ComputeSteps(sway, PdrOptions());
+  ASSERT_TRUE(phone.ok());
+  EXPECT_EQ(phone->report.forward_axis_rad, kPi / 2);
+  PdrOptions bad;
+  bad.forward_axis_snap_rad = 1.0;
+  EXPECT_FALSE(bad.Validate().ok());
+  EXPECT_FALSE(PdrOptionsFromYaml(YAML::Load("{auto_forward_min_z: -1}")).ok());
+}
+
+// A circle walk after `shake_s` of standing with the device in a shaking hand: vertical
+// acceleration 0.4·sin(2π·1.3 t) + 0.25·sin(2π·2.9 t) (peaks ≈ 0.6 m/s², above the fixed 0.5).
+Walk WithHandShake(const CircleWalk& c, double shake_s, uint64_t seed) {
+  Walk walk = MakeCircleWalk(c, seed);
+  std::mt19937_64 rng(seed + 100);
+  std::normal_distribution<double> n01(0.0, 1.0);
+  const Eigen::Matrix3d r = Eigen::AngleAxisd(c.heading0_rad, Eigen::Vector3d::UnitZ()).matrix() *
+                            Eigen::AngleAxisd(c.pitch_rad, Eigen::Vector3d::UnitY()).matrix();
+  std::vector<ImuSample> imu;
+  for (int i = 0; i < static_cast<int>(shake_s * c.rate_hz); ++i) {
+    ImuSample s;
+    s.t_s = i / c.rate_hz;
+    const double az =
+        0.4 * std::sin(2 * kPi * 1.3 * s.t_s) + 0.25 * std::sin(2 * kPi * 2.9 * s.t_s);
+    s.acc_mps2 = r.transpose() * Eigen::Vector3d(0, 0, 9.81 + az);
+    for (int k = 0; k < 3; ++k) {
+      s.acc_mps2[k] += c.acc_noise * n01(rng);
+      s.gyro_radps[k] = c.gyro_noise * n01(rng);
+    }
+    imu.push_back(s);
+  }
+  for (ImuSample s : walk.imu) {
+    s.t_s += shake_s;
+    imu.push_back(s);
+  }
+  walk.imu = imu;
+  return walk;
+}
+
+TEST(PdrTest, AutoThresholdsRejectAShakingHandAndKeepASensorAtRest) {
+  CircleWalk c;
+  c.vertical_amp_mps2 = 3.0;
+  const double walking = (c.duration_s - 1.0) * c.step_hz;  // 118 steps
+  const Walk hand = WithHandShake(c, 30.0, 5);
+  PdrOptions fixed;
+  fixed.step_thresholds = StepThresholdMethod::kFixed;
+  auto false_steps = DetectSteps(hand, fixed);
+  ASSERT_TRUE(false_steps.ok());
+  EXPECT_GT(static_cast<double>(false_steps->size()), walking + 20);  // the shake passes
+  auto seq = ComputeSteps(hand, PdrOptions());
+  ASSERT_TRUE(seq.ok()) << seq.status().ToString();
+  EXPECT_NEAR(static_cast<double>(seq->steps.size()), walking, 0.02 * walking);
+  EXPECT_GT(seq->report.vertical_peak_mps2, 1.0);
+  EXPECT_GT(seq->report.standstill_sigma_mps2, 0.2);
+  // The same walk standing still on a table (sensor noise only): the fixed thresholds, whose
+  // weaker steps (here 0.9 m/s² of amplitude) all pass.
+  c.vertical_amp_mps2 = 0.9;
+  c.duration_s = 90.0;
+  auto rest = ComputeSteps(MakeCircleWalk(c, 6), PdrOptions());
+  ASSERT_TRUE(rest.ok());
+  EXPECT_EQ(rest->report.vertical_peak_mps2, PdrOptions().vertical_peak_mps2);
+  EXPECT_NEAR(static_cast<double>(rest->steps.size()), 89.0 * c.step_hz, 2.0);
 }
 
 TEST(PdrTest, StepsFromOdometryFollowTheIncrementConvention) {
@@ -257,6 +385,50 @@ struct PdrCase {
   const char* overrides;
   const char* pdr;
 };
+
+// Issue 41's simulated phone (scenario handheld-phone: y forward, a shaking hand at the stops):
+// the defaults find its carriage — body y, thresholds raised above the shake — and count its
+// steps within 2 %, where the old defaults (body x, fixed thresholds) count the shake as steps.
+// Without a start heading (the magnetometer's then), body x walks 90° off: its dead reckoning
+// ends several times further from the truth.
+TEST(PdrTest, HandheldPhonePresetFindsItsCarriage) {
+  for (uint64_t seed : {1, 2}) {
+    auto sim = SimulateScenarioDetailed("handheld-phone", seed);
+    ASSERT_TRUE(sim.ok()) << sim.status().message();
+    EXPECT_EQ(sim->walk.meta.imu_placement, ImuPlacement::kHandheld);
+    const double true_steps = static_cast<double>(sim->steps.size());
+    const double distance = sim->walk.TruthDistance();
+    Walk no_heading = sim->walk;
+    no_heading.meta.initial_pose->heading_known = false;
+    no_heading.meta.initial_pose->sigma_heading_rad = kUnknownHeadingSigmaRad;
+    auto run = [&](const PdrOptions& o, StepSequence* seq) {
+      auto s = ComputeSteps(no_heading, o);
+      EXPECT_TRUE(s.ok()) << s.status().message();
+      if (s.ok()) *seq = *s;
+      auto errors = ComputeErrors(sim->walk, DeadReckonFromTruth(sim->walk, *seq));
+      EXPECT_TRUE(errors.ok());
+      return errors.ok() ? SummarizeErrors(*errors, distance) : ErrorStats{};
+    };
+    StepSequence seq, old_seq;
+    const ErrorStats e = run(PdrOptions(), &seq);
+    PdrOptions old;
+    old.forward_axis = ForwardAxisMethod::kBodyX;
+    old.step_thresholds = StepThresholdMethod::kFixed;
+    const ErrorStats e_old = run(old, &old_seq);
+    std::printf(
+        "handheld-phone seed %d: auto %zu steps / %.0f true, forward %.1f deg, peak %.2f m/s^2, "
+        "PDR mean error %.2f m over %.0f m; old defaults %zu steps, %.2f m\n",
+        static_cast<int>(seed), seq.steps.size(), true_steps,
+        seq.report.forward_axis_rad * 180.0 / kPi, seq.report.vertical_peak_mps2, e.mean_m,
+        distance, old_seq.steps.size(), e_old.mean_m);
+    EXPECT_EQ(seq.report.forward_axis_rad, kPi / 2);
+    EXPECT_GT(seq.report.vertical_peak_mps2, PdrOptions().vertical_peak_mps2);
+    EXPECT_LT(std::abs(static_cast<double>(seq.steps.size()) - true_steps) / true_steps, 0.02);
+    EXPECT_GT(static_cast<double>(old_seq.steps.size()), 1.1 * true_steps);
+    EXPECT_EQ(seq.report.heading_source, HeadingSource::kMagnetometer);
+    EXPECT_GT(e_old.mean_m, 4.0 * e.mean_m);
+  }
+}
 
 TEST(PdrTest, StepCountOnSimulatedHipWalks) {
   const char* energy = "{detector: energy, energy_threshold_m2ps4: 2, forward_axis: body-x}";

@@ -268,6 +268,46 @@ TEST(StepGraphTest, PositionOnlyStartLeavesTheHeadingFree) {
             3.0 * free.meta.initial_pose->sigma_xy_m);
 }
 
+// Issue 41: with no start at all, fg-batch also solves the dead reckoning aligned to every radio
+// fix, turned four ways, and keeps the lowest final cost: the diagnostics name the choice, the
+// chosen cost is the least, and a walk with a start has no hypotheses.
+TEST(StepGraphTest, NoStartSolvesEveryStartHypothesisAndKeepsTheLeastCost) {
+  auto sim = SimulateScenario("tarrio-circle", 2, YAML::Load("{duration_s: 60}"));
+  ASSERT_TRUE(sim.ok()) << sim.status().message();
+  StepGraphOptions o;
+  o.covariance = false;
+  auto with_start = StepGraph::Build(*sim, o);
+  ASSERT_TRUE(with_start.ok());
+  EXPECT_TRUE((*with_start)->StartHypotheses(*sim, 4).empty());
+  Walk none = *sim;
+  none.meta.initial_pose.reset();
+  auto graph = StepGraph::Build(none, o);
+  ASSERT_TRUE(graph.ok());
+  const auto starts = (*graph)->StartHypotheses(none, 4);
+  ASSERT_EQ(starts.size(), 4u);
+  for (size_t h = 1; h < starts.size(); ++h) {  // each a quarter turn on from the one before
+    EXPECT_NEAR(NormalizeAngle(starts[h][5][2] - starts[h - 1][5][2]), kPi / 2, 1e-9);
+    EXPECT_NEAR((starts[h][5].head<2>() - starts[h][0].head<2>()).norm(),
+                (starts[0][5].head<2>() - starts[0][0].head<2>()).norm(), 1e-9);
+  }
+  auto r = RunId("fg-batch", none, YAML::Load("{covariance: false}"));
+  ASSERT_TRUE(r.ok()) << r.status().message();
+  const auto& d = r->diagnostics;
+  ASSERT_TRUE(d.count("start_hypothesis"));
+  const int chosen = static_cast<int>(d.at("start_hypothesis"));
+  for (int h = 0; h <= 4; ++h) {
+    const std::string key = "start_hypothesis_cost." + std::to_string(h);
+    ASSERT_TRUE(d.count(key)) << key;
+    EXPECT_LE(d.at("final_cost"), d.at(key)) << key;
+  }
+  EXPECT_EQ(d.at("final_cost"), d.at("start_hypothesis_cost." + std::to_string(chosen)));
+  auto off = RunId("fg-batch", none, YAML::Load("{covariance: false, start_hypotheses: 0}"));
+  ASSERT_TRUE(off.ok());
+  EXPECT_FALSE(off->diagnostics.count("start_hypothesis"));
+  EXPECT_LE(d.at("final_cost"), off->diagnostics.at("final_cost"));
+  EXPECT_FALSE(RunId("fg-batch", none, YAML::Load("{start_hypotheses: -1}")).ok());
+}
+
 // Waypoints (known positions at known times) pull the estimate onto them. Five points taken
 // from the truth, on three seeds: at σ = 0.5 m (a foot on a surveyed mark, the graph's position
 // being the body's) fg-batch's error at each is below σ and their sum is below 0.8× that

@@ -6,6 +6,7 @@
 #ifndef WALKGRAPH_MEASUREMENTS_H_
 #define WALKGRAPH_MEASUREMENTS_H_
 
+#include <limits>
 #include <vector>
 
 #include <Eigen/Core>
@@ -31,11 +32,30 @@ struct Step {
   double mag_heading_rad = 0.0;
 };
 
+// Where a step sequence's absolute heading comes from.
+enum class HeadingSource { kRelative, kInitialPose, kMagnetometer };
+
+// What the step front end chose from the walk itself (pdr.h: the `auto` options), for the
+// estimators' diagnostics. NaN where not applicable (odometry, foot strides, fixed options).
+struct StepFrontEndReport {
+  HeadingSource heading_source = HeadingSource::kRelative;
+  double forward_axis_rad =
+      std::numeric_limits<double>::quiet_NaN();  // walking direction in the levelled body frame,
+                                                 // from body x
+  double forward_axis_data_rad = std::numeric_limits<double>::quiet_NaN();     // before snapping
+  double forward_axis_consistency = std::numeric_limits<double>::quiet_NaN();  // Rayleigh R
+  double standstill_sigma_mps2 = std::numeric_limits<double>::quiet_NaN();
+  double step_peak_mps2 = std::numeric_limits<double>::quiet_NaN();      // median step peak
+  double vertical_peak_mps2 = std::numeric_limits<double>::quiet_NaN();  // thresholds used
+  double vertical_min_swing_mps2 = std::numeric_limits<double>::quiet_NaN();
+};
+
 struct StepSequence {
   std::vector<Step> steps;
   // True when heading_rad is absolute (magnetometer/compass or a known start); false when it
   // is only integrated from an arbitrary start.
   bool absolute_heading = false;
+  StepFrontEndReport report;
 };
 
 // Zero-velocity (stance) decision per IMU sample of a foot-mounted walk.

@@ -352,6 +352,7 @@ StatusOr<EstimateResult> CorreaEstimator::Run(const Walk& walk) const {
   StatusOr<EstimateResult> result = RunCorreaEkf(in, filter);
   if (!result.ok()) return Status(result.status().code(), id_ + ": " + result.status().message());
   result->diagnostics["steps"] = static_cast<double>(in.steps.steps.size());
+  AddFrontEndDiagnostics(in.steps.report, &result->diagnostics);
   result->diagnostics["radio_epochs"] = fixes.epochs;
   result->diagnostics["radio_epochs_without_fix"] = fixes.failed_epochs;
   return result;

@@ -112,11 +112,14 @@ Status CheckStepInput(const Walk& walk, const PdrOptions& pdr, bool need_absolut
     }
   }
   if (need_absolute_heading && !(walk.meta.initial_pose && walk.meta.initial_pose->heading_known)) {
-    const bool mag_heading = !walk.has_odometry() && pdr.heading == HeadingMethod::kComplementary;
+    const bool mag_heading = !walk.has_odometry() &&
+                             walk.meta.imu_placement != ImuPlacement::kFoot &&
+                             ResolveHeadingMethod(walk, pdr) == HeadingMethod::kComplementary;
     if (!mag_heading) {
       return FailedPrecondition(id +
                                 " needs a heading in the anchors' frame: initial_pose in "
-                                "walk.yaml, or a magnetometer with pdr heading 'complementary'");
+                                "walk.yaml, or a magnetometer (mx, my, mz in imu.csv) with pdr "
+                                "heading 'complementary' or 'auto'");
     }
   }
   return Status::Ok();

@@ -248,6 +248,7 @@ StatusOr<EstimateResult> GadekeEstimator::Run(const Walk& walk) const {
   StatusOr<EstimateResult> result = RunGadekeKf(steps, ranges, start, f);
   if (!result.ok()) return Status(result.status().code(), id_ + ": " + result.status().message());
   result->diagnostics["steps"] = static_cast<double>(steps.steps.size());
+  AddFrontEndDiagnostics(steps.report, &result->diagnostics);
   result->diagnostics["ranges"] = static_cast<double>(ranges.size());
   result->diagnostics["ranges_dropped_outage"] = dropped;
   return result;

@@ -268,7 +268,10 @@ TarrioEstimatorOptions TarrioEstimatorOptions::PaperDefaults() {
   o.pdr.detector = StepDetector::kVerticalPeak;     // 000 Sec. IV: low-pass, local maxima/minima
   o.pdr.length_model = StepLengthModel::kWeinberg;  // eq. 3
   o.pdr.weinberg_k = 0.45;                          // Sec. IV
-  o.pdr.heading = HeadingMethod::kGyro;             // eq. 4
+  // eq. 4 (gyro) from a known start heading; a walk without one but with a magnetometer gets
+  // its absolute heading from 001 eq. 7's blend (heading 'auto', our choice: 000 starts from a
+  // known pose, and a gyro heading alone has no anchor-frame direction).
+  o.pdr.heading = HeadingMethod::kAuto;
   o.radio.epochs.window_s = 2.0;                    // ΔT = 2 s (Sec. IV)
   o.radio.method = PositioningMethod::kHyperbolic;  // eq. 2
   return o;
@@ -298,7 +301,7 @@ StatusOr<TarrioEstimatorOptions> TarrioEstimatorOptionsFromYaml(const YAML::Node
                                                 {{"detector", "vertical-peak"},
                                                  {"length_model", "weinberg"},
                                                  {"weinberg_k", "0.45"},
-                                                 {"heading", "gyro"}},
+                                                 {"heading", "auto"}},
                                                 id + " pdr"));
   WG_RETURN_IF_ERROR(o.Validate(id));
   return o;
@@ -327,16 +330,29 @@ StatusOr<EstimateResult> TarrioEstimator::Run(const Walk& walk) const {
     WG_ASSIGN_OR_RETURN(steps, StepsFromFrontEnd(walk, options_.pdr, true, id_));
   }
   FixesFromFrontEnd fixes;
+  // pdr-only from the first fix on a walk whose radio never gives one (IPIN trials 05/21/52:
+  // never three beacons in an epoch) starts at walk.yaml's initial_pose when it has one
+  // (diagnostic start_from_initial_pose = 1; our choice, so that the walk needs no config).
+  bool start_from_pose = mode_ == TarrioMode::kPdrOnly && !UsesFixes();
   if (UsesFixes()) {
-    WG_ASSIGN_OR_RETURN(fixes, PositionFixesFromFrontEnd(walk, options_.radio, id_));
+    StatusOr<FixesFromFrontEnd> f = PositionFixesFromFrontEnd(walk, options_.radio, id_);
+    if (f.ok()) {
+      fixes = std::move(*f);
+    } else if (mode_ == TarrioMode::kPdrOnly && walk.meta.initial_pose) {
+      start_from_pose = true;
+    } else {
+      return f.status();
+    }
   }
   std::optional<Eigen::Vector2d> start;
-  if (mode_ == TarrioMode::kPdrOnly && !UsesFixes()) {
+  if (start_from_pose) {
     start = Eigen::Vector2d(walk.meta.initial_pose->x_m, walk.meta.initial_pose->y_m);
   }
   StatusOr<EstimateResult> result = RunTarrio(steps, fixes.fixes, options_.filter, mode_, start);
   if (!result.ok()) return Status(result.status().code(), id_ + ": " + result.status().message());
   result->diagnostics["steps"] = static_cast<double>(steps.steps.size());
+  if (UsesSteps()) AddFrontEndDiagnostics(steps.report, &result->diagnostics);
+  if (start_from_pose && UsesFixes()) result->diagnostics["start_from_initial_pose"] = 1.0;
   result->diagnostics["radio_epochs"] = fixes.epochs;
   result->diagnostics["radio_epochs_without_fix"] = fixes.failed_epochs;
   return result;

@@ -28,11 +28,16 @@ const std::vector<std::pair<std::string, StepLengthModel>> kLengthNames = {
     {"constant", StepLengthModel::kConstant},
     {"linear", StepLengthModel::kLinearFrequency}};
 const std::vector<std::pair<std::string, HeadingMethod>> kHeadingNames = {
-    {"gyro", HeadingMethod::kGyro}, {"complementary", HeadingMethod::kComplementary}};
+    {"gyro", HeadingMethod::kGyro},
+    {"complementary", HeadingMethod::kComplementary},
+    {"auto", HeadingMethod::kAuto}};
 const std::vector<std::pair<std::string, ForwardAxisMethod>> kForwardNames = {
     {"body-x", ForwardAxisMethod::kBodyX},
     {"body-y", ForwardAxisMethod::kBodyY},
-    {"pca", ForwardAxisMethod::kPca}};
+    {"pca", ForwardAxisMethod::kPca},
+    {"auto", ForwardAxisMethod::kAuto}};
+const std::vector<std::pair<std::string, StepThresholdMethod>> kThresholdNames = {
+    {"fixed", StepThresholdMethod::kFixed}, {"auto", StepThresholdMethod::kAuto}};
 
 // Yaw of a body-to-ENU rotation: the ENU angle of the body x axis projected on the horizontal.
 double Yaw(const Eigen::Matrix3d& r) { return std::atan2(r(1, 0), r(0, 0)); }
@@ -98,14 +103,82 @@ std::vector<StepEvent> EventsFromPeaks(const Walk& walk, const ImuSignals& s,
   return events;
 }
 
+// The q-quantile of x (nearest rank; x not empty), x reordered.
+double Quantile(std::vector<double>* x, double q) {
+  const size_t k = std::min(x->size() - 1, static_cast<size_t>(q * static_cast<double>(x->size())));
+  std::nth_element(x->begin(), x->begin() + static_cast<long>(k), x->end());
+  return (*x)[k];
+}
+
+// The standstill class of the windows' σ: Otsu's split of log σ (the threshold that maximises
+// the between-class variance of a two-class walk: still and walking), the median σ of the
+// quieter class.
+double StillSigma(std::vector<double> sd) {
+  std::sort(sd.begin(), sd.end());
+  std::vector<double> l;
+  for (double v : sd) l.push_back(std::log(std::max(v, 1e-6)));
+  const double total = std::accumulate(l.begin(), l.end(), 0.0);
+  const double n = static_cast<double>(l.size());
+  double best = -1.0, below = 0.0;
+  size_t split = l.size();  // quieter class: [0, split)
+  for (size_t k = 1; k < l.size(); ++k) {
+    below += l[k - 1];
+    const double w0 = static_cast<double>(k) / n, w1 = 1.0 - w0;
+    const double m0 = below / static_cast<double>(k);
+    const double m1 = (total - below) / (n - static_cast<double>(k));
+    const double between = w0 * w1 * (m0 - m1) * (m0 - m1);
+    if (between > best) best = between, split = k;
+  }
+  return sd[split / 2];
+}
+
+// Vertical-peak thresholds of StepThresholdMethod::kAuto (pdr.h): a fraction of the walk's
+// typical step (the median peak and swing of the steps the fixed thresholds find), when the
+// walk has standstills in a hand, whose shake could pass for steps.
+void AutoThresholds(const Walk& walk, const ImuSignals& s, const PdrOptions& o, size_t gap,
+                    double* peak, double* swing, StepFrontEndReport* report) {
+  *peak = o.vertical_peak_mps2;
+  *swing = o.vertical_min_swing_mps2;
+  if (o.step_thresholds == StepThresholdMethod::kFixed) return;
+  const size_t win = std::max<size_t>(2, static_cast<size_t>(std::lround(s.rate_hz)));
+  std::vector<double> sd;
+  for (size_t a = 0; a + win <= s.vertical_lp.size(); a += win) {
+    double m = 0.0, m2 = 0.0;
+    for (size_t i = a; i < a + win; ++i) m += s.vertical_lp[i];
+    m /= static_cast<double>(win);
+    for (size_t i = a; i < a + win; ++i) m2 += (s.vertical_lp[i] - m) * (s.vertical_lp[i] - m);
+    sd.push_back(std::sqrt(m2 / static_cast<double>(win - 1)));
+  }
+  const std::vector<StepEvent> fixed =
+      EventsFromPeaks(walk, s, PeaksWithGap(s.vertical_lp, *peak, gap), *swing);
+  if (sd.empty() || fixed.size() < 4) return;
+  std::vector<double> peaks, swings;
+  for (const StepEvent& e : fixed) {
+    peaks.push_back(e.a_max_mps2);
+    swings.push_back(e.a_max_mps2 - e.a_min_mps2);
+  }
+  const double still = StillSigma(sd);
+  const double step_peak = Quantile(&peaks, 0.5), step_swing = Quantile(&swings, 0.5);
+  report->standstill_sigma_mps2 = still;
+  report->step_peak_mps2 = step_peak;
+  // No standstill (quiet windows as lively as steps), or a sensor at rest: the fixed values.
+  if (still > o.auto_still_ratio * step_peak || o.auto_noise_sigmas * still < *peak) return;
+  *peak = std::max(*peak, o.auto_step_fraction * step_peak);
+  *swing = std::max(*swing, o.auto_step_fraction * step_swing);
+}
+
 StatusOr<std::vector<StepEvent>> DetectWithSignals(const Walk& walk, const ImuSignals& s,
-                                                   const PdrOptions& o) {
+                                                   const PdrOptions& o,
+                                                   StepFrontEndReport* report) {
   const size_t gap = static_cast<size_t>(std::lround(o.min_step_interval_s * s.rate_hz));
   switch (o.detector) {
     case StepDetector::kVerticalPeak: {
       // 000 Sec. III-B: local maxima of the smoothed vertical acceleration.
-      return EventsFromPeaks(walk, s, PeaksWithGap(s.vertical_lp, o.vertical_peak_mps2, gap),
-                             o.vertical_min_swing_mps2);
+      double peak = 0.0, swing = 0.0;
+      AutoThresholds(walk, s, o, gap, &peak, &swing, report);
+      report->vertical_peak_mps2 = peak;
+      report->vertical_min_swing_mps2 = swing;
+      return EventsFromPeaks(walk, s, PeaksWithGap(s.vertical_lp, peak, gap), swing);
     }
     case StepDetector::kFirMagnitude: {
       // 001 eq. 6: FIR (order 20, 3 Hz) on ‖a‖, local maxima above a threshold.
@@ -162,9 +235,56 @@ Status CheckImu(const Walk& walk) {
   return Status::Ok();
 }
 
+// The principal axis of the horizontal acceleration in the levelled body frame (003 eq. 3-5)
+// over the IMU index ranges `segments` ([a, b] each), its sign making the forward acceleration
+// lead the vertical one by less than half a step (Kourogi & Kurata): the correlations of
+// forward now with vertical later (lead) and the reverse (lag) over lags up to half of step_s,
+// within each segment.
+double PcaAngleOverSegments(const Walk& walk, const ImuSignals& s,
+                            const std::vector<std::pair<size_t, size_t>>& segments, double step_s) {
+  std::vector<std::vector<Eigen::Vector2d>> h;
+  for (const auto& [begin, end] : segments) {
+    h.emplace_back();
+    for (size_t i = begin; i <= end; ++i) {
+      const Eigen::Matrix3d r = s.attitude[i].toRotationMatrix();
+      Eigen::Vector3d a = r * walk.imu[i].acc_mps2;  // a^n: g and a_z^n drop with the z part
+      const double yaw = Yaw(r);
+      const Eigen::Vector2d an(a.x(), a.y());
+      h.back().push_back(Eigen::Rotation2Dd(-yaw) * an);  // levelled body frame
+    }
+  }
+  Eigen::Vector2d mean = Eigen::Vector2d::Zero();
+  size_t count = 0;
+  for (const auto& seg : h) {
+    for (const auto& v : seg) mean += v;
+    count += seg.size();
+  }
+  mean /= static_cast<double>(count);
+  Eigen::Matrix2d c = Eigen::Matrix2d::Zero();
+  for (const auto& seg : h) {
+    for (const auto& v : seg) c += (v - mean) * (v - mean).transpose();
+  }
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eig(c);
+  const Eigen::Vector2d axis = eig.eigenvectors().col(1);
+  const int max_lag = std::max(1, static_cast<int>(0.5 * step_s * s.rate_hz));
+  double lead = 0.0, lag = 0.0;
+  for (int k = 1; k <= max_lag; ++k) {
+    for (size_t g = 0; g < h.size(); ++g) {
+      const size_t begin = segments[g].first;
+      for (size_t i = 0; i + static_cast<size_t>(k) < h[g].size(); ++i) {
+        const double f_i = (h[g][i] - mean).dot(axis);
+        const double f_k = (h[g][i + k] - mean).dot(axis);
+        lead += f_i * s.vertical_lp[begin + i + k];  // forward now, vertical later
+        lag += f_k * s.vertical_lp[begin + i];
+      }
+    }
+  }
+  const Eigen::Vector2d fwd = lead >= lag ? axis : Eigen::Vector2d(-axis);
+  return std::atan2(fwd.y(), fwd.x());
+}
+
 // Forward axis angle φ in the levelled body frame by PCA of the horizontal acceleration
-// (003 eq. 3–5) over the first pca_window_s of walking; the sign makes the forward
-// acceleration lead the vertical one by less than half a step.
+// (003 eq. 3–5) over the first pca_window_s of walking.
 double PcaForwardAngle(const Walk& walk, const ImuSignals& s, const std::vector<StepEvent>& ev,
                        const PdrOptions& o) {
   if (ev.size() < 4) return 0.0;
@@ -173,35 +293,72 @@ double PcaForwardAngle(const Walk& walk, const ImuSignals& s, const std::vector<
   while (end + 1 < walk.imu.size() && walk.imu[end].t_s - walk.imu[begin].t_s < o.pca_window_s) {
     ++end;
   }
-  std::vector<Eigen::Vector2d> h;
-  for (size_t i = begin; i <= end; ++i) {
-    const Eigen::Matrix3d r = s.attitude[i].toRotationMatrix();
-    Eigen::Vector3d a = r * walk.imu[i].acc_mps2;  // a^n: g and a_z^n drop with the z part
-    const double yaw = Yaw(r);
-    const Eigen::Vector2d an(a.x(), a.y());
-    h.push_back(Eigen::Rotation2Dd(-yaw) * an);  // levelled body frame
-  }
-  Eigen::Vector2d mean = Eigen::Vector2d::Zero();
-  for (const auto& v : h) mean += v;
-  mean /= static_cast<double>(h.size());
-  Eigen::Matrix2d c = Eigen::Matrix2d::Zero();
-  for (const auto& v : h) c += (v - mean) * (v - mean).transpose();
-  Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eig(c);
-  const Eigen::Vector2d axis = eig.eigenvectors().col(1);
-  // Disambiguation: correlate forward and vertical acceleration for lags up to half a step.
   const double step_s = (ev.back().t_s - ev.front().t_s) / static_cast<double>(ev.size() - 1);
-  const int max_lag = std::max(1, static_cast<int>(0.5 * step_s * s.rate_hz));
-  double lead = 0.0, lag = 0.0;
-  for (int k = 1; k <= max_lag; ++k) {
-    for (size_t i = 0; i + static_cast<size_t>(k) < h.size(); ++i) {
-      const double f_i = (h[i] - mean).dot(axis);
-      const double f_k = (h[i + k] - mean).dot(axis);
-      lead += f_i * s.vertical_lp[begin + i + k];  // forward now, vertical later
-      lag += f_k * s.vertical_lp[begin + i];
+  return PcaAngleOverSegments(walk, s, {{begin, end}}, step_s);
+}
+
+// ForwardAxisMethod::kAuto (our choice, after Kourogi & Kurata's sign rule of the PCA above):
+// the forward acceleration of a walker oscillates at the step frequency and leads the vertical
+// one, while the lateral sway runs at half of it (one period per stride) and so correlates with
+// the vertical with alternating sign from step to step. Per step s (the samples between two
+// consecutive steps at most 1.5 s apart: walking, not pauses) the vector
+//   d_s = Σ_{k=1..L} Σ_i [h_i·v_{i+k} − h_{i+k}·v_i]
+// (h the levelled horizontal acceleration less its walk mean, v the filtered vertical one, L half
+// a median step) points forward; the forward axis is the mean direction of the unit vectors
+// u_s = d_s/|d_s| (one vote per step, so that a few jolts of the hand do not outweigh the
+// walk), accepted when the steps agree by Rayleigh's test, z = n·R² ≥ auto_forward_min_z with
+// R = |Σ u_s| / n (random directions give z ≈ 1), and snapped to the nearest body axis within
+// forward_axis_snap_rad. Otherwise: body y for a walk.yaml handheld device (a phone in portrait),
+// else body x.
+double AutoForwardAngle(const Walk& walk, const ImuSignals& s, const std::vector<StepEvent>& ev,
+                        const PdrOptions& o, StepFrontEndReport* report) {
+  constexpr double kMaxStepS = 1.5;  // a step takes 0.4-1 s; longer is a pause
+  const double fallback = walk.meta.imu_placement == ImuPlacement::kHandheld ? kPi / 2.0 : 0.0;
+  std::vector<std::pair<size_t, size_t>> segments;
+  std::vector<double> durations;
+  for (size_t k = 1; k < ev.size(); ++k) {
+    if (!(ev[k].duration_s > 0 && ev[k].duration_s <= kMaxStepS)) continue;
+    segments.emplace_back(ev[k - 1].imu_index, ev[k].imu_index);
+    durations.push_back(ev[k].duration_s);
+  }
+  if (segments.size() < 4) return fallback;
+  auto levelled = [&](size_t i) {
+    const Eigen::Matrix3d r = s.attitude[i].toRotationMatrix();
+    const Eigen::Vector3d a = r * walk.imu[i].acc_mps2;
+    return Eigen::Vector2d(Eigen::Rotation2Dd(-Yaw(r)) * Eigen::Vector2d(a.x(), a.y()));
+  };
+  Eigen::Vector2d mean = Eigen::Vector2d::Zero();
+  size_t count = 0;
+  for (const auto& [a, b] : segments) {
+    for (size_t i = a; i <= b; ++i, ++count) mean += levelled(i);
+  }
+  mean /= static_cast<double>(count);
+  const size_t lags =
+      static_cast<size_t>(std::max(1.0, std::floor(0.5 * Quantile(&durations, 0.5) * s.rate_hz)));
+  Eigen::Vector2d sum = Eigen::Vector2d::Zero();
+  for (const auto& [a, b] : segments) {
+    std::vector<Eigen::Vector2d> h;
+    for (size_t i = a; i <= b; ++i) h.push_back(levelled(i) - mean);
+    Eigen::Vector2d d = Eigen::Vector2d::Zero();
+    for (size_t k = 1; k <= lags; ++k) {
+      for (size_t i = 0; i + k < h.size(); ++i) {
+        d += h[i] * s.vertical_lp[a + i + k] - h[i + k] * s.vertical_lp[a + i];
+      }
+    }
+    if (d.norm() > 0) sum += d.normalized();  // one vote per step: a jolt of the hand is one
+  }
+  const double consistency = sum.norm() / static_cast<double>(segments.size());
+  report->forward_axis_consistency = consistency;
+  const double z = static_cast<double>(segments.size()) * consistency * consistency;
+  if (!(z >= o.auto_forward_min_z)) return fallback;
+  const double angle = std::atan2(sum.y(), sum.x());
+  report->forward_axis_data_rad = angle;
+  for (const double axis : {0.0, kPi / 2.0, kPi, -kPi / 2.0}) {
+    if (std::fabs(NormalizeAngle(angle - axis)) <= o.forward_axis_snap_rad) {
+      return NormalizeAngle(axis);
     }
   }
-  const Eigen::Vector2d fwd = lead >= lag ? axis : Eigen::Vector2d(-axis);
-  return std::atan2(fwd.y(), fwd.x());
+  return angle;
 }
 
 // Heading of the body x axis from the tilt-compensated magnetometer (ENU, from east).
@@ -223,9 +380,27 @@ StatusOr<PdrOptions> PdrOptionsFromYaml(const YAML::Node& node) {
   r.ReadEnum("length_model", &o.length_model, kLengthNames,
              "step length model: Weinberg (000), constant, or linear in step frequency");
   r.ReadEnum("heading", &o.heading, kHeadingNames,
-             "step heading: integrated gyro, or gyro blended with magnetometer (001 eq. 7)");
+             "step heading: integrated gyro, gyro blended with magnetometer (001 eq. 7), or auto "
+             "(the blend when the walk has a magnetometer and no start heading)");
   r.ReadEnum("forward_axis", &o.forward_axis, kForwardNames,
-             "walking direction: body x, body y, or PCA of horizontal acceleration");
+             "walking direction: body x, body y, PCA of horizontal acceleration (003), or auto "
+             "(the direction whose acceleration leads the vertical, step after step)");
+  r.Read("auto_forward_min_z", &o.auto_forward_min_z,
+         "auto forward axis: least Rayleigh z of the steps' agreement on the forward direction");
+  r.Read("forward_axis_snap_rad", &o.forward_axis_snap_rad,
+         "auto forward axis: a direction within this of a body axis is that axis");
+  r.ReadEnum(
+      "step_thresholds", &o.step_thresholds, kThresholdNames,
+      "vertical-peak thresholds: fixed, or auto (raised to half the walk's typical step when "
+      "it stands still in a shaking hand)");
+  r.Read("auto_still_ratio", &o.auto_still_ratio,
+         "auto thresholds: the walk has standstills if their sigma is below this x the median "
+         "step peak");
+  r.Read("auto_noise_sigmas", &o.auto_noise_sigmas,
+         "auto thresholds: raised only if this x the standstill sigma reaches the fixed peak (a "
+         "hand, not a sensor at rest)");
+  r.Read("auto_step_fraction", &o.auto_step_fraction,
+         "auto thresholds: least peak and swing as this fraction of the walk's median step");
   r.Read("vertical_cutoff_hz", &o.vertical_cutoff_hz,
          "vertical-peak: low-pass cut-off of vertical acceleration");
   r.Read("vertical_peak_mps2", &o.vertical_peak_mps2,
@@ -279,6 +454,13 @@ Status PdrOptions::Validate() const {
     return InvalidArgument(
         "pdr: need fir_order >= 2, cut-offs > 0, 0 <= complementary_w <= 1, weinberg_k > 0, "
         "intervals >= 0, gravity_mps2 > 0");
+  }
+  if (!(o.forward_axis_snap_rad >= 0 && o.forward_axis_snap_rad <= kPi / 4) ||
+      !(o.auto_forward_min_z >= 0) || !(o.auto_still_ratio >= 0) || !(o.auto_noise_sigmas >= 0) ||
+      !(o.auto_step_fraction >= 0 && o.auto_step_fraction < 1)) {
+    return InvalidArgument(
+        "pdr: need 0 <= forward_axis_snap_rad <= pi/4, auto_forward_min_z >= 0, "
+        "auto_still_ratio >= 0, auto_noise_sigmas >= 0, 0 <= auto_step_fraction < 1");
   }
   return CheckEnumOption(EnergyLockoutKeepNames(), o.energy_lockout_keep, "energy_lockout_keep",
                          "pdr");
@@ -354,14 +536,17 @@ StatusOr<std::vector<StepEvent>> DetectSteps(const Walk& walk, const PdrOptions&
   WG_RETURN_IF_ERROR(options.Validate());
   WG_RETURN_IF_ERROR(CheckImu(walk));
   WG_ASSIGN_OR_RETURN(const ImuSignals s, ComputeSignals(walk, options));
-  return DetectWithSignals(walk, s, options);
+  StepFrontEndReport report;
+  return DetectWithSignals(walk, s, options, &report);
 }
 
 StatusOr<StepSequence> ComputeSteps(const Walk& walk, const PdrOptions& o) {
   WG_RETURN_IF_ERROR(o.Validate());
   WG_RETURN_IF_ERROR(CheckImu(walk));
   WG_ASSIGN_OR_RETURN(const ImuSignals s, ComputeSignals(walk, o));
-  WG_ASSIGN_OR_RETURN(const std::vector<StepEvent> events, DetectWithSignals(walk, s, o));
+  StepSequence out;
+  WG_ASSIGN_OR_RETURN(const std::vector<StepEvent> events,
+                      DetectWithSignals(walk, s, o, &out.report));
 
   // Integrated yaw ψ_i (000 eq. 4) at every sample.
   // Held across IMU gaps (Walk::ImuGaps): the step graph bridges them.
@@ -373,14 +558,17 @@ StatusOr<StepSequence> ComputeSteps(const Walk& walk, const PdrOptions& o) {
     psi[i] = psi[i - 1] + dt * 0.5 * (s.yaw_rate[i] + s.yaw_rate[i - 1]);
   }
   const bool have_mag = walk.imu.front().has_mag;
-  const bool use_mag = o.heading == HeadingMethod::kComplementary;
+  const bool use_mag = ResolveHeadingMethod(walk, o) == HeadingMethod::kComplementary;
   if (use_mag && !have_mag) {
     return FailedPrecondition("pdr: heading 'complementary' needs magnetometer samples");
   }
   // Forward axis relative to body x (ENU yaw, counter-clockwise): body y is +90°.
-  const double phi = o.forward_axis == ForwardAxisMethod::kPca ? PcaForwardAngle(walk, s, events, o)
-                     : o.forward_axis == ForwardAxisMethod::kBodyY ? kPi / 2.0
-                                                                   : 0.0;
+  const double phi =
+      o.forward_axis == ForwardAxisMethod::kAuto ? AutoForwardAngle(walk, s, events, o, &out.report)
+      : o.forward_axis == ForwardAxisMethod::kPca   ? PcaForwardAngle(walk, s, events, o)
+      : o.forward_axis == ForwardAxisMethod::kBodyY ? kPi / 2.0
+                                                    : 0.0;
+  out.report.forward_axis_rad = phi;
   auto mag_walk_heading = [&](size_t from, size_t to) {
     // Circular mean of the magnetometer heading over [from, to] (body x, then forward axis).
     double c = 0.0, sn = 0.0;
@@ -392,15 +580,16 @@ StatusOr<StepSequence> ComputeSteps(const Walk& walk, const PdrOptions& o) {
     return NormalizeAngle(std::atan2(sn, c) + phi);
   };
 
-  StepSequence out;
   double theta = 0.0, var = o.sigma_heading0_rad * o.sigma_heading0_rad;
   if (walk.meta.initial_pose && walk.meta.initial_pose->heading_known) {
     theta = walk.meta.initial_pose->heading_rad;
     var = walk.meta.initial_pose->sigma_heading_rad * walk.meta.initial_pose->sigma_heading_rad;
     out.absolute_heading = true;
+    out.report.heading_source = HeadingSource::kInitialPose;
   } else if (use_mag && !events.empty()) {
     theta = mag_walk_heading(0, events.front().imu_index);
     out.absolute_heading = true;
+    out.report.heading_source = HeadingSource::kMagnetometer;
   }
   // θ is the walking direction at the walk's start (the first IMU sample).
   const double sigma_mag = std::max(o.sigma_heading0_rad, 1e-3);
@@ -450,6 +639,28 @@ StatusOr<StepSequence> ComputeSteps(const Walk& walk, const PdrOptions& o) {
   return out;
 }
 
+HeadingMethod ResolveHeadingMethod(const Walk& walk, const PdrOptions& o) {
+  if (o.heading != HeadingMethod::kAuto) return o.heading;
+  const bool start_heading = walk.meta.initial_pose && walk.meta.initial_pose->heading_known;
+  const bool mag = !walk.imu.empty() && walk.imu.front().has_mag;
+  return mag && !start_heading ? HeadingMethod::kComplementary : HeadingMethod::kGyro;
+}
+
+void AddFrontEndDiagnostics(const StepFrontEndReport& r, std::map<std::string, double>* d) {
+  (*d)["pdr_heading_source"] = static_cast<double>(r.heading_source);
+  auto put = [d](const char* key, double v, double scale) {
+    if (std::isfinite(v)) (*d)[key] = v * scale;
+  };
+  const double deg = 180.0 / kPi;
+  put("pdr_forward_axis_deg", r.forward_axis_rad, deg);
+  put("pdr_forward_axis_data_deg", r.forward_axis_data_rad, deg);
+  put("pdr_forward_axis_consistency", r.forward_axis_consistency, 1.0);
+  put("pdr_standstill_sigma_mps2", r.standstill_sigma_mps2, 1.0);
+  put("pdr_step_peak_mps2", r.step_peak_mps2, 1.0);
+  put("pdr_vertical_peak_mps2", r.vertical_peak_mps2, 1.0);
+  put("pdr_vertical_min_swing_mps2", r.vertical_min_swing_mps2, 1.0);
+}
+
 StepSequence StepsFromOdometry(const Walk& walk) {
   StepSequence out;
   double theta = 0.0;
@@ -458,6 +669,7 @@ StepSequence StepsFromOdometry(const Walk& walk) {
     theta = walk.meta.initial_pose->heading_rad;
     var = walk.meta.initial_pose->sigma_heading_rad * walk.meta.initial_pose->sigma_heading_rad;
     out.absolute_heading = true;
+    out.report.heading_source = HeadingSource::kInitialPose;
   }
   // Same noise model as the odometry-dr estimator's defaults.
   constexpr double kSigmaDistFrac = 0.05, kSigmaDistM = 0.001, kSigmaDheading = 0.01;

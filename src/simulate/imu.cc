@@ -170,13 +170,18 @@ WaistImuResult SimulateWaistImu(const MotionPlan& plan, const WaistImuOptions& o
     const double yaw_sway_rate = -act * o.yaw_sway_rad * w * std::sin(0.5 * two_pi_phi);
     const Eigen::Vector3d fwd(std::cos(b.heading_rad), std::sin(b.heading_rad), 0.0);
     const Eigen::Vector3d left(-fwd.y(), fwd.x(), 0.0);
-    const Eigen::Vector3d a_n = b.accel_mps2 * fwd + (v * b.yaw_rate_radps + a_lat) * left +
-                                Eigen::Vector3d(0.0, 0.0, a_vert + b.az_mps2);
+    const double a_swing = act * o.forward_swing_mps2 * std::cos(two_pi_phi);
+    const double a_shake =
+        (1.0 - act) * o.hand_shake_mps2 *
+        (std::sin(2.0 * kPi * 1.3 * t) + 0.6 * std::sin(2.0 * kPi * 2.9 * t + 1.0));
+    const Eigen::Vector3d a_n = (b.accel_mps2 + a_swing) * fwd +
+                                (v * b.yaw_rate_radps + a_lat) * left +
+                                Eigen::Vector3d(0.0, 0.0, a_vert + a_shake + b.az_mps2);
     ImuTruth s;
     s.t_s = t;
     s.position_n = Eigen::Vector3d(b.position_m.x(), b.position_m.y(), o.height_m + b.z_m);
     s.velocity_n = v * fwd + Eigen::Vector3d(0.0, 0.0, b.vz_mps);
-    const Eigen::Matrix3d R = Rz(b.heading_rad + yaw_sway);
+    const Eigen::Matrix3d R = Rz(b.heading_rad + yaw_sway + o.device_yaw_rad);
     s.q_nb = Eigen::Quaterniond(R);
     s.specific_force_b = R.transpose() * (a_n + g_up);
     s.angular_rate_b = Eigen::Vector3d(0.0, 0.0, b.yaw_rate_radps + yaw_sway_rate);

@@ -239,6 +239,14 @@ struct WaistImuOptions {
   double lateral_sway_m = 0.02;  // pelvis side-to-side amplitude, at stride frequency f/2
   double yaw_sway_rad = 0.05;    // pelvis yaw oscillation amplitude, at f/2
   double height_m = 1.0;         // truth z (unused when the truth is planar)
+  // A device held in the hand (issue 41): yawed on the walker by device_yaw_rad (a phone in
+  // portrait, its y axis forward: −π/2), a forward swing forward_swing_mps2·cos(2πφ) leading
+  // the vertical sin(2πφ) by a quarter step (the body brakes at heel strike), and, while the
+  // walker stands, a shaking hand: vertical hand_shake_mps2·(sin(2π·1.3 t) + 0.6·sin(2π·2.9 t
+  // + 1)) (peaks of ~1.4× the amplitude, at tremor-like 1-3 Hz). All 0: a waist/hip IMU.
+  double device_yaw_rad = 0.0;
+  double forward_swing_mps2 = 0.0;
+  double hand_shake_mps2 = 0.0;
 };
 struct WaistImuResult {
   std::vector<ImuTruth> truth;  // pose of the walker (the path), noiseless sensor readings

@@ -10,8 +10,8 @@
 #include <Eigen/Geometry>
 
 #include "config/parsers.h"
-#include "factors/barometric_height_factor.h"
 #include "estimators/builtin.h"
+#include "factors/barometric_height_factor.h"
 #include "smoothers/graph_internal.h"
 #include "smoothers/step_graph_impl.h"
 #include "util/text.h"
@@ -172,6 +172,8 @@ void ReadSolverKeys(ConfigReader& r, StepGraphOptions* o) {
   r.Read("window_function_tolerance", &o->window_function_tolerance,
          "fg-window: Ceres relative cost-change stop per solve");
   r.Read("init_lag_s", &o->init_lag_s, "initialization window: lag of the fast fixed-lag pass");
+  r.Read("start_hypotheses", &o->start_hypotheses,
+         "no start: dead reckoning aligned to every fix, turned n ways, each solved (0: off)");
   r.Read("init_update_s", &o->init_update_s, "initialization window: one update per this period");
   r.Read("init_max_iterations", &o->init_max_iterations,
          "initialization window: LM iterations per update");
@@ -286,6 +288,9 @@ Status CheckStepGraphOptions(const StepGraphOptions& o, const std::string& conte
     return InvalidArgument(context + ": path-loss self-calibration needs rss_residual 'db'");
   }
   WG_RETURN_IF_ERROR(positive(o.init_lag_s, "init_lag_s"));
+  if (o.start_hypotheses < 0 || o.start_hypotheses > 360) {
+    return InvalidArgument(context + ": start_hypotheses must be in [0, 360]");
+  }
   if (o.window_update_s < 0 || o.init_update_s < 0 || o.window_marginalize_batch_s < 0) {
     return InvalidArgument(context +
                            ": window_update_s, init_update_s, window_marginalize_batch_s must "
@@ -480,6 +485,7 @@ Status StepGraph::Impl::MakeNodes(const Walk& walk, StepGraph* g) {
   } else {
     WG_ASSIGN_OR_RETURN(StepSequence seq, StepsForWalk(walk, o.pdr));
     steps = std::move(seq.steps);
+    front_end = seq.report;
     for (const Step& s : steps) t.push_back(s.t_s);
   }
   if (t.empty()) return FailedPrecondition("step graph: the walk has no steps or odometry");
@@ -675,6 +681,38 @@ int StepGraph::FloorOfHeight(double z_m) const { return impl_->Floor(z_m); }
 
 int StepGraph::stair_steps() const { return impl_->stair_steps; }
 
+const StepFrontEndReport& StepGraph::front_end_report() const { return impl_->front_end; }
+
+std::vector<std::vector<Eigen::Vector3d>> StepGraph::StartHypotheses(const Walk& walk,
+                                                                     int n) const {
+  const Impl& m = *impl_;
+  std::vector<std::vector<Eigen::Vector3d>> out;
+  if (n <= 0 || m.start || m.radio_only || !(m.any_rss || m.any_range)) return out;
+  StepGraphOptions all = m.o;
+  all.align_window_s = std::numeric_limits<double>::infinity();  // every fix
+  const std::optional<Alignment> a = AlignToFirstFixes(walk, all, node_t_, init_);
+  if (!a) return out;
+  std::vector<Eigen::Vector3d> aligned = init_;
+  Eigen::Vector2d centroid = Eigen::Vector2d::Zero();
+  for (Eigen::Vector3d& p : aligned) {
+    p.head<2>() = a->R * p.head<2>() + a->t;
+    p[2] = NormalizeAngle(p[2] + a->rotation_rad);
+    centroid += p.head<2>();
+  }
+  centroid /= static_cast<double>(aligned.size());
+  for (int k = 0; k < n; ++k) {
+    const double turn = 2.0 * kPi * k / n;
+    const Eigen::Rotation2Dd R(turn);
+    std::vector<Eigen::Vector3d> h = aligned;
+    for (Eigen::Vector3d& p : h) {
+      p.head<2>() = centroid + R * (p.head<2>() - centroid);
+      p[2] = NormalizeAngle(p[2] + turn);
+    }
+    out.push_back(std::move(h));
+  }
+  return out;
+}
+
 namespace {
 
 // The mean pressure of the readings within ±window/2 of t, else the reading nearest in time.
@@ -860,6 +898,7 @@ void AddGraphDiagnostics(const StepGraph& graph, const Walk& walk,
     (*d)["start_heading_contradicted_rad"] = graph.start_heading_contradicted_rad();
   }
   if (graph.has_floors()) (*d)["stair_steps"] = graph.stair_steps();
+  if (walk.has_imu() && !walk.has_odometry()) AddFrontEndDiagnostics(graph.front_end_report(), d);
 }
 
 // A node's height and the floor it is on.
@@ -925,6 +964,44 @@ namespace {
 StatusOr<EstimateResult> RunWindowNodes(const Walk& walk, const StepGraphOptions& options);
 }  // namespace
 
+namespace {
+
+// fg-batch's start hypotheses (StepGraphOptions::start_hypotheses): each solved from its own
+// initial nodes; returns the graph of the lowest final cost when one beats `*best` (whose
+// summary it then takes), else null. Diagnostics: start_hypothesis (0: fg-batch's own
+// initialization) and start_hypothesis_cost.k per hypothesis (k = 0 its own).
+StatusOr<std::unique_ptr<FactorGraph>> SolveStartHypotheses(const Walk& walk,
+                                                            const StepGraph& graph,
+                                                            const SolverOptions& so, int n,
+                                                            SolveSummary* best,
+                                                            std::map<std::string, double>* d) {
+  std::unique_ptr<FactorGraph> winner;
+  const std::vector<std::vector<Eigen::Vector3d>> starts = graph.StartHypotheses(walk, n);
+  if (starts.empty()) return winner;
+  (*d)["start_hypothesis"] = 0;
+  (*d)["start_hypothesis_cost.0"] = best->final_cost;
+  for (size_t h = 0; h < starts.size(); ++h) {
+    auto fg = std::make_unique<FactorGraph>();
+    WG_RETURN_IF_ERROR(graph.AddTo(fg.get()));
+    for (int k = 0; k < graph.num_nodes(); ++k) {
+      const Eigen::Vector3d& x = starts[h][k];
+      WG_RETURN_IF_ERROR(fg->SetValue(StepGraph::PositionKey(k), {x[0], x[1]}));
+      WG_RETURN_IF_ERROR(fg->SetValue(StepGraph::HeadingKey(k), {x[2]}));
+    }
+    StatusOr<SolveSummary> summary = SolveBatch(fg.get(), so);
+    if (!summary.ok()) continue;  // a hypothesis that fails to solve is not taken
+    (*d)["start_hypothesis_cost." + std::to_string(h + 1)] = summary->final_cost;
+    if (summary->final_cost < best->final_cost) {
+      *best = *summary;
+      (*d)["start_hypothesis"] = static_cast<double>(h + 1);
+      winner = std::move(fg);
+    }
+  }
+  return winner;
+}
+
+}  // namespace
+
 Status StepGraphBatch::CheckApplicable(const Walk& walk) const { return CheckStepWalk(walk); }
 
 Status StepGraph::AddTo(FactorGraph* fg) const {
@@ -987,17 +1064,23 @@ StatusOr<EstimateResult> StepGraphBatch::Run(const Walk& walk) const {
   }
   StatusOr<SolveSummary> summary = SolveBatch(&fg, so);
   if (!summary.ok()) return NumericalError("fg-batch: " + summary.status().message());
+  std::map<std::string, double> start_d;
+  WG_ASSIGN_OR_RETURN(
+      std::unique_ptr<FactorGraph> better,
+      SolveStartHypotheses(walk, *graph, so, options_.start_hypotheses, &*summary, &start_d));
+  FactorGraph& fg_best = better ? *better : fg;
 
   EstimateResult result;
   auto& d = result.diagnostics;
+  d.insert(start_d.begin(), start_d.end());
   d["ceres_iterations"] = summary->iterations;
   d["ceres_converged"] = summary->termination == Termination::kConverged ? 1.0 : 0.0;
   d["final_cost"] = summary->final_cost;
   d["normalized_cost"] = summary->normalized_cost();  // 2F/(m − n), ≈ 1 if consistent
   d["initialized_from_window"] = window_init ? 1.0 : 0.0;
   d["nodes"] = n;
-  d["residual_blocks"] = static_cast<double>(fg.num_factors());
-  auto value = [&](StateKey k) { return *fg.Value(k); };  // every key below is in the graph
+  d["residual_blocks"] = static_cast<double>(fg_best.num_factors());
+  auto value = [&](StateKey k) { return *fg_best.Value(k); };  // every key below is in the graph
   AddStaticDiagnostics(*graph, value, walk, options_, &d);
   AddGraphDiagnostics(*graph, walk, &d);
   for (int k = 0; k < n; ++k) {
@@ -1012,7 +1095,7 @@ StatusOr<EstimateResult> StepGraphBatch::Run(const Walk& walk) const {
     for (int k = 0; k < n; ++k) {
       groups.push_back({StepGraph::PositionKey(k), StepGraph::HeadingKey(k)});
     }
-    auto cov = MarginalCovariances(&fg, groups);
+    auto cov = MarginalCovariances(&fg_best, groups);
     if (!cov.ok()) {
       d["covariance_failed"] = 1.0;  // e.g. rank-deficient: trajectory without covariances
     } else {

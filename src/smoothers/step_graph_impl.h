@@ -57,6 +57,7 @@ struct StepGraph::Impl {
   bool odometry = false;
   bool radio_only = false;           // no steps: random-walk motion between radio epochs
   std::vector<Step> steps;           // node k ≥ 1 ends steps[k − 1] (PDR walks)
+  StepFrontEndReport front_end;      // the front end's choices (PDR walks)
   std::vector<bool> bridged;         // node k's step spans an IMU gap (Walk::ImuGaps)
   std::vector<OdometrySample> odom;  // node k ≥ 1 ends odom[k − 1] (odometry walks)
   std::vector<Anchor> anchors;

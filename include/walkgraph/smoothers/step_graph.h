@@ -201,6 +201,13 @@ struct StepGraphOptions {
   double start_check_sigmas = 5.0;
   StepGraphInit initialization = StepGraphInit::kAuto;
   double init_lag_s = 20.0;
+  // fg-batch on a walk with no start (no walk.yaml initial_pose) but radio: besides its own
+  // initialization, the dead reckoning aligned by rotation + translation (Procrustes/Umeyama) to
+  // every radio fix of the walk, turned by k·360°/start_hypotheses (k = 0..n−1) about its
+  // centroid, each solved; the lowest final cost wins (diagnostics start_hypothesis: 0 its own
+  // initialization, k + 1 the k-th turn; start_hypothesis_cost.k). 0: its own only. Our choice
+  // (issue 41: a short first window of fixes leaves the start heading ambiguous).
+  int start_hypotheses = 4;
   double init_update_s = 5.0;
   int init_max_iterations = 10;  // LM iterations per update of that pass
   int max_iterations = 100;
@@ -222,7 +229,7 @@ struct StepGraphOptions {
   // SimplicialLDLT (less set-up per solve, which dominates on a window of ~100 blocks:
   // Plaza1 without covariances 2.62 → 2.28 s); dense: DENSE_NORMAL_CHOLESKY.
   WindowLinearSolver window_linear_solver = WindowLinearSolver::kEigenSparse;
-  double window_update_s = 0.0;          // 0: one update per node; > 0: nodes gathered per period
+  double window_update_s = 0.0;  // 0: one update per node; > 0: nodes gathered per period
   WindowOutput window_output = WindowOutput::kLagged;
   // States leave the window in batches of this span (FixedLagSmoother::Options): one
   // marginalization and one covariance solve per batch instead of per node; 0: per update.
@@ -267,6 +274,8 @@ class StepGraph {
   int FloorOfHeight(double z_m) const;
   // How many steps were taken for stair steps (StepGraphOptions::stairs).
   int stair_steps() const;
+  // What the step front end chose from the walk (pdr.h; defaults for odometry/radio-only).
+  const StepFrontEndReport& front_end_report() const;
 
   // Static (untimed) states: path loss, range bias, gyro bias blocks.
   std::vector<SmootherState> StaticStates() const;
@@ -281,6 +290,10 @@ class StepGraph {
   // The whole graph into `fg` (fg-batch's graph before it solves): every state at its dead-
   // reckoning value and every factor, the user's included. A caller may add more and solve.
   Status AddTo(FactorGraph* fg) const;
+  // fg-batch's start hypotheses (StepGraphOptions::start_hypotheses): the dead reckoning aligned
+  // to every radio fix, turned by k·2π/n about its centroid; empty when the walk has a start,
+  // no radio fix, or no steps.
+  std::vector<std::vector<Eigen::Vector3d>> StartHypotheses(const Walk& walk, int n) const;
   // Whether node 0 must be held constant (no prior and no anchors: see the top of this file).
   bool fix_first_node() const { return fix_first_node_; }
   // path_loss "auto" held the path loss because the walk is radio-only (not identifiable).
