@@ -1,6 +1,6 @@
 // walkgraph: the command-line shell over the library. Parses arguments, calls the library,
 // prints. Every failure prints "walkgraph: <message>" on stderr and exits 1; an interrupted
-// run (SIGINT, SIGTERM, SIGHUP) exits 128 + the signal, its outputs left as they were
+// run (SIGINT, SIGTERM, SIGHUP, SIGQUIT) exits 128 + the signal, its outputs left as they were
 // (walkgraph/output.h).
 #include <glog/logging.h>
 #include <signal.h>
@@ -120,8 +120,8 @@ int Finish(int rc) {
   return rc;
 }
 
-// SIGINT/SIGTERM/SIGHUP: ask the library to stop; when no output is being written there is
-// nothing of ours on disk to clean up, so end at once.
+// SIGINT/SIGTERM/SIGHUP/SIGQUIT: ask the library to stop; when no output is being written
+// there is nothing of ours on disk to clean up, so end at once.
 extern "C" void OnSignal(int signal_number) {
   walkgraph::RequestCancel(signal_number);
   if (!walkgraph::OutputInProgress()) ::_exit(128 + signal_number);
@@ -131,7 +131,7 @@ void InstallSignalHandlers() {
   struct sigaction action {};
   action.sa_handler = OnSignal;
   sigemptyset(&action.sa_mask);
-  for (int sig : {SIGINT, SIGTERM, SIGHUP}) ::sigaction(sig, &action, nullptr);
+  for (int sig : {SIGINT, SIGTERM, SIGHUP, SIGQUIT}) ::sigaction(sig, &action, nullptr);
 }
 
 // Last resorts: an exception escaping a thread, or a failed CHECK inside a dependency, end the

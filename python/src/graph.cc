@@ -1,5 +1,6 @@
 // The factor-graph core from Python: keys, built-in factors, FactorGraph (batch) and the
 // FixedLagSmoother (sliding window), the same container walkgraph's own estimators use.
+#include <cmath>
 #include <memory>
 #include <optional>
 #include <string>
@@ -17,6 +18,7 @@
 #include "factors/range_factor.h"
 #include "factors/rss_factor.h"
 #include "walkgraph/graph.h"
+#include "walkgraph/io.h"
 #include "walkgraph/smoothers/fixed_lag_smoother.h"
 #include "walkgraph/smoothers/step_graph.h"
 
@@ -214,6 +216,7 @@ void BindGraph(py::module_& m) {
         const YAML::Node yaml = ToYaml(config, "step_graph");
         const StepGraphOptions o = Value(StepGraphOptionsFromYaml(
             yaml.IsNull() ? YAML::Node() : yaml, "step_graph", StepGraphOptions()));
+        Check(ValidateWalk(walk));
         auto graph = std::make_unique<FactorGraph>();
         std::vector<double> times;
         Check(RunInterruptible([&]() -> Status {
@@ -232,7 +235,9 @@ void BindGraph(py::module_& m) {
                                "Sliding-window smoother: states older than lag_s are "
                                "marginalized into a prior.")
       .def(py::init([](double lag_s) {
-             if (!(lag_s > 0)) Raise(InvalidArgument("lag_s must be > 0"));
+             if (!(lag_s > 0) || !std::isfinite(lag_s)) {
+               Raise(InvalidArgument("lag_s must be finite and > 0"));
+             }
              FixedLagSmoother::Options o;
              o.lag_s = lag_s;
              return std::make_unique<FixedLagSmoother>(o);
