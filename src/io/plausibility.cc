@@ -71,8 +71,8 @@ std::string CheckInitialPose(const InitialPose& p, const ValidationLimits& lim) 
   if (e.empty() && !(std::fabs(p.heading_rad) <= two_pi + 1e-9)) {
     e = "heading_rad " + Num(p.heading_rad) + " outside [-2*pi, 2*pi]; expected radians";
   }
-  if (e.empty()) e = Outside("sigma_xy_m", p.sigma_xy_m, 1e-3, 1e4, "m");
-  if (e.empty()) e = Outside("sigma_heading_rad", p.sigma_heading_rad, 1e-4, two_pi, "rad");
+  if (e.empty()) e = Outside("sigma_xy_m", p.sigma_xy_m, 1e-6, 1e4, "m");
+  if (e.empty()) e = Outside("sigma_heading_rad", p.sigma_heading_rad, 1e-6, two_pi, "rad");
   return e;
 }
 

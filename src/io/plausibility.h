@@ -25,8 +25,8 @@ std::string CheckPathLoss(const PathLossParams& p, RssUnits units, const Validat
 // walk.yaml's radio: the path loss above and range_sigma_m in [0.001, 1000] m.
 std::string CheckRadioDefaults(const RadioDefaults& r, const ValidationLimits& limits);
 // walk.yaml's initial_pose: coordinates within limits.max_abs_coordinate_m, heading_rad within
-// [-2π, 2π] (radians, not degrees), sigma_xy_m in [0.001, 10000] m, sigma_heading_rad in
-// [0.0001, 2π] rad.
+// [-2π, 2π] (radians, not degrees), sigma_xy_m in [1e-6, 1e4] m, sigma_heading_rad in
+// [1e-6, 2π] rad (the simulator's exactly known heading is 1e-6).
 std::string CheckInitialPose(const InitialPose& p, const ValidationLimits& limits);
 
 // Rules across a walk's streams ("" when they hold; streams named as files with `as_files`):
