@@ -7,9 +7,11 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <charconv>
 #include <cstdint>
 #include <cstdio>
+#include <cstring>
 #include <exception>
 #include <iomanip>
 #include <iostream>
@@ -25,6 +27,8 @@
 #include <CLI/CLI.hpp>
 
 #include "config/parsers.h"
+#include "io/plausibility.h"
+#include "util/text.h"
 #include "walkgraph/compare.h"
 #include "walkgraph/config.h"
 #include "walkgraph/convert.h"
@@ -272,6 +276,19 @@ int RunFitPathLoss(const std::string& walk_dir, bool floors) {
   const double d0 = walk->meta.radio.path_loss.d0_m;
   auto fit = walkgraph::FitPathLoss(obs, units, d0);
   if (!fit.ok()) return Fail(fit.status());
+  // The printed block goes into a walk.yaml: a fit that walk.yaml would refuse is an error.
+  std::string absurd = walkgraph::internal::CheckPathLoss(fit->params, units, {});
+  if (absurd.empty() && !(fit->params.floor_loss_db >= 0.0 && fit->params.floor_loss_db <= 100.0)) {
+    absurd = "floor_loss_db " + walkgraph::internal::Num(fit->params.floor_loss_db) +
+             " outside [0, 100] dB";
+  }
+  if (!absurd.empty()) {
+    return Fail(walkgraph::FailedPrecondition(
+        "fit-path-loss " + walk_dir + ": the fit over " + std::to_string(fit->num_observations) +
+        " readings is not a usable path-loss model: " + absurd +
+        ". Expected RSS that falls with the distance to the anchors: check anchors.csv's "
+        "positions and ids, radio.units, and that the truth is in the anchors' frame"));
+  }
   std::printf("# fit-path-loss %s: %d readings inside the truth's span\n", walk_dir.c_str(),
               fit->num_observations);
   auto per = walkgraph::FitPathLossPerAnchor(obs, units, d0);
@@ -1117,6 +1134,21 @@ int Main(int argc, char** argv) {
   return Finish(args.rc);
 }
 
+// A run whose standard output could not be written (a full disk, /dev/full, a closed pipe's
+// EPIPE) failed, even when its files were written: the final flush's errors count.
+int CheckStdout(int rc) {
+  std::cout.flush();
+  const bool stream_bad = !std::cout.good() || std::ferror(stdout) != 0;
+  errno = 0;
+  const bool flush_failed = std::fflush(stdout) != 0;
+  const int e = errno;
+  if (!stream_bad && !flush_failed) return rc;
+  std::fprintf(
+      stderr, "walkgraph: cannot write the standard output: %s\n",
+      flush_failed && e != 0 ? std::strerror(e) : "a write failed (a full disk, or a closed pipe)");
+  return rc == 0 ? 1 : rc;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -1127,7 +1159,7 @@ int main(int argc, char** argv) {
   std::set_terminate(OnTerminate);
   google::InstallFailureFunction(&OnCheckFailure);
   try {
-    return Main(argc, argv);
+    return CheckStdout(Main(argc, argv));
   } catch (const std::bad_alloc&) {
     std::cerr << "walkgraph: out of memory; no output was written\n";
   } catch (const std::exception& e) {

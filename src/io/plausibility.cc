@@ -127,9 +127,10 @@ std::string CheckStreamSpans(const Walk& w, bool files) {
   for (size_t i = 0; i < w.waypoints.size(); ++i) {
     const double t = w.waypoints[i].t_s;
     if (t < start || t > end) {
-      return std::string(files ? "waypoints.csv" : "waypoints") + "[" + std::to_string(i) +
-             "]: t_s " + Num(t) + " outside the walk's time span [" + Num(start + 1.0) + ", " +
-             Num(end - 1.0) + "] s";
+      const std::string where = files ? "waypoints.csv:" + std::to_string(i + 2)  // header: 1
+                                      : "waypoints[" + std::to_string(i) + "]";
+      return where + ": t_s " + Num(t) + " outside the walk's time span [" + Num(start + 1.0) +
+             ", " + Num(end - 1.0) + "] s (1 s tolerance)";
     }
   }
   return "";
