@@ -1412,6 +1412,15 @@ for slug, old, new, pattern in WALK_YAML_ABSURD:
          setup=with_walk((lambda o, n: lambda ctx: ctx.replace("w/walk.yaml", o, n))(old, new)),
          err=allof(r"walk\.yaml", pattern))
 
+case("compare-runs-2e9-refused", "plausibility",
+     ["compare", "--scenario", "tarrio-circle", "--runs", "2000000000", "--out", "out"],
+     err=allof(r"runs must be in \[1, 1000000\]"), check=quick(10), timeout=30)
+case("study-10001-values-refused", "plausibility", STUDY + ["out"],
+     setup=manifest(STUDY_MANIFEST.replace("values: [0.2, 0.4]", "values: [%s]" % ", ".join(
+         "%g" % (0.1 + i * 1e-4) for i in range(10001)))),
+     err=allof(r"m\.yaml:\d+", r"10001 values, over the cap of 10000"), check=quick(10),
+     timeout=30)
+
 LONG_NAME = "n" * 255  # NAME_MAX: the hidden temporary's name must still fit
 case("out-name-255-bytes", "plausibility", CMP + [LONG_NAME], setup=walk(), rc=0, out=LONG_NAME,
      out_kind="compare")

@@ -89,6 +89,17 @@ class Parser {
     return v;
   }
 
+  // A Monte Carlo run count: in [1, kMaxMonteCarloRuns].
+  StatusOr<int> Runs(const YAML::Node& n) const {
+    WG_ASSIGN_OR_RETURN(int v, PositiveInt(n, "runs"));
+    if (v > kMaxMonteCarloRuns) {
+      return Error(n, "runs " + std::to_string(v) + " over the cap of " +
+                          std::to_string(kMaxMonteCarloRuns) +
+                          " (10^6 runs take days; split a larger study into seeds)");
+    }
+    return v;
+  }
+
   StatusOr<double> NonNegative(const YAML::Node& n, const std::string& what) const {
     WG_ASSIGN_OR_RETURN(double v, Scalar<double>(n, what, "number >= 0"));
     if (!(std::isfinite(v) && v >= 0.0)) return Error(n, what + " must be a number >= 0");
@@ -240,7 +251,7 @@ StatusOr<StudySweep> ParseSweep(const Parser& p, const YAML::Node& node, const S
                      what + ": a recorded walk has no simulator overrides");
     }
     if (node["runs"]) {
-      WG_ASSIGN_OR_RETURN(int runs, p.PositiveInt(node["runs"], "runs"));
+      WG_ASSIGN_OR_RETURN(int runs, p.Runs(node["runs"]));
       if (runs != 1) return p.Error(node["runs"], what + ": a recorded walk is one run");
     }
   }
@@ -254,7 +265,7 @@ StatusOr<StudySweep> ParseSweep(const Parser& p, const YAML::Node& node, const S
   }
   s.runs = top_runs;
   if (node["runs"]) {
-    WG_ASSIGN_OR_RETURN(s.runs, p.PositiveInt(node["runs"], "runs"));
+    WG_ASSIGN_OR_RETURN(s.runs, p.Runs(node["runs"]));
   }
   if (!s.walk_dir.empty()) s.runs = 1;
   s.seed = top_seed;
@@ -311,6 +322,11 @@ StatusOr<StudySweep> ParseSweep(const Parser& p, const YAML::Node& node, const S
   const YAML::Node values = node["values"];
   if (!values || !values.IsSequence() || values.size() == 0) {
     return p.Error(values ? values : node, what + ": values must be a non-empty list of numbers");
+  }
+  if (values.size() > kMaxSweepValues) {
+    return p.Error(values, what + ": " + std::to_string(values.size()) +
+                               " values, over the cap of " + std::to_string(kMaxSweepValues) +
+                               " per sweep (a study that cannot finish); split the sweep");
   }
   for (const YAML::Node& v : values) {
     WG_ASSIGN_OR_RETURN(double x, p.Scalar<double>(v, "a swept value", "number"));
@@ -379,7 +395,7 @@ StatusOr<StudyManifest> ParseManifestRoot(const YAML::Node& root, const std::str
   }
   int runs = 1;
   if (root["runs"]) {
-    WG_ASSIGN_OR_RETURN(runs, p.PositiveInt(root["runs"], "runs"));
+    WG_ASSIGN_OR_RETURN(runs, p.Runs(root["runs"]));
   }
   uint64_t seed = 1;
   if (root["seed"]) {
