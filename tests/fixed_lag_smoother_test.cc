@@ -103,6 +103,19 @@ TEST(FixedLagSmoother, RefusesNaNAndTimesBeforeTheWindowAndChangesNothing) {
   nan_value.value = {std::nan("")};
   refused(nan_value, "non-finite value");
   refused(Scalar(100, 6.5), "added twice");  // the same key twice in one update
+  // A factor naming one state twice (a Ceres abort before) or an unknown state: refused before
+  // its update's states are added.
+  std::vector<SmootherState> with_bad_factor;
+  with_bad_factor.push_back(Scalar(105, 6.0));
+  auto twice = s.Update(std::move(with_bad_factor), {BetweenOf(105, 105, 1.0, 1.0)});
+  ASSERT_FALSE(twice.ok());
+  EXPECT_NE(twice.status().message().find("twice"), std::string::npos) << twice.status().message();
+  EXPECT_FALSE(s.Contains(105));
+  std::vector<SmootherState> with_unknown;
+  with_unknown.push_back(Scalar(106, 6.0));
+  EXPECT_FALSE(s.Update(std::move(with_unknown), {BetweenOf(106, 999, 1.0, 1.0)}).ok());
+  EXPECT_FALSE(s.Contains(106));
+  EXPECT_EQ(s.WindowKeys(), window);
   // Inside the window (older than the newest state) is still fine.
   std::vector<SmootherState> inside;
   inside.push_back(Scalar(104, 4.5));

@@ -1398,6 +1398,10 @@ case("rfcode-units-with-dbm-readings", "plausibility", ["validate", "w"],
      setup=with_walk(lambda ctx: ctx.replace("w/walk.yaml", "units: dbm\n  A_dbm: -60",
                                              "units: rfcode\n  A_dbm: 100")),
      err=allof(r"rss\.csv: every reading is negative \(dBm-like\)"))
+case("anchors-in-another-frame", "plausibility", ["validate", "w"],
+     setup=with_walk(lambda ctx: ctx.write(
+         "w/anchors.csv", "id,x_m,y_m,z_m\n1,4800000,0,2\n2,4800010,0,2\n3,4800020,0,2\n")),
+     err=allof(r"truth\.csv:2: \(0, 0\) is", r"one frame"))
 WALK_YAML_ABSURD = [
     ("eta-1e6", "eta: 2.5", "eta: 1e6", r"radio: eta 1e\+06 outside"),
     ("a-dbm-minus-9.9e6", "A_dbm: -60", "A_dbm: -9.9e6", r"radio: A_dbm -9\.9e\+06 outside"),

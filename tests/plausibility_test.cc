@@ -106,5 +106,23 @@ TEST(CheckStreamSpans, RangesRfcodeUnitsAndWaypoints) {
   EXPECT_THAT(CheckStreamSpans(w, true), IsEmpty());
 }
 
+TEST(CheckStreamSpans, TruthWaypointsAndStartInTheAnchorsFrame) {
+  Walk w = TwoStreams(0.0, 0.0);
+  w.anchors.push_back({2, {50.0, 20.0, 0.0}});
+  w.truth = {{0.0, {10.0, 5.0, 0.0}}, {1.0, {4.8e6, 5.0, 0.0}}};  // latitude, longitude swapped
+  EXPECT_THAT(CheckStreamSpans(w, true), HasSubstr("truth.csv:3: (4.8e+06, 5) is "));
+  EXPECT_THAT(CheckStreamSpans(w, true), HasSubstr("one frame"));
+  w.truth[1].position_m.x() = 60.0;  // 10 m outside the anchors' box: the same frame
+  EXPECT_THAT(CheckStreamSpans(w, true), IsEmpty());
+  w.waypoints = {{1.0, {0.0, -2e5}, 1.0}};
+  EXPECT_THAT(CheckStreamSpans(w, false), HasSubstr("waypoints[0]: (0, -200000) is"));
+  w.waypoints.clear();
+  w.meta.initial_pose = InitialPose();
+  w.meta.initial_pose->x_m = 3e5;
+  EXPECT_THAT(CheckStreamSpans(w, true), HasSubstr("walk.yaml: initial_pose: (300000, 0)"));
+  w.rss.clear();  // without radio readings the anchors place nothing
+  EXPECT_THAT(CheckStreamSpans(w, true), IsEmpty());
+}
+
 }  // namespace
 }  // namespace walkgraph::internal

@@ -81,7 +81,8 @@ case("config-dict-contains-itself", """
     walkgraph.run("odometry-dr", w, c)""", "ValueError", r"contains itself")
 case("config-list-contains-itself", """
     l = []; l.append(l)
-    walkgraph.run("odometry-dr", w, {"x": l})""", "ValueError", r"odometry-dr\.x: .*contains itself")
+    walkgraph.run("odometry-dr", w, {"x": l})""", "ValueError",
+     r"odometry-dr\.x: .*contains itself")
 case("config-dict-30000-deep", """
     walkgraph.run("odometry-dr", w, deep(30000))""", "ValueError", r"nested deeper than 64")
 case("config-list-30000-deep", """
@@ -213,6 +214,39 @@ case("smoother-factor-on-missing-state", """
     s.update([], [walkgraph.factors.position_prior(x(3), [0.0, 0.0], 1.0)])""",
      "(ValueError, walkgraph.NotFoundError)", r"x3")
 
+case("smoother-factor-names-a-state-twice", """
+    s = walkgraph.FixedLagSmoother()
+    s.update([(x(0), [0.0, 0.0], 0.0)], [walkgraph.factors.random_walk(x(0), x(0), 1.0, 1.0)])""",
+     "ValueError", r"names state x0 twice")
+case("smoother-factor-of-another-size", """
+    s = walkgraph.FixedLagSmoother()
+    s.update([(x(0), [0.0], 0.0)], [walkgraph.factors.position_prior(x(0), [0.0, 0.0], 1.0)])""",
+     "ValueError", r"block size mismatch on state x0")
+case("smoother-refused-update-changes-nothing", """
+    s = walkgraph.FixedLagSmoother()
+    try:
+        s.update([(x(0), [0.0, 0.0], 0.0)],
+                 [walkgraph.factors.position_prior(x(0), [0.0, 0.0], 1.0),
+                  walkgraph.factors.random_walk(x(0), x(9), 1.0, 1.0)])
+    except ValueError:
+        pass
+    assert s.window_keys() == [], s.window_keys()
+    s.estimate(x(0))""", "walkgraph.NotFoundError", r"x0")
+case("smoother-covariance-of-a-state-without-factors", """
+    s = walkgraph.FixedLagSmoother()
+    s.update([(x(0), [0.0, 0.0], 0.0)], [])
+    s.covariance(x(0))""", "RuntimeError", r"covariance of \{x0\} is not defined")
+case("covariance-static-state-without-factors", """
+    g = graph()
+    g.add_state(walkgraph.symbol("b", 0), [0.0])
+    g.covariance([x(0), walkgraph.symbol("b", 0)])""", "RuntimeError",
+     r"(not defined|not computable)")
+case("solve-absurd-prior-fails-cleanly", """
+    g = walkgraph.FactorGraph()
+    g.add_state(x(0), [0.0, 0.0], t=0.0)
+    g.add_factor(walkgraph.factors.position_prior(x(0), [1e308, 1e308], 1e-300))
+    g.solve()""", "(RuntimeError, ValueError)", r"Ceres failed|sigma_m")
+
 # ------------------------------------------------------------- D. in-memory walks
 case("run-nan-rss", """
     r = rows("rss"); r[3, 2] = np.nan; w.rss = r
@@ -304,12 +338,17 @@ case("validate-every-range-zero", """
 case("validate-rfcode-units-with-dbm-readings", """
     w.radio = {"units": "rfcode", "A_dbm": 100.0}
     w.validate()""", "ValueError", r"every reading is negative \(dBm-like\)")
+case("run-truth-in-another-frame", """
+    t = rows("truth"); t[:, 1] += 4.8e6; w.truth = t
+    walkgraph.run("odometry-dr", w)""", "ValueError",
+     r"truth\[0\]: \(4\.8e\+06, 0\) is .* m from the anchors; expected it and the anchors in "
+     r"one frame")
 case("walk-unknown-field", """
     walkgraph.Walk(speed=1.0)""", "ValueError", r"Walk: unknown field 'speed'")
 case("walk-truth-kind-bogus", """
     w.truth_kind = "sometimes\"""", "ValueError", r"truth_kind: 'sometimes' is not one of")
 
-# ------------------------------------------------------------- E. compare's and write_walk's arguments
+# ------------------------------------------------------------- E. compare's, write_walk's arguments
 case("compare-empty-estimator-list", """
     walkgraph.compare(w, [])""", "ValueError", r"estimators is an empty list")
 case("compare-estimators-a-string", """

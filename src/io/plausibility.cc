@@ -100,6 +100,50 @@ std::string Disjoint(const std::optional<Span>& a, const std::optional<Span>& b,
 
 }  // namespace
 
+namespace {
+
+// Horizontal distance from `p` to the anchors' bounding box (0 inside it).
+double DistanceToAnchors(const Eigen::Vector2d& p, const Eigen::Vector2d& lo,
+                         const Eigen::Vector2d& hi) {
+  return (p.cwiseMax(lo).cwiseMin(hi) - p).norm();
+}
+
+// With radio readings, the truth, waypoints and start must lie within kMaxAnchorDistanceM of the
+// anchors: farther, the two are in different frames (latitude and longitude swapped, another
+// origin).
+std::string CheckFrames(const Walk& w, bool files) {
+  constexpr double kMaxAnchorDistanceM = 1e5;
+  if (w.anchors.empty() || (w.rss.empty() && w.ranges.empty())) return "";
+  Eigen::Vector2d lo = w.anchors[0].position_m.head<2>(), hi = lo;
+  for (const Anchor& a : w.anchors) {
+    lo = lo.cwiseMin(a.position_m.head<2>());
+    hi = hi.cwiseMax(a.position_m.head<2>());
+  }
+  auto far = [&](const Eigen::Vector2d& p, const std::string& where) -> std::string {
+    const double d = DistanceToAnchors(p, lo, hi);
+    if (d <= kMaxAnchorDistanceM) return "";
+    return where + ": (" + Num(p.x()) + ", " + Num(p.y()) + ") is " + Num(d) +
+           " m from the anchors; expected it and the anchors in one frame (latitude and "
+           "longitude swapped? another origin?)";
+  };
+  for (size_t i = 0; i < w.truth.size(); ++i) {
+    const std::string where =
+        files ? "truth.csv:" + std::to_string(i + 2) : "truth[" + std::to_string(i) + "]";
+    if (std::string e = far(w.truth[i].position_m.head<2>(), where); !e.empty()) return e;
+  }
+  for (size_t i = 0; i < w.waypoints.size(); ++i) {
+    const std::string where =
+        files ? "waypoints.csv:" + std::to_string(i + 2) : "waypoints[" + std::to_string(i) + "]";
+    if (std::string e = far(w.waypoints[i].position_m, where); !e.empty()) return e;
+  }
+  if (const auto& p = w.meta.initial_pose) {
+    return far(Eigen::Vector2d(p->x_m, p->y_m), files ? "walk.yaml: initial_pose" : "initial_pose");
+  }
+  return "";
+}
+
+}  // namespace
+
 std::string CheckStreamSpans(const Walk& w, bool files) {
   const auto imu = SpanOf(w.imu, "imu", "imu.csv");
   const auto odo = SpanOf(w.odometry, "odometry", "odometry.csv");
@@ -123,6 +167,7 @@ std::string CheckStreamSpans(const Walk& w, bool files) {
            ": every reading is negative (dBm-like) but radio.units is rfcode (RFCode units are "
            "positive, larger is weaker); expected radio.units: dbm";
   }
+  if (std::string e = CheckFrames(w, files); !e.empty()) return e;
   const double start = w.StartTime() - 1.0, end = w.EndTime() + 1.0;
   for (size_t i = 0; i < w.waypoints.size(); ++i) {
     const double t = w.waypoints[i].t_s;

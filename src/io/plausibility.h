@@ -31,8 +31,9 @@ std::string CheckInitialPose(const InitialPose& p, const ValidationLimits& limit
 
 // Rules across a walk's streams ("" when they hold; streams named as files with `as_files`):
 // the IMU's (and odometry's) time span overlaps the radio's; not every range is 0 m; RFCode
-// readings are not all negative (dBm-like); waypoints lie within the walk's time span (1 s
-// tolerance).
+// readings are not all negative (dBm-like); with radio readings, the truth, waypoints and
+// start lie within 100 km of the anchors (one frame); waypoints lie within the walk's time span
+// (1 s tolerance).
 std::string CheckStreamSpans(const Walk& walk, bool as_files);
 
 // A converter meets a physically impossible reading in someone else's recording (a corrupted

@@ -42,6 +42,10 @@ Status FixedLagSmoother::AddFactor(SmootherFactor f) {
     if (static_cast<int>(it->second.value.size()) != f.cost->parameter_block_sizes()[i]) {
       return InvalidArgument("fixed-lag smoother: block size mismatch on " + KeyName(f.keys[i]));
     }
+    if (std::find(blocks.begin(), blocks.end(), it->second.value.data()) != blocks.end()) {
+      return InvalidArgument("fixed-lag smoother: a factor names " + KeyName(f.keys[i]) +
+                             " twice");  // Ceres aborts on a repeated parameter block
+    }
     blocks.push_back(it->second.value.data());
   }
   const int id = next_factor_id_++;
@@ -50,6 +54,40 @@ Status FixedLagSmoother::AddFactor(SmootherFactor f) {
   stored.residual = problem_->AddResidualBlock(
       stored.spec.cost.get(), const_cast<ceres::LossFunction*>(stored.spec.loss.get()), blocks);
   for (StateKey k : stored.spec.keys) states_[k].factors.insert(id);
+  return Status::Ok();
+}
+
+Status FixedLagSmoother::CheckNewFactors(const std::vector<SmootherState>& new_states,
+                                         const std::vector<SmootherFactor>& new_factors) const {
+  for (const SmootherFactor& f : new_factors) {
+    if (!f.cost) return InvalidArgument("fixed-lag smoother: factor without a cost function");
+    const std::vector<int32_t>& sizes = f.cost->parameter_block_sizes();
+    if (sizes.size() != f.keys.size()) {
+      return InvalidArgument("fixed-lag smoother: factor has " + std::to_string(sizes.size()) +
+                             " parameter blocks but " + std::to_string(f.keys.size()) + " keys");
+    }
+    for (size_t i = 0; i < f.keys.size(); ++i) {
+      const StateKey k = f.keys[i];
+      if (std::find(f.keys.begin(), f.keys.begin() + i, k) != f.keys.begin() + i) {
+        return InvalidArgument("fixed-lag smoother: a factor names " + KeyName(k) + " twice");
+      }
+      size_t size = 0;
+      if (auto it = states_.find(k); it != states_.end()) {
+        size = it->second.value.size();
+      } else {
+        auto n = std::find_if(new_states.begin(), new_states.end(),
+                              [k](const SmootherState& s) { return s.key == k; });
+        if (n == new_states.end()) {
+          return InvalidArgument("fixed-lag smoother: factor on " + KeyName(k) +
+                                 ", which is not in the window (unknown or already marginalized)");
+        }
+        size = n->value.size();
+      }
+      if (static_cast<int>(size) != sizes[i]) {
+        return InvalidArgument("fixed-lag smoother: block size mismatch on " + KeyName(k));
+      }
+    }
+  }
   return Status::Ok();
 }
 
@@ -84,6 +122,7 @@ StatusOr<FixedLagSmoother::UpdateResult> FixedLagSmoother::Update(
     std::vector<SmootherState> new_states, std::vector<SmootherFactor> new_factors) {
   if (CancelRequested()) return Cancelled("fixed-lag smoother: interrupted");
   WG_RETURN_IF_ERROR(CheckNewStates(new_states));
+  WG_RETURN_IF_ERROR(CheckNewFactors(new_states, new_factors));  // nothing changes on failure
   for (SmootherState& s : new_states) {
     State& st = states_[s.key];
     st.order = next_state_order_++;
@@ -227,8 +266,11 @@ internal::KeyedBlocks BlocksOf(States* states) {
 }  // namespace
 
 StatusOr<Eigen::MatrixXd> FixedLagSmoother::MarginalCovariance(const std::vector<StateKey>& keys) {
-  return internal::CeresMarginalCovariance(problem_.get(), BlocksOf(&states_), keys,
-                                           "fixed-lag smoother");
+  WG_ASSIGN_OR_RETURN(Eigen::MatrixXd c,
+                      internal::CeresMarginalCovariance(problem_.get(), BlocksOf(&states_), keys,
+                                                        "fixed-lag smoother"));
+  WG_RETURN_IF_ERROR(internal::CheckDefinedCovariances({c}, {keys}, "fixed-lag smoother"));
+  return c;
 }
 
 StatusOr<std::vector<Eigen::MatrixXd>> FixedLagSmoother::MarginalCovariances(

@@ -154,6 +154,8 @@ class FixedLagSmoother {
   };
 
   Status CheckNewStates(const std::vector<SmootherState>& new_states) const;
+  Status CheckNewFactors(const std::vector<SmootherState>& new_states,
+                         const std::vector<SmootherFactor>& new_factors) const;
   Status AddFactor(SmootherFactor f);
   Status MarginalizeOlderThan(double cutoff_s, int* count);
 
