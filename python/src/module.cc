@@ -319,6 +319,46 @@ void BindEstimate(py::module_& m) {
       .def("__len__", [](const Estimate& e) { return e.result.trajectory.size(); });
 }
 
+void BindCompare(py::module_& m) {
+  m.def(
+      "compare",
+      [](const py::object& walk_or_scenario, const py::object& estimators, int runs, uint64_t seed,
+         const py::object& config, const py::object& out) {
+        CompareOptions o;
+        o.estimator_ids = EstimatorIds(estimators);
+        o.configs = ConfigsById(config);
+        const std::optional<std::string> dir =
+            out.is_none() ? std::nullopt : std::optional<std::string>(OutputPath(out, "out"));
+        std::optional<Comparison> c;
+        if (py::isinstance<py::str>(walk_or_scenario)) {
+          const std::string scenario = walk_or_scenario.cast<std::string>();
+          MonteCarloOptions mc;
+          mc.runs = runs;
+          mc.seed = seed;
+          Check(RunInterruptible([&]() -> Status {
+            WG_ASSIGN_OR_RETURN(c, CompareScenario(scenario, ScenarioCompareOptions(), o, mc));
+            return Status::Ok();
+          }));
+        } else {
+          if (!py::isinstance<Walk>(walk_or_scenario)) {
+            Raise(InvalidArgument("compare: expected a Walk or a scenario name (str)"));
+          }
+          const Walk& walk = walk_or_scenario.cast<const Walk&>();
+          if (runs != 1) Check(InvalidArgument("compare: runs > 1 needs a scenario name"));
+          Check(RunInterruptible([&]() -> Status {
+            WG_ASSIGN_OR_RETURN(c, CompareOnWalk(walk, o));
+            return Status::Ok();
+          }));
+        }
+        if (dir) Check(RunInterruptible([&] { return WriteComparison(*c, *dir); }));
+        return Json(ResultsJsonText(*c));
+      },
+      py::arg("walk_or_scenario"), py::arg("estimators") = py::none(), py::arg("runs") = 1,
+      py::arg("seed") = 0, py::arg("config") = py::none(), py::arg("out") = py::none(),
+      "Runs estimators side by side; returns results.json's content as a dict. out= also "
+      "writes the report folder.");
+}
+
 }  // namespace
 
 PYBIND11_MODULE(_walkgraph, m) {
@@ -378,43 +418,7 @@ PYBIND11_MODULE(_walkgraph, m) {
       },
       py::arg("estimator"), py::arg("walk"), py::arg("config") = py::none(),
       "Runs one estimator; config is a dict of its options (unknown keys are errors).");
-  m.def(
-      "compare",
-      [](const py::object& walk_or_scenario, const py::object& estimators, int runs, uint64_t seed,
-         const py::object& config, const py::object& out) {
-        CompareOptions o;
-        o.estimator_ids = EstimatorIds(estimators);
-        o.configs = ConfigsById(config);
-        const std::optional<std::string> dir =
-            out.is_none() ? std::nullopt : std::optional<std::string>(OutputPath(out, "out"));
-        std::optional<Comparison> c;
-        if (py::isinstance<py::str>(walk_or_scenario)) {
-          const std::string scenario = walk_or_scenario.cast<std::string>();
-          MonteCarloOptions mc;
-          mc.runs = runs;
-          mc.seed = seed;
-          Check(RunInterruptible([&]() -> Status {
-            WG_ASSIGN_OR_RETURN(c, CompareScenario(scenario, ScenarioCompareOptions(), o, mc));
-            return Status::Ok();
-          }));
-        } else {
-          if (!py::isinstance<Walk>(walk_or_scenario)) {
-            Raise(InvalidArgument("compare: expected a Walk or a scenario name (str)"));
-          }
-          const Walk& walk = walk_or_scenario.cast<const Walk&>();
-          if (runs != 1) Check(InvalidArgument("compare: runs > 1 needs a scenario name"));
-          Check(RunInterruptible([&]() -> Status {
-            WG_ASSIGN_OR_RETURN(c, CompareOnWalk(walk, o));
-            return Status::Ok();
-          }));
-        }
-        if (dir) Check(RunInterruptible([&] { return WriteComparison(*c, *dir); }));
-        return Json(ResultsJsonText(*c));
-      },
-      py::arg("walk_or_scenario"), py::arg("estimators") = py::none(), py::arg("runs") = 1,
-      py::arg("seed") = 0, py::arg("config") = py::none(), py::arg("out") = py::none(),
-      "Runs estimators side by side; returns results.json's content as a dict. out= also "
-      "writes the report folder.");
+  BindCompare(m);
   m.def(
       "simulate",
       [](const std::string& scenario, uint64_t seed, const py::object& overrides) {

@@ -195,6 +195,31 @@ bool ValidSweepName(const std::string& s) {
   return true;
 }
 
+// A sweep's values: a non-empty list of distinct finite numbers, at most kMaxSweepValues.
+Status ParseValues(const Parser& p, const YAML::Node& node, const std::string& what,
+                   StudySweep* s) {
+  const YAML::Node values = node["values"];
+  if (!values || !values.IsSequence() || values.size() == 0) {
+    return p.Error(values ? values : node, what + ": values must be a non-empty list of numbers");
+  }
+  if (values.size() > kMaxSweepValues) {
+    return p.Error(values, what + ": " + std::to_string(values.size()) +
+                               " values, over the cap of " + std::to_string(kMaxSweepValues) +
+                               " per sweep (a study that cannot finish); split the sweep");
+  }
+  for (const YAML::Node& v : values) {
+    WG_ASSIGN_OR_RETURN(double x, p.Scalar<double>(v, "a swept value", "number"));
+    if (!std::isfinite(x)) return p.Error(v, what + ": values must be finite numbers");
+    if (std::find(s->x.begin(), s->x.end(), x) != s->x.end()) {
+      return p.Error(v, what + ": value " + v.Scalar() + " given twice");
+    }
+    s->values.push_back(v.Scalar());
+    s->x.push_back(x);
+    s->value_lines.push_back(p.Line(v));
+  }
+  return Status::Ok();
+}
+
 StatusOr<StudySweep> ParseSweep(const Parser& p, const YAML::Node& node, const StudyManifest& m,
                                 const std::vector<std::string>& top_ids, int top_runs,
                                 uint64_t top_seed, const std::string& top_metric,
@@ -318,26 +343,7 @@ StatusOr<StudySweep> ParseSweep(const Parser& p, const YAML::Node& node, const S
     }
   }
   if (s.label.empty()) s.label = default_label;
-  // Values.
-  const YAML::Node values = node["values"];
-  if (!values || !values.IsSequence() || values.size() == 0) {
-    return p.Error(values ? values : node, what + ": values must be a non-empty list of numbers");
-  }
-  if (values.size() > kMaxSweepValues) {
-    return p.Error(values, what + ": " + std::to_string(values.size()) +
-                               " values, over the cap of " + std::to_string(kMaxSweepValues) +
-                               " per sweep (a study that cannot finish); split the sweep");
-  }
-  for (const YAML::Node& v : values) {
-    WG_ASSIGN_OR_RETURN(double x, p.Scalar<double>(v, "a swept value", "number"));
-    if (!std::isfinite(x)) return p.Error(v, what + ": values must be finite numbers");
-    if (std::find(s.x.begin(), s.x.end(), x) != s.x.end()) {
-      return p.Error(v, what + ": value " + v.Scalar() + " given twice");
-    }
-    s.values.push_back(v.Scalar());
-    s.x.push_back(x);
-    s.value_lines.push_back(p.Line(v));
-  }
+  WG_RETURN_IF_ERROR(ParseValues(p, node, what, &s));
   // Every cell's estimator configuration must be accepted by its estimator.
   for (size_t i = 0; i < s.values.size(); ++i) {
     for (const std::string& id : s.estimators) {

@@ -134,6 +134,41 @@ Status ParseEnum(const std::string& text, const std::vector<std::pair<const char
   return InvalidArgument(where + ": " + internal::Quoted(text) + " is not one of " + options);
 }
 
+// walk.yaml's radio block.
+Status ReadRadio(const YAML::Node& radio, const std::string& path, RadioDefaults* radio_out) {
+  ConfigReader rr(radio, path + ": radio");
+  std::string kind = "none", units = "dbm";
+  rr.Read("kind", &kind);
+  rr.Read("units", &units);
+  rr.Read("A_dbm", &radio_out->path_loss.A_dbm);
+  rr.Read("eta", &radio_out->path_loss.eta);
+  rr.Read("d0_m", &radio_out->path_loss.d0_m);
+  rr.Read("sigma_db", &radio_out->path_loss.sigma_db);
+  rr.Read("floor_loss_db", &radio_out->path_loss.floor_loss_db);
+  rr.Read("range_sigma_m", &radio_out->range_sigma_m);
+  rr.Read("calibrated", &radio_out->calibrated);
+  WG_RETURN_IF_ERROR(rr.Finish());
+  WG_RETURN_IF_ERROR(ParseEnum<RadioKind>(
+      kind, {{"none", RadioKind::kNone}, {"rss", RadioKind::kRss}, {"range", RadioKind::kRange}},
+      path + ": radio.kind", &radio_out->kind));
+  WG_RETURN_IF_ERROR(ParseEnum<RssUnits>(units,
+                                         {{"dbm", RssUnits::kDbm}, {"rfcode", RssUnits::kRfcode}},
+                                         path + ": radio.units", &radio_out->units));
+  const PathLossParams& pl = radio_out->path_loss;
+  if (!(pl.eta > 0.0) || !(pl.d0_m > 0.0) || !(pl.sigma_db > 0.0) ||
+      !(radio_out->range_sigma_m > 0.0) || !std::isfinite(pl.A_dbm)) {
+    return InvalidArgument(path + ": radio: eta, d0_m, sigma_db and range_sigma_m must be > 0");
+  }
+  if (!(pl.floor_loss_db >= 0.0 && pl.floor_loss_db <= 100.0)) {
+    return InvalidArgument(path + ": radio: floor_loss_db " + G(pl.floor_loss_db) +
+                           " outside [0, 100] dB");
+  }
+  if (const std::string e = internal::CheckRadioDefaults(*radio_out, {}); !e.empty()) {
+    return InvalidArgument(path + ": radio: " + e);
+  }
+  return Status::Ok();
+}
+
 Status ReadMeta(const std::string& path, WalkMeta* meta) {
   WG_ASSIGN_OR_RETURN(YAML::Node root, LoadYamlFile(path));
   if (!root.IsMap()) return InvalidArgument(path + ":1: expected a YAML map (walk.yaml)");
@@ -174,36 +209,7 @@ Status ReadMeta(const std::string& path, WalkMeta* meta) {
                                            {"checkpoints", TruthKind::kCheckpoints}},
                                           path + ": truth", &meta->truth_kind));
   if (radio.IsDefined() && !radio.IsNull()) {
-    ConfigReader rr(radio, path + ": radio");
-    std::string kind = "none", units = "dbm";
-    rr.Read("kind", &kind);
-    rr.Read("units", &units);
-    rr.Read("A_dbm", &meta->radio.path_loss.A_dbm);
-    rr.Read("eta", &meta->radio.path_loss.eta);
-    rr.Read("d0_m", &meta->radio.path_loss.d0_m);
-    rr.Read("sigma_db", &meta->radio.path_loss.sigma_db);
-    rr.Read("floor_loss_db", &meta->radio.path_loss.floor_loss_db);
-    rr.Read("range_sigma_m", &meta->radio.range_sigma_m);
-    rr.Read("calibrated", &meta->radio.calibrated);
-    WG_RETURN_IF_ERROR(rr.Finish());
-    WG_RETURN_IF_ERROR(ParseEnum<RadioKind>(
-        kind, {{"none", RadioKind::kNone}, {"rss", RadioKind::kRss}, {"range", RadioKind::kRange}},
-        path + ": radio.kind", &meta->radio.kind));
-    WG_RETURN_IF_ERROR(ParseEnum<RssUnits>(units,
-                                           {{"dbm", RssUnits::kDbm}, {"rfcode", RssUnits::kRfcode}},
-                                           path + ": radio.units", &meta->radio.units));
-    const PathLossParams& pl = meta->radio.path_loss;
-    if (!(pl.eta > 0.0) || !(pl.d0_m > 0.0) || !(pl.sigma_db > 0.0) ||
-        !(meta->radio.range_sigma_m > 0.0) || !std::isfinite(pl.A_dbm)) {
-      return InvalidArgument(path + ": radio: eta, d0_m, sigma_db and range_sigma_m must be > 0");
-    }
-    if (!(pl.floor_loss_db >= 0.0 && pl.floor_loss_db <= 100.0)) {
-      return InvalidArgument(path + ": radio: floor_loss_db " + G(pl.floor_loss_db) +
-                             " outside [0, 100] dB");
-    }
-    if (const std::string e = internal::CheckRadioDefaults(meta->radio, {}); !e.empty()) {
-      return InvalidArgument(path + ": radio: " + e);
-    }
+    WG_RETURN_IF_ERROR(ReadRadio(radio, path, &meta->radio));
   }
   if (initial.IsDefined() && !initial.IsNull()) {
     InitialPose p;
