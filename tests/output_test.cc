@@ -292,6 +292,15 @@ TEST_F(OutputTest, ATemporaryIsStaleOnlyWhenNobodyHoldsItsTargetsLock) {
   EXPECT_TRUE(Leftovers(root_).empty());
 }
 
+TEST_F(OutputTest, ARefusedTargetGetsNoLockFileBesideIt) {
+  Write("file.txt", "mine");
+  EXPECT_FALSE(WriteFolder("file.txt", "x").ok());  // a regular file: not replaced
+  EXPECT_FALSE(fs::exists(".file.txt.walkgraph-lock"));
+  EXPECT_EQ(Read("file.txt"), "mine");
+  EXPECT_FALSE(WriteOutputFile("missing/t.tum/", {}, [](std::ostream&) { return true; }).ok());
+  EXPECT_FALSE(fs::exists("missing"));  // a refused file target: no parent folders made
+}
+
 TEST_F(OutputTest, NamesUpToNameMaxWork) {
   std::string utf8;  // 2-byte characters: a shortened sibling must not split one
   while (utf8.size() + 2 <= 255) utf8 += "\xc3\xa9";

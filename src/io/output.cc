@@ -438,6 +438,10 @@ Status WriteOutput(const std::string& out, OutputKind kind, const OutputOptions&
                    const std::function<Status(const fs::path& tmp)>& fill) {
   WG_ASSIGN_OR_RETURN(Target t, Resolve(out));
   WG_RETURN_IF_ERROR(CheckProtected(t, options));
+  // Checked before anything is created beside it (a device's folder gets no lock file); again
+  // under the lock, after the clean-up.
+  WG_RETURN_IF_ERROR(kind == OutputKind::kFolder ? CheckReplaceableFolder(t, options)
+                                                 : CheckReplaceableFile(t));
   InProgress guard;  // from here on a signal leaves the clean-up to this writer
   if (CancelRequested()) return CancelledStatus(out);
   Parents parents;
