@@ -52,6 +52,25 @@ TEST(CompareOnWalk, UnknownOrInapplicableEstimatorIsAnError) {
   EXPECT_THAT(c.status().message(), HasSubstr("odometry"));
 }
 
+TEST(CompareOnWalk, AppliesTheReadersRulesAndRefusesOptionsOfEstimatorsNotRun) {
+  Walk w = SmallWalk();
+  w.rss[3].rss = std::nan("");
+  auto nan_rss = CompareOnWalk(w, {});
+  ASSERT_FALSE(nan_rss.ok());
+  EXPECT_THAT(nan_rss.status().message(), HasSubstr("rss[3]: non-finite value in rss"));
+  w = SmallWalk();
+  w.truth[2].t_s = w.truth[1].t_s;
+  EXPECT_THAT(CompareOnWalk(w, {}).status().message(), HasSubstr("truth[2]: timestamp"));
+  CompareOptions o;
+  o.estimator_ids = {"odometry-dr"};
+  o.configs["fg-batch"] = YAML::Load("{covariance: false}");
+  auto not_run = CompareOnWalk(SmallWalk(), o);
+  ASSERT_FALSE(not_run.ok());
+  EXPECT_THAT(not_run.status().message(), HasSubstr("not among the estimators run"));
+  o.estimator_ids.clear();  // every applicable estimator: options for any of them are fine
+  EXPECT_TRUE(CompareOnWalk(SmallWalk(), o).ok());
+}
+
 // score_from_s drops the truth before t_first + score_from_s from every figure and counts it
 // as skipped; the rest of the series is the whole walk's, unchanged.
 TEST(CompareOnWalk, ScoreFromLeavesOutTheStart) {

@@ -1,6 +1,8 @@
 #include "walkgraph/smoothers/fixed_lag_smoother.h"
 
+#include <cmath>
 #include <memory>
+#include <string>
 #include <vector>
 
 #include <ceres/ceres.h>
@@ -76,6 +78,48 @@ TEST(FixedLagSmoother, KeepsTheLagAndAHeldStretch) {
   EXPECT_FALSE(s.holding());
   ASSERT_TRUE(AddState(&s, 10).ok());
   EXPECT_EQ(s.WindowKeys(), (std::vector<StateKey>{8, 9, 10}));
+}
+
+TEST(FixedLagSmoother, RefusesNaNAndTimesBeforeTheWindowAndChangesNothing) {
+  FixedLagSmoother::Options o;
+  o.lag_s = 2.0;
+  FixedLagSmoother s(o);
+  for (int k = 0; k <= 5; ++k) ASSERT_TRUE(AddState(&s, k).ok());
+  const std::vector<StateKey> window = s.WindowKeys();
+  auto refused = [&](SmootherState bad, const char* message) {
+    std::vector<SmootherState> states;
+    states.push_back(Scalar(100, 6.0));  // a good state first: it must not be added either
+    states.push_back(std::move(bad));
+    auto r = s.Update(std::move(states), {});
+    ASSERT_FALSE(r.ok()) << message;
+    EXPECT_EQ(r.status().code(), StatusCode::kInvalidArgument);
+    EXPECT_NE(r.status().message().find(message), std::string::npos) << r.status().message();
+    EXPECT_FALSE(s.Contains(100));
+    EXPECT_EQ(s.WindowKeys(), window);
+  };
+  refused(Scalar(101, std::nan("")), "non-finite time");
+  refused(Scalar(102, 1.0), "goes back before the window");  // states before t = 3 are gone
+  SmootherState nan_value = Scalar(103, 6.0);
+  nan_value.value = {std::nan("")};
+  refused(nan_value, "non-finite value");
+  refused(Scalar(100, 6.5), "added twice");  // the same key twice in one update
+  // A factor naming one state twice (a Ceres abort before) or an unknown state: refused before
+  // its update's states are added.
+  std::vector<SmootherState> with_bad_factor;
+  with_bad_factor.push_back(Scalar(105, 6.0));
+  auto twice = s.Update(std::move(with_bad_factor), {BetweenOf(105, 105, 1.0, 1.0)});
+  ASSERT_FALSE(twice.ok());
+  EXPECT_NE(twice.status().message().find("twice"), std::string::npos) << twice.status().message();
+  EXPECT_FALSE(s.Contains(105));
+  std::vector<SmootherState> with_unknown;
+  with_unknown.push_back(Scalar(106, 6.0));
+  EXPECT_FALSE(s.Update(std::move(with_unknown), {BetweenOf(106, 999, 1.0, 1.0)}).ok());
+  EXPECT_FALSE(s.Contains(106));
+  EXPECT_EQ(s.WindowKeys(), window);
+  // Inside the window (older than the newest state) is still fine.
+  std::vector<SmootherState> inside;
+  inside.push_back(Scalar(104, 4.5));
+  EXPECT_TRUE(s.Update(std::move(inside), {PriorOn(104, 4.5, 1.0)}).ok());
 }
 
 // Linear-Gaussian: the newest state's estimate equals the batch optimum on the data so far,

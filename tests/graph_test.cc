@@ -149,6 +149,27 @@ std::unique_ptr<FactorGraph> TwoBlockChain(bool x_first) {
   return g;
 }
 
+// Public-API guards (issue 42): a key named twice (a Ceres CHECK abort before), an
+// unconstrained state's covariance (zeros before) and non-finite values are errors.
+TEST(MarginalCovariancesTest, KeyTwiceUnconstrainedStateAndNaNValuesAreErrors) {
+  std::unique_ptr<FactorGraph> g = TwoBlockChain(true);
+  auto twice = MarginalCovariances(g.get(), {{Symbol('x', 1), Symbol('x', 1)}});
+  ASSERT_FALSE(twice.ok());
+  EXPECT_EQ(twice.status().code(), StatusCode::kInvalidArgument);
+  EXPECT_NE(twice.status().message().find("x1 named twice"), std::string::npos);
+  // Across timestamps (the ceres::Covariance path) too.
+  auto across = MarginalCovariances(g.get(), {{Symbol('x', 1), Symbol('x', 2), Symbol('x', 1)}});
+  EXPECT_FALSE(across.ok());
+  ASSERT_TRUE(g->AddState({Symbol('u', 0), 9.0, {0.0, 0.0}}).ok());  // no factor on it
+  auto free_state = MarginalCovariances(g.get(), {{Symbol('u', 0)}});
+  ASSERT_FALSE(free_state.ok());
+  EXPECT_NE(free_state.status().message().find("u0"), std::string::npos);
+  EXPECT_NE(free_state.status().message().find("unconstrained"), std::string::npos);
+  EXPECT_TRUE(MarginalCovariances(g.get(), {{Symbol('x', 3)}}).ok());  // the others still work
+  EXPECT_FALSE(g->AddState({Symbol('v', 0), 1.0, {std::nan(""), 0.0}}).ok());
+  EXPECT_FALSE(g->SetValue(Symbol('x', 0), {0.0, INFINITY}).ok());
+}
+
 // Groups within one timestamp take the banded chain solve; a group across two timestamps sends
 // every group to ceres::Covariance (sparse QR). Both must agree, whatever the layout (the
 // blocks of a timestamp go in the order they were added) and however a group lists its keys:

@@ -1339,6 +1339,207 @@ case("study-manifest-symlink-loop", "study-manifest", ["study", "m.yaml", "--out
 
 # --------------------------------------------------------------------------------------- checks
 
+# =============================================================================================
+# M. Issue 42: plausibility across streams and of walk.yaml's values and fits, stdout write
+#    errors, output names up to NAME_MAX, SIGQUIT, and the writer's lock on shared folders (a
+#    second writer of a target, in this or another PID namespace, is refused; a live writer's
+#    temporary is never taken for stale).
+# =============================================================================================
+
+def dev_full_runner(argv):
+    """Runs the CLI with its standard output on /dev/full."""
+    def run(ctx):
+        t0 = time.time()
+        p = subprocess.Popen(["/bin/sh", "-c", 'exec "$0" "$@" > /dev/full', ARGS.cli] + argv,
+                             cwd=ctx.sb, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
+                             stderr=subprocess.PIPE, start_new_session=True,
+                             env=dict(os.environ, HOME=ctx.home, LC_ALL="C"))
+        return finish(p, 60, t0)
+    return run
+
+
+for argv in (["list"], ["--help"], ["validate", "w"]):
+    case("stdout-dev-full-" + argv[0].strip("-"), "plausibility", argv, setup=walk(),
+         runner=dev_full_runner(argv), err=allof(r"cannot write the standard output"))
+
+
+def rising_rss_walk(ctx):
+    """A walk whose RSS rises with the distance to its one anchor: the fit's eta is negative."""
+    ctx.write("w/walk.yaml", "format_version: 1\nname: rising\nsource: test\nlicence: CC0-1.0\n"
+              "imu_placement: none\nframe: enu\ntruth: continuous\n"
+              "radio: {kind: rss, units: dbm}\n")
+    ctx.write("w/anchors.csv", "id,x_m,y_m,z_m\n1,0,0,0\n")
+    ctx.write("w/truth.csv", "t_s,x_m,y_m\n" + "".join(
+        "%d,%d,0\n" % (t, t + 1) for t in range(40)))
+    ctx.write("w/rss.csv", "t_s,anchor_id,rss\n" + "".join(
+        "%d.5,1,%.3f\n" % (t, -90.0 + 25.0 * __import__("math").log10(t + 1.5))
+        for t in range(39)))
+
+
+case("fit-path-loss-absurd-fit-refused", "plausibility", ["fit-path-loss", "w"],
+     setup=rising_rss_walk, err=allof(r"fit-path-loss", r"eta -", r"outside \(0, 10\]",
+                                      r"not a usable path-loss model"))
+case("waypoint-after-the-walk", "plausibility", ["validate", "w"],
+     setup=with_walk(lambda ctx: ctx.set_line("w/waypoints.csv", 3, "1e9,2.1,0.05,0.5")),
+     err=allof(r"waypoints\.csv:3", r"outside the walk's time span"))
+case("imu-1000-s-from-the-radio", "plausibility", ["validate", "w"],
+     setup=with_walk(lambda ctx: ctx.write("w/imu.csv", "\n".join(
+         [ctx.read("w/imu.csv").split("\n")[0]] +
+         ["%.2f,%s" % (float(l.split(",", 1)[0]) + 1000.0, l.split(",", 1)[1])
+          for l in ctx.read("w/imu.csv").strip().split("\n")[1:]]) + "\n")),
+     err=allof(r"imu\.csv spans", r"rss\.csv", r"do not overlap"))
+case("every-range-zero", "plausibility", ["validate", "w"],
+     setup=with_walk(lambda ctx: ctx.write("w/range.csv", "\n".join(
+         [l if i == 0 else ",".join(l.split(",")[:2] + ["0"])
+          for i, l in enumerate(ctx.read("w/range.csv").strip().split("\n"))]) + "\n"),
+         src="plaza1"),
+     err=allof(r"range\.csv: every range_m is 0"))
+case("rfcode-units-with-dbm-readings", "plausibility", ["validate", "w"],
+     setup=with_walk(lambda ctx: ctx.replace("w/walk.yaml", "units: dbm\n  A_dbm: -60",
+                                             "units: rfcode\n  A_dbm: 100")),
+     err=allof(r"rss\.csv: every reading is negative \(dBm-like\)"))
+case("anchors-in-another-frame", "plausibility", ["validate", "w"],
+     setup=with_walk(lambda ctx: ctx.write(
+         "w/anchors.csv", "id,x_m,y_m,z_m\n1,4800000,0,2\n2,4800010,0,2\n3,4800020,0,2\n")),
+     err=allof(r"truth\.csv:2: \(0, 0\) is", r"one frame"))
+WALK_YAML_ABSURD = [
+    ("eta-1e6", "eta: 2.5", "eta: 1e6", r"radio: eta 1e\+06 outside"),
+    ("a-dbm-minus-9.9e6", "A_dbm: -60", "A_dbm: -9.9e6", r"radio: A_dbm -9\.9e\+06 outside"),
+    ("sigma-db-tiny", "sigma_db: 5", "sigma_db: 1e-12", r"radio: sigma_db 1e-12 outside"),
+    ("heading-in-degrees", "heading_rad: 0", "heading_rad: 180", r"heading_rad 180 outside"),
+    ("start-x-1e9", "x_m: 0", "x_m: 1e9", r"initial_pose: x_m 1e\+09 outside"),
+    ("start-sigma-tiny", "heading_rad: 0", "heading_rad: 0\n  sigma_xy_m: 1e-12",
+     r"sigma_xy_m 1e-12 outside"),
+]
+for slug, old, new, pattern in WALK_YAML_ABSURD:
+    case("walk-yaml-absurd-" + slug, "plausibility", ["validate", "w"],
+         setup=with_walk((lambda o, n: lambda ctx: ctx.replace("w/walk.yaml", o, n))(old, new)),
+         err=allof(r"walk\.yaml", pattern))
+
+case("compare-runs-2e9-refused", "plausibility",
+     ["compare", "--scenario", "tarrio-circle", "--runs", "2000000000", "--out", "out"],
+     err=allof(r"runs must be in \[1, 1000000\]"), check=quick(10), timeout=30)
+case("study-10001-values-refused", "plausibility", STUDY + ["out"],
+     setup=manifest(STUDY_MANIFEST.replace("values: [0.2, 0.4]", "values: [%s]" % ", ".join(
+         "%g" % (0.1 + i * 1e-4) for i in range(10001)))),
+     err=allof(r"m\.yaml:\d+", r"10001 values, over the cap of 10000"), check=quick(10),
+     timeout=30)
+
+LONG_NAME = "n" * 255  # NAME_MAX: the hidden temporary's name must still fit
+case("out-name-255-bytes", "plausibility", CMP + [LONG_NAME], setup=walk(), rc=0, out=LONG_NAME,
+     out_kind="compare")
+case("out-name-256-bytes", "plausibility", CMP + ["n" * 256], setup=walk(),
+     err=allof(r"(?i)name too long"))
+case("signal-sigquit-write-phase", "signals", ["compare", "w", "--out", "out"],
+     setup=signal_setup, runner=signal_runner(signal.SIGQUIT, 0.01, True),
+     rc=(0, 1, 128 + signal.SIGQUIT), check=signal_check(signal.SIGQUIT), out="out",
+     ignore_out_always=True, limit_as=False, timeout=90)
+
+
+def pid_namespaces_usable():
+    try:
+        return subprocess.run(["unshare", "-p", "-f", "--mount-proc", "true"],
+                              capture_output=True, timeout=20).returncode == 0
+    except (OSError, subprocess.TimeoutExpired):
+        return False
+
+
+def in_pid_namespace(argv, cwd, home):
+    """Starts the CLI as PID 1 of a new PID namespace (the PIDs a shared folder's other writers
+    have, on another node or in another container, say nothing here)."""
+    env = dict(os.environ, HOME=home, LC_ALL="C")
+    return subprocess.Popen(["unshare", "-p", "-f", "--mount-proc", ARGS.cli] + argv, cwd=cwd,
+                            env=env, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, start_new_session=True)
+
+
+def held_lock_runner(namespace):
+    """A live writer elsewhere: this script holds .out.walkgraph-lock and has a temporary named
+    for PID 1 (the CLI's own PID in a new namespace). The CLI must refuse, and leave both."""
+    def run(ctx):
+        import fcntl
+        if namespace and not pid_namespaces_usable():
+            ctx.skipped = "unshare -p not permitted here"
+            return Result(0, "", "", 0.0)
+        ctx.mkdir(".out.walkgraph-tmp-1", {"results.json": "{\"live\": true}\n"})
+        fd = os.open(ctx.p(".out.walkgraph-lock"), os.O_RDWR | os.O_CREAT, 0o644)
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        try:
+            argv = CMP + ["out"]
+            if namespace:
+                t0 = time.time()
+                res = finish(in_pid_namespace(argv, ctx.sb, ctx.home), 60, t0)
+            else:
+                res = run_cli(argv, ctx.sb, ctx.home)
+            ctx.live_tmp = ctx.read(".out.walkgraph-tmp-1/results.json")
+        finally:
+            os.close(fd)
+            ctx.remove(".out.walkgraph-tmp-1")
+            ctx.remove(".out.walkgraph-lock")
+        return res
+    return run
+
+
+def held_lock_check(ctx, r):
+    if getattr(ctx, "skipped", None):
+        return []
+    problems = []
+    if getattr(ctx, "live_tmp", None) != "{\"live\": true}\n":
+        problems.append("the live writer's temporary was changed or removed")
+    if os.path.lexists(ctx.p("out")):
+        problems.append("out was written while another writer held its lock")
+    if r.rc != 1 or not re.search(allof(r"another walkgraph process", r"\.out\.walkgraph-lock"),
+                                  r.stderr):
+        problems.append("expected exit 1 naming the other writer's lock")
+    return problems
+
+
+for ns in (False, True):
+    case("second-writer-refused" + ("-other-pid-namespace" if ns else ""), "shared-folders",
+         CMP + ["out"], setup=walk(), runner=held_lock_runner(ns), check=held_lock_check,
+         rc=(0, 1))
+
+
+def two_writers_runner(ctx):
+    """Two writers of one target, each PID 1 of its own PID namespace, started together, a few
+    rounds: each exits 0 having written the whole target, or 1 with the lock's message."""
+    if not pid_namespaces_usable():
+        ctx.skipped = "unshare -p not permitted here"
+        return Result(0, "", "", 0.0)
+    ctx.rounds = []
+    t0 = time.time()
+    for _ in range(4):
+        procs = [in_pid_namespace(CMP + ["out"], ctx.sb, ctx.home) for _ in range(2)]
+        results = [finish(p, 60, t0) for p in procs]
+        ctx.rounds.append((results, compare_output_problems(ctx.p("out"))))
+    return Result(0, "", "", time.time() - t0)
+
+
+def two_writers_check(ctx, r):
+    if getattr(ctx, "skipped", None):
+        return []
+    problems = []
+    for i, (results, target) in enumerate(ctx.rounds):
+        for res in results:
+            if res.rc == 0 and "wrote out/" not in res.stdout:
+                problems.append("round %d: exit 0 without 'wrote'" % i)
+            elif res.rc == 1 and not re.search(r"another walkgraph process", res.stderr):
+                problems.append("round %d: the loser's message is unclear: %r" % (
+                    i, res.stderr[:200]))
+            elif res.rc not in (0, 1):
+                problems.append("round %d: exit %s" % (i, describe_rc(res.rc)))
+        if not any(res.rc == 0 for res in results):
+            problems.append("round %d: neither writer wrote" % i)
+        if target:
+            problems.append("round %d: target not whole: %s" % (i, ", ".join(target[:3])))
+    return problems
+
+
+case("two-writers-two-pid-namespaces", "shared-folders", CMP + ["out"], setup=walk(),
+     runner=two_writers_runner, check=two_writers_check, rc=0, out="out",
+     ignore_out_always=True, timeout=300)
+
+
 def output_problems(ctx, c):
     path = ctx.p(c.out)
     if c.out_kind == "tum":

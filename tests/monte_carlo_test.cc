@@ -299,6 +299,16 @@ TEST(CompareScenario, FootScenarioSaysWhyThereIsNoBound) {
   EXPECT_TRUE(off->pcrb_note.empty());
 }
 
+TEST(CompareScenario, RunCountsThatCannotFinishAreRefused) {
+  for (int runs : {0, kMaxMonteCarloRuns + 1, 2000000000}) {
+    MonteCarloOptions mc;
+    mc.runs = runs;
+    auto c = CompareScenario("linear-gaussian", {}, {}, mc, TestRegistry());
+    ASSERT_FALSE(c.ok()) << runs;
+    EXPECT_THAT(c.status().message(), HasSubstr("runs must be in [1, 1000000]")) << runs;
+  }
+}
+
 TEST(CompareScenario, OverrideErrorsNameTheirOrigin) {
   ScenarioCompareOptions sc;
   sc.overrides = YAML::Load("duration_s: 20\nlapz: 2\n");

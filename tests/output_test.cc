@@ -1,5 +1,7 @@
 // The output writer: marker, refusals, old-or-new at every phase (cancel and kill), stale
 // temporaries, single files.
+#include <fcntl.h>
+#include <sys/file.h>
 #include <sys/socket.h>
 #include <sys/stat.h>
 #include <sys/un.h>
@@ -254,6 +256,72 @@ TEST_F(OutputTest, StaleTemporariesOfDeadProcessesAreRemovedAndBackupsRestored) 
   EXPECT_FALSE(s.ok());
   EXPECT_EQ(Read("out/result.txt"), "old");
   EXPECT_TRUE(Leftovers(root_).empty());
+}
+
+TEST_F(OutputTest, ASecondWriterOfTheSameTargetIsRefusedAndTheFirstFinishesWhole) {
+  Status second = Status::Ok();
+  bool tried = false;
+  internal::SetOutputPhaseHookForTesting([&](const std::string& p) {
+    if (p != "filled" || tried) return;
+    tried = true;
+    second = WriteFolder("out", "second");  // its own open file description: flock conflicts
+  });
+  ASSERT_TRUE(WriteFolder("out", "first").ok());
+  EXPECT_EQ(second.code(), StatusCode::kFailedPrecondition);
+  EXPECT_THAT(second.message(), HasSubstr("another walkgraph process"));
+  EXPECT_THAT(second.message(), HasSubstr(".out.walkgraph-lock"));
+  EXPECT_EQ(Read("out/result.txt"), "first");
+  EXPECT_TRUE(Leftovers(root_).empty());
+  EXPECT_FALSE(fs::exists(".out.walkgraph-lock"));  // released and removed
+}
+
+TEST_F(OutputTest, ATemporaryIsStaleOnlyWhenNobodyHoldsItsTargetsLock) {
+  // A writer on another host or in another PID namespace: its PID (here one that does not run
+  // in ours) says nothing, its lock does.
+  Write(".out.walkgraph-tmp-4194305/result.txt", "half-written by a live writer");
+  const int fd = ::open(".out.walkgraph-lock", O_RDWR | O_CREAT, 0666);
+  ASSERT_GE(fd, 0);
+  ASSERT_EQ(::flock(fd, LOCK_EX | LOCK_NB), 0);
+  const Status refused = WriteFolder("out", "new");
+  EXPECT_THAT(refused.message(), HasSubstr("another walkgraph process"));
+  EXPECT_EQ(Read(".out.walkgraph-tmp-4194305/result.txt"), "half-written by a live writer");
+  EXPECT_FALSE(fs::exists("out"));
+  ::close(fd);  // the other writer died: now its temporary is stale
+  ASSERT_TRUE(WriteFolder("out", "new").ok());
+  EXPECT_EQ(Read("out/result.txt"), "new");
+  EXPECT_TRUE(Leftovers(root_).empty());
+}
+
+TEST_F(OutputTest, ARefusedTargetGetsNoLockFileBesideIt) {
+  Write("file.txt", "mine");
+  EXPECT_FALSE(WriteFolder("file.txt", "x").ok());  // a regular file: not replaced
+  EXPECT_FALSE(fs::exists(".file.txt.walkgraph-lock"));
+  EXPECT_EQ(Read("file.txt"), "mine");
+  EXPECT_FALSE(WriteOutputFile("missing/t.tum/", {}, [](std::ostream&) { return true; }).ok());
+  EXPECT_FALSE(fs::exists("missing"));  // a refused file target: no parent folders made
+}
+
+TEST_F(OutputTest, NamesUpToNameMaxWork) {
+  std::string utf8;  // 2-byte characters: a shortened sibling must not split one
+  while (utf8.size() + 2 <= 255) utf8 += "\xc3\xa9";
+  for (const std::string& name : {std::string(255, 'n'), std::string(230, 'm'), utf8}) {
+    ASSERT_TRUE(WriteFolder(name, "one").ok()) << name.size();
+    ASSERT_TRUE(WriteFolder(name, "two").ok()) << name.size();  // over its own output
+    EXPECT_EQ(Read(name + "/result.txt"), "two");
+    ASSERT_TRUE(WriteOutputFile(name + "/" + name, {}, [](std::ostream& o) {
+                  o << "file";
+                  return true;
+                }).ok());
+    EXPECT_TRUE(Leftovers(root_).empty());
+    for (const auto& e : fs::directory_iterator(".")) {
+      EXPECT_EQ(e.path().filename().string(), name);  // no lock file or temporary beside it
+    }
+    fs::remove_all(name);
+  }
+  const std::string a = internal::OutputSiblingName(std::string(255, 'a'), "tmp");
+  const std::string b = internal::OutputSiblingName(std::string(254, 'a') + "b", "tmp");
+  EXPECT_LE(a.size(), 255u);
+  EXPECT_NE(a, b);  // the hash keeps long names apart
 }
 
 TEST_F(OutputTest, ASocketIsNeverReplaced) {

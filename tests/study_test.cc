@@ -344,6 +344,7 @@ TEST(Study, BadManifestsNameFileAndLine) {
       {"name: x\nestimators: [offset, fg-batch-selfcal]\nsweeps: []\n",
        "unknown estimator 'fg-batch-selfcal'", 2},
       {"name: x\nruns: 0\nsweeps: []\n", "runs must be >= 1", 2},
+      {"name: x\nruns: 1000001\nsweeps: []\n", "runs 1000001 over the cap of 1000000", 2},
       {"name: x\nmetric: accuracy\nsweeps: []\n", "unknown metric 'accuracy'", 2},
       {"name: x\nscore_from_s: -1\nsweeps: []\n", "score_from_s must be a number >= 0", 2},
       {"name: x\nsweeps: [\n", "", 0},  // YAML syntax error: still file:line
@@ -381,6 +382,14 @@ TEST(Study, BadManifestsNameFileAndLine) {
                 ::testing::StartsWith("unit.yaml:" + std::to_string(c.line) + ":"))
         << m.status().message();
   }
+  std::string many = "0";  // a sweep that cannot finish: one value over the cap
+  for (size_t i = 1; i <= kMaxSweepValues; ++i) many += "," + std::to_string(i);
+  auto capped = ParseStudyManifest(
+      head + sweep + "    estimator_option: offset_m\n    values: [" + many + "]\n", "unit.yaml",
+      TestRegistry());
+  ASSERT_FALSE(capped.ok());
+  EXPECT_THAT(capped.status().message(),
+              ::testing::StartsWith("unit.yaml:7: sweep 's': 10001 values, over the cap of 10000"));
   auto unknown_scenario = ParseStudyManifest(
       head +
           "  - name: s\n    scenario: moon-walk\n    estimator_option: offset_m\n"

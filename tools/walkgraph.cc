@@ -1,19 +1,24 @@
 // walkgraph: the command-line shell over the library. Parses arguments, calls the library,
 // prints. Every failure prints "walkgraph: <message>" on stderr and exits 1; an interrupted
-// run (SIGINT, SIGTERM, SIGHUP) exits 128 + the signal, its outputs left as they were
+// run (SIGINT, SIGTERM, SIGHUP, SIGQUIT) exits 128 + the signal, its outputs left as they were
 // (walkgraph/output.h).
 #include <glog/logging.h>
 #include <signal.h>
 #include <unistd.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <charconv>
+#include <chrono>
 #include <cstdint>
 #include <cstdio>
+#include <cstring>
 #include <exception>
 #include <iomanip>
 #include <iostream>
 #include <map>
+#include <memory>
+#include <mutex>
 #include <new>
 #include <optional>
 #include <sstream>
@@ -25,6 +30,8 @@
 #include <CLI/CLI.hpp>
 
 #include "config/parsers.h"
+#include "io/plausibility.h"
+#include "util/text.h"
 #include "walkgraph/compare.h"
 #include "walkgraph/config.h"
 #include "walkgraph/convert.h"
@@ -120,8 +127,8 @@ int Finish(int rc) {
   return rc;
 }
 
-// SIGINT/SIGTERM/SIGHUP: ask the library to stop; when no output is being written there is
-// nothing of ours on disk to clean up, so end at once.
+// SIGINT/SIGTERM/SIGHUP/SIGQUIT: ask the library to stop; when no output is being written
+// there is nothing of ours on disk to clean up, so end at once.
 extern "C" void OnSignal(int signal_number) {
   walkgraph::RequestCancel(signal_number);
   if (!walkgraph::OutputInProgress()) ::_exit(128 + signal_number);
@@ -131,7 +138,7 @@ void InstallSignalHandlers() {
   struct sigaction action {};
   action.sa_handler = OnSignal;
   sigemptyset(&action.sa_mask);
-  for (int sig : {SIGINT, SIGTERM, SIGHUP}) ::sigaction(sig, &action, nullptr);
+  for (int sig : {SIGINT, SIGTERM, SIGHUP, SIGQUIT}) ::sigaction(sig, &action, nullptr);
 }
 
 // Last resorts: an exception escaping a thread, or a failed CHECK inside a dependency, end the
@@ -272,6 +279,19 @@ int RunFitPathLoss(const std::string& walk_dir, bool floors) {
   const double d0 = walk->meta.radio.path_loss.d0_m;
   auto fit = walkgraph::FitPathLoss(obs, units, d0);
   if (!fit.ok()) return Fail(fit.status());
+  // The printed block goes into a walk.yaml: a fit that walk.yaml would refuse is an error.
+  std::string absurd = walkgraph::internal::CheckPathLoss(fit->params, units, {});
+  if (absurd.empty() && !(fit->params.floor_loss_db >= 0.0 && fit->params.floor_loss_db <= 100.0)) {
+    absurd = "floor_loss_db " + walkgraph::internal::Num(fit->params.floor_loss_db) +
+             " outside [0, 100] dB";
+  }
+  if (!absurd.empty()) {
+    return Fail(walkgraph::FailedPrecondition(
+        "fit-path-loss " + walk_dir + ": the fit over " + std::to_string(fit->num_observations) +
+        " readings is not a usable path-loss model: " + absurd +
+        ". Expected RSS that falls with the distance to the anchors: check anchors.csv's "
+        "positions and ids, radio.units, and that the truth is in the anchors' frame"));
+  }
   std::printf("# fit-path-loss %s: %d readings inside the truth's span\n", walk_dir.c_str(),
               fit->num_observations);
   auto per = walkgraph::FitPathLossPerAnchor(obs, units, d0);
@@ -383,15 +403,63 @@ Status ConfigsById(const YAML::Node& config, const std::string& path,
   return Status::Ok();
 }
 
-// "[#####-----] done/total" on stderr, redrawn in place; only when stderr is a terminal.
-void DrawProgress(int done, int total) {
-  constexpr int kWidth = 40;
-  const int filled = total > 0 ? done * kWidth / total : kWidth;
-  std::string bar(filled, '#');
-  bar.append(kWidth - filled, '-');
-  std::fprintf(stderr, "\r[%s] %d/%d runs", bar.c_str(), done, total);
-  if (done == total) std::fprintf(stderr, "\n");
-  std::fflush(stderr);
+// "42 s", "3 min 07 s", "2 h 05 min", "12.5 days".
+std::string Duration(double s) {
+  char text[64];
+  if (s < 60) {
+    std::snprintf(text, sizeof(text), "%.0f s", s);
+  } else if (s < 3600) {
+    std::snprintf(text, sizeof(text), "%d min %02d s", int(s / 60), int(s) % 60);
+  } else if (s < 2 * 86400) {
+    std::snprintf(text, sizeof(text), "%d h %02d min", int(s / 3600), int(s / 60) % 60);
+  } else {
+    std::snprintf(text, sizeof(text), "%.1f days", s / 86400);
+  }
+  return text;
+}
+
+// Progress of a long run on stderr with a time estimate (elapsed / done × the rest): on a
+// terminal a bar redrawn in place; else (a batch job's log) a plain line every 10 s, the first
+// after 10 s (a short run prints nothing) and one at the end if any came before. The calls may
+// come from several threads.
+std::function<void(int, int)> MakeProgress(const std::string& prefix, const std::string& unit) {
+  struct State {
+    std::string prefix, unit;
+    bool tty = false, printed = false;
+    std::chrono::steady_clock::time_point start, last;
+    std::mutex mutex;
+  };
+  auto st = std::make_shared<State>();
+  st->prefix = prefix;
+  st->unit = unit;
+  st->tty = ::isatty(STDERR_FILENO) != 0;
+  st->start = st->last = std::chrono::steady_clock::now();
+  return [st](int done, int total) {
+    std::lock_guard<std::mutex> lock(st->mutex);
+    const auto now = std::chrono::steady_clock::now();
+    const double elapsed = std::chrono::duration<double>(now - st->start).count();
+    const std::string left = done > 0 && done < total
+                                 ? ", about " + Duration(elapsed / done * (total - done)) + " left"
+                                 : "";
+    if (st->tty) {
+      constexpr int kWidth = 30;
+      const int filled = total > 0 ? int(int64_t{done} * kWidth / total) : kWidth;
+      std::string bar(filled, '#');
+      bar.append(kWidth - filled, '-');
+      std::fprintf(stderr, "\r%s[%s] %d/%d %s, %s elapsed%s\033[K", st->prefix.c_str(), bar.c_str(),
+                   done, total, st->unit.c_str(), Duration(elapsed).c_str(), left.c_str());
+      if (done == total) std::fprintf(stderr, "\n");
+    } else {
+      const bool due = now - st->last >= std::chrono::seconds(10);
+      if (!due && !(done == total && st->printed)) return;
+      st->last = now;
+      st->printed = true;
+      std::fprintf(stderr, "%s%d/%d %s (%d%%), %s elapsed%s\n", st->prefix.c_str(), done, total,
+                   st->unit.c_str(), total > 0 ? int(int64_t{done} * 100 / total) : 100,
+                   Duration(elapsed).c_str(), left.c_str());
+    }
+    std::fflush(stderr);
+  };
 }
 
 // What compare runs, from its arguments.
@@ -561,14 +629,9 @@ int RunSharedCompare(const CompareArgs& args, const Status& prepared, PreparedCo
   s = AgreeAcrossRanks(job, s);
   RunSpill spill;
   if (s.ok()) {
-    if (job.rank() == 0 && ::isatty(STDERR_FILENO)) {
-      const int ranks = job.size();
-      p->mc.progress = [ranks](int done, int total) {
-        std::fprintf(stderr, "\rcompare: rank 0 of %d has run %d of its %d runs", ranks, done,
-                     total);
-        if (done == total) std::fprintf(stderr, "\n");
-        std::fflush(stderr);
-      };
+    if (job.rank() == 0) {
+      p->mc.progress =
+          MakeProgress("compare: rank 0 of " + std::to_string(job.size()) + ": ", "of its runs");
     }
     s = walkgraph::CompareScenarioShare(
         args.scenario, p->scenario, p->options, p->mc, {job.rank(), job.size()},
@@ -594,7 +657,7 @@ int RunCompare(const CompareArgs& args) {
     if (!walk.ok()) return Fail(walk.status());
     comparison = walkgraph::CompareOnWalk(*walk, p.options);
   } else {
-    if (::isatty(STDERR_FILENO)) p.mc.progress = DrawProgress;
+    p.mc.progress = MakeProgress("compare: ", "runs");
     comparison = walkgraph::CompareScenario(args.scenario, p.scenario, p.options, p.mc);
   }
   if (!comparison.ok()) return Fail(comparison.status());
@@ -662,23 +725,13 @@ std::string RunOwnPart(const StudyArgs& a, const walkgraph_cli::MpiJob& job,
       agreed = true;
       return job.AllOk(v.ok()) ? Status::Ok() : walkgraph::Cancelled(kOtherFailed);
     };
-    const bool tty = job.rank() == 0 && ::isatty(STDERR_FILENO);
-    if (tty && job.size() > 1) {
-      const int ranks = job.size();
-      options.progress = [ranks](int done, int total) {
-        std::fprintf(stderr, "\rstudy: rank 0 of %d has run %d of the %d cells", ranks, done,
-                     total);
-        std::fflush(stderr);
-      };
-    } else if (tty) {
-      options.progress = [](int done, int total) {
-        std::fprintf(stderr, "\rstudy: %d/%d cells", done, total);
-        if (done == total) std::fprintf(stderr, "\n");
-        std::fflush(stderr);
-      };
+    if (job.rank() == 0) {
+      options.progress = MakeProgress(
+          job.size() > 1 ? "study: rank 0 of " + std::to_string(job.size()) + ": " : "study: ",
+          "cells");
     }
     part = walkgraph::RunStudyPart(*manifest, shard, options);
-    if (tty && job.size() > 1) std::fprintf(stderr, "\n");
+    if (job.rank() == 0 && job.size() > 1 && ::isatty(STDERR_FILENO)) std::fprintf(stderr, "\n");
     *manifest_out = std::move(manifest).value();
   }
   if (!agreed) job.AllOk(false);
@@ -1117,6 +1170,21 @@ int Main(int argc, char** argv) {
   return Finish(args.rc);
 }
 
+// A run whose standard output could not be written (a full disk, /dev/full, a closed pipe's
+// EPIPE) failed, even when its files were written: the final flush's errors count.
+int CheckStdout(int rc) {
+  std::cout.flush();
+  const bool stream_bad = !std::cout.good() || std::ferror(stdout) != 0;
+  errno = 0;
+  const bool flush_failed = std::fflush(stdout) != 0;
+  const int e = errno;
+  if (!stream_bad && !flush_failed) return rc;
+  std::fprintf(
+      stderr, "walkgraph: cannot write the standard output: %s\n",
+      flush_failed && e != 0 ? std::strerror(e) : "a write failed (a full disk, or a closed pipe)");
+  return rc == 0 ? 1 : rc;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -1127,7 +1195,7 @@ int main(int argc, char** argv) {
   std::set_terminate(OnTerminate);
   google::InstallFailureFunction(&OnCheckFailure);
   try {
-    return Main(argc, argv);
+    return CheckStdout(Main(argc, argv));
   } catch (const std::bad_alloc&) {
     std::cerr << "walkgraph: out of memory; no output was written\n";
   } catch (const std::exception& e) {

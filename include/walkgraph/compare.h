@@ -144,8 +144,12 @@ StatusOr<Comparison> CompareOnWalk(
 // threads with different seeds: it must not share mutable state between calls.
 using WalkGenerator = std::function<StatusOr<Walk>(uint64_t seed)>;
 
+// The most Monte Carlo runs one comparison takes (runs beyond it are refused): at about a
+// second a run, 10^6 runs are 12 days on one core; split a larger study into seeds.
+inline constexpr int kMaxMonteCarloRuns = 1000000;
+
 struct MonteCarloOptions {
-  int runs = 1;
+  int runs = 1;       // in [1, kMaxMonteCarloRuns]
   uint64_t seed = 0;  // S
   int threads = 1;    // <= 0: std::thread::hardware_concurrency(); at most kMaxThreads
   // Called after each finished run with (runs done, runs); calls are serialized.

@@ -67,6 +67,9 @@
 
 namespace walkgraph {
 
+// The most values one sweep takes (a manifest with more is refused).
+inline constexpr size_t kMaxSweepValues = 10000;
+
 struct StudySweep {
   std::string name, title, label;
   int line = 0;  // 1-based manifest line of the sweep

@@ -76,35 +76,70 @@ Status RunInterruptible(const std::function<Status()>& fn) {
   return done.get();
 }
 
-YAML::Node ToYaml(const py::handle& value, const std::string& context) {
+namespace {
+
+// ToYaml's walk: `path` holds the containers being converted (a cycle is a container met again
+// on its own path), `depth` their count.
+YAML::Node ToYamlAt(const py::handle& value, const std::string& context,
+                    std::vector<PyObject*>* path) {
   if (value.is_none()) return YAML::Node(YAML::NodeType::Null);
   if (py::isinstance<py::bool_>(value)) return YAML::Node(value.cast<bool>());
-  if (py::isinstance<py::int_>(value)) return YAML::Node(value.cast<long long>());
+  if (py::isinstance<py::int_>(value)) {
+    try {
+      return YAML::Node(value.cast<long long>());
+    } catch (const py::cast_error&) {
+      Raise(InvalidArgument(context + ": integer out of the 64-bit range"));
+    }
+  }
   if (py::isinstance<py::float_>(value)) {
     const double x = value.cast<double>();
     if (!std::isfinite(x)) Raise(InvalidArgument(context + ": numbers must be finite"));
     return YAML::Node(x);
   }
   if (py::isinstance<py::str>(value)) return YAML::Node(value.cast<std::string>());
-  if (py::isinstance<py::dict>(value)) {
-    YAML::Node map(YAML::NodeType::Map);
-    for (const auto& [k, v] : value.cast<py::dict>()) {
+  const bool map = py::isinstance<py::dict>(value);
+  if (!map && !py::isinstance<py::list>(value) && !py::isinstance<py::tuple>(value)) {
+    Raise(InvalidArgument(context + ": cannot use a " +
+                          std::string(py::str(value.get_type().attr("__name__"))) +
+                          " as an option value"));
+  }
+  if (std::find(path->begin(), path->end(), value.ptr()) != path->end()) {
+    Raise(InvalidArgument(context + ": the value contains itself (a cycle); expected a tree of "
+                                    "dicts and lists"));
+  }
+  if (path->size() >= kMaxYamlDepth) {
+    Raise(InvalidArgument(context + ": nested deeper than " + std::to_string(kMaxYamlDepth) +
+                          " levels; expected a shallow dict of options"));
+  }
+  path->push_back(value.ptr());
+  YAML::Node out(map ? YAML::NodeType::Map : YAML::NodeType::Sequence);
+  if (map) {
+    // A snapshot of the items (PyDict_Items runs no Python code): the conversion cannot see a
+    // dict change under it.
+    const auto items = py::reinterpret_steal<py::list>(PyDict_Items(value.ptr()));
+    if (!items) throw py::error_already_set();
+    for (const auto& item : items) {
+      const py::handle k = PyTuple_GET_ITEM(item.ptr(), 0), v = PyTuple_GET_ITEM(item.ptr(), 1);
       if (!py::isinstance<py::str>(k)) {
         Raise(InvalidArgument(context + ": option names must be strings"));
       }
       const std::string key = k.cast<std::string>();
-      map[key] = ToYaml(v, context + "." + key);
+      out[key] = ToYamlAt(v, context + "." + key, path);
     }
-    return map;
+  } else {
+    // A copy: a list that grows while it is read cannot make the loop endless.
+    const py::tuple items = py::tuple(py::reinterpret_borrow<py::object>(value));
+    for (const auto& v : items) out.push_back(ToYamlAt(v, context, path));
   }
-  if (py::isinstance<py::list>(value) || py::isinstance<py::tuple>(value)) {
-    YAML::Node seq(YAML::NodeType::Sequence);
-    for (const auto& v : value) seq.push_back(ToYaml(v, context));
-    return seq;
-  }
-  Raise(InvalidArgument(context + ": cannot use a " +
-                        std::string(py::str(value.get_type().attr("__name__"))) +
-                        " as an option value"));
+  path->pop_back();
+  return out;
+}
+
+}  // namespace
+
+YAML::Node ToYaml(const py::handle& value, const std::string& context) {
+  std::vector<PyObject*> path;
+  return ToYamlAt(value, context, &path);
 }
 
 py::dict ToDict(const std::vector<OptionDefault>& defaults) {
@@ -143,11 +178,43 @@ py::array_t<double> Matrix(size_t rows, size_t cols,
 
 namespace {
 
+// A ValueError unless `value` is an array (or nested list) of real numbers or booleans: numpy
+// turns None in an object array into NaN and would take strings, so an object array is refused
+// at its first element that is not a real number, by row and column.
+void CheckNumeric(const py::handle& value, const std::string& stream) {
+  py::array any;
+  try {
+    any = py::array::ensure(value);
+  } catch (const py::error_already_set&) {
+  }
+  if (!any) Raise(InvalidArgument("walk." + stream + ": expected a numeric array"));
+  const char kind = any.dtype().kind();
+  if (kind == 'b' || kind == 'i' || kind == 'u' || kind == 'f') return;
+  if (kind == 'O' && any.ndim() == 2) {
+    const py::object real = py::module_::import("numbers").attr("Real");
+    for (py::ssize_t i = 0; i < any.shape(0); ++i) {
+      for (py::ssize_t j = 0; j < any.shape(1); ++j) {
+        const py::object x = any[py::make_tuple(i, j)];
+        if (!py::isinstance(x, real)) {
+          Raise(InvalidArgument("walk." + stream + "[" + std::to_string(i) + "], column " +
+                                std::to_string(j) + ": " +
+                                std::string(py::str(py::repr(x)).cast<std::string>()) +
+                                " is not a number; expected a numeric array"));
+        }
+      }
+    }
+    return;
+  }
+  Raise(InvalidArgument("walk." + stream + ": expected a numeric array, not one of dtype " +
+                        std::string(py::str(any.dtype()))));
+}
+
 // Rows of a (N, k) array with k one of `widths`; a ValueError names the stream otherwise.
 std::vector<std::vector<double>> Rows(const py::handle& value, const std::string& stream,
                                       std::vector<size_t> widths, const char* columns) {
   std::vector<std::vector<double>> rows;
   if (value.is_none()) return rows;
+  CheckNumeric(value, stream);
   py::array_t<double, py::array::c_style | py::array::forcecast> a;
   try {
     a = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(value);

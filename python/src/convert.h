@@ -40,7 +40,9 @@ T Value(StatusOr<T> s) {
 Status RunInterruptible(const std::function<Status()>& fn);
 
 // A Python dict (or None) as a YAML map, for estimator and simulator options: bool, int, float,
-// str, None, lists and nested dicts. Anything else is a ValueError naming `context`.
+// str, None, lists and nested dicts. Anything else is a ValueError naming `context`, and so are
+// a value that contains itself and nesting deeper than kMaxYamlDepth (never a stack overflow).
+inline constexpr size_t kMaxYamlDepth = 64;
 YAML::Node ToYaml(const py::handle& value, const std::string& context);
 // Option defaults as nested dicts (NaN, "the walk's value", as None).
 py::dict ToDict(const std::vector<OptionDefault>& defaults);

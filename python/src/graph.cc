@@ -1,5 +1,6 @@
 // The factor-graph core from Python: keys, built-in factors, FactorGraph (batch) and the
 // FixedLagSmoother (sliding window), the same container walkgraph's own estimators use.
+#include <cmath>
 #include <memory>
 #include <optional>
 #include <string>
@@ -17,6 +18,7 @@
 #include "factors/range_factor.h"
 #include "factors/rss_factor.h"
 #include "walkgraph/graph.h"
+#include "walkgraph/io.h"
 #include "walkgraph/smoothers/fixed_lag_smoother.h"
 #include "walkgraph/smoothers/step_graph.h"
 
@@ -64,6 +66,57 @@ py::dict SummaryDict(const SolveSummary& s) {
   d["num_residuals"] = s.num_residuals;
   d["num_parameters"] = s.num_parameters;
   return d;
+}
+
+void BindSmoother(py::module_& m) {
+  py::class_<FixedLagSmoother>(m, "FixedLagSmoother",
+                               "Sliding-window smoother: states older than lag_s are "
+                               "marginalized into a prior.")
+      .def(py::init([](double lag_s) {
+             if (!(lag_s > 0) || !std::isfinite(lag_s)) {
+               Raise(InvalidArgument("lag_s must be finite and > 0"));
+             }
+             FixedLagSmoother::Options o;
+             o.lag_s = lag_s;
+             return std::make_unique<FixedLagSmoother>(o);
+           }),
+           py::arg("lag_s") = 10.0)
+      .def(
+          "update",
+          [](FixedLagSmoother& s, const py::list& states, const std::vector<GraphFactor>& factors) {
+            std::vector<GraphState> new_states;
+            for (const auto& item : states) {
+              const py::tuple t = item.cast<py::tuple>();
+              if (t.size() < 2 || t.size() > 3) {
+                Raise(InvalidArgument("update: a state is (key, value) or (key, value, t)"));
+              }
+              const std::optional<double> time = t.size() == 3 && !t[2].is_none()
+                                                     ? std::optional<double>(t[2].cast<double>())
+                                                     : std::nullopt;
+              new_states.push_back(
+                  StateOf(t[0].cast<Key>(), t[1].cast<std::vector<double>>(), time, false));
+            }
+            std::optional<FixedLagSmoother::UpdateResult> r;
+            Check(RunInterruptible([&]() -> Status {
+              WG_ASSIGN_OR_RETURN(r, s.Update(std::move(new_states), factors));
+              return Status::Ok();
+            }));
+            py::dict d;
+            d["iterations"] = r->ceres_iterations;
+            d["marginalized_states"] = r->marginalized_states;
+            d["final_cost"] = r->final_cost;
+            d["converged"] = r->converged;
+            return d;
+          },
+          py::arg("states"), py::arg("factors"))
+      .def("estimate",
+           [](const FixedLagSmoother& s, Key key) {
+             const std::vector<double> v = Value(s.Estimate(key));
+             return Eigen::VectorXd(Eigen::Map<const Eigen::VectorXd>(v.data(), v.size()));
+           })
+      .def("covariance",
+           [](FixedLagSmoother& s, Key key) { return Value(s.MarginalCovariance(key)); })
+      .def("window_keys", &FixedLagSmoother::WindowKeys);
 }
 
 }  // namespace
@@ -214,6 +267,7 @@ void BindGraph(py::module_& m) {
         const YAML::Node yaml = ToYaml(config, "step_graph");
         const StepGraphOptions o = Value(StepGraphOptionsFromYaml(
             yaml.IsNull() ? YAML::Node() : yaml, "step_graph", StepGraphOptions()));
+        Check(ValidateWalk(walk));
         auto graph = std::make_unique<FactorGraph>();
         std::vector<double> times;
         Check(RunInterruptible([&]() -> Status {
@@ -228,52 +282,7 @@ void BindGraph(py::module_& m) {
       "symbol('x', k) (position) and symbol('h', k) (heading), at dead-reckoning values. Add "
       "factors and solve() it; fg-batch itself may first initialize from a window pass.");
 
-  py::class_<FixedLagSmoother>(m, "FixedLagSmoother",
-                               "Sliding-window smoother: states older than lag_s are "
-                               "marginalized into a prior.")
-      .def(py::init([](double lag_s) {
-             if (!(lag_s > 0)) Raise(InvalidArgument("lag_s must be > 0"));
-             FixedLagSmoother::Options o;
-             o.lag_s = lag_s;
-             return std::make_unique<FixedLagSmoother>(o);
-           }),
-           py::arg("lag_s") = 10.0)
-      .def(
-          "update",
-          [](FixedLagSmoother& s, const py::list& states, const std::vector<GraphFactor>& factors) {
-            std::vector<GraphState> new_states;
-            for (const auto& item : states) {
-              const py::tuple t = item.cast<py::tuple>();
-              if (t.size() < 2 || t.size() > 3) {
-                Raise(InvalidArgument("update: a state is (key, value) or (key, value, t)"));
-              }
-              const std::optional<double> time = t.size() == 3 && !t[2].is_none()
-                                                     ? std::optional<double>(t[2].cast<double>())
-                                                     : std::nullopt;
-              new_states.push_back(
-                  StateOf(t[0].cast<Key>(), t[1].cast<std::vector<double>>(), time, false));
-            }
-            std::optional<FixedLagSmoother::UpdateResult> r;
-            Check(RunInterruptible([&]() -> Status {
-              WG_ASSIGN_OR_RETURN(r, s.Update(std::move(new_states), factors));
-              return Status::Ok();
-            }));
-            py::dict d;
-            d["iterations"] = r->ceres_iterations;
-            d["marginalized_states"] = r->marginalized_states;
-            d["final_cost"] = r->final_cost;
-            d["converged"] = r->converged;
-            return d;
-          },
-          py::arg("states"), py::arg("factors"))
-      .def("estimate",
-           [](const FixedLagSmoother& s, Key key) {
-             const std::vector<double> v = Value(s.Estimate(key));
-             return Eigen::VectorXd(Eigen::Map<const Eigen::VectorXd>(v.data(), v.size()));
-           })
-      .def("covariance",
-           [](FixedLagSmoother& s, Key key) { return Value(s.MarginalCovariance(key)); })
-      .def("window_keys", &FixedLagSmoother::WindowKeys);
+  BindSmoother(m);
 }
 
 }  // namespace walkgraph::python

@@ -62,6 +62,16 @@ py::dict RadioDict(const RadioDefaults& r) {
   return d;
 }
 
+// A real number (int or float, not bool) from Python, else a ValueError naming `what`.
+double Number(const py::handle& v, const std::string& what) {
+  const py::object real = py::module_::import("numbers").attr("Real");
+  if (py::isinstance<py::bool_>(v) || !py::isinstance(v, real)) {
+    Raise(InvalidArgument(what + ": expected a number, not a " +
+                          std::string(py::str(v.get_type().attr("__name__")))));
+  }
+  return v.cast<double>();
+}
+
 void SetRadio(Walk* w, const py::dict& d) {
   RadioDefaults r = w->meta.radio;
   for (const auto& [k, v] : d) {
@@ -74,7 +84,7 @@ void SetRadio(Walk* w, const py::dict& d) {
       r.calibrated = v.cast<bool>();
     } else if (key == "A_dbm" || key == "eta" || key == "d0_m" || key == "sigma_db" ||
                key == "range_sigma_m") {
-      const double x = v.cast<double>();
+      const double x = Number(v, "radio." + key);
       double* field = key == "A_dbm"      ? &r.path_loss.A_dbm
                       : key == "eta"      ? &r.path_loss.eta
                       : key == "d0_m"     ? &r.path_loss.d0_m
@@ -111,9 +121,12 @@ void SetPose(Walk* w, const py::object& v) {
   InitialPose p;
   p.heading_known = false;
   p.sigma_heading_rad = kUnknownHeadingSigmaRad;
+  if (!py::isinstance<py::dict>(v)) {
+    Raise(InvalidArgument("initial_pose: expected a dict or None"));
+  }
   for (const auto& [k, x] : v.cast<py::dict>()) {
     const std::string key = py::str(k);
-    const double value = x.cast<double>();
+    const double value = Number(x, "initial_pose." + key);
     if (key == "x_m") {
       p.x_m = value;
     } else if (key == "y_m") {
@@ -150,11 +163,49 @@ py::dict StatsDict(const ErrorStats& s) {
 std::map<std::string, Config> ConfigsById(const py::object& config) {
   std::map<std::string, Config> out;
   if (config.is_none()) return out;
+  if (!py::isinstance<py::dict>(config)) {
+    Raise(InvalidArgument("config: expected a dict {estimator id: {option: value}}"));
+  }
   for (const auto& [k, v] : config.cast<py::dict>()) {
     const std::string id = py::str(k);
     out[id] = ToYaml(v, "config." + id);
   }
   return out;
+}
+
+// compare()'s estimators: None (every applicable one) or a non-empty list of ids.
+std::vector<std::string> EstimatorIds(const py::object& estimators) {
+  if (estimators.is_none()) return {};
+  if (py::isinstance<py::str>(estimators) || !py::isinstance<py::sequence>(estimators)) {
+    Raise(
+        InvalidArgument("compare: estimators must be a list of estimator ids (or None for "
+                        "every applicable one)"));
+  }
+  std::vector<std::string> ids;
+  for (const auto& id : estimators.cast<py::sequence>()) {
+    if (!py::isinstance<py::str>(id)) {
+      Raise(InvalidArgument("compare: estimators must be a list of estimator ids (str)"));
+    }
+    ids.push_back(id.cast<std::string>());
+  }
+  if (ids.empty()) {
+    Raise(
+        InvalidArgument("compare: estimators is an empty list; expected at least one estimator "
+                        "id (or None for every applicable one)"));
+  }
+  return ids;
+}
+
+// An output path: a str or an os.PathLike naming one (e.g. pathlib.Path); bytes and other
+// types are a ValueError (str(123) would make a folder "123").
+std::string OutputPath(const py::object& out, const std::string& what) {
+  const py::object pathlike = py::module_::import("os").attr("PathLike");
+  if (py::isinstance<py::str>(out) || py::isinstance(out, pathlike)) {
+    const py::object path = py::module_::import("os").attr("fspath")(out);
+    if (py::isinstance<py::str>(path)) return path.cast<std::string>();
+  }
+  Raise(InvalidArgument(what + ": expected a path (str or os.PathLike), not a " +
+                        std::string(py::str(out.get_type().attr("__name__")))));
 }
 
 py::object Json(const std::string& text) { return py::module_::import("json").attr("loads")(text); }
@@ -268,6 +319,46 @@ void BindEstimate(py::module_& m) {
       .def("__len__", [](const Estimate& e) { return e.result.trajectory.size(); });
 }
 
+void BindCompare(py::module_& m) {
+  m.def(
+      "compare",
+      [](const py::object& walk_or_scenario, const py::object& estimators, int runs, uint64_t seed,
+         const py::object& config, const py::object& out) {
+        CompareOptions o;
+        o.estimator_ids = EstimatorIds(estimators);
+        o.configs = ConfigsById(config);
+        const std::optional<std::string> dir =
+            out.is_none() ? std::nullopt : std::optional<std::string>(OutputPath(out, "out"));
+        std::optional<Comparison> c;
+        if (py::isinstance<py::str>(walk_or_scenario)) {
+          const std::string scenario = walk_or_scenario.cast<std::string>();
+          MonteCarloOptions mc;
+          mc.runs = runs;
+          mc.seed = seed;
+          Check(RunInterruptible([&]() -> Status {
+            WG_ASSIGN_OR_RETURN(c, CompareScenario(scenario, ScenarioCompareOptions(), o, mc));
+            return Status::Ok();
+          }));
+        } else {
+          if (!py::isinstance<Walk>(walk_or_scenario)) {
+            Raise(InvalidArgument("compare: expected a Walk or a scenario name (str)"));
+          }
+          const Walk& walk = walk_or_scenario.cast<const Walk&>();
+          if (runs != 1) Check(InvalidArgument("compare: runs > 1 needs a scenario name"));
+          Check(RunInterruptible([&]() -> Status {
+            WG_ASSIGN_OR_RETURN(c, CompareOnWalk(walk, o));
+            return Status::Ok();
+          }));
+        }
+        if (dir) Check(RunInterruptible([&] { return WriteComparison(*c, *dir); }));
+        return Json(ResultsJsonText(*c));
+      },
+      py::arg("walk_or_scenario"), py::arg("estimators") = py::none(), py::arg("runs") = 1,
+      py::arg("seed") = 0, py::arg("config") = py::none(), py::arg("out") = py::none(),
+      "Runs estimators side by side; returns results.json's content as a dict. out= also "
+      "writes the report folder.");
+}
+
 }  // namespace
 
 PYBIND11_MODULE(_walkgraph, m) {
@@ -289,7 +380,8 @@ PYBIND11_MODULE(_walkgraph, m) {
       py::arg("path"), "Reads a walk directory; errors name file:line.");
   m.def(
       "write_walk",
-      [](const Walk& w, const std::string& path, bool force) {
+      [](const Walk& w, const py::object& path_object, bool force) {
+        const std::string path = OutputPath(path_object, "write_walk");
         OutputOptions o;
         o.force = force;
         Check(RunInterruptible([&] { return WriteWalk(w, path, o); }));
@@ -315,6 +407,7 @@ PYBIND11_MODULE(_walkgraph, m) {
         const YAML::Node yaml = ToYaml(config, id);
         std::unique_ptr<Estimator> est =
             Value(EstimatorRegistry::Builtin().Create(id, yaml.IsNull() ? YAML::Node() : yaml));
+        Check(ValidateWalk(walk));
         Check(est->CheckApplicable(walk));
         Estimate e{id, {}};
         Check(RunInterruptible([&]() -> Status {
@@ -325,41 +418,7 @@ PYBIND11_MODULE(_walkgraph, m) {
       },
       py::arg("estimator"), py::arg("walk"), py::arg("config") = py::none(),
       "Runs one estimator; config is a dict of its options (unknown keys are errors).");
-  m.def(
-      "compare",
-      [](const py::object& walk_or_scenario, const py::object& estimators, int runs, uint64_t seed,
-         const py::object& config, const py::object& out) {
-        CompareOptions o;
-        if (!estimators.is_none()) o.estimator_ids = estimators.cast<std::vector<std::string>>();
-        o.configs = ConfigsById(config);
-        std::optional<Comparison> c;
-        if (py::isinstance<py::str>(walk_or_scenario)) {
-          const std::string scenario = walk_or_scenario.cast<std::string>();
-          MonteCarloOptions mc;
-          mc.runs = runs;
-          mc.seed = seed;
-          Check(RunInterruptible([&]() -> Status {
-            WG_ASSIGN_OR_RETURN(c, CompareScenario(scenario, ScenarioCompareOptions(), o, mc));
-            return Status::Ok();
-          }));
-        } else {
-          const Walk& walk = walk_or_scenario.cast<const Walk&>();
-          if (runs != 1) Check(InvalidArgument("compare: runs > 1 needs a scenario name"));
-          Check(RunInterruptible([&]() -> Status {
-            WG_ASSIGN_OR_RETURN(c, CompareOnWalk(walk, o));
-            return Status::Ok();
-          }));
-        }
-        if (!out.is_none()) {
-          const std::string dir = py::str(out);
-          Check(RunInterruptible([&] { return WriteComparison(*c, dir); }));
-        }
-        return Json(ResultsJsonText(*c));
-      },
-      py::arg("walk_or_scenario"), py::arg("estimators") = py::none(), py::arg("runs") = 1,
-      py::arg("seed") = 0, py::arg("config") = py::none(), py::arg("out") = py::none(),
-      "Runs estimators side by side; returns results.json's content as a dict. out= also "
-      "writes the report folder.");
+  BindCompare(m);
   m.def(
       "simulate",
       [](const std::string& scenario, uint64_t seed, const py::object& overrides) {
@@ -412,6 +471,7 @@ PYBIND11_MODULE(_walkgraph, m) {
   m.def(
       "errors",
       [](const Estimate& e, const Walk& walk, bool align_se2) {
+        Check(ValidateWalk(walk));
         const ErrorSeries s = Value(ComputeErrors(walk, e.result.trajectory,
                                                   align_se2 ? Alignment::kSE2 : Alignment::kNone));
         py::dict d;

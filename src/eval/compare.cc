@@ -2,6 +2,7 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -98,6 +99,7 @@ void Compact(EstimatorOutcome* o, internal::TextSpill* rows) {
 
 StatusOr<Comparison> CompareOnWalk(const Walk& walk, const CompareOptions& options,
                                    const EstimatorRegistry& registry) {
+  WG_RETURN_IF_ERROR(ValidateWalk(walk));
   if (walk.truth.empty()) {
     return FailedPrecondition("walk '" + walk.meta.name + "' has no truth to compare against");
   }
@@ -120,6 +122,13 @@ StatusOr<Comparison> CompareOnWalk(const Walk& walk, const CompareOptions& optio
   }
   std::vector<std::string> ids = options.estimator_ids;
   const bool explicit_list = !ids.empty();
+  for (const auto& [id, node] : options.configs) {
+    if (explicit_list && std::find(ids.begin(), ids.end(), id) == ids.end()) {
+      return InvalidArgument("compare: options for " + internal::Quoted(id) +
+                             ", which is not among the estimators run; add it to the estimators "
+                             "or drop its options");
+    }
+  }
   if (!explicit_list) ids = registry.Ids();
   Comparison c;
   c.walk_name = walk.meta.name;

@@ -31,6 +31,14 @@ uint64_t MonteCarloSeed(uint64_t seed, int run) {
 
 namespace {
 
+// Monte Carlo run counts: at least one, at most kMaxMonteCarloRuns.
+Status CheckRuns(int runs) {
+  if (runs >= 1 && runs <= kMaxMonteCarloRuns) return Status::Ok();
+  return InvalidArgument("Monte Carlo: runs must be in [1, " + std::to_string(kMaxMonteCarloRuns) +
+                         "], not " + std::to_string(runs) +
+                         " (10^6 runs take days; split a larger study into seeds)");
+}
+
 // Mean (as the plain sum over n, in run order) and sample std (Welford) of a stream.
 struct RunningStat {
   long long n = 0;
@@ -287,7 +295,7 @@ Status RunShare(const RunGenerator& generate, const CompareOptions& options,
 
 StatusOr<Comparison> RunMonteCarlo(const RunGenerator& generate, const CompareOptions& options,
                                    const MonteCarloOptions& mc, const EstimatorRegistry& registry) {
-  if (mc.runs < 1) return InvalidArgument("Monte Carlo: runs must be >= 1");
+  WG_RETURN_IF_ERROR(CheckRuns(mc.runs));
   RunAggregator aggregator;
   WG_RETURN_IF_ERROR(
       RunShare(generate, options, mc, MonteCarloShare(), registry, [&](int, Comparison c) {
@@ -365,7 +373,7 @@ Status RunScenarioShare(const std::string& scenario, const ScenarioCompareOption
                         const MonteCarloShare& share, const EstimatorRegistry& registry,
                         const ScenarioRunSink& sink) {
   WG_RETURN_IF_ERROR(CheckScenarioName(scenario));
-  if (mc.runs < 1) return InvalidArgument("Monte Carlo: runs must be >= 1");
+  WG_RETURN_IF_ERROR(CheckRuns(mc.runs));
   WG_RETURN_IF_ERROR(ValidateShare(share));
   if (ShareRuns(mc.runs, share) == 0) return Status::Ok();
   const std::string prefix = sc.overrides_origin.empty() ? "" : sc.overrides_origin + ": ";

@@ -425,7 +425,10 @@ StatusOr<PcrbInformation> PcrbAccumulator::Mean() const {
 StatusOr<PcrbBound> ScenarioPcrb(const std::string& scenario, const Config& config, int runs,
                                  uint64_t seed, int threads, const PcrbOptions& options) {
   const YAML::Node& overrides = config.node();
-  if (runs < 1) return InvalidArgument("PCRB: runs must be >= 1");
+  if (runs < 1 || runs > kMaxMonteCarloRuns) {
+    return InvalidArgument("PCRB: runs must be in [1, " + std::to_string(kMaxMonteCarloRuns) +
+                           "], not " + std::to_string(runs));
+  }
   WG_ASSIGN_OR_RETURN(threads, ResolveThreads(threads, runs));
   PcrbAccumulator sum(runs);
   auto run_one = [&](int i, const YAML::Node& node) -> Status {

@@ -89,6 +89,17 @@ class Parser {
     return v;
   }
 
+  // A Monte Carlo run count: in [1, kMaxMonteCarloRuns].
+  StatusOr<int> Runs(const YAML::Node& n) const {
+    WG_ASSIGN_OR_RETURN(int v, PositiveInt(n, "runs"));
+    if (v > kMaxMonteCarloRuns) {
+      return Error(n, "runs " + std::to_string(v) + " over the cap of " +
+                          std::to_string(kMaxMonteCarloRuns) +
+                          " (10^6 runs take days; split a larger study into seeds)");
+    }
+    return v;
+  }
+
   StatusOr<double> NonNegative(const YAML::Node& n, const std::string& what) const {
     WG_ASSIGN_OR_RETURN(double v, Scalar<double>(n, what, "number >= 0"));
     if (!(std::isfinite(v) && v >= 0.0)) return Error(n, what + " must be a number >= 0");
@@ -184,6 +195,31 @@ bool ValidSweepName(const std::string& s) {
   return true;
 }
 
+// A sweep's values: a non-empty list of distinct finite numbers, at most kMaxSweepValues.
+Status ParseValues(const Parser& p, const YAML::Node& node, const std::string& what,
+                   StudySweep* s) {
+  const YAML::Node values = node["values"];
+  if (!values || !values.IsSequence() || values.size() == 0) {
+    return p.Error(values ? values : node, what + ": values must be a non-empty list of numbers");
+  }
+  if (values.size() > kMaxSweepValues) {
+    return p.Error(values, what + ": " + std::to_string(values.size()) +
+                               " values, over the cap of " + std::to_string(kMaxSweepValues) +
+                               " per sweep (a study that cannot finish); split the sweep");
+  }
+  for (const YAML::Node& v : values) {
+    WG_ASSIGN_OR_RETURN(double x, p.Scalar<double>(v, "a swept value", "number"));
+    if (!std::isfinite(x)) return p.Error(v, what + ": values must be finite numbers");
+    if (std::find(s->x.begin(), s->x.end(), x) != s->x.end()) {
+      return p.Error(v, what + ": value " + v.Scalar() + " given twice");
+    }
+    s->values.push_back(v.Scalar());
+    s->x.push_back(x);
+    s->value_lines.push_back(p.Line(v));
+  }
+  return Status::Ok();
+}
+
 StatusOr<StudySweep> ParseSweep(const Parser& p, const YAML::Node& node, const StudyManifest& m,
                                 const std::vector<std::string>& top_ids, int top_runs,
                                 uint64_t top_seed, const std::string& top_metric,
@@ -240,7 +276,7 @@ StatusOr<StudySweep> ParseSweep(const Parser& p, const YAML::Node& node, const S
                      what + ": a recorded walk has no simulator overrides");
     }
     if (node["runs"]) {
-      WG_ASSIGN_OR_RETURN(int runs, p.PositiveInt(node["runs"], "runs"));
+      WG_ASSIGN_OR_RETURN(int runs, p.Runs(node["runs"]));
       if (runs != 1) return p.Error(node["runs"], what + ": a recorded walk is one run");
     }
   }
@@ -254,7 +290,7 @@ StatusOr<StudySweep> ParseSweep(const Parser& p, const YAML::Node& node, const S
   }
   s.runs = top_runs;
   if (node["runs"]) {
-    WG_ASSIGN_OR_RETURN(s.runs, p.PositiveInt(node["runs"], "runs"));
+    WG_ASSIGN_OR_RETURN(s.runs, p.Runs(node["runs"]));
   }
   if (!s.walk_dir.empty()) s.runs = 1;
   s.seed = top_seed;
@@ -307,21 +343,7 @@ StatusOr<StudySweep> ParseSweep(const Parser& p, const YAML::Node& node, const S
     }
   }
   if (s.label.empty()) s.label = default_label;
-  // Values.
-  const YAML::Node values = node["values"];
-  if (!values || !values.IsSequence() || values.size() == 0) {
-    return p.Error(values ? values : node, what + ": values must be a non-empty list of numbers");
-  }
-  for (const YAML::Node& v : values) {
-    WG_ASSIGN_OR_RETURN(double x, p.Scalar<double>(v, "a swept value", "number"));
-    if (!std::isfinite(x)) return p.Error(v, what + ": values must be finite numbers");
-    if (std::find(s.x.begin(), s.x.end(), x) != s.x.end()) {
-      return p.Error(v, what + ": value " + v.Scalar() + " given twice");
-    }
-    s.values.push_back(v.Scalar());
-    s.x.push_back(x);
-    s.value_lines.push_back(p.Line(v));
-  }
+  WG_RETURN_IF_ERROR(ParseValues(p, node, what, &s));
   // Every cell's estimator configuration must be accepted by its estimator.
   for (size_t i = 0; i < s.values.size(); ++i) {
     for (const std::string& id : s.estimators) {
@@ -379,7 +401,7 @@ StatusOr<StudyManifest> ParseManifestRoot(const YAML::Node& root, const std::str
   }
   int runs = 1;
   if (root["runs"]) {
-    WG_ASSIGN_OR_RETURN(runs, p.PositiveInt(root["runs"], "runs"));
+    WG_ASSIGN_OR_RETURN(runs, p.Runs(root["runs"]));
   }
   uint64_t seed = 1;
   if (root["seed"]) {

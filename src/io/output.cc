@@ -2,13 +2,17 @@
 #include "walkgraph/output.h"
 
 #include <fcntl.h>
+#include <limits.h>  // NAME_MAX
 #include <signal.h>
-#include <stdio.h>  // renameat2, RENAME_EXCHANGE (glibc >= 2.28)
+#include <stdio.h>     // renameat2, RENAME_EXCHANGE (glibc >= 2.28)
+#include <sys/file.h>  // flock
 #include <sys/stat.h>
 #include <unistd.h>
 
 #include <atomic>
 #include <cerrno>
+#include <cstdint>
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -184,17 +188,74 @@ Status CheckReplaceableFile(const Target& t) {
                          "; expected a new path or a regular file to replace");
 }
 
-bool ProcessRuns(long pid) {
-  if (pid <= 0 || pid == ::getpid()) return pid == ::getpid();
-  return ::kill(static_cast<pid_t>(pid), 0) == 0 || errno == EPERM;
-}
+// The lock of a target's writer: an flock(2) on the hidden file ".NAME.walkgraph-lock" beside
+// it, held for the whole write. flock works across hosts on a shared folder (NFS, Lustre,
+// GPFS) and across PID namespaces, where a PID says nothing: a second writer of the same target
+// is refused, and a temporary is stale exactly when nobody holds its target's lock. Release
+// unlinks the file while still holding the lock; Acquire retries when the file it locked was
+// unlinked under it (then another writer has a newer one).
+class WriterLock {
+ public:
+  WriterLock() = default;
+  WriterLock(const WriterLock&) = delete;
+  WriterLock& operator=(const WriterLock&) = delete;
+  ~WriterLock() { Release(); }
 
-// Removes the temporaries of writers that no longer run; a backup whose target is missing
-// (a crash between the two renames of the fallback exchange) is put back first.
+  Status Acquire(const Target& t) {
+    path_ = t.parent / ("." + internal::OutputSiblingBase(t.name) + ".walkgraph-lock");
+    for (int attempt = 0; attempt < 100; ++attempt) {
+      fd_ = ::open(path_.c_str(), O_RDWR | O_CREAT | O_CLOEXEC | O_NOFOLLOW, 0666);
+      if (fd_ < 0) {
+        return IoError(t.given + ": cannot create the lock file " + path_.string() + ": " +
+                       ErrnoText(errno));
+      }
+      if (::flock(fd_, LOCK_EX | LOCK_NB) != 0) {
+        const int e = errno;
+        ::close(fd_);
+        fd_ = -1;
+        if (e == EWOULDBLOCK) {
+          return FailedPrecondition(
+              t.given +
+              ": another walkgraph process (on this or another host) is writing this output "
+              "now (it holds " +
+              path_.string() +
+              "); refusing to write it at the same time. Wait for that run to finish, or choose "
+              "another output path");
+        }
+        return IoError(t.given + ": cannot lock " + path_.string() + ": " + ErrnoText(e));
+      }
+      struct stat held {
+      }, now{};
+      if (::fstat(fd_, &held) == 0 && ::lstat(path_.c_str(), &now) == 0 &&
+          held.st_dev == now.st_dev && held.st_ino == now.st_ino) {
+        return Status::Ok();
+      }
+      ::close(fd_);  // unlinked by the writer before us: lock the file that is there now
+      fd_ = -1;
+    }
+    return IoError(t.given + ": cannot lock " + path_.string() + ": it keeps being replaced");
+  }
+  void Release() {
+    if (fd_ < 0) return;
+    ::unlink(path_.c_str());
+    ::close(fd_);
+    fd_ = -1;
+  }
+
+ private:
+  fs::path path_;
+  int fd_ = -1;
+};
+
+// Removes the temporaries of earlier writers of the target (the caller holds the target's
+// WriterLock, so no writer of it runs: every temporary of it is stale, whatever host or PID
+// namespace made it); a backup whose target is missing (a crash between the two renames of the
+// fallback exchange) is put back first.
 void CleanStale(const Target& t) {
   std::error_code ec;
-  const std::string tmp_prefix = "." + t.name + ".walkgraph-tmp-";
-  const std::string old_prefix = "." + t.name + ".walkgraph-old-";
+  const std::string base = internal::OutputSiblingBase(t.name);
+  const std::string tmp_prefix = "." + base + ".walkgraph-tmp-";
+  const std::string old_prefix = "." + base + ".walkgraph-old-";
   fs::directory_iterator it(t.parent, ec), end;
   std::vector<std::pair<fs::path, bool>> stale;  // path, is a backup
   for (; !ec && it != end; it.increment(ec)) {
@@ -206,7 +267,7 @@ void CleanStale(const Target& t) {
         digits.find_first_not_of("0123456789") != std::string::npos) {
       continue;
     }
-    if (!ProcessRuns(std::stol(digits))) stale.emplace_back(it->path(), old);
+    stale.emplace_back(it->path(), old);
   }
   struct stat st {};
   for (const auto& [path, old] : stale) {
@@ -317,8 +378,21 @@ void SetOutputPhaseHookForTesting(std::function<void(const std::string& phase)> 
   g_phase_hook = std::move(hook);
 }
 
+std::string OutputSiblingBase(const std::string& name) {
+  // Room for "." + ".walkgraph-lock" or ".walkgraph-tmp-<pid>" around the base.
+  constexpr size_t kRoom = 32;
+  if (name.size() + kRoom <= NAME_MAX) return name;
+  std::uint64_t hash = 14695981039346656037ull;  // FNV-1a: the shortened base stays unique
+  for (unsigned char c : name) hash = (hash ^ c) * 1099511628211ull;
+  size_t keep = NAME_MAX - kRoom - 17;
+  while (keep > 0 && (static_cast<unsigned char>(name[keep]) & 0xC0) == 0x80) --keep;  // UTF-8
+  char hex[17];
+  std::snprintf(hex, sizeof(hex), "%016llx", static_cast<unsigned long long>(hash));
+  return name.substr(0, keep) + "~" + hex;
+}
+
 std::string OutputSiblingName(const std::string& name, const char* kind) {
-  return "." + name + ".walkgraph-" + kind + "-" + std::to_string(::getpid());
+  return "." + OutputSiblingBase(name) + ".walkgraph-" + kind + "-" + std::to_string(::getpid());
 }
 
 }  // namespace internal
@@ -364,33 +438,52 @@ Status WriteOutput(const std::string& out, OutputKind kind, const OutputOptions&
                    const std::function<Status(const fs::path& tmp)>& fill) {
   WG_ASSIGN_OR_RETURN(Target t, Resolve(out));
   WG_RETURN_IF_ERROR(CheckProtected(t, options));
-  CleanStale(t);  // first: it may put back an old output that the checks must then see
-  WG_ASSIGN_OR_RETURN(t, Resolve(out));
+  // Checked before anything is created beside it (a device's folder gets no lock file); again
+  // under the lock, after the clean-up.
   WG_RETURN_IF_ERROR(kind == OutputKind::kFolder ? CheckReplaceableFolder(t, options)
                                                  : CheckReplaceableFile(t));
-  InProgress guard;
+  InProgress guard;  // from here on a signal leaves the clean-up to this writer
   if (CancelRequested()) return CancelledStatus(out);
   Parents parents;
   WG_RETURN_IF_ERROR(parents.Create(t.parent, out));
+  WriterLock lock;
+  Status s = lock.Acquire(t);
+  if (s.ok()) {
+    CleanStale(t);  // first: it may put back an old output that the checks must then see
+    StatusOr<Target> again = Resolve(out);
+    s = again.status();
+    if (s.ok()) t = *again;
+  }
+  if (s.ok()) {
+    s = kind == OutputKind::kFolder ? CheckReplaceableFolder(t, options) : CheckReplaceableFile(t);
+  }
+  if (!s.ok()) {
+    lock.Release();
+    parents.Undo();
+    return s;
+  }
   const fs::path tmp = t.parent / internal::OutputSiblingName(t.name, "tmp");
   std::error_code ec;
   fs::remove_all(tmp, ec);  // only a process with our pid could have left it
   if (kind == OutputKind::kFolder && ::mkdir(tmp.c_str(), 0777) != 0) {
     const int e = errno;
+    lock.Release();
     parents.Undo();
     return IoError(out + ": cannot create the temporary folder " + tmp.string() + ": " +
                    ErrnoText(e));
   }
   Phase("tmp-created");
-  Status s = fill(tmp);
+  s = fill(tmp);
   if (s.ok() && CancelRequested()) s = CancelledStatus(out);
   if (s.ok()) Phase("filled");
   if (s.ok()) s = Install(tmp, t);
   if (!s.ok()) {
     fs::remove_all(tmp, ec);
+    lock.Release();
     parents.Undo();
     return s;
   }
+  lock.Release();
   Phase("done");
   return Status::Ok();
 }

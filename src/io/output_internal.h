@@ -12,6 +12,11 @@ namespace walkgraph::internal {
 // cancel or kill the process at each instant. Not thread-safe; empty = no hook.
 void SetOutputPhaseHookForTesting(std::function<void(const std::string& phase)> hook);
 
+// The target name as it appears in its hidden siblings (temporary, backup, lock): the name
+// itself, or, when the siblings' names would pass NAME_MAX (255 bytes), a prefix of it and a
+// hash of the whole.
+std::string OutputSiblingBase(const std::string& name);
+
 // Name of this process's temporary (kind "tmp") or backup (kind "old") for the entry `name`.
 std::string OutputSiblingName(const std::string& name, const char* kind);
 

@@ -18,6 +18,24 @@ std::string CheckImu(const ImuSample& s, const ValidationLimits& limits);
 std::string CheckRss(const RssSample& s, RssUnits units, const ValidationLimits& limits);
 std::string CheckRange(const RangeSample& s, const ValidationLimits& limits);
 
+// Path-loss parameters within physical reason ("" when they are): A_dbm within the RSS limits
+// (RFCode units: [0, 300]), eta in (0, 10], sigma_db in [0.001, 50] dB, d0_m in [0.01, 100] m.
+// For walk.yaml's radio, converters' defaults and fit-path-loss's results alike.
+std::string CheckPathLoss(const PathLossParams& p, RssUnits units, const ValidationLimits& limits);
+// walk.yaml's radio: the path loss above and range_sigma_m in [0.001, 1000] m.
+std::string CheckRadioDefaults(const RadioDefaults& r, const ValidationLimits& limits);
+// walk.yaml's initial_pose: coordinates within limits.max_abs_coordinate_m, heading_rad within
+// [-2π, 2π] (radians, not degrees), sigma_xy_m in [1e-6, 1e4] m, sigma_heading_rad in
+// [1e-6, 2π] rad (the simulator's exactly known heading is 1e-6).
+std::string CheckInitialPose(const InitialPose& p, const ValidationLimits& limits);
+
+// Rules across a walk's streams ("" when they hold; streams named as files with `as_files`):
+// the IMU's (and odometry's) time span overlaps the radio's; not every range is 0 m; RFCode
+// readings are not all negative (dBm-like); with radio readings, the truth, waypoints and
+// start lie within 100 km of the anchors (one frame); waypoints lie within the walk's time span
+// (1 s tolerance).
+std::string CheckStreamSpans(const Walk& walk, bool as_files);
+
 // A converter meets a physically impossible reading in someone else's recording (a corrupted
 // RSSI of +42 dBm, an accelerometer spike past its range): it drops the reading and goes on,
 // counting it per stream; with `strict` it refuses the recording instead.

@@ -134,6 +134,41 @@ Status ParseEnum(const std::string& text, const std::vector<std::pair<const char
   return InvalidArgument(where + ": " + internal::Quoted(text) + " is not one of " + options);
 }
 
+// walk.yaml's radio block.
+Status ReadRadio(const YAML::Node& radio, const std::string& path, RadioDefaults* radio_out) {
+  ConfigReader rr(radio, path + ": radio");
+  std::string kind = "none", units = "dbm";
+  rr.Read("kind", &kind);
+  rr.Read("units", &units);
+  rr.Read("A_dbm", &radio_out->path_loss.A_dbm);
+  rr.Read("eta", &radio_out->path_loss.eta);
+  rr.Read("d0_m", &radio_out->path_loss.d0_m);
+  rr.Read("sigma_db", &radio_out->path_loss.sigma_db);
+  rr.Read("floor_loss_db", &radio_out->path_loss.floor_loss_db);
+  rr.Read("range_sigma_m", &radio_out->range_sigma_m);
+  rr.Read("calibrated", &radio_out->calibrated);
+  WG_RETURN_IF_ERROR(rr.Finish());
+  WG_RETURN_IF_ERROR(ParseEnum<RadioKind>(
+      kind, {{"none", RadioKind::kNone}, {"rss", RadioKind::kRss}, {"range", RadioKind::kRange}},
+      path + ": radio.kind", &radio_out->kind));
+  WG_RETURN_IF_ERROR(ParseEnum<RssUnits>(units,
+                                         {{"dbm", RssUnits::kDbm}, {"rfcode", RssUnits::kRfcode}},
+                                         path + ": radio.units", &radio_out->units));
+  const PathLossParams& pl = radio_out->path_loss;
+  if (!(pl.eta > 0.0) || !(pl.d0_m > 0.0) || !(pl.sigma_db > 0.0) ||
+      !(radio_out->range_sigma_m > 0.0) || !std::isfinite(pl.A_dbm)) {
+    return InvalidArgument(path + ": radio: eta, d0_m, sigma_db and range_sigma_m must be > 0");
+  }
+  if (!(pl.floor_loss_db >= 0.0 && pl.floor_loss_db <= 100.0)) {
+    return InvalidArgument(path + ": radio: floor_loss_db " + G(pl.floor_loss_db) +
+                           " outside [0, 100] dB");
+  }
+  if (const std::string e = internal::CheckRadioDefaults(*radio_out, {}); !e.empty()) {
+    return InvalidArgument(path + ": radio: " + e);
+  }
+  return Status::Ok();
+}
+
 Status ReadMeta(const std::string& path, WalkMeta* meta) {
   WG_ASSIGN_OR_RETURN(YAML::Node root, LoadYamlFile(path));
   if (!root.IsMap()) return InvalidArgument(path + ":1: expected a YAML map (walk.yaml)");
@@ -174,33 +209,7 @@ Status ReadMeta(const std::string& path, WalkMeta* meta) {
                                            {"checkpoints", TruthKind::kCheckpoints}},
                                           path + ": truth", &meta->truth_kind));
   if (radio.IsDefined() && !radio.IsNull()) {
-    ConfigReader rr(radio, path + ": radio");
-    std::string kind = "none", units = "dbm";
-    rr.Read("kind", &kind);
-    rr.Read("units", &units);
-    rr.Read("A_dbm", &meta->radio.path_loss.A_dbm);
-    rr.Read("eta", &meta->radio.path_loss.eta);
-    rr.Read("d0_m", &meta->radio.path_loss.d0_m);
-    rr.Read("sigma_db", &meta->radio.path_loss.sigma_db);
-    rr.Read("floor_loss_db", &meta->radio.path_loss.floor_loss_db);
-    rr.Read("range_sigma_m", &meta->radio.range_sigma_m);
-    rr.Read("calibrated", &meta->radio.calibrated);
-    WG_RETURN_IF_ERROR(rr.Finish());
-    WG_RETURN_IF_ERROR(ParseEnum<RadioKind>(
-        kind, {{"none", RadioKind::kNone}, {"rss", RadioKind::kRss}, {"range", RadioKind::kRange}},
-        path + ": radio.kind", &meta->radio.kind));
-    WG_RETURN_IF_ERROR(ParseEnum<RssUnits>(units,
-                                           {{"dbm", RssUnits::kDbm}, {"rfcode", RssUnits::kRfcode}},
-                                           path + ": radio.units", &meta->radio.units));
-    const PathLossParams& pl = meta->radio.path_loss;
-    if (!(pl.eta > 0.0) || !(pl.d0_m > 0.0) || !(pl.sigma_db > 0.0) ||
-        !(meta->radio.range_sigma_m > 0.0) || !std::isfinite(pl.A_dbm)) {
-      return InvalidArgument(path + ": radio: eta, d0_m, sigma_db and range_sigma_m must be > 0");
-    }
-    if (!(pl.floor_loss_db >= 0.0 && pl.floor_loss_db <= 100.0)) {
-      return InvalidArgument(path + ": radio: floor_loss_db " + G(pl.floor_loss_db) +
-                             " outside [0, 100] dB");
-    }
+    WG_RETURN_IF_ERROR(ReadRadio(radio, path, &meta->radio));
   }
   if (initial.IsDefined() && !initial.IsNull()) {
     InitialPose p;
@@ -233,6 +242,9 @@ Status ReadMeta(const std::string& path, WalkMeta* meta) {
     }
     if (!(p.sigma_xy_m > 0.0) || !(p.sigma_heading_rad > 0.0)) {
       return InvalidArgument(path + ": initial_pose: sigmas must be > 0");
+    }
+    if (const std::string e = internal::CheckInitialPose(p, {}); !e.empty()) {
+      return InvalidArgument(path + ": initial_pose: " + e);
     }
     p.heading_rad = NormalizeAngle(p.heading_rad);
     meta->initial_pose = p;
@@ -597,28 +609,66 @@ StatusOr<Walk> ReadWalk(const std::string& dir, const ValidationLimits& limits) 
                            "range.csv, odometry.csv");
   }
   WG_RETURN_IF_ERROR(CheckDeclaredStreams(walk, yaml.string()));
+  if (const std::string e = internal::CheckStreamSpans(walk, true); !e.empty()) {
+    return InvalidArgument(dir + ": " + e);
+  }
   return walk;
 }
 
-Status ValidateWalk(const Walk& walk, const ValidationLimits& limits) {
+namespace {
+
+// "non-finite value in <field> (<value>); expected a finite number" for the first field that is
+// NaN or infinite, else "".
+std::string NonFinite(std::initializer_list<std::pair<const char*, double>> fields) {
+  for (const auto& [name, v] : fields) {
+    if (!std::isfinite(v)) {
+      return std::string("non-finite value in ") + name + " (" + G(v) +
+             "); expected a finite number";
+    }
+  }
+  return "";
+}
+
+// ValidateWalk's rules on walk.yaml's values.
+Status ValidateMeta(const Walk& walk, const ValidationLimits& limits) {
   WG_RETURN_IF_ERROR(CheckMetaText(walk.meta, "walk meta"));
   WG_RETURN_IF_ERROR(CheckDeclaredStreams(walk, "walk meta"));
   if (const std::string e = CheckStoreyHeight(walk.meta.storey_height_m); !e.empty()) {
     return InvalidArgument("walk meta: " + e);
+  }
+  if (const std::string e = internal::CheckRadioDefaults(walk.meta.radio, limits); !e.empty()) {
+    return InvalidArgument("walk meta: radio: " + e);
+  }
+  if (walk.meta.initial_pose) {
+    if (const std::string e = internal::CheckInitialPose(*walk.meta.initial_pose, limits);
+        !e.empty()) {
+      return InvalidArgument("walk meta: initial_pose: " + e);
+    }
+  }
+  for (const auto& [key, value] : walk.meta.extra) {
+    if (!std::isfinite(value)) return InvalidArgument("walk meta: extra." + key + " is not finite");
   }
   if (walk.meta.initial_pose && walk.meta.initial_pose->floor) {
     if (const std::string e = CheckFloor(*walk.meta.initial_pose->floor); !e.empty()) {
       return InvalidArgument("walk meta: initial_pose: " + e);
     }
   }
-  std::set<int> ids;
+  return Status::Ok();
+}
+
+// ValidateWalk's rules on the anchors; fills `ids`.
+Status ValidateAnchors(const Walk& walk, const ValidationLimits& limits, std::set<int>* ids) {
   for (size_t i = 0; i < walk.anchors.size(); ++i) {
     if (walk.anchors[i].id < 0)
       return InvalidArgument("anchors[" + std::to_string(i) + "]: negative id");
     if (!walk.anchors[i].position_m.allFinite()) {
       return InvalidArgument("anchors[" + std::to_string(i) + "]: non-finite position");
     }
-    if (!ids.insert(walk.anchors[i].id).second) {
+    if (walk.anchors[i].position_m.cwiseAbs().maxCoeff() > limits.max_abs_coordinate_m) {
+      return InvalidArgument("anchors[" + std::to_string(i) + "]: coordinate beyond " +
+                             G(limits.max_abs_coordinate_m) + " m");
+    }
+    if (!ids->insert(walk.anchors[i].id).second) {
       return InvalidArgument("anchors: duplicate id " + std::to_string(walk.anchors[i].id));
     }
     if (walk.anchors[i].floor.has_value() != walk.anchors[0].floor.has_value()) {
@@ -631,14 +681,32 @@ Status ValidateWalk(const Walk& walk, const ValidationLimits& limits) {
       }
     }
   }
+  return Status::Ok();
+}
+
+}  // namespace
+
+Status ValidateWalk(const Walk& walk, const ValidationLimits& limits) {
+  WG_RETURN_IF_ERROR(ValidateMeta(walk, limits));
+  std::set<int> ids;
+  WG_RETURN_IF_ERROR(ValidateAnchors(walk, limits, &ids));
   auto where = [](const char* stream, size_t i) {
     return std::string(stream) + "[" + std::to_string(i) + "]: ";
   };
   for (size_t i = 0; i < walk.imu.size(); ++i) {
     const ImuSample& s = walk.imu[i];
-    if (!std::isfinite(s.t_s) || !s.acc_mps2.allFinite() || !s.gyro_radps.allFinite() ||
-        (s.has_mag && !s.mag_ut.allFinite())) {
-      return InvalidArgument(where("imu", i) + "non-finite value");
+    if (const std::string e = NonFinite({{"t_s", s.t_s},
+                                         {"ax", s.acc_mps2.x()},
+                                         {"ay", s.acc_mps2.y()},
+                                         {"az", s.acc_mps2.z()},
+                                         {"gx", s.gyro_radps.x()},
+                                         {"gy", s.gyro_radps.y()},
+                                         {"gz", s.gyro_radps.z()},
+                                         {"mx", s.has_mag ? s.mag_ut.x() : 0.0},
+                                         {"my", s.has_mag ? s.mag_ut.y() : 0.0},
+                                         {"mz", s.has_mag ? s.mag_ut.z() : 0.0}});
+        !e.empty()) {
+      return InvalidArgument(where("imu", i) + e);
     }
     std::string e = CheckTimeStrictlyIncreasing(s.t_s, i ? &walk.imu[i - 1].t_s : nullptr);
     if (e.empty()) e = CheckImu(s, limits);
@@ -651,8 +719,8 @@ Status ValidateWalk(const Walk& walk, const ValidationLimits& limits) {
     std::unordered_map<int, double> by_anchor;
     for (size_t i = 0; i < walk.rss.size(); ++i) {
       const RssSample& s = walk.rss[i];
-      if (!std::isfinite(s.t_s) || !std::isfinite(s.rss)) {
-        return InvalidArgument(where("rss", i) + "non-finite value");
+      if (const std::string e = NonFinite({{"t_s", s.t_s}, {"rss", s.rss}}); !e.empty()) {
+        return InvalidArgument(where("rss", i) + e);
       }
       if (!ids.count(s.anchor_id)) return InvalidArgument(where("rss", i) + "unknown anchor_id");
       std::string e = CheckRadioTime(s.t_s, s.anchor_id, &last, &by_anchor, i == 0);
@@ -665,8 +733,8 @@ Status ValidateWalk(const Walk& walk, const ValidationLimits& limits) {
     std::unordered_map<int, double> by_anchor;
     for (size_t i = 0; i < walk.ranges.size(); ++i) {
       const RangeSample& s = walk.ranges[i];
-      if (!std::isfinite(s.t_s) || !std::isfinite(s.range_m)) {
-        return InvalidArgument(where("range", i) + "non-finite value");
+      if (const std::string e = NonFinite({{"t_s", s.t_s}, {"range_m", s.range_m}}); !e.empty()) {
+        return InvalidArgument(where("range", i) + e);
       }
       if (!ids.count(s.anchor_id)) return InvalidArgument(where("range", i) + "unknown anchor_id");
       std::string e = CheckRadioTime(s.t_s, s.anchor_id, &last, &by_anchor, i == 0);
@@ -676,8 +744,10 @@ Status ValidateWalk(const Walk& walk, const ValidationLimits& limits) {
   }
   for (size_t i = 0; i < walk.odometry.size(); ++i) {
     const OdometrySample& s = walk.odometry[i];
-    if (!std::isfinite(s.t_s) || !std::isfinite(s.dist_m) || !std::isfinite(s.dheading_rad)) {
-      return InvalidArgument(where("odometry", i) + "non-finite value");
+    if (const std::string e =
+            NonFinite({{"t_s", s.t_s}, {"dist_m", s.dist_m}, {"dheading_rad", s.dheading_rad}});
+        !e.empty()) {
+      return InvalidArgument(where("odometry", i) + e);
     }
     const std::string e =
         CheckTimeStrictlyIncreasing(s.t_s, i ? &walk.odometry[i - 1].t_s : nullptr);
@@ -703,8 +773,12 @@ Status ValidateWalk(const Walk& walk, const ValidationLimits& limits) {
   }
   for (size_t i = 0; i < walk.truth.size(); ++i) {
     const TruthSample& s = walk.truth[i];
-    if (!std::isfinite(s.t_s) || !s.position_m.allFinite()) {
-      return InvalidArgument(where("truth", i) + "non-finite value");
+    if (const std::string e = NonFinite({{"t_s", s.t_s},
+                                         {"x_m", s.position_m.x()},
+                                         {"y_m", s.position_m.y()},
+                                         {"z_m", s.position_m.z()}});
+        !e.empty()) {
+      return InvalidArgument(where("truth", i) + e);
     }
     if (s.floor.has_value() != walk.truth[0].floor.has_value()) {
       return InvalidArgument(where("truth", i) +
@@ -720,6 +794,9 @@ Status ValidateWalk(const Walk& walk, const ValidationLimits& limits) {
   }
   if ((walk.meta.truth_kind == TruthKind::kNone) != walk.truth.empty()) {
     return InvalidArgument("truth kind and truth samples disagree");
+  }
+  if (const std::string e = internal::CheckStreamSpans(walk, false); !e.empty()) {
+    return InvalidArgument(e);
   }
   return Status::Ok();
 }

@@ -1,6 +1,8 @@
 #include "walkgraph/smoothers/fixed_lag_smoother.h"
 
 #include <algorithm>
+#include <cmath>
+#include <set>
 #include <string>
 
 #include "smoothers/graph_internal.h"
@@ -40,6 +42,10 @@ Status FixedLagSmoother::AddFactor(SmootherFactor f) {
     if (static_cast<int>(it->second.value.size()) != f.cost->parameter_block_sizes()[i]) {
       return InvalidArgument("fixed-lag smoother: block size mismatch on " + KeyName(f.keys[i]));
     }
+    if (std::find(blocks.begin(), blocks.end(), it->second.value.data()) != blocks.end()) {
+      return InvalidArgument("fixed-lag smoother: a factor names " + KeyName(f.keys[i]) +
+                             " twice");  // Ceres aborts on a repeated parameter block
+    }
     blocks.push_back(it->second.value.data());
   }
   const int id = next_factor_id_++;
@@ -51,17 +57,73 @@ Status FixedLagSmoother::AddFactor(SmootherFactor f) {
   return Status::Ok();
 }
 
-StatusOr<FixedLagSmoother::UpdateResult> FixedLagSmoother::Update(
-    std::vector<SmootherState> new_states, std::vector<SmootherFactor> new_factors) {
-  if (CancelRequested()) return Cancelled("fixed-lag smoother: interrupted");
-  for (SmootherState& s : new_states) {
-    if (states_.count(s.key)) {
-      return InvalidArgument("fixed-lag smoother: " + KeyName(s.key) + " added twice");
+Status FixedLagSmoother::CheckNewFactors(const std::vector<SmootherState>& new_states,
+                                         const std::vector<SmootherFactor>& new_factors) const {
+  for (const SmootherFactor& f : new_factors) {
+    if (!f.cost) return InvalidArgument("fixed-lag smoother: factor without a cost function");
+    const std::vector<int32_t>& sizes = f.cost->parameter_block_sizes();
+    if (sizes.size() != f.keys.size()) {
+      return InvalidArgument("fixed-lag smoother: factor has " + std::to_string(sizes.size()) +
+                             " parameter blocks but " + std::to_string(f.keys.size()) + " keys");
+    }
+    for (size_t i = 0; i < f.keys.size(); ++i) {
+      const StateKey k = f.keys[i];
+      if (std::find(f.keys.begin(), f.keys.begin() + i, k) != f.keys.begin() + i) {
+        return InvalidArgument("fixed-lag smoother: a factor names " + KeyName(k) + " twice");
+      }
+      size_t size = 0;
+      if (auto it = states_.find(k); it != states_.end()) {
+        size = it->second.value.size();
+      } else {
+        auto n = std::find_if(new_states.begin(), new_states.end(),
+                              [k](const SmootherState& s) { return s.key == k; });
+        if (n == new_states.end()) {
+          return InvalidArgument("fixed-lag smoother: factor on " + KeyName(k) +
+                                 ", which is not in the window (unknown or already marginalized)");
+        }
+        size = n->value.size();
+      }
+      if (static_cast<int>(size) != sizes[i]) {
+        return InvalidArgument("fixed-lag smoother: block size mismatch on " + KeyName(k));
+      }
+    }
+  }
+  return Status::Ok();
+}
+
+Status FixedLagSmoother::CheckNewStates(const std::vector<SmootherState>& new_states) const {
+  std::set<StateKey> added;
+  for (const SmootherState& s : new_states) {
+    const std::string name = "fixed-lag smoother: " + KeyName(s.key);
+    if (states_.count(s.key) || !added.insert(s.key).second) {
+      return InvalidArgument(name + " added twice");
     }
     if (s.value.empty()) return InvalidArgument("fixed-lag smoother: empty " + KeyName(s.key));
     if (s.manifold && s.manifold->AmbientSize() != static_cast<int>(s.value.size())) {
       return InvalidArgument("fixed-lag smoother: manifold size mismatch on " + KeyName(s.key));
     }
+    for (double v : s.value) {
+      if (!std::isfinite(v)) return InvalidArgument(name + " has a non-finite value");
+    }
+    if (s.t_s && !std::isfinite(*s.t_s)) {
+      return InvalidArgument(name + " has a non-finite time; expected a finite t_s");
+    }
+    if (s.t_s && marginalized_before_s_ && *s.t_s < *marginalized_before_s_) {
+      return InvalidArgument(name + " at t = " + std::to_string(*s.t_s) +
+                             " s goes back before the window (states before t = " +
+                             std::to_string(*marginalized_before_s_) +
+                             " s are already marginalized); expected times inside the window");
+    }
+  }
+  return Status::Ok();
+}
+
+StatusOr<FixedLagSmoother::UpdateResult> FixedLagSmoother::Update(
+    std::vector<SmootherState> new_states, std::vector<SmootherFactor> new_factors) {
+  if (CancelRequested()) return Cancelled("fixed-lag smoother: interrupted");
+  WG_RETURN_IF_ERROR(CheckNewStates(new_states));
+  WG_RETURN_IF_ERROR(CheckNewFactors(new_states, new_factors));  // nothing changes on failure
+  for (SmootherState& s : new_states) {
     State& st = states_[s.key];
     st.order = next_state_order_++;
     st.value = s.value;
@@ -130,6 +192,7 @@ Status FixedLagSmoother::MarginalizeOlderThan(double cutoff_s, int* count) {
   }
   *count = static_cast<int>(old.size());
   if (old.empty()) return Status::Ok();
+  marginalized_before_s_ = std::max(marginalized_before_s_.value_or(cutoff_s), cutoff_s);
 
   std::set<int> touching;
   for (StateKey k : old) touching.insert(states_[k].factors.begin(), states_[k].factors.end());
@@ -203,14 +266,20 @@ internal::KeyedBlocks BlocksOf(States* states) {
 }  // namespace
 
 StatusOr<Eigen::MatrixXd> FixedLagSmoother::MarginalCovariance(const std::vector<StateKey>& keys) {
-  return internal::CeresMarginalCovariance(problem_.get(), BlocksOf(&states_), keys,
-                                           "fixed-lag smoother");
+  WG_ASSIGN_OR_RETURN(Eigen::MatrixXd c,
+                      internal::CeresMarginalCovariance(problem_.get(), BlocksOf(&states_), keys,
+                                                        "fixed-lag smoother"));
+  WG_RETURN_IF_ERROR(internal::CheckDefinedCovariances({c}, {keys}, "fixed-lag smoother"));
+  return c;
 }
 
 StatusOr<std::vector<Eigen::MatrixXd>> FixedLagSmoother::MarginalCovariances(
     const std::vector<std::vector<StateKey>>& groups) {
-  return internal::KeyedMarginalCovariances(problem_.get(), BlocksOf(&states_), groups,
-                                            "fixed-lag smoother");
+  WG_ASSIGN_OR_RETURN(std::vector<Eigen::MatrixXd> out,
+                      internal::KeyedMarginalCovariances(problem_.get(), BlocksOf(&states_), groups,
+                                                         "fixed-lag smoother"));
+  WG_RETURN_IF_ERROR(internal::CheckDefinedCovariances(out, groups, "fixed-lag smoother"));
+  return out;
 }
 
 std::vector<StateKey> FixedLagSmoother::WindowKeys() const { return internal::KeysByTime(states_); }

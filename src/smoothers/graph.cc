@@ -132,9 +132,19 @@ const KeyedBlock* FindKeyedBlock(const KeyedBlocks& blocks, Key key) {
   return it != blocks.end() && it->key == key ? &*it : nullptr;
 }
 
+Status CheckDistinctKeys(const std::vector<Key>& keys, const char* who) {
+  std::vector<Key> sorted = keys;
+  std::sort(sorted.begin(), sorted.end());
+  const auto twice = std::adjacent_find(sorted.begin(), sorted.end());
+  if (twice == sorted.end()) return Status::Ok();
+  return InvalidArgument(std::string(who) + ": " + KeyToString(*twice) +
+                         " named twice in one covariance request; expected distinct keys");
+}
+
 StatusOr<Eigen::MatrixXd> CeresMarginalCovariance(ceres::Problem* problem,
                                                   const KeyedBlocks& blocks_by_key,
                                                   const std::vector<Key>& keys, const char* who) {
+  WG_RETURN_IF_ERROR(CheckDistinctKeys(keys, who));
   std::vector<const double*> blocks;
   std::vector<int> offsets;
   int n = 0;
@@ -261,6 +271,20 @@ Eigen::MatrixXd GroupMarginal(const std::vector<ChainPlace>& place, const size_t
 
 }  // namespace
 
+Status CheckDefinedCovariances(const std::vector<Eigen::MatrixXd>& covariances,
+                               const std::vector<std::vector<Key>>& groups, const char* who) {
+  for (size_t i = 0; i < covariances.size() && i < groups.size(); ++i) {
+    const Eigen::VectorXd d = covariances[i].diagonal();
+    if ((d.array() > 0.0).all() && d.allFinite()) continue;
+    std::string keys;
+    for (Key k : groups[i]) keys += (keys.empty() ? "" : ", ") + KeyToString(k);
+    return NumericalError(std::string(who) + ": the covariance of {" + keys +
+                          "} is not defined: a direction of it no factor constrains "
+                          "(unconstrained or unobservable)");
+  }
+  return Status::Ok();
+}
+
 StatusOr<std::vector<Eigen::MatrixXd>> KeyedMarginalCovariances(
     ceres::Problem* problem, const KeyedBlocks& blocks, const std::vector<std::vector<Key>>& groups,
     const char* who) {
@@ -274,6 +298,7 @@ StatusOr<std::vector<Eigen::MatrixXd>> KeyedMarginalCovariances(
   begin.reserve(groups.size() + 1);
   bool usable = true;  // every group within one chain state (one timestamp)
   for (const std::vector<Key>& g : groups) {
+    WG_RETURN_IF_ERROR(CheckDistinctKeys(g, who));
     begin.push_back(var.size());
     for (Key k : g) {
       const KeyedBlock* kb = FindKeyedBlock(blocks, k);
@@ -375,6 +400,10 @@ Status FactorGraph::AddState(GraphState s) {
   if (s.t_s && !std::isfinite(*s.t_s)) {
     return InvalidArgument("factor graph: " + name() + " has a non-finite time");
   }
+  for (double v : s.value) {
+    if (!std::isfinite(v))
+      return InvalidArgument("factor graph: " + name() + " has a non-finite value");
+  }
   State& st = states_[s.key];
   st.spec = std::move(s);
   st.order = states_.size() - 1;
@@ -424,6 +453,11 @@ Status FactorGraph::SetValue(Key key, const std::vector<double>& value) {
   if (it == states_.end()) return NotFound("factor graph: no state " + KeyToString(key));
   if (value.size() != it->second.spec.value.size()) {
     return InvalidArgument("factor graph: a value of another size for " + KeyToString(key));
+  }
+  for (double v : value) {
+    if (!std::isfinite(v)) {
+      return InvalidArgument("factor graph: a non-finite value for " + KeyToString(key));
+    }
   }
   std::copy(value.begin(), value.end(), it->second.spec.value.begin());
   return Status::Ok();
@@ -481,7 +515,11 @@ StatusOr<std::vector<Eigen::MatrixXd>> MarginalCovariances(
   for (auto& [key, st] : graph->states_) {  // in key order
     blocks.push_back({key, st.spec.value.data(), st.spec.t_s, st.order});
   }
-  return internal::KeyedMarginalCovariances(graph->problem_.get(), blocks, groups, "factor graph");
+  WG_ASSIGN_OR_RETURN(
+      std::vector<Eigen::MatrixXd> out,
+      internal::KeyedMarginalCovariances(graph->problem_.get(), blocks, groups, "factor graph"));
+  WG_RETURN_IF_ERROR(internal::CheckDefinedCovariances(out, groups, "factor graph"));
+  return out;
 }
 
 namespace internal {

@@ -83,6 +83,14 @@ StatusOr<std::vector<Eigen::MatrixXd>> KeyedMarginalCovariances(
     ceres::Problem* problem, const KeyedBlocks& blocks, const std::vector<std::vector<Key>>& groups,
     const char* who);
 
+// NumericalError naming the group when a marginal covariance has a diagonal entry that is not
+// positive and finite (a state no factor constrains: the banded solve gives zeros for it).
+Status CheckDefinedCovariances(const std::vector<Eigen::MatrixXd>& covariances,
+                               const std::vector<std::vector<Key>>& groups, const char* who);
+
+// InvalidArgument when a key appears twice in `keys` (Ceres aborts on a repeated block pair).
+Status CheckDistinctKeys(const std::vector<Key>& keys, const char* who);
+
 // ceres::Covariance (sparse QR) for one group of keys: the fallback, and small queries.
 StatusOr<Eigen::MatrixXd> CeresMarginalCovariance(ceres::Problem* problem,
                                                   const KeyedBlocks& blocks,

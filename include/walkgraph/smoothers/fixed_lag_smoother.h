@@ -153,6 +153,9 @@ class FixedLagSmoother {
     ceres::ResidualBlockId residual = nullptr;
   };
 
+  Status CheckNewStates(const std::vector<SmootherState>& new_states) const;
+  Status CheckNewFactors(const std::vector<SmootherState>& new_states,
+                         const std::vector<SmootherFactor>& new_factors) const;
   Status AddFactor(SmootherFactor f);
   Status MarginalizeOlderThan(double cutoff_s, int* count);
 
@@ -163,6 +166,7 @@ class FixedLagSmoother {
   int next_factor_id_ = 0;
   std::uint64_t next_state_order_ = 0;
   std::optional<double> newest_t_;
+  std::optional<double> marginalized_before_s_;  // states before it have left the window
   std::optional<double> hold_from_s_;
   bool solved_ = false;  // a solve has run: the estimate is (near) optimal
   MarginalizeCallback on_marginalize_;
