@@ -55,8 +55,8 @@
 // up to gait_step_s even in the causal mode: a detection delay of at most 2 s at the defaults,
 // like any detector window's (StanceTest.GaitCausalLooksAheadBounded).
 // The detector does not bet on finding them: a stretch of more than gait_max_gap_s without
-// stance (a stride is at most ≈1.3 s at walking pace; a standstill is stance) gets a stance
-// hypothesis at the least statistic of each gait_max_gap_s of it (StanceMask::hypothesis):
+// stance (nor an IMU gap) (a stride is at most ≈1.3 s at walking pace; a standstill is stance) gets
+// a stance hypothesis at the least statistic of each gait_max_gap_s of it (StanceMask::hypothesis):
 // the front end's filter gates them (χ² test of the ZUPT, 99.9 %), the foot-INS graph's robust
 // ZUPT may turn them down, and the estimators count them in diagnostics (stance_hypotheses).
 // Where it fails: a gait whose stance is not the quietest part of its cycle by a decade

@@ -290,14 +290,17 @@ std::vector<double> LogStatistic(const std::vector<double>& statistic) {
 void AddStanceHypotheses(const Walk& walk, const std::vector<double>& l, const StanceOptions& o,
                          StanceMask* m) {
   const size_t n = l.size();
+  const double imu_gap_s = ImuGapThresholdS(walk.imu);
   m->hypothesis.assign(n, false);
   for (size_t a = 0; a < n;) {
     if (m->stance[a]) {
       ++a;
       continue;
     }
-    size_t b = a;
-    while (b < n && !m->stance[b]) ++b;  // [a, b) holds no stance
+    // [a, b) holds no stance and no IMU gap (the IMU says nothing across one: the stretches
+    // either side are taken alone).
+    size_t b = a + 1;
+    while (b < n && !m->stance[b] && walk.imu[b].t_s - walk.imu[b - 1].t_s <= imu_gap_s) ++b;
     const double span = walk.imu[b - 1].t_s - walk.imu[a].t_s;
     const int chunks = static_cast<int>(std::ceil(span / o.gait_max_gap_s));
     for (int c = 0; chunks > 1 && c < chunks; ++c) {
