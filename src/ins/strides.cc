@@ -102,9 +102,8 @@ Status CheckOptions(const StrideOptions& o) {
       !(o.scale_noise >= 0 && o.scale_noise < 1) || !(o.max_median_zupt_nis > 0) ||
       o.min_sigma_heading_rad < 0 || o.min_sigma_dheading_rad < 0) {
     return InvalidArgument(
-        "strides: need gravity, white noises, pseudo-measurement sigmas and max_median_zupt_nis > "
-        "0, "
-        "scale_noise in [0, 1), every other sigma and duration >= 0");
+        "strides: need gravity, white noises, pseudo-measurement sigmas and "
+        "max_median_zupt_nis > 0, scale_noise in [0, 1), every other sigma and duration >= 0");
   }
   return Status::Ok();
 }
