@@ -572,5 +572,22 @@ TEST(StanceTest, GaitHypothesesFillStretchesWithoutStance) {
   EXPECT_GE(in_contact + 1, hypotheses);  // the last stretch may end before its contact
 }
 
+// A walk with a long IMU gap (10^7 s: 5·10^8 bins of 20 ms) gets no stride period rather than
+// a vector that does not fit in memory; its stances are still found, and every stretch without
+// stance on either side of the gap is taken alone.
+TEST(StanceTest, GaitSurvivesALongImuGap) {
+  Walk w = MakeFootWalk(13);
+  for (size_t i = w.imu.size() / 2; i < w.imu.size(); ++i) w.imu[i].t_s += 1e7;
+  for (size_t i = w.stance_truth.size() / 2; i < w.stance_truth.size(); ++i) {
+    w.stance_truth[i].t_s += 1e7;
+  }
+  auto m = DetectStance(w, StrideOptions().stance);
+  ASSERT_TRUE(m.ok()) << m.status().ToString();
+  auto labels = StanceLabelsAtImu(w);
+  ASSERT_TRUE(labels.ok());
+  EXPECT_GE(F1(ScoreStance(m->stance, *labels)), 0.85);
+  EXPECT_EQ(std::count(m->hypothesis.begin(), m->hypothesis.end(), true), 0);
+}
+
 }  // namespace
 }  // namespace walkgraph

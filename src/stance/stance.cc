@@ -248,10 +248,18 @@ double StridePeriod(const std::vector<double>& x, size_t a, size_t b, const Stan
   return best >= o.gait_min_periodicity ? kGaitBinS * static_cast<double>(best_lag) : 0.0;
 }
 
-// Per IMU sample, the stride period of its block (0: no rhythm there); see stance.h.
+// Per IMU sample, the stride period of its block (0: no rhythm there); see stance.h. A walk
+// whose time span is not finite or holds far more 20-ms bins than samples (long IMU gaps) gets
+// no period: the bins would not fit in memory, and the rhythm is in its samples anyway.
 std::vector<double> StridePeriods(const Walk& walk, const StanceOptions& o) {
+  const size_t n = walk.imu.size();
+  const double span_s = walk.imu.back().t_s - walk.imu.front().t_s;
+  if (!std::isfinite(span_s) || !(span_s >= 0.0) ||
+      span_s / kGaitBinS > 4.0 * static_cast<double>(n) + 1e4) {
+    return std::vector<double>(n, 0.0);
+  }
   const std::vector<double> x = BinnedGyroNorm(walk.imu);
-  const size_t n = walk.imu.size(), bins = x.size();
+  const size_t bins = x.size();
   const size_t window = std::min(bins, static_cast<size_t>(o.gait_window_s / kGaitBinS));
   const double t0 = walk.imu.front().t_s;
   std::vector<double> period(n, 0.0);
@@ -302,8 +310,10 @@ void AddStanceHypotheses(const Walk& walk, const std::vector<double>& l, const S
     size_t b = a + 1;
     while (b < n && !m->stance[b] && walk.imu[b].t_s - walk.imu[b - 1].t_s <= imu_gap_s) ++b;
     const double span = walk.imu[b - 1].t_s - walk.imu[a].t_s;
-    const int chunks = static_cast<int>(std::ceil(span / o.gait_max_gap_s));
-    for (int c = 0; chunks > 1 && c < chunks; ++c) {
+    // At most one hypothesis per sample (however sparse the samples are in time).
+    const double wanted = std::isfinite(span) ? std::ceil(span / o.gait_max_gap_s) : 0.0;
+    const size_t chunks = static_cast<size_t>(std::min(wanted, static_cast<double>(b - a)));
+    for (size_t c = 0; chunks > 1 && c < chunks; ++c) {
       const size_t lo = a + (b - a) * c / chunks, hi = a + (b - a) * (c + 1) / chunks;
       if (hi <= lo) continue;
       const size_t k =
