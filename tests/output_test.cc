@@ -292,6 +292,23 @@ TEST_F(OutputTest, ATemporaryIsStaleOnlyWhenNobodyHoldsItsTargetsLock) {
   EXPECT_TRUE(Leftovers(root_).empty());
 }
 
+// A user's file that happens to bear the lock file's name is neither written to nor removed:
+// the write is refused, naming it, and the file is as it was (an empty one, as a killed writer
+// leaves it, is walkgraph's and goes away with the next write).
+TEST_F(OutputTest, AUsersFileNamedLikeTheLockIsNeverTouched) {
+  Write(".out.walkgraph-lock", "my notes");
+  const Status refused = WriteFolder("out", "new");
+  EXPECT_EQ(refused.code(), StatusCode::kFailedPrecondition);
+  EXPECT_THAT(refused.message(), HasSubstr("not written by walkgraph"));
+  EXPECT_EQ(Read(".out.walkgraph-lock"), "my notes");
+  EXPECT_FALSE(fs::exists("out"));
+  fs::remove(".out.walkgraph-lock");
+  Write(".out.walkgraph-lock", "");
+  ASSERT_TRUE(WriteFolder("out", "new").ok());
+  EXPECT_EQ(Read("out/result.txt"), "new");
+  EXPECT_FALSE(fs::exists(".out.walkgraph-lock"));
+}
+
 TEST_F(OutputTest, ARefusedTargetGetsNoLockFileBesideIt) {
   Write("file.txt", "mine");
   EXPECT_FALSE(WriteFolder("file.txt", "x").ok());  // a regular file: not replaced

@@ -192,8 +192,8 @@ Status CheckReplaceableFile(const Target& t) {
 // it, held for the whole write. flock works across hosts on a shared folder (NFS, Lustre,
 // GPFS) and across PID namespaces, where a PID says nothing: a second writer of the same target
 // is refused, and a temporary is stale exactly when nobody holds its target's lock. Release
-// unlinks the file while still holding the lock; Acquire retries when the file it locked was
-// unlinked under it (then another writer has a newer one).
+// unlinks the file (only one walkgraph made: ClaimOrRefuse) while still holding the lock; Acquire
+// retries when the file it locked was unlinked under it (then another writer has a newer one).
 class WriterLock {
  public:
   WriterLock() = default;
@@ -228,7 +228,7 @@ class WriterLock {
       }, now{};
       if (::fstat(fd_, &held) == 0 && ::lstat(path_.c_str(), &now) == 0 &&
           held.st_dev == now.st_dev && held.st_ino == now.st_ino) {
-        return Status::Ok();
+        return ClaimOrRefuse(t);
       }
       ::close(fd_);  // unlinked by the writer before us: lock the file that is there now
       fd_ = -1;
@@ -237,12 +237,47 @@ class WriterLock {
   }
   void Release() {
     if (fd_ < 0) return;
-    ::unlink(path_.c_str());
+    if (ours_) ::unlink(path_.c_str());
     ::close(fd_);
     fd_ = -1;
+    ours_ = false;
   }
 
  private:
+  // The locked file is walkgraph's when it is a regular file that is empty (just created, or
+  // left by a writer killed before it wrote the marker) or holds kLockMarker: then it gets the
+  // marker and Release may unlink it. Anything else of that name is the user's: refused, and
+  // never written to or removed.
+  Status ClaimOrRefuse(const Target& t) {
+    static constexpr char kLockMarker[] = "walkgraph output lock\n";
+    constexpr size_t kLength = sizeof(kLockMarker) - 1;
+    struct stat st {};
+    char head[sizeof(kLockMarker)] = {};
+    const ssize_t got =
+        ::fstat(fd_, &st) == 0 && S_ISREG(st.st_mode) && st.st_size <= static_cast<off_t>(kLength)
+            ? ::pread(fd_, head, kLength, 0)
+            : -1;
+    const bool empty = got == 0;
+    if (!empty && !(got == static_cast<ssize_t>(kLength) &&
+                    std::string(head, kLength) == std::string(kLockMarker))) {
+      ::close(fd_);
+      fd_ = -1;
+      return FailedPrecondition(t.given + ": " + path_.string() +
+                                " exists and was not written by walkgraph (its lock file has "
+                                "that name); move it away or choose another output path");
+    }
+    if (empty && ::pwrite(fd_, kLockMarker, kLength, 0) != static_cast<ssize_t>(kLength)) {
+      const int e = errno;
+      ::close(fd_);
+      fd_ = -1;
+      return IoError(t.given + ": cannot write the lock file " + path_.string() + ": " +
+                     ErrnoText(e));
+    }
+    ours_ = true;
+    return Status::Ok();
+  }
+
+  bool ours_ = false;
   fs::path path_;
   int fd_ = -1;
 };
