@@ -17,6 +17,7 @@
 #include "factors/imu_preintegration_factor.h"
 #include "factors/ins_prior_factor.h"
 #include "factors/magnetic_heading_change_factor.h"
+#include "factors/magnetic_heading_factor.h"
 #include "factors/nav_quaternion_manifold.h"
 #include "factors/zaru_factor.h"
 #include "factors/zupt_factor.h"
@@ -350,6 +351,33 @@ TEST(InsFactors, GapReachAndMagneticHeadingResiduals) {
     EXPECT_NEAR(r, 0.0, 1e-9);
     ASSERT_TRUE(f(ca.data(), cb.data(), &r));
     EXPECT_NEAR(r, NormalizeAngle(-delta) / 0.1, 1e-9) << delta;
+  }
+}
+
+// The stance factor: zero when the reading, rotated by the state's attitude, points along ψ_f;
+// the angle from ψ_f to it otherwise, wrapped, whatever the tilt.
+TEST(InsFactors, StanceMagneticHeadingResidual) {
+  std::mt19937_64 rng(13);
+  const Eigen::Vector3d field_n(18.0, 7.0, -40.0);  // µT, navigation frame
+  const double field_yaw = std::atan2(7.0, 18.0);
+  for (int trial = 0; trial < 8; ++trial) {
+    const Eigen::Quaterniond q = RandomRotation(&rng);
+    MagneticHeadingFactor f(q.conjugate() * field_n, 0.05);  // the reading at attitude q
+    const std::array<double, 4> c = Coeffs(q);
+    double r = -1.0, psi = field_yaw;
+    ASSERT_TRUE(f(c.data(), &psi, &r));
+    EXPECT_NEAR(r, 0.0, 1e-9);
+    const double delta = -3.0 + 0.8 * trial;  // past ±π too: the residual wraps
+    psi = field_yaw + delta;
+    ASSERT_TRUE(f(c.data(), &psi, &r));
+    EXPECT_NEAR(r, NormalizeAngle(-delta) / 0.05, 1e-9) << delta;
+    // The state turned by δ about the vertical: the reading's direction turns by δ.
+    const Eigen::Quaterniond turned =
+        Eigen::Quaterniond(Eigen::AngleAxisd(delta, Eigen::Vector3d::UnitZ())) * q;
+    const std::array<double, 4> ct = Coeffs(turned);
+    psi = field_yaw;
+    ASSERT_TRUE(f(ct.data(), &psi, &r));
+    EXPECT_NEAR(r, NormalizeAngle(delta) / 0.05, 1e-9) << delta;
   }
 }
 

@@ -246,7 +246,7 @@ TEST(InsGraphBatch, SegmentFactorsComposeToTheBatchGraph) {
     ceres::Problem problem;
     ceres::Manifold* m = new NavQuaternionManifold;
     for (InsState& x : s) AddInsStateBlocks(&problem, &x, m);
-    InsRadioBlocks radio;
+    InsSharedBlocks radio;
     for (const auto& [k, n] : segments) {
       auto f = InsSegmentFactors(c, &s, k, n);
       auto rf = InsRadioFactors(c, &s, k, n, &radio);
@@ -335,7 +335,7 @@ TEST(InsGraphBatch, ReadingsInAnImuGapAreInterpolatedAcrossIt) {
   std::vector<InsState>* states = &g->states;
   const size_t before = g->before;
   const double gap_begin = g->gap_begin, gap_end = g->gap_end;
-  InsRadioBlocks radio;
+  InsSharedBlocks radio;
   auto f = InsRadioFactors(c, states, 0, states->size() - 1, &radio);
   ASSERT_TRUE(f.ok());
   std::vector<const RssSample*> readings;
@@ -426,6 +426,46 @@ TEST(InsGraphBatch, GapFactorsTieTheStatesEitherSideOfAnImuGap) {
       }).get());
   EXPECT_EQ(count(f, InsFactorKind::kGapReach), 1);
   EXPECT_EQ(count(f, InsFactorKind::kGapMagneticHeading), 0);
+}
+
+// The stance magnetometer on running (prieto-laps, 3 laps at a run): the heading no longer
+// drifts. Measured by the CLI on seeds 1-4: fg-ins-batch 0.255/0.178/0.247/0.231 m RMSE with
+// it, 0.476/0.179/0.348/0.233 m without (mean 0.74x); 135 factors on 155 strides (none
+// before 20 pairs). A walk without a magnetometer gets none.
+TEST(InsGraphBatch, StanceMagnetometerHoldsTheHeadingOfARun) {
+  const int runs = testing::kSanitized ? 1 : 4;
+  double with = 0.0, without = 0.0;
+  for (int seed = 1; seed <= runs; ++seed) {
+    auto w = SimulateScenario("prieto-laps", seed, YAML::Load("{gait: run, laps: 3}"));
+    ASSERT_TRUE(w.ok()) << w.status().ToString();
+    auto a = RunEstimator("fg-ins-batch", *w);
+    auto b = RunEstimator("fg-ins-batch", *w, "{use_stance_magnetometer: false}");
+    ASSERT_TRUE(a.ok() && b.ok());
+    const double strides = a->diagnostics.at("num_strides");
+    const double factors = a->diagnostics.at("num_stance_magnetic_factors");
+    EXPECT_GT(factors, 0.5 * strides);  // one per stance at most, none before the pairs
+    EXPECT_LE(factors, strides + 1.0);
+    const double sigma = a->diagnostics.at("stance_magnetic_sigma_rad");
+    EXPECT_GE(sigma, InsGraphOptions().stance_magnetic_min_sigma_rad);
+    EXPECT_LT(sigma, 0.3);
+    EXPECT_EQ(b->diagnostics.at("num_stance_magnetic_factors"), 0.0);
+    const double ra = Rmse(*w, *a), rb = Rmse(*w, *b);
+    std::printf(
+        "prieto-laps run seed %d: fg-ins-batch %.3f m with the stance magnetometer, "
+        "%.3f m without (sigma %.3f rad, %.0f factors)\n",
+        seed, ra, rb, sigma, factors);
+    EXPECT_LE(ra, 1.05 * rb) << seed;
+    with += ra / runs;
+    without += rb / runs;
+  }
+  if (!testing::kSanitized) EXPECT_LE(with, 0.85 * without);
+  auto w = SimulateScenario("prieto-laps", 1, YAML::Load("{gait: run, laps: 1}"));
+  ASSERT_TRUE(w.ok());
+  for (ImuSample& s : w->imu) s.has_mag = false;
+  auto c = RunEstimator("fg-ins-batch", *w);
+  ASSERT_TRUE(c.ok()) << c.status().ToString();
+  EXPECT_EQ(c->diagnostics.at("num_stance_magnetic_factors"), 0.0);
+  EXPECT_EQ(c->diagnostics.count("stance_magnetic_sigma_rad"), 0u);
 }
 
 TEST(InsGraphBatch, SameInputSameOutputAndEveryNPlacement) {

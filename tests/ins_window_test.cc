@@ -61,7 +61,7 @@ TEST(InsGraphWindow, LagLongerThanTheWalkEqualsBatch) {
   const std::string graph =
       "max_relinearizations: 0, estimate_range_bias: true, compute_covariance: false, "
       "function_tolerance: 1e-16, parameter_tolerance: 1e-16, gradient_tolerance: 1e-16, "
-      "max_iterations: 500, rss_loss: none, range_loss: none";
+      "max_iterations: 500, rss_loss: none, range_loss: none, use_stance_magnetometer: true";
   // The batch from the front end: the window's graph preintegrates at the front end's biases,
   // and a window-initialized batch would preintegrate at the window's estimates. The batch
   // with the window's causal stance detector (StrideOptions::Causal), so both see one front end.
@@ -77,6 +77,10 @@ TEST(InsGraphWindow, LagLongerThanTheWalkEqualsBatch) {
   EXPECT_EQ(window->diagnostics.at("num_radio_factors"),
             batch->diagnostics.at("num_radio_factors"));
   EXPECT_EQ(window->diagnostics.at("window_max_states"), window->diagnostics.at("num_states"));
+  // The field direction ψ_f, a static block of the window, as the batch's.
+  EXPECT_GT(window->diagnostics.at("num_stance_magnetic_factors"), 5.0);
+  EXPECT_EQ(window->diagnostics.at("num_stance_magnetic_factors"),
+            batch->diagnostics.at("num_stance_magnetic_factors"));
   ASSERT_EQ(window->trajectory.size(), batch->trajectory.size());
   double max_dp = 0.0, max_dyaw = 0.0;
   for (size_t i = 0; i < batch->trajectory.size(); ++i) {

@@ -20,6 +20,7 @@
 #include "factors/imu_preintegration_factor.h"
 #include "factors/ins_prior_factor.h"
 #include "factors/magnetic_heading_change_factor.h"
+#include "factors/magnetic_heading_factor.h"
 #include "factors/nav_quaternion_manifold.h"
 #include "factors/position_prior_factor.h"
 #include "factors/range_factor.h"
@@ -45,7 +46,8 @@ WALKGRAPH_DEFINE_ENUM_NAMES(
     {"path_loss_prior", InsFactorKind::kPathLossPrior}, {"rss", InsFactorKind::kRss},
     {"range", InsFactorKind::kRange}, {"range_bias_prior", InsFactorKind::kRangeBiasPrior},
     {"waypoint", InsFactorKind::kWaypoint}, {"gap_reach", InsFactorKind::kGapReach},
-    {"gap_magnetic_heading", InsFactorKind::kGapMagneticHeading})
+    {"gap_magnetic_heading", InsFactorKind::kGapMagneticHeading},
+    {"stance_magnetic_heading", InsFactorKind::kStanceMagneticHeading})
 
 namespace {
 
@@ -103,6 +105,13 @@ Status InsGraphOptions::Validate() const {
   if (!(o.gap_magnetic_min_sigma_rad > 0) || o.gap_min_spans < 2) {
     return InvalidArgument(
         "fg-ins-batch: need gap_magnetic_min_sigma_rad > 0 and gap_min_spans >= 2");
+  }
+  if (!(o.stance_magnetic_min_sigma_rad > 0) || !(o.stance_magnetic_pair_m >= 0) ||
+      !(o.stance_magnetic_pair_max_s > 0) || !std::isfinite(o.stance_magnetic_pair_m) ||
+      !std::isfinite(o.stance_magnetic_pair_max_s) || o.stance_magnetic_min_pairs < 2) {
+    return InvalidArgument(
+        "fg-ins-batch: need stance_magnetic_min_sigma_rad > 0, a finite stance_magnetic_pair_m "
+        ">= 0, a finite stance_magnetic_pair_max_s > 0 and stance_magnetic_min_pairs >= 2");
   }
   return Status::Ok();
 }
@@ -180,6 +189,17 @@ StatusOr<InsGraphOptions> InsGraphOptionsFromYaml(const YAML::Node& node,
          "floor on the learnt sigma of the gap's magnetic yaw factor");
   r.Read("gap_min_spans", &o.gap_min_spans,
          "spans before a gap needed to learn its reach or magnetic sigma (fewer: no factor)");
+  r.Read("use_stance_magnetometer", &o.use_stance_magnetometer,
+         "at every stance state, tie the yaw to the walk's magnetic field direction (sigma "
+         "learnt from the walk)");
+  r.Read("stance_magnetic_min_sigma_rad", &o.stance_magnetic_min_sigma_rad,
+         "floor on the learnt sigma of the stance magnetic heading factor");
+  r.Read("stance_magnetic_pair_m", &o.stance_magnetic_pair_m,
+         "learning that sigma: a stance is paired with the last one at least this far away");
+  r.Read("stance_magnetic_pair_max_s", &o.stance_magnetic_pair_max_s,
+         "learning that sigma: and at most this long before it");
+  r.Read("stance_magnetic_min_pairs", &o.stance_magnetic_min_pairs,
+         "pairs needed before the first stance magnetic heading factor");
   r.Read("zaru_sigma_radps", &o.zaru_sigma_radps,
          "ZARU sigma per gyro reading (divided by sqrt of the readings)");
   r.Read("use_bias_prior", &o.use_bias_prior,
@@ -407,7 +427,100 @@ std::vector<InsFactor> GapFactors(const InsGraphContext& c, InsState* a, InsStat
   return out;
 }
 
+// σ of the stance magnetic heading factor from the field turns of the pairs seen so far: their
+// RMS about the median, ÷√2 (either end of a pair disturbed), at least min_sigma.
+double StanceMagneticSigma(const std::vector<double>& turns, double min_sigma) {
+  const double med = internal::Median(turns);
+  double sum2 = 0.0;
+  for (double x : turns) sum2 += std::pow(NormalizeAngle(x - med), 2);
+  return std::max(std::sqrt(sum2 / (2.0 * static_cast<double>(turns.size()))), min_sigma);
+}
+
 }  // namespace
+
+std::vector<double> StanceMagneticSigmas(const Walk& walk, const ZuptInsSolution& front,
+                                         const InsGraphOptions& o) {
+  const std::vector<ImuSample>& imu = walk.imu;
+  std::vector<double> sigma(imu.size(), std::numeric_limits<double>::quiet_NaN());
+  if (!o.use_stance_magnetometer || front.states.size() != imu.size()) return sigma;
+  struct Seen {
+    double t_s;
+    Eigen::Vector2d p;
+    double field_rad;
+  };
+  std::vector<Seen> seen;     // stances with a reading, in time order
+  std::vector<double> turns;  // the field's turn of each pair so far
+  double current = std::numeric_limits<double>::quiet_NaN();
+  size_t learnt_from = 0;  // σ is relearnt each time the pairs double (n log n in all)
+  for (const StancePhase& ph : front.phases) {
+    const size_t m = MidStance(front, ph);
+    const std::optional<size_t> k = MagnetometerNear(imu, m);
+    if (!k) continue;
+    const Eigen::Vector3d f = front.states[*k].q_nb * imu[*k].mag_ut;
+    if (!(f.head<2>().norm() > 0)) continue;
+    const Seen now{imu[m].t_s, front.states[m].p_n.head<2>(), std::atan2(f.y(), f.x())};
+    for (size_t j = seen.size();
+         j-- > 0 && now.t_s - seen[j].t_s <= o.stance_magnetic_pair_max_s;) {
+      if ((now.p - seen[j].p).norm() >= o.stance_magnetic_pair_m) {
+        turns.push_back(NormalizeAngle(now.field_rad - seen[j].field_rad));
+        break;
+      }
+    }
+    seen.push_back(now);
+    const size_t enough = static_cast<size_t>(o.stance_magnetic_min_pairs);
+    if (turns.size() >= std::max(enough, 2 * learnt_from)) {
+      current = StanceMagneticSigma(turns, o.stance_magnetic_min_sigma_rad);
+      learnt_from = turns.size();
+    }
+    if (!std::isfinite(current)) continue;
+    for (size_t i = ph.begin; i <= ph.end && i < sigma.size(); ++i) sigma[i] = current;
+  }
+  return sigma;
+}
+
+void AddStanceMagneticDiagnostics(const std::vector<double>& sigma, size_t factors,
+                                  std::map<std::string, double>* diagnostics) {
+  (*diagnostics)["num_stance_magnetic_factors"] = static_cast<double>(factors);
+  for (size_t i = sigma.size(); i-- > 0;) {
+    if (std::isfinite(sigma[i])) {
+      (*diagnostics)["stance_magnetic_sigma_rad"] = sigma[i];
+      break;
+    }
+  }
+}
+
+std::vector<InsFactor> InsStanceMagneticFactors(const InsGraphContext& c,
+                                                std::vector<InsState>* states, size_t k, size_t n,
+                                                InsSharedBlocks* blocks) {
+  std::vector<InsFactor> out;
+  const std::vector<double>* sigma = c.stance_magnetic_sigma;
+  const std::vector<ImuSample>& imu = c.walk->imu;
+  if (sigma == nullptr || sigma->size() != imu.size()) return out;
+  auto has_sigma = [&](size_t i) { return std::isfinite((*sigma)[i]); };
+  for (size_t j = (k == 0 ? 0 : k + 1); j <= k + n && j < states->size(); ++j) {
+    InsState& s = (*states)[j];
+    if (!s.zupt || !has_sigma(s.imu_index)) continue;
+    // One factor per stance: a state after another inside the same stance (a standstill's
+    // extra states) would count that spot's disturbance again.
+    if (j > 0) {
+      size_t i = (*states)[j - 1].imu_index;
+      while (i < s.imu_index && has_sigma(i)) ++i;
+      if ((*states)[j - 1].zupt && i == s.imu_index) continue;
+    }
+    const std::optional<size_t> m = MagnetometerNear(imu, s.imu_index);
+    if (!m) continue;
+    if (!blocks->field_yaw_set) {
+      const Eigen::Vector3d f = s.attitude().normalized() * imu[*m].mag_ut;
+      blocks->field_yaw_rad = std::atan2(f.y(), f.x());
+      blocks->field_yaw_set = true;
+    }
+    out.push_back(MakeFactor(InsFactorKind::kStanceMagneticHeading,
+                             MagneticHeadingFactor::Create(imu[*m].mag_ut, (*sigma)[s.imu_index]),
+                             {s.q.data(), &blocks->field_yaw_rad}));
+    out.back().loss = internal::MakeLoss(LossKind::kCauchy, 1.0);
+  }
+  return out;
+}
 
 StatusOr<std::vector<InsFactor>> InsBetweenFactors(const InsGraphContext& c, InsState* a,
                                                    InsState* b) {
@@ -602,7 +715,7 @@ namespace {
 
 // The path-loss block an RSS reading of anchor `id` uses: the walk's, or (hierarchical) the
 // anchor's own, created at the mean's value and tied to it on first use.
-double* PathLossBlock(const InsGraphOptions& o, int id, InsRadioBlocks* blocks,
+double* PathLossBlock(const InsGraphOptions& o, int id, InsSharedBlocks* blocks,
                       std::vector<InsFactor>* out) {
   if (!blocks->per_anchor_path_loss) return blocks->path_loss.data();
   auto [it, created] = blocks->anchor_path_loss.emplace(id, blocks->path_loss);
@@ -620,7 +733,7 @@ double* PathLossBlock(const InsGraphOptions& o, int id, InsRadioBlocks* blocks,
 
 StatusOr<std::vector<InsFactor>> InsRadioFactors(const InsGraphContext& c,
                                                  std::vector<InsState>* states, size_t k, size_t n,
-                                                 InsRadioBlocks* blocks) {
+                                                 InsSharedBlocks* blocks) {
   if (k + n >= states->size()) return InvalidArgument("fg-ins-batch: segment beyond the states");
   const Walk& w = *c.walk;
   const InsGraphOptions& o = c.options;
@@ -716,7 +829,7 @@ StatusOr<std::vector<InsFactor>> InsRadioFactors(const InsGraphContext& c,
   return out;
 }
 
-void AddInsPathLossDiagnostics(const Walk& walk, const InsRadioBlocks& blocks,
+void AddInsPathLossDiagnostics(const Walk& walk, const InsSharedBlocks& blocks,
                                std::map<std::string, double>* d) {
   if (!walk.has_rss() || !blocks.path_loss_set) return;
   (*d)["path_loss_estimated"] = blocks.estimate_path_loss ? 1.0 : 0.0;
@@ -729,7 +842,7 @@ void AddInsPathLossDiagnostics(const Walk& walk, const InsRadioBlocks& blocks,
   }
 }
 
-void HoldInsRadioBlocks(ceres::Problem* problem, InsRadioBlocks* blocks,
+void HoldInsRadioBlocks(ceres::Problem* problem, InsSharedBlocks* blocks,
                         const InsGraphOptions& options) {
   if (problem->HasParameterBlock(blocks->path_loss.data()) && !blocks->estimate_path_loss) {
     problem->SetParameterBlockConstant(blocks->path_loss.data());
@@ -908,12 +1021,12 @@ namespace {
 // `out` untouched) when it cannot be computed (rank deficiency).
 // The walk-wide path-loss block's key: l(0), or m(0) when it is hierarchical's mean (l(id)
 // are then the anchors').
-Key InsPathLossKey(const InsRadioBlocks& radio) {
+Key InsPathLossKey(const InsSharedBlocks& radio) {
   return Symbol(radio.per_anchor_path_loss ? 'm' : 'l', 0);
 }
 
 bool InsPoseCovariances(ceres::Problem* problem, std::vector<InsState>* states,
-                        InsRadioBlocks* radio, std::vector<std::optional<Eigen::Matrix3d>>* out) {
+                        InsSharedBlocks* radio, std::vector<std::optional<Eigen::Matrix3d>>* out) {
   internal::KeyedBlocks blocks;
   blocks.reserve(5 * states->size() + 1);
   std::vector<std::vector<Key>> groups;
@@ -942,6 +1055,9 @@ bool InsPoseCovariances(ceres::Problem* problem, std::vector<InsState>* states,
       blocks.push_back(
           {Symbol('b', static_cast<uint64_t>(id)), &bias, std::nullopt, blocks.size()});
     }
+  }
+  if (problem->HasParameterBlock(&radio->field_yaw_rad)) {
+    blocks.push_back({Symbol('f', 0), &radio->field_yaw_rad, std::nullopt, blocks.size()});
   }
   internal::SortKeyedBlocks(&blocks);  // each key once: the letters differ, ids are unique
   StatusOr<std::vector<Eigen::MatrixXd>> cov =
@@ -972,7 +1088,7 @@ namespace {
 struct InsBatchSolve {
   std::unique_ptr<ceres::Problem> problem;
   int iterations = 0, relinearizations = 0;
-  size_t num_radio = 0;
+  size_t num_radio = 0, num_magnetic = 0;
   double initial_cost = 0.0, final_cost = 0.0;
   bool converged = false;
   std::vector<std::pair<int, ceres::ResidualBlockId>> rss;
@@ -980,7 +1096,7 @@ struct InsBatchSolve {
 
 // The graph of `states` (from their current values) with the walk's factors and the user's.
 StatusOr<std::unique_ptr<ceres::Problem>> BuildInsBatch(
-    const InsGraphContext& context, std::vector<InsState>* states, InsRadioBlocks* radio,
+    const InsGraphContext& context, std::vector<InsState>* states, InsSharedBlocks* radio,
     const std::vector<std::vector<GraphFactor>>& user, InsBatchSolve* out) {
   auto problem = std::make_unique<ceres::Problem>();
   ceres::Manifold* manifold = new NavQuaternionManifold;  // owned by the problem
@@ -1000,13 +1116,17 @@ StatusOr<std::unique_ptr<ceres::Problem>> BuildInsBatch(
         problem->AddResidualBlock(f.cost.release(), f.loss.release(), f.blocks);
     if (f.kind == InsFactorKind::kRss) out->rss.emplace_back(f.anchor_id, id);
   }
+  std::vector<InsFactor> magnetic =
+      InsStanceMagneticFactors(context, states, 0, states->size() - 1, radio);
+  out->num_magnetic = magnetic.size();
+  AddInsFactors(problem.get(), &magnetic);
   WG_RETURN_IF_ERROR(AddInsUserFactors(problem.get(), states, user));
   HoldInsRadioBlocks(problem.get(), radio, context.options);
   return problem;
 }
 
 StatusOr<InsBatchSolve> SolveInsBatch(const InsGraphContext& context, std::vector<InsState>* states,
-                                      InsRadioBlocks* radio,
+                                      InsSharedBlocks* radio,
                                       const std::vector<std::vector<GraphFactor>>& user,
                                       const ceres::Solver::Options& solver) {
   const InsGraphOptions& o = context.options;
@@ -1043,7 +1163,7 @@ StatusOr<InsBatchSolve> SolveInsBatch(const InsGraphContext& context, std::vecto
 // auto's choice after a global solve (InsGraphOptions::path_loss): do the anchors' mean
 // residuals disagree with the one path loss?
 std::optional<internal::AnchorOffsetTest> TestInsAnchors(const InsGraphOptions& o,
-                                                         const InsRadioBlocks& radio,
+                                                         const InsSharedBlocks& radio,
                                                          const InsBatchSolve& solve) {
   if (o.path_loss != PathLossMode::kAuto || !radio.estimate_path_loss ||
       radio.per_anchor_path_loss || !(o.path_loss_anchor_test_z > 0) || solve.rss.empty()) {
@@ -1087,6 +1207,8 @@ StatusOr<EstimateResult> InsGraphBatch::Run(const Walk& walk) const {
   context.scale_noise = &front.scale_noise;
   context.path = &front.states;
   context.options = o;
+  const std::vector<double> magnetic_sigma = StanceMagneticSigmas(walk, front, o);
+  context.stance_magnetic_sigma = &magnetic_sigma;
   WG_ASSIGN_OR_RETURN(const std::vector<std::vector<GraphFactor>> user,
                       InsUserFactors(context, &states));
 
@@ -1099,7 +1221,7 @@ StatusOr<EstimateResult> InsGraphBatch::Run(const Walk& walk) const {
   WG_RETURN_IF_ERROR(so.Validate());
   const ceres::Solver::Options solver = internal::ToCeres(so);
 
-  InsRadioBlocks radio;
+  InsSharedBlocks radio;
   WG_ASSIGN_OR_RETURN(InsBatchSolve solve, SolveInsBatch(context, &states, &radio, user, solver));
   const std::optional<internal::AnchorOffsetTest> test = TestInsAnchors(o, radio, solve);
   if (test && test->disagree) {  // per anchor, from the global solution
@@ -1120,6 +1242,7 @@ StatusOr<EstimateResult> InsGraphBatch::Run(const Walk& walk) const {
   d["num_states"] = static_cast<double>(states.size());
   AddFrontEndDiagnostics(front, &d);
   d["num_radio_factors"] = static_cast<double>(solve.num_radio);
+  AddStanceMagneticDiagnostics(magnetic_sigma, solve.num_magnetic, &d);
   AddInsPathLossDiagnostics(walk, radio, &d);
   if (test) {
     d["path_loss_anchor_chi2"] = test->statistic;

@@ -234,7 +234,8 @@ class InsWindowRun {
   size_t n_ = 0;
   InsGraphContext context_;
   std::unordered_map<const double*, StateKey> key_of_;
-  InsRadioBlocks radio_;
+  InsSharedBlocks radio_;
+  std::vector<double> magnetic_sigma_;  // StanceMagneticSigmas
   std::set<StateKey> statics_added_;
   StateKey path_loss_key_ = 0;  // the walk-wide path-loss block's (l(0), or m(0) the mean)
   std::vector<std::optional<Eigen::Matrix3d>> cov_;
@@ -243,7 +244,7 @@ class InsWindowRun {
   std::vector<std::vector<GraphFactor>> user_;  // InsGraphOptions::user_factors by newest state
   std::vector<double> latency_;
   std::vector<size_t> pending_;
-  size_t num_radio_ = 0, max_keys_ = 0;
+  size_t num_radio_ = 0, num_magnetic_ = 0, max_keys_ = 0;
   int iterations_ = 0, solves_ = 0, unconverged_ = 0;
   double final_cost_ = 0.0;
   InsState last_;  // the newest state's estimate (its initial value until solved)
@@ -267,6 +268,8 @@ Status InsWindowRun::Start() {
   context_.scale_noise = &front_.scale_noise;
   context_.path = &front_.states;
   context_.options = g_;
+  magnetic_sigma_ = StanceMagneticSigmas(walk_, front_, g_);
+  context_.stance_magnetic_sigma = &magnetic_sigma_;
   for (size_t i = 0; i < n_; ++i) {
     for (int b = 0; b < kBlocksPerState; ++b) key_of_[BlockOf(&build_[i], b)] = Key(i, b);
   }
@@ -323,11 +326,18 @@ void InsWindowRun::StoreCovariances(const std::vector<size_t>& states) {
   }
 }
 
-// Factors by key; a block met for the first time that is not a state's is a static state
-// (the path loss or an anchor's range bias), added to the same update.
-// A block met for the first time that is no state's: an anchor's range bias or (hierarchical)
-// path loss, keyed by its anchor index and added as a static state.
+// A block met for the first time that is no state's, added as a static state to the same
+// update: an anchor's range bias or (hierarchical) path loss, keyed by its anchor index, or the
+// magnetic field's direction f(0).
 StatusOr<InsWindowRun::KeyIt> InsWindowRun::AddStaticBlock(const double* block) {
+  if (block == &radio_.field_yaw_rad) {  // the stance magnetic heading factors' ψ_f
+    auto it = key_of_.emplace(block, Symbol('f', 0)).first;
+    SmootherState st;
+    st.key = it->second;
+    st.value = {radio_.field_yaw_rad};
+    new_states_.push_back(std::move(st));
+    return it;
+  }
   auto add = [&](int id, StateKey (*key)(int), std::vector<double> value,
                  bool constant) -> StatusOr<KeyIt> {
     const int ai = walk_.AnchorIndex(id);
@@ -423,8 +433,12 @@ Status InsWindowRun::AddState(size_t i) {
         readings, InsRadioFactors(context_, &build_, i == 0 ? 0 : i - 1, i == 0 ? 0 : 1, &radio_));
   }
   num_radio_ += readings.size();
+  std::vector<InsFactor> magnetic =
+      InsStanceMagneticFactors(context_, &build_, i == 0 ? 0 : i - 1, i == 0 ? 0 : 1, &radio_);
+  num_magnetic_ += magnetic.size();
   WG_RETURN_IF_ERROR(ToSmoother(&segment));
   WG_RETURN_IF_ERROR(ToSmoother(&readings));
+  WG_RETURN_IF_ERROR(ToSmoother(&magnetic));
   for (const GraphFactor& f : user_[i]) new_factors_.push_back(f);  // keys as the window's
   last_ = init;
   pending_.push_back(i);
@@ -488,6 +502,7 @@ EstimateResult InsWindowRun::Finish() {
   d["num_states"] = static_cast<double>(n_);
   AddFrontEndDiagnostics(front_, &d);
   d["num_radio_factors"] = static_cast<double>(num_radio_);
+  AddStanceMagneticDiagnostics(magnetic_sigma_, num_magnetic_, &d);
   d["ceres_iterations"] = iterations_;
   d["window_solves"] = solves_;
   d["window_unconverged_solves"] = unconverged_;

@@ -145,6 +145,22 @@ struct InsGraphOptions {
   bool use_gap_magnetometer = true;
   double gap_magnetic_min_sigma_rad = 0.01;
   int gap_min_spans = 20;
+  // use_stance_magnetometer (walks whose IMU has a magnetometer): at every stance state the
+  // reading, rotated by the state's attitude, points along the field's horizontal direction,
+  // one walk-wide angle ψ_f estimated with the states (factors/magnetic_heading_factor.h: 004's
+  // compass at stance with the reference learnt, not given), so the yaw cannot drift over a long
+  // walk. σ is learnt from the walk, causally (the window's online output uses the factor too):
+  // on the front end's path, the change of the field's direction between each stance and the
+  // last one at least stance_magnetic_pair_m away (within stance_magnetic_pair_max_s, so the
+  // front end's own yaw drift stays small), its RMS about the median over the pairs before the
+  // state, ÷√2 (either end disturbed), at least stance_magnetic_min_sigma_rad, under a Cauchy
+  // loss at 1σ (indoor disturbances are local and heavy-tailed); no factor before
+  // stance_magnetic_min_pairs such pairs.
+  bool use_stance_magnetometer = true;
+  double stance_magnetic_min_sigma_rad = 0.01;
+  double stance_magnetic_pair_m = 3.0;
+  double stance_magnetic_pair_max_s = 20.0;
+  int stance_magnetic_min_pairs = 20;
   bool use_bias_prior = true;       // N(0, front_end.*_bias_sigma²) on the first state
   double initial_sigma_z_m = 0.01;  // start height prior (z = 0)
   double gauge_sigma_m = 1e-3;      // without initial_pose: the arbitrary origin's σ
@@ -255,7 +271,8 @@ enum class InsFactorKind {
   kRangeBiasPrior,
   kWaypoint,
   kGapReach,
-  kGapMagneticHeading
+  kGapMagneticHeading,
+  kStanceMagneticHeading
 };
 const EnumNames<InsFactorKind>& InsFactorKindNames();
 const char* ToString(InsFactorKind k);
@@ -283,10 +300,14 @@ struct InsGraphContext {
   const std::vector<double>* scale_noise = nullptr;
   // Longer IMU intervals are gaps (ImuGapThresholdS): bridged, not integrated.
   double imu_gap_s = std::numeric_limits<double>::infinity();
+  // Per IMU sample, σ of the stance magnetic heading factor of a state there (NaN: none;
+  // StanceMagneticSigmas); null: none.
+  const std::vector<double>* stance_magnetic_sigma = nullptr;
 };
 
-// The radio factors' shared parameter blocks (owned by the caller, stable addresses).
-struct InsRadioBlocks {
+// The walk-wide parameter blocks the factors share (owned by the caller, stable addresses): the
+// radio's and the magnetic field's direction.
+struct InsSharedBlocks {
   std::array<double, 2> path_loss{};   // (A, η): walk.yaml's radio, then the estimate (the
                                        // walk-wide block, or hierarchical's mean)
   bool path_loss_set = false;          // path_loss holds walk.yaml's values or an estimate
@@ -297,6 +318,8 @@ struct InsRadioBlocks {
   std::set<int> anchor_path_loss_prior_added;             // their ties to the mean in the problem
   std::map<int, double> range_bias_m;  // per anchor id (0 and constant unless estimated)
   std::set<int> bias_prior_added;      // anchors whose bias prior is in the current problem
+  double field_yaw_rad = 0.0;          // ψ_f of the stance magnetic heading factors
+  bool field_yaw_set = false;          // initialised (from the first factor's state)
 };
 
 // The graph's states initialised from the front end's INS solution (placement per options).
@@ -326,19 +349,36 @@ StatusOr<std::vector<InsFactor>> InsSegmentFactors(const InsGraphContext& contex
 // estimate_range_bias, the prior of each anchor's bias not yet in blocks->bias_prior_added.
 StatusOr<std::vector<InsFactor>> InsRadioFactors(const InsGraphContext& context,
                                                  std::vector<InsState>* states, size_t k, size_t n,
-                                                 InsRadioBlocks* blocks);
+                                                 InsSharedBlocks* blocks);
+
+// Per IMU sample of the walk, σ of a stance magnetic heading factor at a state there (see
+// InsGraphOptions::use_stance_magnetometer), learnt causally on the front end's path; NaN where
+// there is none (no stance, no magnetometer reading, too few pairs yet, or the option off).
+std::vector<double> StanceMagneticSigmas(const Walk& walk, const ZuptInsSolution& front,
+                                         const InsGraphOptions& options);
+
+// diagnostics num_stance_magnetic_factors and, when any, stance_magnetic_sigma_rad (the last σ).
+void AddStanceMagneticDiagnostics(const std::vector<double>& sigma, size_t factors,
+                                  std::map<std::string, double>* diagnostics);
+
+// The stance magnetic heading factor of each state of (t_k, t_{k+n}] (and t_0 when k == 0)
+// that has a σ (InsGraphContext::stance_magnetic_sigma) and a magnetometer reading, on its q
+// and blocks->field_yaw_rad (initialised from the first such state's current attitude).
+std::vector<InsFactor> InsStanceMagneticFactors(const InsGraphContext& context,
+                                                std::vector<InsState>* states, size_t k, size_t n,
+                                                InsSharedBlocks* blocks);
 
 // InsGraphOptions::path_loss resolved for a walk's radio: fixed, global or hierarchical.
 PathLossMode ResolveInsPathLoss(const InsGraphOptions& options, const RadioDefaults& radio);
 
 // Holds the path loss constant unless estimated, and the range biases unless
 // estimate_range_bias.
-void HoldInsRadioBlocks(ceres::Problem* problem, InsRadioBlocks* blocks,
+void HoldInsRadioBlocks(ceres::Problem* problem, InsSharedBlocks* blocks,
                         const InsGraphOptions& options);
 
 // diagnostics path_loss_estimated (walks with RSS), and path_loss_A / path_loss_eta when
 // estimated (hierarchical: the mean, and path_loss_A.<id> / path_loss_eta.<id> per anchor).
-void AddInsPathLossDiagnostics(const Walk& walk, const InsRadioBlocks& blocks,
+void AddInsPathLossDiagnostics(const Walk& walk, const InsSharedBlocks& blocks,
                                std::map<std::string, double>* diagnostics);
 
 // The key of one of a state's blocks (see InsGraphOptions::user_factors) and back: the block
