@@ -74,14 +74,16 @@ TEST(InsGraphBatch, WellBelowZuptDeadReckoningOnSimulatedFootPresets) {
 // RMSE of fg-ins-batch over 10 seeds (the presets' full walks: 8 laps) is at most 0.8x that of
 // the best foot filter's RTS smoother. Measured: jimenez-building 0.194 m against
 // prieto-ukf-rts 0.331 m (0.59x; per seed 0.34-0.87x, and 1.20x on seed 10);
-// prieto-laps 0.304 m against 0.668 m (0.45x; per seed 0.44-0.59x).
-void ExpectBelowTheBestFootRts(const std::string& scenario, const std::vector<std::string>& rts) {
+// prieto-laps 0.304 m against 0.668 m (0.45x; per seed 0.44-0.59x). With the stance
+// magnetometer (InsGraphOptions::use_stance_magnetometer): 0.146 m (0.44x) and 0.210 m (0.31x).
+void ExpectBelowTheBestFootRts(const std::string& scenario, const std::vector<std::string>& rts,
+                               const std::string& config = "{}") {
   const int runs = testing::MonteCarloRuns(10);
   std::map<std::string, double> mean;
   for (int seed = 1; seed <= runs; ++seed) {
-    auto w = SimulateScenario(scenario, seed, YAML::Node());
+    auto w = SimulateScenario(scenario, seed, YAML::Load(config));
     ASSERT_TRUE(w.ok()) << w.status().ToString();
-    std::printf("%s seed %d:", scenario.c_str(), seed);
+    std::printf("%s %s seed %d:", scenario.c_str(), config.c_str(), seed);
     std::vector<std::string> ids = rts;
     ids.push_back("fg-ins-batch");
     for (const std::string& id : ids) {
@@ -97,9 +99,9 @@ void ExpectBelowTheBestFootRts(const std::string& scenario, const std::vector<st
   for (const std::string& id : rts) {
     if (mean[id] < mean[best]) best = id;
   }
-  std::printf("%s mean RMSE over %d seeds: fg-ins-batch %.3f m, best RTS %s %.3f m (%.2fx)\n",
-              scenario.c_str(), runs, mean["fg-ins-batch"], best.c_str(), mean[best],
-              mean["fg-ins-batch"] / mean[best]);
+  std::printf("%s %s mean RMSE over %d seeds: fg-ins-batch %.3f m, best RTS %s %.3f m (%.2fx)\n",
+              scenario.c_str(), config.c_str(), runs, mean["fg-ins-batch"], best.c_str(),
+              mean[best], mean["fg-ins-batch"] / mean[best]);
   if (!testing::kSanitized) EXPECT_LE(mean["fg-ins-batch"], 0.8 * mean[best]) << scenario;
 }
 
@@ -111,6 +113,37 @@ TEST(InsGraphBatch, BelowTheBestFootRtsOnJimenezBuilding) {
 // jimenez-iez-rss holds 004's RFCode path-loss model, which prieto-laps' dBm radio does not fit.
 TEST(InsGraphBatch, BelowTheBestFootRtsOnPrietoLaps) {
   ExpectBelowTheBestFootRts("prieto-laps", {"prieto-ekf-rts", "prieto-ukf-rts", "jimenez-iez-rts"});
+}
+
+// Issue 40's target on the simulator's other gaits (seeds 1-10; running 8 laps, stairs 3 laps
+// to keep the slow set short): fg-ins-batch at most 0.8x the best foot filter's RTS. Measured
+// (8 laps each): jimenez-building run 0.168 m against prieto-ekf-rts 0.233 m (0.72x), stairs
+// 0.146 against jimenez-iez-rss-rts 0.609 (0.24x); prieto-laps run 0.228 against
+// jimenez-iez-rts 0.446 (0.51x), stairs 0.211 against prieto-ukf-rts 1.160 (0.18x). On other
+// seed sets (compare --runs 10 --seed 1 / 11 / 21) prieto-laps running gave 0.86x, 0.86x and
+// 0.75x: its jimenez-iez-rts (compass with the true north given) varies more than the graph.
+TEST(InsGraphBatch, BelowTheBestFootRtsOnJimenezBuildingRunning) {
+  ExpectBelowTheBestFootRts(
+      "jimenez-building",
+      {"prieto-ekf-rts", "prieto-ukf-rts", "jimenez-iez-rts", "jimenez-iez-rss-rts"},
+      "{gait: run}");
+}
+
+TEST(InsGraphBatch, BelowTheBestFootRtsOnJimenezBuildingStairs) {
+  ExpectBelowTheBestFootRts(
+      "jimenez-building",
+      {"prieto-ekf-rts", "prieto-ukf-rts", "jimenez-iez-rts", "jimenez-iez-rss-rts"},
+      "{gait: stairs, laps: 3}");
+}
+
+TEST(InsGraphBatch, BelowTheBestFootRtsOnPrietoLapsRunning) {
+  ExpectBelowTheBestFootRts("prieto-laps", {"prieto-ekf-rts", "prieto-ukf-rts", "jimenez-iez-rts"},
+                            "{gait: run}");
+}
+
+TEST(InsGraphBatch, BelowTheBestFootRtsOnPrietoLapsStairs) {
+  ExpectBelowTheBestFootRts("prieto-laps", {"prieto-ekf-rts", "prieto-ukf-rts", "jimenez-iez-rts"},
+                            "{gait: stairs, laps: 3}");
 }
 
 // PyShoe VICON trial 2017-11-22-11-48-35. The converter negates the Vicon y (its x-y is
