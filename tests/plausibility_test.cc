@@ -124,5 +124,41 @@ TEST(CheckStreamSpans, TruthWaypointsAndStartInTheAnchorsFrame) {
   EXPECT_THAT(CheckStreamSpans(w, true), IsEmpty());
 }
 
+// What a real recording may hold: printed and counted in results.json, not refused.
+TEST(PlausibilityWarnings, EachKindNamesItsFileAndAPlainWalkHasNone) {
+  Walk w = TwoStreams(0.0, 0.0);
+  EXPECT_THAT(PlausibilityWarnings(w), IsEmpty());
+
+  for (ImuSample& s : w.imu) s.t_s *= 0.01;  // 100 Hz, then a hole before the last sample
+  w.imu.back().t_s = 200.0;
+  auto warnings = PlausibilityWarnings(w);
+  ASSERT_THAT(warnings, testing::SizeIs(1));
+  EXPECT_THAT(warnings[0], HasSubstr("imu.csv: 1 gap(s) longer than 10x the median"));
+  // The radio's 9 s lie inside the IMU's: only the gap. A radio long after the IMU's end:
+  w = TwoStreams(0.0, 0.0);
+  for (int k = 0; k < 10; ++k) w.rss[k].t_s = 5.0 + 10.0 * k;  // [5, 95] s, IMU [0, 9] s
+  warnings = PlausibilityWarnings(w);
+  ASSERT_THAT(warnings, testing::SizeIs(1));
+  EXPECT_THAT(warnings[0], HasSubstr("imu.csv spans [0, 9] s and rss.csv [5, 95] s: the IMU "
+                                     "covers 4.4% of the radio's span"));
+
+  w = TwoStreams(0.0, 0.0);
+  w.meta.extra["convert.rss_invalid_dropped"] = 3;
+  w.meta.extra["convert.lines_out_of_order"] = 7;  // not a plausibility finding
+  w.meta.radio.path_loss.eta = 8.0;
+  w.rss[3].rss = 4.0;
+  w.rss[6].rss = 12.0;
+  warnings = PlausibilityWarnings(w);
+  ASSERT_THAT(warnings, testing::SizeIs(3));
+  EXPECT_EQ(warnings[0],
+            "walk.yaml: the converter dropped 3 rss reading(s) of the recording as physically "
+            "impossible (convert.rss_invalid_dropped)");
+  EXPECT_THAT(warnings[1], HasSubstr("walk.yaml: radio: eta 8 outside [1.5, 6]"));
+  EXPECT_THAT(warnings[2], HasSubstr("rss.csv:5: 2 reading(s) above 0 dBm, the first 4 dBm"));
+  w.meta.radio.units = RssUnits::kRfcode;  // positive by definition
+  w.meta.radio.path_loss.eta = 2.0;
+  EXPECT_THAT(PlausibilityWarnings(w), testing::SizeIs(1));
+}
+
 }  // namespace
 }  // namespace walkgraph::internal

@@ -45,6 +45,24 @@ class Estimator {
   virtual StatusOr<EstimateResult> Run(const Walk& walk) const = 0;
 };
 
+// Progress inside a running estimator, for the progress report of a long single walk: a driver
+// loop (the filters' sample loops) calls ReportEstimatorProgress(fraction of its work done, in
+// [0, 1]) now and then; the call reaches the callback a ScopedEstimatorProgress installed on the
+// calling thread (CompareOnWalk installs one around each estimator's Run when
+// CompareOptions::progress is set), and is a thread-local load when none is installed.
+void ReportEstimatorProgress(double fraction);
+class ScopedEstimatorProgress {
+ public:
+  explicit ScopedEstimatorProgress(std::function<void(double fraction)> callback);
+  ~ScopedEstimatorProgress();
+  ScopedEstimatorProgress(const ScopedEstimatorProgress&) = delete;
+  ScopedEstimatorProgress& operator=(const ScopedEstimatorProgress&) = delete;
+
+ private:
+  std::function<void(double)> callback_;
+  const std::function<void(double)>* previous_;
+};
+
 using EstimatorFactory = std::function<StatusOr<std::unique_ptr<Estimator>>(const Config& config)>;
 
 struct EstimatorInfo {

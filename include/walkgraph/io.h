@@ -35,6 +35,17 @@ StatusOr<Walk> ReadWalk(const std::string& dir, const ValidationLimits& limits =
 // ordered, values plausible). ReadWalk applies it; writers apply it before writing.
 Status ValidateWalk(const Walk& walk, const ValidationLimits& limits = {});
 
+// What a walk holds that is within reason but unusual enough to say (a real recording may need
+// it, so it is not an error): one line per finding, naming the walk's file (imu.csv, rss.csv,
+// walk.yaml) and, where one reading is meant, its line. The CLI prints them when it reads a walk;
+// CompareOnWalk keeps them in Comparison::warnings, which results.json counts ("warnings").
+// They are: holes in the IMU stream (Walk::ImuGaps; bridged, not integrated across); readings a
+// converter dropped as physically impossible (meta.extra convert.<stream>_invalid_dropped); a
+// path-loss exponent outside [1.5, 6] (indoor exponents; up to 10 is accepted); RSS readings above
+// 0 dBm; an IMU stream that covers less than half of the radio's time span (and leaves over
+// 10 s of it uncovered).
+std::vector<std::string> PlausibilityWarnings(const Walk& walk);
+
 // Writes `walk` as the walk folder `dir`, through the output writer (output.h): the folder
 // carries walkgraph's marker, appears whole or not at all, and replaces only a folder walkgraph
 // wrote (or any folder with options.force). Validates the walk first.

@@ -1,3 +1,4 @@
+#include <algorithm>
 #include <cmath>
 #include <string>
 #include <variant>
@@ -10,6 +11,21 @@
 #include "walkgraph/estimator.h"
 
 namespace walkgraph {
+
+namespace {
+thread_local const std::function<void(double)>* g_estimator_progress = nullptr;
+}  // namespace
+
+void ReportEstimatorProgress(double fraction) {
+  if (g_estimator_progress != nullptr) (*g_estimator_progress)(std::clamp(fraction, 0.0, 1.0));
+}
+
+ScopedEstimatorProgress::ScopedEstimatorProgress(std::function<void(double)> callback)
+    : callback_(std::move(callback)), previous_(g_estimator_progress) {
+  if (callback_) g_estimator_progress = &callback_;
+}
+
+ScopedEstimatorProgress::~ScopedEstimatorProgress() { g_estimator_progress = previous_; }
 
 const EstimatorRegistry& EstimatorRegistry::Builtin() {
   static const EstimatorRegistry* registry = [] {
