@@ -124,6 +124,22 @@ TEST(CheckStreamSpans, TruthWaypointsAndStartInTheAnchorsFrame) {
   EXPECT_THAT(CheckStreamSpans(w, true), IsEmpty());
 }
 
+TEST(ColumnCheck, RefusesAColumnWhereMostLinesFailAndNamesTheFirst) {
+  ColumnCheck c("field 4 (RSS)", "a negative BLE RSSI in dBm");
+  c.Add(true, "t:1: ", "-70");
+  c.Add(false, "t:2: ", "3");
+  EXPECT_TRUE(c.Check("t, rss").ok());  // one bad reading of two: for the per-reading rules
+  c.Add(false, "t:3: ", "4");
+  const Status s = c.Check("t, rss");
+  ASSERT_FALSE(s.ok());
+  EXPECT_EQ(s.message(),
+            "t:2: field 4 (RSS) is 3, not a negative BLE RSSI in dBm, in 2 of 3 lines (the first "
+            "here); expected a negative BLE RSSI in dBm in every line (two columns swapped? the "
+            "lines are t, rss)");
+  EXPECT_THAT(CheckBleRss(-70.0), IsEmpty());
+  EXPECT_THAT(CheckBleRss(0.0), HasSubstr("BLE rss 0 dBm is not below 0 dBm"));
+}
+
 // What a real recording may hold: printed and counted in results.json, not refused.
 TEST(PlausibilityWarnings, EachKindNamesItsFileAndAPlainWalkHasNone) {
   Walk w = TwoStreams(0.0, 0.0);

@@ -59,6 +59,7 @@ struct Beacon {
   int id = 0;
   double lat_deg = 0.0, lon_deg = 0.0;
   int floor = 0;
+  int line = 0;  // in BLE_Locations.csv
 };
 
 StatusOr<std::vector<Beacon>> ReadBleLocations(const std::string& path) {
@@ -91,6 +92,7 @@ StatusOr<std::vector<Beacon>> ReadBleLocations(const std::string& path) {
       return f.Error("bleID '" + f.field(0) + "'; expected BLE<number>");
     }
     b.id = std::stoi(name.substr(3));
+    b.line = n;
     WG_ASSIGN_OR_RETURN(b.lat_deg, f.Number(1));
     WG_ASSIGN_OR_RETURN(b.lon_deg, f.Number(2));
     WG_ASSIGN_OR_RETURN(const long long floor, f.Integer(3));
@@ -120,6 +122,28 @@ Eigen::Vector3d Interpolate(const std::vector<Vec3Stamped>& s, double t) {
   const Vec3Stamped& a = *(it - 1);
   const double w = (t - a.sensor_t) / (b.sensor_t - a.sensor_t);
   return a.v + w * (b.v - a.v);
+}
+
+// The beacons are heard in the building the walk is in: each within kMaxBeaconDistanceM of
+// the log's first POSI landmark (the frame's origin). Bluetooth LE carries about 100 m; farther,
+// a file's latitude and longitude are swapped (4.8e6 m off in Nuremberg) or the files are of two
+// venues.
+Status CheckBeaconsNearTheWalk(const std::vector<Beacon>& beacons, const std::string& locations,
+                               const std::string& log_path, double lat0_deg, double lon0_deg) {
+  constexpr double kMaxBeaconDistanceM = 1000.0;
+  const internal::LocalTangentPlane plane(lat0_deg, lon0_deg);
+  for (const Beacon& b : beacons) {
+    const double d = plane.EastNorth(b.lat_deg, b.lon_deg).norm();
+    if (d <= kMaxBeaconDistanceM) continue;
+    return InvalidArgument(locations + ":" + std::to_string(b.line) + ": BLE" +
+                           std::to_string(b.id) + " at Lat " + internal::Num(b.lat_deg) + ", Lon " +
+                           internal::Num(b.lon_deg) + " is " + internal::Num(d) +
+                           " m from the first POSI landmark of " + log_path + " (lat " +
+                           internal::Num(lat0_deg) + ", lon " + internal::Num(lon0_deg) +
+                           "); expected every beacon within " + internal::Num(kMaxBeaconDistanceM) +
+                           " m of the walk (Lat and Lon swapped in one of the two files?)");
+  }
+  return Status::Ok();
 }
 
 bool IsRecordType(const std::string& s) {
@@ -154,6 +178,9 @@ StatusOr<Walk> ConvertIpin(const std::string& log_path, const std::string& ble_l
   std::vector<PressureSample> pressure;
   std::set<std::pair<double, int>> rss_seen;
   int rss_duplicates = 0, non_ibeacon = 0, pressure_repeats = 0;
+  // RSS swapped with another field of the BLE4 line (TxPower 0, Major, Minor) shows over the
+  // whole log: an RSS column mostly >= 0 dBm.
+  internal::ColumnCheck rss_column("field 5 (RSS) of the BLE4 lines", "a negative BLE RSSI in dBm");
   std::string line;
   int n = 0;
   while (true) {
@@ -229,9 +256,11 @@ StatusOr<Walk> ConvertIpin(const std::string& log_path, const std::string& ble_l
         return f.Error("MAC '" + mac + "' with Minor " + std::to_string(minor) + "; expected " +
                        expected_mac);
       }
+      std::string problem = internal::CheckRss({t, id, value}, RssUnits::kDbm, {});
+      if (problem.empty()) problem = internal::CheckBleRss(value);
+      rss_column.Add(value < 0.0, f.Where(), internal::Num(value));
       bool drop = false;
-      WG_RETURN_IF_ERROR(dropped.Check(
-          "rss", f.Where(), internal::CheckRss({t, id, value}, RssUnits::kDbm, {}), &drop));
+      WG_RETURN_IF_ERROR(dropped.Check("rss", f.Where(), problem, &drop));
       if (drop) continue;
       if (!rss.empty() && t < rss.back().t_s) return f.Error("BLE4 AppTimestamp goes backwards");
       if (!rss_seen.insert({t, id}).second) {
@@ -256,7 +285,11 @@ StatusOr<Walk> ConvertIpin(const std::string& log_path, const std::string& ble_l
     }
     // Other record types (AHRS, WIFI, GNSS, LIGH, SOUN, PROX, ...) are not used.
   }
+  WG_RETURN_IF_ERROR(rss_column.Check(
+      "BLE4;AppTimestamp;iBeacon;MAC;RSS;TxPower;Major;Minor;UUID (technical annex)"));
   if (posi.empty()) return InvalidArgument(log_path + ": no POSI lines (no ground truth)");
+  WG_RETURN_IF_ERROR(CheckBeaconsNearTheWalk(beacons, locations, log_path, posi.front().lat_deg,
+                                             posi.front().lon_deg));
   if (acc.size() < 2 || gyro.size() < 2) {
     return InvalidArgument(log_path + ": fewer than two ACCE or GYRO lines");
   }

@@ -35,6 +35,29 @@ std::string CheckRange(const RangeSample& s, const ValidationLimits& lim) {
   return "";
 }
 
+std::string CheckBleRss(double rss_dbm) {
+  if (rss_dbm < 0.0) return "";
+  return "BLE rss " + Num(rss_dbm) +
+         " dBm is not below 0 dBm (a Bluetooth LE reading is negative; 0 means unknown)";
+}
+
+void ColumnCheck::Add(bool ok, const std::string& where, const std::string& value) {
+  ++lines_;
+  if (ok) return;
+  if (failed_++ == 0) {
+    first_where_ = where;
+    first_value_ = value;
+  }
+}
+
+Status ColumnCheck::Check(const std::string& layout) const {
+  if (2 * failed_ <= lines_) return Status::Ok();
+  return InvalidArgument(first_where_ + column_ + " is " + first_value_ + ", not " + expected_ +
+                         ", in " + std::to_string(failed_) + " of " + std::to_string(lines_) +
+                         " lines (the first here); expected " + expected_ +
+                         " in every line (two columns swapped? the lines are " + layout + ")");
+}
+
 namespace {
 
 // "name v outside [lo, hi] unit" when v is not in [lo, hi] (NaN included), else "".
