@@ -53,6 +53,14 @@ TEST(CheckInitialPose, RadiansCoordinatesAndSigmasWithinReason) {
   p = InitialPose();
   p.y_m = -1e9;
   EXPECT_THAT(CheckInitialPose(p, lim), HasSubstr("y_m -1e+09 outside"));
+  // Projected coordinates stay legal: a UTM start in the southern hemisphere (Sydney: easting
+  // 334 000 m, northing 6 250 000 m; near the equator a northing just under 10^7 m).
+  p = InitialPose();
+  p.x_m = 334000.0;
+  p.y_m = 9999999.0;
+  EXPECT_THAT(CheckInitialPose(p, lim), IsEmpty());
+  p.y_m = 1.0000001e7;
+  EXPECT_THAT(CheckInitialPose(p, lim), HasSubstr("y_m 1e+07 outside"));
   p = InitialPose();
   p.sigma_xy_m = 1e-9;
   EXPECT_THAT(CheckInitialPose(p, lim), HasSubstr("sigma_xy_m 1e-09 outside"));

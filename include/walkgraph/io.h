@@ -25,6 +25,14 @@ struct ValidationLimits {
   double min_rss_dbm = -150.0;
   double max_rss_dbm = 30.0;
   double max_range_m = 1.0e5;
+  // Every coordinate (anchors, truth, waypoints, initial_pose): a building-scale walk in a local
+  // frame stays within a few km of its origin, but walks may also come in projected coordinates,
+  // and UTM northings reach 10^7 m (the southern hemisphere's false northing; eastings 1.7e5 to
+  // 8.3e5 m; Gauss-Krüger eastings with their zone prefix stay under 10^7 m too). So 10^7 m is
+  // the largest legal coordinate: beyond it no metric projection of the Earth places a building
+  // (Web Mercator's ±2e7 m is not metric: its scale is 1/cos(latitude)). A frame mismatch within
+  // that range (latitude and longitude swapped, another origin) is caught by the frame rule
+  // instead: the truth, waypoints and start within 100 km of the anchors (CheckStreamSpans).
   double max_abs_coordinate_m = 1.0e7;
 };
 

@@ -88,6 +88,7 @@ std::string CheckRadioDefaults(const RadioDefaults& r, const ValidationLimits& l
 }
 
 std::string CheckInitialPose(const InitialPose& p, const ValidationLimits& lim) {
+  // 10^7 m by default, not less: UTM northings reach it (see ValidationLimits).
   const double c = lim.max_abs_coordinate_m, two_pi = 6.283185307179586;
   std::string e = Outside("x_m", p.x_m, -c, c, "m");
   if (e.empty()) e = Outside("y_m", p.y_m, -c, c, "m");
