@@ -73,6 +73,16 @@ TEST(Cli, CompareOnOneWalkReportsProgressInALog) {
                                        "elapsed, about [0-9]+ s left"));
   EXPECT_THAT(r.output, ::testing::ContainsRegex("compare: [0-9]+/[0-9]+ estimators \\(100%\\)"));
   fs::remove_all(out);
+  // The same mechanism counts Monte Carlo runs.
+  ::setenv("WALKGRAPH_PROGRESS_INTERVAL_S", "0", 1);
+  r = Cli("compare --scenario linear-gaussian --runs 3 --estimators odometry-dr --out " +
+          out.string());
+  ::unsetenv("WALKGRAPH_PROGRESS_INTERVAL_S");
+  EXPECT_EQ(r.code, 0) << r.output;
+  EXPECT_THAT(r.output, ::testing::ContainsRegex("compare: 1/3 runs \\(33%\\), [0-9]+ s elapsed, "
+                                                 "about [0-9]+ s left"));
+  EXPECT_THAT(r.output, HasSubstr("compare: 3/3 runs (100%)"));
+  fs::remove_all(out);
 }
 
 TEST(Cli, VersionListIdAndSpacedEstimatorList) {
