@@ -101,6 +101,38 @@ TEST(CompareOnWalk, ReportsProgressByEstimatorAndFromInsideAFilter) {
   ReportEstimatorProgress(0.5);
 }
 
+// The fraction reported inside an estimator never goes back (a loop without a fraction reports 0
+// as a sign of life: the solver's iterations), and scopes nest.
+TEST(ScopedEstimatorProgress, NeverGoesBackAndNests) {
+  std::vector<double> outer, inner;
+  {
+    ScopedEstimatorProgress a([&](double f) { outer.push_back(f); });
+    ReportEstimatorProgress(0.3);
+    ReportEstimatorProgress(0.0);
+    {
+      ScopedEstimatorProgress b([&](double f) { inner.push_back(f); });
+      ReportEstimatorProgress(0.5);
+    }
+    ReportEstimatorProgress(2.0);
+  }
+  ReportEstimatorProgress(0.7);  // none installed: nowhere
+  EXPECT_EQ(outer, (std::vector<double>{0.3, 0.3, 1.0}));
+  EXPECT_EQ(inner, (std::vector<double>{0.5}));
+}
+
+// A graph estimator's solver iterations are signs of life between its start and its end.
+TEST(CompareOnWalk, AGraphEstimatorReportsEachSolverIteration) {
+  CompareOptions o;
+  o.estimator_ids = {"fg-batch"};
+  std::vector<double> calls;
+  o.progress = [&](double done, int) { calls.push_back(done); };
+  auto c = CompareOnWalk(SmallWalk(), o);
+  ASSERT_TRUE(c.ok()) << c.status().message();
+  ASSERT_TRUE(c->outcomes[0].status.ok()) << c->outcomes[0].status.message();
+  EXPECT_GT(std::count(calls.begin(), calls.end(), 0.0), 1) << "no report while fg-batch ran";
+  EXPECT_EQ(calls.back(), 1.0);
+}
+
 // Warnings about the walk (io.h PlausibilityWarnings) are counted in results.json.
 TEST(WriteComparison, CountsTheWalksWarningsInResultsJson) {
   Walk w = SmallWalk();

@@ -13,16 +13,19 @@
 namespace walkgraph {
 
 namespace {
-thread_local const std::function<void(double)>* g_estimator_progress = nullptr;
+thread_local ScopedEstimatorProgress* g_estimator_progress = nullptr;
 }  // namespace
 
 void ReportEstimatorProgress(double fraction) {
-  if (g_estimator_progress != nullptr) (*g_estimator_progress)(std::clamp(fraction, 0.0, 1.0));
+  ScopedEstimatorProgress* p = g_estimator_progress;
+  if (p == nullptr || !p->callback_) return;
+  if (fraction > p->reached_) p->reached_ = std::min(fraction, 1.0);  // NaN: no step
+  p->callback_(p->reached_);
 }
 
 ScopedEstimatorProgress::ScopedEstimatorProgress(std::function<void(double)> callback)
     : callback_(std::move(callback)), previous_(g_estimator_progress) {
-  if (callback_) g_estimator_progress = &callback_;
+  g_estimator_progress = this;
 }
 
 ScopedEstimatorProgress::~ScopedEstimatorProgress() { g_estimator_progress = previous_; }
