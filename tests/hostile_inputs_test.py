@@ -1379,6 +1379,26 @@ def rising_rss_walk(ctx):
 case("fit-path-loss-absurd-fit-refused", "plausibility", ["fit-path-loss", "w"],
      setup=rising_rss_walk, err=allof(r"fit-path-loss", r"eta -", r"outside \(0, 10\]",
                                       r"not a usable path-loss model"))
+
+
+def rss_walk(rss_at):
+    """rising_rss_walk's walk with the RSS rss_at(distance) (dBm): a constant RSS fits eta 0,
+    RSS exactly on a model fits sigma 0 (the issue's absurd fits)."""
+    def run(ctx):
+        rising_rss_walk(ctx)
+        ctx.write("w/rss.csv", "t_s,anchor_id,rss\n" + "".join(
+            "%d.5,1,%.6f\n" % (t, rss_at(t + 1.5)) for t in range(39)))
+    return run
+
+
+case("fit-path-loss-eta-0-refused", "plausibility", ["fit-path-loss", "w"],
+     setup=rss_walk(lambda d: -70.0),
+     err=allof(r"fit-path-loss", r"eta -?[0-9.e+-]+ outside \(0, 10\]",
+               r"not a usable path-loss model"))
+case("fit-path-loss-sigma-0-refused", "plausibility", ["fit-path-loss", "w"],
+     setup=rss_walk(lambda d: -40.0 - 25.0 * __import__("math").log10(d)),
+     err=allof(r"fit-path-loss", r"sigma_db [0-9.e+-]+ outside \[0\.001, 50\] dB",
+               r"not a usable path-loss model"))
 case("waypoint-after-the-walk", "plausibility", ["validate", "w"],
      setup=with_walk(lambda ctx: ctx.set_line("w/waypoints.csv", 3, "1e9,2.1,0.05,0.5")),
      err=allof(r"waypoints\.csv:3", r"outside the walk's time span"))
