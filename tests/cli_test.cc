@@ -1,5 +1,6 @@
 // The walkgraph CLI as a user meets it: exit codes, messages, no partial outputs.
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -11,6 +12,7 @@ namespace {
 
 namespace fs = std::filesystem;
 using ::testing::HasSubstr;
+using ::testing::Not;
 
 struct CliRun {
   int code;
@@ -47,6 +49,39 @@ TEST(Cli, CompareWritesReportFolderAndPrintsTable) {
   EXPECT_THAT(r.output, HasSubstr("rmse_m"));
   EXPECT_TRUE(fs::exists(out / "results.json"));
   EXPECT_TRUE(fs::exists(out / "report.html"));
+  fs::remove_all(out);
+}
+
+// compare on one walk reports its progress on stderr; in a log (not a terminal) a plain line
+// every WALKGRAPH_PROGRESS_INTERVAL_S seconds (10 by default; 0 here: every report).
+TEST(Cli, CompareOnOneWalkReportsProgressInALog) {
+  const fs::path out = fs::temp_directory_path() / ("wg_cli_prog_" + std::to_string(::getpid()));
+  fs::remove_all(out);
+  const std::string cmd = "compare " + kData + "/walks/valid_small --out " + out.string();
+  CliRun r = Cli(cmd);  // the default interval: a short run prints no progress
+  EXPECT_EQ(r.code, 0) << r.output;
+  EXPECT_THAT(r.output, Not(HasSubstr("estimators (")));
+  fs::remove_all(out);
+  ::setenv("WALKGRAPH_PROGRESS_INTERVAL_S", "0", 1);
+  r = Cli(cmd);
+  ::unsetenv("WALKGRAPH_PROGRESS_INTERVAL_S");
+  EXPECT_EQ(r.code, 0) << r.output;
+  EXPECT_THAT(r.output,
+              ::testing::ContainsRegex("compare: 0/[0-9]+ estimators \\(0%\\), 0 s elapsed"));
+  EXPECT_THAT(r.output,
+              ::testing::ContainsRegex("compare: 1/[0-9]+ estimators \\([0-9]+%\\), [0-9]+ s "
+                                       "elapsed, about [0-9]+ s left"));
+  EXPECT_THAT(r.output, ::testing::ContainsRegex("compare: [0-9]+/[0-9]+ estimators \\(100%\\)"));
+  fs::remove_all(out);
+  // The same mechanism counts Monte Carlo runs.
+  ::setenv("WALKGRAPH_PROGRESS_INTERVAL_S", "0", 1);
+  r = Cli("compare --scenario linear-gaussian --runs 3 --estimators odometry-dr --out " +
+          out.string());
+  ::unsetenv("WALKGRAPH_PROGRESS_INTERVAL_S");
+  EXPECT_EQ(r.code, 0) << r.output;
+  EXPECT_THAT(r.output, ::testing::ContainsRegex("compare: 1/3 runs \\(33%\\), [0-9]+ s elapsed, "
+                                                 "about [0-9]+ s left"));
+  EXPECT_THAT(r.output, HasSubstr("compare: 3/3 runs (100%)"));
   fs::remove_all(out);
 }
 

@@ -1,3 +1,4 @@
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -73,6 +74,85 @@ TEST(CompareOnWalk, AppliesTheReadersRulesAndRefusesOptionsOfEstimatorsNotRun) {
 
 // score_from_s drops the truth before t_first + score_from_s from every figure and counts it
 // as skipped; the rest of the series is the whole walk's, unchanged.
+// A long walk says how far it is: (estimators done, estimators) before the first and after each,
+// and from inside a filter its driver's fraction (here zupt-ins's error-state loop, which reports
+// every 4096 samples).
+TEST(CompareOnWalk, ReportsProgressByEstimatorAndFromInsideAFilter) {
+  auto w = SimulateScenario("jimenez-building", 3, *Config::Parse("{laps: 1}"));
+  ASSERT_TRUE(w.ok()) << w.status().message();
+  ASSERT_GT(w->imu.size(), 2u * 4096u);
+  CompareOptions o;
+  o.estimator_ids = {"odometry-dr", "zupt-ins"};
+  w->odometry = {{w->imu.front().t_s, 0.0, 0.0}, {w->imu.back().t_s, 0.0, 0.0}};
+  std::vector<double> calls;
+  o.progress = [&](double done, int total) {
+    EXPECT_EQ(total, 2);
+    calls.push_back(done);
+  };
+  auto c = CompareOnWalk(*w, o);
+  ASSERT_TRUE(c.ok()) << c.status().message();
+  ASSERT_GE(calls.size(), 4u);
+  EXPECT_EQ(calls.front(), 0.0);
+  EXPECT_EQ(calls.back(), 2.0);
+  EXPECT_TRUE(std::is_sorted(calls.begin(), calls.end()));
+  EXPECT_TRUE(std::any_of(calls.begin(), calls.end(), [](double d) { return d > 1.0 && d < 2.0; }))
+      << "no progress from inside zupt-ins";
+  // Without a callback installed, a driver's report goes nowhere.
+  ReportEstimatorProgress(0.5);
+}
+
+// The fraction reported inside an estimator never goes back (a loop without a fraction reports 0
+// as a sign of life: the solver's iterations), and scopes nest.
+TEST(ScopedEstimatorProgress, NeverGoesBackAndNests) {
+  std::vector<double> outer, inner;
+  {
+    ScopedEstimatorProgress a([&](double f) { outer.push_back(f); });
+    ReportEstimatorProgress(0.3);
+    ReportEstimatorProgress(0.0);
+    {
+      ScopedEstimatorProgress b([&](double f) { inner.push_back(f); });
+      ReportEstimatorProgress(0.5);
+    }
+    ReportEstimatorProgress(2.0);
+  }
+  ReportEstimatorProgress(0.7);  // none installed: nowhere
+  EXPECT_EQ(outer, (std::vector<double>{0.3, 0.3, 1.0}));
+  EXPECT_EQ(inner, (std::vector<double>{0.5}));
+}
+
+// A graph estimator's solver iterations are signs of life between its start and its end.
+TEST(CompareOnWalk, AGraphEstimatorReportsEachSolverIteration) {
+  CompareOptions o;
+  o.estimator_ids = {"fg-batch"};
+  std::vector<double> calls;
+  o.progress = [&](double done, int) { calls.push_back(done); };
+  auto c = CompareOnWalk(SmallWalk(), o);
+  ASSERT_TRUE(c.ok()) << c.status().message();
+  ASSERT_TRUE(c->outcomes[0].status.ok()) << c->outcomes[0].status.message();
+  EXPECT_GT(std::count(calls.begin(), calls.end(), 0.0), 1) << "no report while fg-batch ran";
+  EXPECT_EQ(calls.back(), 1.0);
+}
+
+// Warnings about the walk (io.h PlausibilityWarnings) are counted in results.json.
+TEST(WriteComparison, CountsTheWalksWarningsInResultsJson) {
+  Walk w = SmallWalk();
+  w.meta.extra["convert.imu_invalid_dropped"] = 2;
+  w.meta.extra["convert.rss_invalid_dropped"] = 1;
+  auto c = CompareOnWalk(w, {});
+  ASSERT_TRUE(c.ok()) << c.status().message();
+  EXPECT_EQ(c->warning_count, 2);
+  const nlohmann::json j = nlohmann::json::parse(ResultsJsonText(*c));
+  EXPECT_EQ(j["warnings"]["count"], 2);
+  ASSERT_EQ(j["warnings"]["messages"].size(), 2u);
+  EXPECT_THAT(j["warnings"]["messages"][0].get<std::string>(),
+              HasSubstr("walk.yaml: the converter dropped 2 imu reading(s)"));
+  auto plain = CompareOnWalk(SmallWalk(), {});
+  ASSERT_TRUE(plain.ok());
+  const nlohmann::json k = nlohmann::json::parse(ResultsJsonText(*plain));
+  EXPECT_EQ(k["warnings"]["count"], 0);
+  EXPECT_TRUE(k["warnings"]["messages"].empty());
+}
+
 TEST(CompareOnWalk, ScoreFromLeavesOutTheStart) {
   CompareOptions o;
   o.estimator_ids = {"odometry-dr"};

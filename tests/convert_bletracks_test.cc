@@ -184,6 +184,36 @@ TEST_F(ConvertBleTracksMalformed, ImpossibleReadingsAreDroppedCountedAndNamed) {
   EXPECT_THAT(refused.status().message(), HasSubstr("t.mbd:2: rss 42 outside"));
 }
 
+// Two columns swapped show over the whole track: an RSS column of positive numbers (RSS and x
+// swapped), positions far outside the receivers' room (a coordinate holding an RSS). One BLE
+// reading >= 0 dBm among negative ones is dropped and counted instead.
+TEST_F(ConvertBleTracksMalformed, SwappedColumnsAreRefusedNamingFileLineAndLayout) {
+  std::ofstream(dir_ / "trk" / "t.mbd")
+      << "100.0,b827eb4521b4,e78f135624ce,1,-80,2,1.8,1,0,0,0,1,0,0,0,1\n"
+         "100.5,000000000101,e78f135624ce,2,-70,2,1.8,1,0,0,0,1,0,0,0,1\n";
+  auto walk = Convert("bletracks", {(dir_ / "trk" / "t.mbd").string()});
+  ASSERT_FALSE(walk.ok());
+  EXPECT_THAT(walk.status().message(),
+              HasSubstr("t.mbd:1: field 4 (RSS) is 1, not a negative BLE RSSI in dBm, in 2 of 2 "
+                        "lines (the first here)"));
+  EXPECT_THAT(walk.status().message(), HasSubstr("two columns swapped? the lines are time, "
+                                                 "receiver MAC, beacon MAC, RSS (dBm), x, y"));
+  walk = ConvertText(
+      "100.5,000000000101,e78f135624ce,-70,-75,2,1.8,1,0,0,0,1,0,0,0,1\n"
+      "100.6,000000000101,e78f135624ce,-70,-76,2,1.8,1,0,0,0,1,0,0,0,1\n");
+  ASSERT_FALSE(walk.ok());
+  EXPECT_THAT(walk.status().message(),
+              HasSubstr("t.mbd:2: fields 5-6 (x, y) is (-75, 2), not a position within 30 m of "
+                        "the receivers in "));
+  EXPECT_THAT(walk.status().message(), HasSubstr("in 2 of 3 lines"));
+  walk = ConvertText(
+      "100.5,000000000101,e78f135624ce,0,2,2,1.8,1,0,0,0,1,0,0,0,1\n"
+      "100.6,000000000101,e78f135624ce,-70,2,2,1.8,1,0,0,0,1,0,0,0,1\n");
+  ASSERT_TRUE(walk.ok()) << walk.status().message();
+  EXPECT_EQ(walk->meta.extra.at("convert.rss_invalid_dropped"), 1.0);
+  EXPECT_EQ(walk->rss.size(), 2u);
+}
+
 TEST_F(ConvertBleTracksMalformed, BadFieldNamesFileAndLine) {
   auto walk = ConvertText("100.5,000000000101,e78f135624ce,loud,2,2,1.8,1,0,0,0,1,0,0,0,1\n");
   ASSERT_FALSE(walk.ok());

@@ -293,6 +293,36 @@ TEST_F(ConvertIpinMalformed, BadLocationsFile) {
   EXPECT_THAT(walk.status().message(), HasSubstr("BLE_Locations.csv:2: bleID"));
 }
 
+// RSS swapped with TxPower (0) in the BLE4 lines, Lat and Lon swapped in BLE_Locations.csv:
+// refused, naming the file, the line and what was expected. One 0 dBm reading (iOS's unknown)
+// among real ones is dropped and counted.
+TEST_F(ConvertIpinMalformed, SwappedColumnsAreRefusedNamingFileAndLine) {
+  auto walk = ConvertText(
+      "BLE4;0.6;iBeacon;BE:AC:20:23:00:02;0;-70;1;2;UUID\n"
+      "BLE4;0.7;iBeacon;BE:AC:20:23:00:02;0;-71;1;2;UUID\n");
+  ASSERT_FALSE(walk.ok());
+  EXPECT_THAT(walk.status().message(),
+              HasSubstr("log.txt:9: field 5 (RSS) of the BLE4 lines is 0, not a negative BLE "
+                        "RSSI in dBm, in 2 of 2 lines"));
+  EXPECT_THAT(walk.status().message(), HasSubstr("BLE4;AppTimestamp;iBeacon;MAC;RSS;TxPower"));
+  walk = ConvertText(
+      "BLE4;0.6;iBeacon;BE:AC:20:23:00:02;0;-70;1;2;UUID\n"
+      "BLE4;0.7;iBeacon;BE:AC:20:23:00:02;-71;0;1;2;UUID\n"
+      "BLE4;0.8;iBeacon;BE:AC:20:23:00:02;-72;0;1;2;UUID\n");
+  ASSERT_TRUE(walk.ok()) << walk.status().message();
+  EXPECT_EQ(walk->rss.size(), 2u);
+  EXPECT_EQ(walk->meta.extra.at("convert.rss_invalid_dropped"), 1.0);
+
+  std::ofstream(dir_ / "BLE_Locations.csv")
+      << "bleID,Lat,Lon,floor\n\"BLE1\",49.46129,11.11120,00\n\"BLE2\",11.11121,49.46107,00\n";
+  walk = ConvertText("");
+  ASSERT_FALSE(walk.ok());
+  EXPECT_THAT(walk.status().message(),
+              HasSubstr("BLE_Locations.csv:3: BLE2 at Lat 11.1112, Lon 49.4611 is "));
+  EXPECT_THAT(walk.status().message(),
+              HasSubstr("expected every beacon within 1000 m of the walk (Lat and Lon swapped"));
+}
+
 TEST_F(ConvertIpinMalformed, NoGroundTruth) {
   std::ofstream(dir_ / "log.txt") << "ACCE;0.01;100.00;0.1;0.2;9.8;3\n";
   auto walk = Convert("ipin", {(dir_ / "log.txt").string()});

@@ -1379,6 +1379,26 @@ def rising_rss_walk(ctx):
 case("fit-path-loss-absurd-fit-refused", "plausibility", ["fit-path-loss", "w"],
      setup=rising_rss_walk, err=allof(r"fit-path-loss", r"eta -", r"outside \(0, 10\]",
                                       r"not a usable path-loss model"))
+
+
+def rss_walk(rss_at):
+    """rising_rss_walk's walk with the RSS rss_at(distance) (dBm): a constant RSS fits eta 0,
+    RSS exactly on a model fits sigma 0 (the issue's absurd fits)."""
+    def run(ctx):
+        rising_rss_walk(ctx)
+        ctx.write("w/rss.csv", "t_s,anchor_id,rss\n" + "".join(
+            "%d.5,1,%.6f\n" % (t, rss_at(t + 1.5)) for t in range(39)))
+    return run
+
+
+case("fit-path-loss-eta-0-refused", "plausibility", ["fit-path-loss", "w"],
+     setup=rss_walk(lambda d: -70.0),
+     err=allof(r"fit-path-loss", r"eta -?[0-9.e+-]+ outside \(0, 10\]",
+               r"not a usable path-loss model"))
+case("fit-path-loss-sigma-0-refused", "plausibility", ["fit-path-loss", "w"],
+     setup=rss_walk(lambda d: -40.0 - 25.0 * __import__("math").log10(d)),
+     err=allof(r"fit-path-loss", r"sigma_db [0-9.e+-]+ outside \[0\.001, 50\] dB",
+               r"not a usable path-loss model"))
 case("waypoint-after-the-walk", "plausibility", ["validate", "w"],
      setup=with_walk(lambda ctx: ctx.set_line("w/waypoints.csv", 3, "1e9,2.1,0.05,0.5")),
      err=allof(r"waypoints\.csv:3", r"outside the walk's time span"))
@@ -1435,6 +1455,126 @@ case("signal-sigquit-write-phase", "signals", ["compare", "w", "--out", "out"],
      rc=(0, 1, 128 + signal.SIGQUIT), check=signal_check(signal.SIGQUIT), out="out",
      ignore_out_always=True, limit_as=False, timeout=90)
 
+
+# Converters' inputs with two columns swapped (issue 42): a BLE track's RSS and a coordinate,
+# an IPIN log's RSS and TxPower/Major, IPIN's beacon table (or the log's landmarks) with Lat and
+# Lon swapped. Refused with the file, the line and what was expected; a single reading >= 0 dBm
+# among real ones is dropped and counted (refused under --strict).
+IPIN_LOCATIONS = ('bleID,Lat,Lon,floor\n"BLE1",49.46129,11.11120,00\n'
+                  '"BLE2",49.46107,11.11121,00\n"BLE3",49.46129,11.11152,-2\n')
+
+
+def ipin_files(ble_lines, posi="49.46128;11.11110", locations=IPIN_LOCATIONS):
+    def run(ctx):
+        lines = ["% a GetSensorData log"]
+        for k in range(40):
+            t, st = 0.01 + 0.02 * k, 100.0 + 0.02 * k
+            lines += ["ACCE;%.2f;%.2f;0.1;0.2;9.8;3" % (t, st),
+                      "GYRO;%.2f;%.2f;0.0;0.0;0.1;3" % (t, st),
+                      "MAGN;%.2f;%.2f;10;20;30;3" % (t, st)]
+        lines.append("POSI;0.5;1;%s;0;100" % posi)
+        lines += ble_lines
+        ctx.write("log.txt", "\n".join(lines) + "\n")
+        ctx.write("BLE_Locations.csv", locations)
+    return run
+
+
+def ble4(rss, txpower="0", major="1", minor="2", t=0.6, n=5):
+    return ["BLE4;%.2f;iBeacon;BE:AC:20:23:00:0%s;%s;%s;%s;%s;UUID" % (t + 0.1 * k, minor, rss,
+                                                                       txpower, major, minor)
+            for k in range(n)]
+
+
+IPIN = ["convert", "ipin", "log.txt", "BLE_Locations.csv", "--out", "out"]
+case("ipin-ble4-rss-and-txpower-swapped", "converters", IPIN, setup=ipin_files(ble4("0", "-70")),
+     err=allof(r"log\.txt:123: field 5 \(RSS\) of the BLE4 lines is 0, not a negative BLE RSSI "
+               r"in dBm, in 5 of 5 lines", r"two columns swapped\? the lines are BLE4;"))
+case("ipin-ble4-rss-and-major-swapped", "converters", IPIN, setup=ipin_files(ble4("1", "0", "-70")),
+     err=allof(r"log\.txt:123: field 5 \(RSS\) of the BLE4 lines is 1, not a negative BLE RSSI"))
+case("ipin-ble4-rss-and-minor-swapped", "converters", IPIN,
+     setup=ipin_files(["BLE4;0.60;iBeacon;BE:AC:20:23:00:02;2;0;1;-70;UUID"]),
+     err=allof(r"log\.txt:123: iBeacon Minor -70 is not one of the deployed beacons"))
+case("ipin-ble4-one-zero-reading-dropped", "converters", IPIN,
+     setup=ipin_files(ble4("0", n=1) + ble4("-70", t=0.7)), rc=0, out="out", out_kind="walk",
+     err=None, check=lambda ctx, r: [] if re.search(
+         r"warning: .*log\.txt:123: BLE rss 0 dBm is not below 0 dBm.*; dropped", r.stderr) else [
+         "no warning naming the dropped reading: %r" % r.stderr[:300]])
+case("ipin-ble4-one-zero-reading-strict", "converters", IPIN + ["--strict"],
+     setup=ipin_files(ble4("0", n=1) + ble4("-70", t=0.7)),
+     err=allof(r"log\.txt:123: BLE rss 0 dBm is not below 0 dBm", r"strict conversion"))
+case("ipin-locations-lat-lon-swapped", "converters", IPIN,
+     setup=ipin_files(ble4("-70"), locations=IPIN_LOCATIONS.replace(
+         '49.46107,11.11121', '11.11121,49.46107')),
+     err=allof(r"BLE_Locations\.csv:3: BLE2 at Lat 11\.1112, Lon 49\.4611 is \d",
+               r"expected every beacon within 1000 m of the walk \(Lat and Lon swapped"))
+case("ipin-landmarks-lat-lon-swapped", "converters", IPIN,
+     setup=ipin_files(ble4("-70"), posi="11.11110;49.46128"),
+     err=allof(r"BLE_Locations\.csv:2: BLE1 .* from the first POSI landmark of log\.txt",
+               r"Lat and Lon swapped in one of the two files"))
+
+BLE_DEV = ('Dongles:{"b827eb4521b4": [[7.00, 7.09, 1.22], 1, "sensor10"], '
+           '"000000000101": [[7.18, 0.68, 2.30], 2, "sensor11"], '
+           '"000000000102": [[0.71, 6.16, 2.30], 3, "sensor12"]}\n'
+           'Beacons:{"e78f135624ce": [[], 1328790, "beacon1"] }\n')
+
+
+def ble_track(swap=None, scale=1.0, n=20):
+    """A track of n lines (time, receiver, beacon, RSS, x, y, z, 9 numbers), fields `swap`
+    (0-based) exchanged, x and y multiplied by `scale`."""
+    def run(ctx):
+        rx = ["b827eb4521b4", "000000000101", "000000000102"]
+        rows = []
+        for k in range(n):
+            f = ["%.3f" % (1581249601.0 + 0.1 * k), rx[k % 3], "e78f135624ce", str(-70 - k % 9),
+                 "%.3f" % ((2.0 + 0.2 * k) * scale), "%.3f" % (3.0 * scale), "1.8",
+                 "0.06", "0", "-1", "1", "0.02", "0.06", "0.02", "-1", "0.002"]
+            if swap:
+                f[swap[0]], f[swap[1]] = f[swap[1]], f[swap[0]]
+            rows.append(",".join(f))
+        ctx.write("t.mbd", "\n".join(rows) + "\n")
+        ctx.write("tetam.dev", BLE_DEV)
+    return run
+
+
+BLET = ["convert", "bletracks", "t.mbd", "tetam.dev", "--out", "out"]
+case("bletracks-valid", "converters", BLET, setup=ble_track(), rc=0, out="out", out_kind="walk")
+case("bletracks-rss-and-x-swapped", "converters", BLET, setup=ble_track((3, 4)),
+     err=allof(r"t\.mbd:1: field 4 \(RSS\) is 2, not a negative BLE RSSI in dBm, in 20 of 20",
+               r"two columns swapped\? the lines are time, receiver MAC, beacon MAC, RSS"))
+case("bletracks-rss-and-z-swapped", "converters", BLET, setup=ble_track((3, 6)),
+     err=allof(r"t\.mbd:1: field 4 \(RSS\) is 1\.8, not a negative BLE RSSI"))
+case("bletracks-y-and-rss-swapped", "converters", BLET, setup=ble_track((5, 3)),
+     err=allof(r"t\.mbd:1: field 4 \(RSS\) is 3, not a negative BLE RSSI"))
+case("bletracks-positions-in-millimetres", "converters", BLET, setup=ble_track(scale=1000.0),
+     err=allof(r"t\.mbd:1: fields 5-6 \(x, y\) is \(2000, 3000\), not a position within 30 m of "
+               r"the receivers in tetam\.dev", r"in 20 of 20 lines"))
+case("bletracks-receiver-and-beacon-swapped", "converters", BLET, setup=ble_track((1, 2)),
+     err=allof(r"t\.mbd:1: receiver MAC 'e78f135624ce' is not a Dongle in tetam\.dev"))
+
+
+def warnings_counted(ctx, r):
+    """compare printed the walk's warnings and counted them in results.json."""
+    problems = []
+    if not re.search(r"(?m)^walkgraph: warning: w/walk\.yaml: the converter dropped 3 rss", r.stderr):
+        problems.append("the dropped readings were not printed: %r" % r.stderr[:300])
+    if not re.search(r"(?m)^walkgraph: warning: w/walk\.yaml: radio: eta 8 outside \[1\.5, 6\]",
+                     r.stderr):
+        problems.append("the unusual eta was not printed")
+    try:
+        with open(ctx.p("out", "results.json")) as f:
+            w = json.load(f)["warnings"]
+        if w.get("count") != 2 or len(w.get("messages", [])) != 2:
+            problems.append("results.json warnings: %r; expected a count of 2" % (w,))
+    except (OSError, ValueError, KeyError) as e:
+        problems.append("results.json: %s" % e)
+    return problems
+
+
+case("compare-counts-warnings-in-results-json", "plausibility", CMP + ["out"],
+     setup=with_walk(seq(lambda ctx: ctx.replace("w/walk.yaml", "eta: 2.5", "eta: 8"),
+                         lambda ctx: ctx.append("w/walk.yaml",
+                                                "extra:\n  convert.rss_invalid_dropped: 3\n"))),
+     rc=0, out="out", out_kind="compare", check=warnings_counted)
 
 def pid_namespaces_usable():
     try:

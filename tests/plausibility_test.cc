@@ -53,6 +53,14 @@ TEST(CheckInitialPose, RadiansCoordinatesAndSigmasWithinReason) {
   p = InitialPose();
   p.y_m = -1e9;
   EXPECT_THAT(CheckInitialPose(p, lim), HasSubstr("y_m -1e+09 outside"));
+  // Projected coordinates stay legal: a UTM start in the southern hemisphere (Sydney: easting
+  // 334 000 m, northing 6 250 000 m; near the equator a northing just under 10^7 m).
+  p = InitialPose();
+  p.x_m = 334000.0;
+  p.y_m = 9999999.0;
+  EXPECT_THAT(CheckInitialPose(p, lim), IsEmpty());
+  p.y_m = 1.0000001e7;
+  EXPECT_THAT(CheckInitialPose(p, lim), HasSubstr("y_m 1e+07 outside"));
   p = InitialPose();
   p.sigma_xy_m = 1e-9;
   EXPECT_THAT(CheckInitialPose(p, lim), HasSubstr("sigma_xy_m 1e-09 outside"));
@@ -122,6 +130,58 @@ TEST(CheckStreamSpans, TruthWaypointsAndStartInTheAnchorsFrame) {
   EXPECT_THAT(CheckStreamSpans(w, true), HasSubstr("walk.yaml: initial_pose: (300000, 0)"));
   w.rss.clear();  // without radio readings the anchors place nothing
   EXPECT_THAT(CheckStreamSpans(w, true), IsEmpty());
+}
+
+TEST(ColumnCheck, RefusesAColumnWhereMostLinesFailAndNamesTheFirst) {
+  ColumnCheck c("field 4 (RSS)", "a negative BLE RSSI in dBm");
+  c.Add(true, "t:1: ", "-70");
+  c.Add(false, "t:2: ", "3");
+  EXPECT_TRUE(c.Check("t, rss").ok());  // one bad reading of two: for the per-reading rules
+  c.Add(false, "t:3: ", "4");
+  const Status s = c.Check("t, rss");
+  ASSERT_FALSE(s.ok());
+  EXPECT_EQ(s.message(),
+            "t:2: field 4 (RSS) is 3, not a negative BLE RSSI in dBm, in 2 of 3 lines (the first "
+            "here); expected a negative BLE RSSI in dBm in every line (two columns swapped? the "
+            "lines are t, rss)");
+  EXPECT_THAT(CheckBleRss(-70.0), IsEmpty());
+  EXPECT_THAT(CheckBleRss(0.0), HasSubstr("BLE rss 0 dBm is not below 0 dBm"));
+}
+
+// What a real recording may hold: printed and counted in results.json, not refused.
+TEST(PlausibilityWarnings, EachKindNamesItsFileAndAPlainWalkHasNone) {
+  Walk w = TwoStreams(0.0, 0.0);
+  EXPECT_THAT(PlausibilityWarnings(w), IsEmpty());
+
+  for (ImuSample& s : w.imu) s.t_s *= 0.01;  // 100 Hz, then a hole before the last sample
+  w.imu.back().t_s = 200.0;
+  auto warnings = PlausibilityWarnings(w);
+  ASSERT_THAT(warnings, testing::SizeIs(1));
+  EXPECT_THAT(warnings[0], HasSubstr("imu.csv: 1 gap(s) longer than 10x the median"));
+  // The radio's 9 s lie inside the IMU's: only the gap. A radio long after the IMU's end:
+  w = TwoStreams(0.0, 0.0);
+  for (int k = 0; k < 10; ++k) w.rss[k].t_s = 5.0 + 10.0 * k;  // [5, 95] s, IMU [0, 9] s
+  warnings = PlausibilityWarnings(w);
+  ASSERT_THAT(warnings, testing::SizeIs(1));
+  EXPECT_THAT(warnings[0], HasSubstr("imu.csv spans [0, 9] s and rss.csv [5, 95] s: the IMU "
+                                     "covers 4.4% of the radio's span"));
+
+  w = TwoStreams(0.0, 0.0);
+  w.meta.extra["convert.rss_invalid_dropped"] = 3;
+  w.meta.extra["convert.lines_out_of_order"] = 7;  // not a plausibility finding
+  w.meta.radio.path_loss.eta = 8.0;
+  w.rss[3].rss = 4.0;
+  w.rss[6].rss = 12.0;
+  warnings = PlausibilityWarnings(w);
+  ASSERT_THAT(warnings, testing::SizeIs(3));
+  EXPECT_EQ(warnings[0],
+            "walk.yaml: the converter dropped 3 rss reading(s) of the recording as physically "
+            "impossible (convert.rss_invalid_dropped)");
+  EXPECT_THAT(warnings[1], HasSubstr("walk.yaml: radio: eta 8 outside [1.5, 6]"));
+  EXPECT_THAT(warnings[2], HasSubstr("rss.csv:5: 2 reading(s) above 0 dBm, the first 4 dBm"));
+  w.meta.radio.units = RssUnits::kRfcode;  // positive by definition
+  w.meta.radio.path_loss.eta = 2.0;
+  EXPECT_THAT(PlausibilityWarnings(w), testing::SizeIs(1));
 }
 
 }  // namespace

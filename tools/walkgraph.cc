@@ -10,8 +10,10 @@
 #include <cerrno>
 #include <charconv>
 #include <chrono>
+#include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <exception>
 #include <iomanip>
@@ -89,22 +91,14 @@ int Fail(const Status& s) {
   return 1;
 }
 
-// Reads a walk and reports what the estimators will work around: holes in the IMU stream
-// (Walk::ImuGaps), which they bridge instead of integrating across.
+// Reads a walk and prints what it holds that is unusual but accepted (io.h
+// PlausibilityWarnings: e.g. holes in the IMU stream, which the estimators bridge instead of
+// integrating across); compare also counts them in results.json.
 walkgraph::StatusOr<walkgraph::Walk> ReadWalk(const std::string& dir) {
   auto walk = walkgraph::ReadWalk(dir);
   if (!walk.ok()) return walk;
-  const std::vector<walkgraph::ImuGap> gaps = walk->ImuGaps();
-  if (!gaps.empty()) {
-    const auto longest = std::max_element(
-        gaps.begin(), gaps.end(),
-        [](const auto& a, const auto& b) { return a.duration_s() < b.duration_s(); });
-    char line[256];
-    std::snprintf(line, sizeof(line),
-                  "%zu gap(s) longer than %gx the median sample interval; the longest %g s after "
-                  "t = %g s (bridged, not integrated across)",
-                  gaps.size(), walkgraph::kImuGapFactor, longest->duration_s(), longest->t_begin_s);
-    std::cerr << "walkgraph: warning: " << dir << "/imu.csv: " << line << "\n";
+  for (const std::string& w : walkgraph::PlausibilityWarnings(*walk)) {
+    std::cerr << "walkgraph: warning: " << dir << "/" << w << "\n";
   }
   return walk;
 }
@@ -418,14 +412,38 @@ std::string Duration(double s) {
   return text;
 }
 
+// Seconds between two progress lines in a log: 10, or WALKGRAPH_PROGRESS_INTERVAL_S (a
+// number >= 0; for tests, which set 0 to see every line without a slow run).
+double ProgressInterval() {
+  const char* text = std::getenv("WALKGRAPH_PROGRESS_INTERVAL_S");
+  if (text == nullptr || *text == '\0') return 10.0;
+  char* end = nullptr;
+  const double s = std::strtod(text, &end);
+  return *end == '\0' && std::isfinite(s) && s >= 0.0 ? s : 10.0;
+}
+
+// "3" or "2.4" (a fraction of the units: an estimator part-way through its walk).
+std::string Count(double done) {
+  char text[32];
+  const double whole = std::floor(done);
+  if (done == whole) {
+    std::snprintf(text, sizeof(text), "%.0f", done);
+  } else {
+    std::snprintf(text, sizeof(text), "%.1f", std::floor(done * 10) / 10);
+  }
+  return text;
+}
+
 // Progress of a long run on stderr with a time estimate (elapsed / done × the rest): on a
-// terminal a bar redrawn in place; else (a batch job's log) a plain line every 10 s, the first
-// after 10 s (a short run prints nothing) and one at the end if any came before. The calls may
-// come from several threads.
-std::function<void(int, int)> MakeProgress(const std::string& prefix, const std::string& unit) {
+// terminal a bar redrawn in place (at most 10 times a second); else (a batch job's log) a plain
+// line every ProgressInterval() s, the first after one interval (a short run prints nothing) and
+// one at the end if any came before. `done` may be fractional (compare on one walk: estimators
+// done plus the running one's fraction). The calls may come from several threads.
+std::function<void(double, int)> MakeProgress(const std::string& prefix, const std::string& unit) {
   struct State {
     std::string prefix, unit;
     bool tty = false, printed = false;
+    std::chrono::duration<double> interval;
     std::chrono::steady_clock::time_point start, last;
     std::mutex mutex;
   };
@@ -433,29 +451,31 @@ std::function<void(int, int)> MakeProgress(const std::string& prefix, const std:
   st->prefix = prefix;
   st->unit = unit;
   st->tty = ::isatty(STDERR_FILENO) != 0;
+  st->interval = std::chrono::duration<double>(st->tty ? 0.1 : ProgressInterval());
   st->start = st->last = std::chrono::steady_clock::now();
-  return [st](int done, int total) {
+  return [st](double done, int total) {
     std::lock_guard<std::mutex> lock(st->mutex);
     const auto now = std::chrono::steady_clock::now();
+    const bool end = done >= total;
+    if (now - st->last < st->interval && !(end && st->printed)) return;
+    st->last = now;
+    st->printed = true;
     const double elapsed = std::chrono::duration<double>(now - st->start).count();
-    const std::string left = done > 0 && done < total
-                                 ? ", about " + Duration(elapsed / done * (total - done)) + " left"
-                                 : "";
+    const std::string left =
+        done > 0 && !end ? ", about " + Duration(elapsed / done * (total - done)) + " left" : "";
+    const double share = total > 0 ? std::min(done / total, 1.0) : 1.0;
     if (st->tty) {
       constexpr int kWidth = 30;
-      const int filled = total > 0 ? int(int64_t{done} * kWidth / total) : kWidth;
+      const int filled = int(share * kWidth);
       std::string bar(filled, '#');
       bar.append(kWidth - filled, '-');
-      std::fprintf(stderr, "\r%s[%s] %d/%d %s, %s elapsed%s\033[K", st->prefix.c_str(), bar.c_str(),
-                   done, total, st->unit.c_str(), Duration(elapsed).c_str(), left.c_str());
-      if (done == total) std::fprintf(stderr, "\n");
+      std::fprintf(stderr, "\r%s[%s] %s/%d %s, %s elapsed%s\033[K", st->prefix.c_str(), bar.c_str(),
+                   Count(done).c_str(), total, st->unit.c_str(), Duration(elapsed).c_str(),
+                   left.c_str());
+      if (end) std::fprintf(stderr, "\n");
     } else {
-      const bool due = now - st->last >= std::chrono::seconds(10);
-      if (!due && !(done == total && st->printed)) return;
-      st->last = now;
-      st->printed = true;
-      std::fprintf(stderr, "%s%d/%d %s (%d%%), %s elapsed%s\n", st->prefix.c_str(), done, total,
-                   st->unit.c_str(), total > 0 ? int(int64_t{done} * 100 / total) : 100,
+      std::fprintf(stderr, "%s%s/%d %s (%d%%), %s elapsed%s\n", st->prefix.c_str(),
+                   Count(done).c_str(), total, st->unit.c_str(), int(share * 100),
                    Duration(elapsed).c_str(), left.c_str());
     }
     std::fflush(stderr);
@@ -655,6 +675,7 @@ int RunCompare(const CompareArgs& args) {
   if (!args.walk_dir.empty()) {
     auto walk = ReadWalk(args.walk_dir);
     if (!walk.ok()) return Fail(walk.status());
+    p.options.progress = MakeProgress("compare: ", "estimators");
     comparison = walkgraph::CompareOnWalk(*walk, p.options);
   } else {
     p.mc.progress = MakeProgress("compare: ", "runs");

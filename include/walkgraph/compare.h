@@ -65,6 +65,12 @@ struct CompareOptions {
   // the comparison's truth is thinned the same way. A 10-h walk then needs the walk and one
   // estimator's run in memory, not every estimator's output.
   bool compact = false;
+  // A single walk's progress (CompareOnWalk; Monte Carlo reports runs through
+  // MonteCarloOptions::progress and ignores it): called with (estimators done, estimators to
+  // run) before the first and after each estimator, and, while one runs, with its fraction added
+  // (e.g. 2.25: two done, a quarter of the third) as its driver loop reports it
+  // (estimator.h ReportEstimatorProgress). Calls come from the calling thread.
+  std::function<void(double done, int total)> progress;
 };
 
 // Points kept per curve by CompareOptions::compact.
@@ -132,7 +138,16 @@ struct Comparison {
   // Monte Carlo, or CompareOptions::compact: errors.csv's rows ("t_s,estimator,error_m[,run]"),
   // kept in an anonymous temporary file (not in memory); WriteComparison copies them.
   std::shared_ptr<internal::TextSpill> errors_csv_rows;
+  // What the walk holds that is unusual but accepted (io.h PlausibilityWarnings), in
+  // results.json as "warnings": {"count": warning_count, "messages": warnings}. Monte Carlo:
+  // each run's, prefixed "run i: ", the first kMaxWarningMessages kept; warning_count counts
+  // every one.
+  std::vector<std::string> warnings;
+  int warning_count = 0;
 };
+
+// The warning messages a Monte Carlo comparison keeps (Comparison::warnings).
+inline constexpr int kMaxWarningMessages = 20;
 
 // Runs the estimators on `walk`. Fails only when the request itself is invalid (unknown id, no
 // truth); an estimator that fails is kept as an outcome with its Status.

@@ -25,6 +25,14 @@ struct ValidationLimits {
   double min_rss_dbm = -150.0;
   double max_rss_dbm = 30.0;
   double max_range_m = 1.0e5;
+  // Every coordinate (anchors, truth, waypoints, initial_pose): a building-scale walk in a local
+  // frame stays within a few km of its origin, but walks may also come in projected coordinates,
+  // and UTM northings reach 10^7 m (the southern hemisphere's false northing; eastings 1.7e5 to
+  // 8.3e5 m; Gauss-Krüger eastings with their zone prefix stay under 10^7 m too). So 10^7 m is
+  // the largest legal coordinate: beyond it no metric projection of the Earth places a building
+  // (Web Mercator's ±2e7 m is not metric: its scale is 1/cos(latitude)). A frame mismatch within
+  // that range (latitude and longitude swapped, another origin) is caught by the frame rule
+  // instead: the truth, waypoints and start within 100 km of the anchors (CheckStreamSpans).
   double max_abs_coordinate_m = 1.0e7;
 };
 
@@ -34,6 +42,17 @@ StatusOr<Walk> ReadWalk(const std::string& dir, const ValidationLimits& limits =
 // Checks the cross-file rules on an in-memory walk (anchor ids known and unique, timestamps
 // ordered, values plausible). ReadWalk applies it; writers apply it before writing.
 Status ValidateWalk(const Walk& walk, const ValidationLimits& limits = {});
+
+// What a walk holds that is within reason but unusual enough to say (a real recording may need
+// it, so it is not an error): one line per finding, naming the walk's file (imu.csv, rss.csv,
+// walk.yaml) and, where one reading is meant, its line. The CLI prints them when it reads a walk;
+// CompareOnWalk keeps them in Comparison::warnings, which results.json counts ("warnings").
+// They are: holes in the IMU stream (Walk::ImuGaps; bridged, not integrated across); readings a
+// converter dropped as physically impossible (meta.extra convert.<stream>_invalid_dropped); a
+// path-loss exponent outside [1.5, 6] (indoor exponents; up to 10 is accepted); RSS readings above
+// 0 dBm; an IMU stream that covers less than half of the radio's time span (and leaves over
+// 10 s of it uncovered).
+std::vector<std::string> PlausibilityWarnings(const Walk& walk);
 
 // Writes `walk` as the walk folder `dir`, through the output writer (output.h): the folder
 // carries walkgraph's marker, appears whole or not at all, and replaces only a folder walkgraph

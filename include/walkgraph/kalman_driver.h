@@ -216,6 +216,10 @@ struct ErrorStateRunOptions {
 };
 
 namespace internal {
+// The driver loops report their progress (estimator.h ReportEstimatorProgress) every this many
+// samples or events.
+inline constexpr size_t kProgressEvery = 4096;
+
 // The sample loop of RunErrorStateFilter: `at_output(k)` at each output epoch. A template over
 // the model's own type, so that the calls of a `final` model are direct (and may be inlined):
 // the loop runs once per IMU sample.
@@ -227,6 +231,7 @@ Status ErrorStateLoop(Model* model, const ErrorStateRunOptions& options, AtOutpu
   const double period = options.output_period_s;
   double next_out = model->Time(0);
   for (size_t k = 0; k < n; ++k) {
+    if (k % kProgressEvery == 0) ReportEstimatorProgress(static_cast<double>(k) / n);
     if (k > 0) WG_RETURN_IF_ERROR(model->Propagate(k));
     WG_RETURN_IF_ERROR(model->Update(k));
     bool scheduled = k + 1 == n;

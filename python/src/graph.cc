@@ -119,19 +119,8 @@ void BindSmoother(py::module_& m) {
       .def("window_keys", &FixedLagSmoother::WindowKeys);
 }
 
-}  // namespace
-
-void BindGraph(py::module_& m) {
-  m.def("symbol", &SymbolOf, py::arg("letter"), py::arg("index"),
-        "A state key: a letter and an index (GTSAM's Symbol), e.g. symbol('x', 3).");
-  m.def("key_to_string", &KeyToString, py::arg("key"));
-
-  py::class_<GraphFactor>(m, "Factor", "A cost function over states by key (factors/).")
-      .def_property_readonly("keys", [](const GraphFactor& f) { return f.keys; })
-      .def_property_readonly("num_residuals",
-                             [](const GraphFactor& f) { return f.cost->num_residuals(); });
-
-  py::module_ f = m.def_submodule("factors", "Built-in factors (walkgraph's factors/).");
+// walkgraph.factors: priors and motion factors.
+void BindPriorFactors(py::module_& f) {
   f.def(
       "position_prior",
       [](Key key, const Eigen::Vector2d& xy, double sigma_m) {
@@ -179,6 +168,10 @@ void BindGraph(py::module_& m) {
       },
       py::arg("key_a"), py::arg("key_b"), py::arg("dt_s"), py::arg("sigma_mps"),
       "2-D position random walk: p_b - p_a ~ N(0, sigma^2 dt I).");
+}
+
+// walkgraph.factors: radio readings.
+void BindRadioFactors(py::module_& f) {
   f.def(
       "range",
       [](Key key, Key bias_key, double range_m, const Eigen::Vector3d& anchor, double sigma_m,
@@ -211,7 +204,9 @@ void BindGraph(py::module_& m) {
       py::arg("sigma_db") = 5.0, py::arg("d0_m") = 1.0, py::arg("loss") = py::none(),
       py::arg("loss_scale") = 1.0,
       "An RSS reading (dBm) on a 2-D pose with a path-loss state (A_dbm, eta) (size 2).");
+}
 
+void BindFactorGraph(py::module_& m) {
   py::class_<FactorGraph>(m, "FactorGraph", "States by key, factors over them; batch solve.")
       .def(py::init<>())
       .def(
@@ -260,7 +255,9 @@ void BindGraph(py::module_& m) {
       .def("__contains__", &FactorGraph::Contains)
       .def_property_readonly("num_states", &FactorGraph::num_states)
       .def_property_readonly("num_factors", &FactorGraph::num_factors);
+}
 
+void BindStepGraph(py::module_& m) {
   m.def(
       "step_graph",
       [](const Walk& walk, const py::object& config) {
@@ -281,7 +278,23 @@ void BindGraph(py::module_& m) {
       "fg-batch's graph of a walk before it solves, and its pose times: pose k has keys "
       "symbol('x', k) (position) and symbol('h', k) (heading), at dead-reckoning values. Add "
       "factors and solve() it; fg-batch itself may first initialize from a window pass.");
+}
 
+}  // namespace
+
+void BindGraph(py::module_& m) {
+  m.def("symbol", &SymbolOf, py::arg("letter"), py::arg("index"),
+        "A state key: a letter and an index (GTSAM's Symbol), e.g. symbol('x', 3).");
+  m.def("key_to_string", &KeyToString, py::arg("key"));
+  py::class_<GraphFactor>(m, "Factor", "A cost function over states by key (factors/).")
+      .def_property_readonly("keys", [](const GraphFactor& f) { return f.keys; })
+      .def_property_readonly("num_residuals",
+                             [](const GraphFactor& f) { return f.cost->num_residuals(); });
+  py::module_ f = m.def_submodule("factors", "Built-in factors (walkgraph's factors/).");
+  BindPriorFactors(f);
+  BindRadioFactors(f);
+  BindFactorGraph(m);
+  BindStepGraph(m);
   BindSmoother(m);
 }
 

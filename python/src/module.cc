@@ -359,14 +359,8 @@ void BindCompare(py::module_& m) {
       "writes the report folder.");
 }
 
-}  // namespace
-
-PYBIND11_MODULE(_walkgraph, m) {
-  m.doc() = "walkgraph: factor-graph smoothing and the papers' Kalman filters for indoor walks";
-  m.attr("NotFoundError") = py::handle(NotFoundError());
-  BindWalk(m);
-  BindEstimate(m);
-
+// read_walk, write_walk.
+void BindWalkIo(py::module_& m) {
   m.def(
       "read_walk",
       [](const std::string& path) {
@@ -389,6 +383,10 @@ PYBIND11_MODULE(_walkgraph, m) {
       py::arg("walk"), py::arg("path"), py::arg("force") = false,
       "Writes a walk directory (whole or not at all; replaces only a folder walkgraph wrote, "
       "or any with force=True).");
+}
+
+// estimators, run.
+void BindEstimators(py::module_& m) {
   m.def("estimators", [] {
     py::list out;
     const EstimatorRegistry& reg = EstimatorRegistry::Builtin();
@@ -418,7 +416,22 @@ PYBIND11_MODULE(_walkgraph, m) {
       },
       py::arg("estimator"), py::arg("walk"), py::arg("config") = py::none(),
       "Runs one estimator; config is a dict of its options (unknown keys are errors).");
-  BindCompare(m);
+}
+
+// A stack of 2x2 matrices as an (n, 2, 2) array.
+py::array_t<double> Stack2x2(const std::vector<Eigen::Matrix2d>& v) {
+  py::array_t<double> a({v.size(), size_t{2}, size_t{2}});
+  auto c = a.mutable_unchecked<3>();
+  for (size_t i = 0; i < v.size(); ++i) {
+    for (int r = 0; r < 2; ++r) {
+      for (int k = 0; k < 2; ++k) c(i, r, k) = v[i](r, k);
+    }
+  }
+  return a;
+}
+
+// simulate, scenarios, pcrb.
+void BindSimulation(py::module_& m) {
   m.def(
       "simulate",
       [](const std::string& scenario, uint64_t seed, const py::object& overrides) {
@@ -451,23 +464,17 @@ PYBIND11_MODULE(_walkgraph, m) {
         d["t"] = b->t_s;
         d["filter_rmse_m"] = b->filter_rmse_m;
         d["smoother_rmse_m"] = b->smoother_rmse_m;
-        auto stack = [](const std::vector<Eigen::Matrix2d>& v) {
-          py::array_t<double> a({v.size(), size_t{2}, size_t{2}});
-          auto c = a.mutable_unchecked<3>();
-          for (size_t i = 0; i < v.size(); ++i) {
-            for (int r = 0; r < 2; ++r) {
-              for (int k = 0; k < 2; ++k) c(i, r, k) = v[i](r, k);
-            }
-          }
-          return a;
-        };
-        d["filter"] = stack(b->filter);
-        d["smoother"] = stack(b->smoother);
+        d["filter"] = Stack2x2(b->filter);
+        d["smoother"] = Stack2x2(b->smoother);
         return d;
       },
       py::arg("scenario"), py::arg("runs") = 1, py::arg("seed") = 0,
       py::arg("overrides") = py::none(),
       "Posterior Cramér–Rao bound of a simulated scenario (pcrb.h).");
+}
+
+// errors.
+void BindErrors(py::module_& m) {
   m.def(
       "errors",
       [](const Estimate& e, const Walk& walk, bool align_se2) {
@@ -485,6 +492,20 @@ PYBIND11_MODULE(_walkgraph, m) {
       },
       py::arg("estimate"), py::arg("walk"), py::arg("align_se2") = false,
       "Horizontal errors at the truth and their statistics (the metrics compare uses).");
+}
+
+}  // namespace
+
+PYBIND11_MODULE(_walkgraph, m) {
+  m.doc() = "walkgraph: factor-graph smoothing and the papers' Kalman filters for indoor walks";
+  m.attr("NotFoundError") = py::handle(NotFoundError());
+  BindWalk(m);
+  BindEstimate(m);
+  BindWalkIo(m);
+  BindEstimators(m);
+  BindCompare(m);
+  BindSimulation(m);
+  BindErrors(m);
   BindGraph(m);
 }
 

@@ -139,6 +139,19 @@ def test_errors_and_compare(plaza1, tmp_path):
     assert (tmp_path / "report" / "report.html").exists()
 
 
+def test_compare_counts_the_walks_warnings():
+    w = walkgraph.read_walk(VALID_SMALL)
+    assert walkgraph.compare(w)["warnings"] == {"count": 0, "messages": []}
+    w.extra = {"convert.rss_invalid_dropped": 4.0}
+    radio = w.radio
+    radio["eta"] = 7.5
+    w.radio = radio
+    res = walkgraph.compare(w)
+    assert res["warnings"]["count"] == 2
+    assert "the converter dropped 4 rss reading(s)" in res["warnings"]["messages"][0]
+    assert "radio: eta 7.5 outside [1.5, 6]" in res["warnings"]["messages"][1]
+
+
 def test_simulate_pcrb_and_monte_carlo_compare():
     w = walkgraph.simulate("tarrio-circle", 3, {"duration_s": 30})
     assert w.imu.shape[0] > 1000 and w.truth.shape[0] > 10

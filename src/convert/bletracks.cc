@@ -97,6 +97,35 @@ StatusOr<Devices> ReadDevices(const std::string& path) {
   return d;
 }
 
+constexpr char kTrackLayout[] =
+    "time, receiver MAC, beacon MAC, RSS (dBm), x, y, z (m), then 9 numbers";
+
+// The walker's positions lie in the receivers' room: a position more than kMaxOutsideM outside
+// the receivers' bounding box (x-y) in more than half of the lines is a swapped column (an RSS
+// of -80 read as x), or a devices file of another room.
+template <typename Line>
+Status CheckPositions(const std::string& track, const std::string& dev_path, const Devices& d,
+                      const std::vector<Line>& lines) {
+  constexpr double kMaxOutsideM = 30.0;
+  Eigen::Vector2d lo = d.receivers.begin()->second.position_m.head<2>(), hi = lo;
+  for (const auto& [mac, a] : d.receivers) {
+    lo = lo.cwiseMin(a.position_m.template head<2>());
+    hi = hi.cwiseMax(a.position_m.template head<2>());
+  }
+  internal::ColumnCheck column(
+      "fields 5-6 (x, y)", "a position within " + internal::Num(kMaxOutsideM) +
+                               " m of the receivers in " + dev_path + " (x " +
+                               internal::Num(lo.x()) + " to " + internal::Num(hi.x()) + " m, y " +
+                               internal::Num(lo.y()) + " to " + internal::Num(hi.y()) + " m)");
+  for (const Line& l : lines) {
+    const Eigen::Vector2d p = l.position.template head<2>();
+    const double outside = (p.cwiseMax(lo).cwiseMin(hi) - p).norm();
+    column.Add(outside <= kMaxOutsideM, track + ":" + std::to_string(l.line) + ": ",
+               "(" + internal::Num(p.x()) + ", " + internal::Num(p.y()) + ")");
+  }
+  return column.Check(kTrackLayout);
+}
+
 }  // namespace
 
 StatusOr<Walk> ConvertBleTracks(const std::string& track_mbd, const std::string& devices_dev,
@@ -116,7 +145,11 @@ StatusOr<Walk> ConvertBleTracks(const std::string& track_mbd, const std::string&
     double rss;
     bool rss_ok;  // false: a physically impossible reading, dropped (the position stays)
     Eigen::Vector3d position;
+    int line;
   };
+  // Two columns swapped (RSS and a coordinate, say) show over the whole file: an RSS column
+  // mostly >= 0 dBm, positions mostly far outside the receivers' room.
+  internal::ColumnCheck rss_column("field 4 (RSS)", "a negative BLE RSSI in dBm");
   std::vector<Line> lines;
   std::string text;
   int n = 0, out_of_order = 0;
@@ -138,11 +171,13 @@ StatusOr<Walk> ConvertBleTracks(const std::string& track_mbd, const std::string&
       return f.Error("beacon MAC '" + f.field(2) + "' is not a Beacon in " + dev_path);
     }
     WG_ASSIGN_OR_RETURN(l.rss, f.Number(3));
+    std::string problem = internal::CheckRss({0.0, l.anchor_id, l.rss}, RssUnits::kDbm, {});
+    if (problem.empty()) problem = internal::CheckBleRss(l.rss);
+    rss_column.Add(l.rss < 0.0, f.Where(), internal::Num(l.rss));
     bool drop = false;
-    WG_RETURN_IF_ERROR(
-        dropped.Check("rss", f.Where(),
-                      internal::CheckRss({0.0, l.anchor_id, l.rss}, RssUnits::kDbm, {}), &drop));
+    WG_RETURN_IF_ERROR(dropped.Check("rss", f.Where(), problem, &drop));
     l.rss_ok = !drop;
+    l.line = n;
     for (int k = 0; k < 3; ++k) {
       WG_ASSIGN_OR_RETURN(l.position[k], f.Number(4 + k));
     }
@@ -151,6 +186,8 @@ StatusOr<Walk> ConvertBleTracks(const std::string& track_mbd, const std::string&
     lines.push_back(l);
   }
   if (lines.empty()) return InvalidArgument(track_mbd + ": no readings");
+  WG_RETURN_IF_ERROR(rss_column.Check(kTrackLayout));
+  WG_RETURN_IF_ERROR(CheckPositions(track_mbd, dev_path, devices, lines));
   std::stable_sort(lines.begin(), lines.end(),
                    [](const Line& a, const Line& b) { return a.t_unix < b.t_unix; });
 

@@ -59,6 +59,7 @@ struct Beacon {
   int id = 0;
   double lat_deg = 0.0, lon_deg = 0.0;
   int floor = 0;
+  int line = 0;  // in BLE_Locations.csv
 };
 
 StatusOr<std::vector<Beacon>> ReadBleLocations(const std::string& path) {
@@ -91,6 +92,7 @@ StatusOr<std::vector<Beacon>> ReadBleLocations(const std::string& path) {
       return f.Error("bleID '" + f.field(0) + "'; expected BLE<number>");
     }
     b.id = std::stoi(name.substr(3));
+    b.line = n;
     WG_ASSIGN_OR_RETURN(b.lat_deg, f.Number(1));
     WG_ASSIGN_OR_RETURN(b.lon_deg, f.Number(2));
     WG_ASSIGN_OR_RETURN(const long long floor, f.Integer(3));
@@ -122,31 +124,41 @@ Eigen::Vector3d Interpolate(const std::vector<Vec3Stamped>& s, double t) {
   return a.v + w * (b.v - a.v);
 }
 
+// The beacons are heard in the building the walk is in: each within kMaxBeaconDistanceM of
+// the log's first POSI landmark (the frame's origin). Bluetooth LE carries about 100 m; farther,
+// a file's latitude and longitude are swapped (4.8e6 m off in Nuremberg) or the files are of two
+// venues.
+Status CheckBeaconsNearTheWalk(const std::vector<Beacon>& beacons, const std::string& locations,
+                               const std::string& log_path, double lat0_deg, double lon0_deg) {
+  constexpr double kMaxBeaconDistanceM = 1000.0;
+  const internal::LocalTangentPlane plane(lat0_deg, lon0_deg);
+  for (const Beacon& b : beacons) {
+    const double d = plane.EastNorth(b.lat_deg, b.lon_deg).norm();
+    if (d <= kMaxBeaconDistanceM) continue;
+    return InvalidArgument(locations + ":" + std::to_string(b.line) + ": BLE" +
+                           std::to_string(b.id) + " at Lat " + internal::Num(b.lat_deg) + ", Lon " +
+                           internal::Num(b.lon_deg) + " is " + internal::Num(d) +
+                           " m from the first POSI landmark of " + log_path + " (lat " +
+                           internal::Num(lat0_deg) + ", lon " + internal::Num(lon0_deg) +
+                           "); expected every beacon within " + internal::Num(kMaxBeaconDistanceM) +
+                           " m of the walk (Lat and Lon swapped in one of the two files?)");
+  }
+  return Status::Ok();
+}
+
 bool IsRecordType(const std::string& s) {
   return s.size() == 4 && std::all_of(s.begin(), s.end(), [](char c) {
            return (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9');
          });
 }
 
-}  // namespace
+struct Posi {
+  double t_s, lat_deg, lon_deg;
+  int floor;
+};
 
-StatusOr<Walk> ConvertIpin(const std::string& log_path, const std::string& ble_locations_csv,
-                           const ConvertOptions& options, std::vector<std::string>* warnings) {
-  internal::DroppedReadings dropped(options.strict);
-  std::string locations = ble_locations_csv;
-  if (locations.empty()) {
-    locations = (fs::path(log_path).parent_path() / "BLE_Locations.csv").string();
-  }
-  WG_ASSIGN_OR_RETURN(const std::vector<Beacon> beacons, ReadBleLocations(locations));
-  std::map<int, const Beacon*> beacon_by_id;
-  for (const Beacon& b : beacons) beacon_by_id[b.id] = &b;
-
-  internal::LineReader in(log_path);
-  WG_RETURN_IF_ERROR(in.Open());
-  struct Posi {
-    double t_s, lat_deg, lon_deg;
-    int floor;
-  };
+// What a GetSensorData log holds that the walk uses, as read.
+struct IpinLog {
   std::vector<Posi> posi;
   std::vector<Vec3Stamped> acc, gyro, mag;
   std::vector<double> acc_app_t;
@@ -154,6 +166,125 @@ StatusOr<Walk> ConvertIpin(const std::string& log_path, const std::string& ble_l
   std::vector<PressureSample> pressure;
   std::set<std::pair<double, int>> rss_seen;
   int rss_duplicates = 0, non_ibeacon = 0, pressure_repeats = 0;
+};
+
+// ACCE, GYRO, MAGN: TYPE;AppTimestamp;SensorTimestamp;x;y;z;accuracy.
+Status ReadInertialLine(const internal::LineFields& f, internal::DroppedReadings* dropped,
+                        IpinLog* log) {
+  const std::string& type = f.field(0);
+  WG_RETURN_IF_ERROR(f.ExpectCount(7));
+  Vec3Stamped s;
+  WG_ASSIGN_OR_RETURN(const double app_t, f.Number(1));
+  WG_ASSIGN_OR_RETURN(s.sensor_t, f.Number(2));
+  for (int k = 0; k < 3; ++k) {
+    WG_ASSIGN_OR_RETURN(s.v[k], f.Number(3 + k));
+  }
+  WG_RETURN_IF_ERROR(f.Integer(6).status());
+  if (type != "MAGN") {  // an accelerometer or gyro reading past any phone's range
+    ImuSample check;
+    (type == "ACCE" ? check.acc_mps2 : check.gyro_radps) = s.v;
+    bool drop = false;
+    WG_RETURN_IF_ERROR(dropped->Check("imu", f.Where(), internal::CheckImu(check, {}), &drop));
+    if (drop) return Status::Ok();
+  }
+  std::vector<Vec3Stamped>& series = type == "ACCE"   ? log->acc
+                                     : type == "GYRO" ? log->gyro
+                                                      : log->mag;
+  if (!series.empty() && !(s.sensor_t > series.back().sensor_t)) {
+    return f.Error(type + " SensorTimestamp does not increase");
+  }
+  series.push_back(s);
+  if (type == "ACCE") log->acc_app_t.push_back(app_t);
+  return Status::Ok();
+}
+
+// 2023 logs: POSI;AppTS;counter;lat;lon;floor;building. Technical annex: no counter.
+Status ReadPosiLine(const internal::LineFields& f, IpinLog* log) {
+  WG_RETURN_IF_ERROR(f.ExpectCount(7, 6));
+  const size_t k = f.size() == 7 ? 3 : 2;
+  Posi p;
+  WG_ASSIGN_OR_RETURN(p.t_s, f.Number(1));
+  WG_ASSIGN_OR_RETURN(p.lat_deg, f.Number(k));
+  WG_ASSIGN_OR_RETURN(p.lon_deg, f.Number(k + 1));
+  WG_ASSIGN_OR_RETURN(const long long floor, f.Integer(k + 2));
+  WG_RETURN_IF_ERROR(f.Integer(k + 3).status());
+  p.floor = static_cast<int>(floor);
+  if (std::fabs(p.lat_deg) > 90.0 || std::fabs(p.lon_deg) > 180.0) {
+    return f.Error("latitude/longitude out of range");
+  }
+  if (!log->posi.empty() && !(p.t_s > log->posi.back().t_s)) {
+    return f.Error("POSI timestamp does not increase");
+  }
+  log->posi.push_back(p);
+  return Status::Ok();
+}
+
+// BLE4;AppTimestamp;iBeacon;MAC;RSS;TxPower;Major;Minor;UUID.
+Status ReadBle4Line(const internal::LineFields& f, const std::map<int, const Beacon*>& beacons,
+                    const std::string& locations, internal::DroppedReadings* dropped,
+                    internal::ColumnCheck* rss_column, IpinLog* log) {
+  if (f.size() >= 3 && f.field(2) != "iBeacon") {
+    ++log->non_ibeacon;  // Eddystone frames carry no Minor; none in the 2023 logs
+    return Status::Ok();
+  }
+  WG_RETURN_IF_ERROR(f.ExpectCount(9));
+  WG_ASSIGN_OR_RETURN(const double t, f.Number(1));
+  WG_ASSIGN_OR_RETURN(const double value, f.Number(4));
+  WG_ASSIGN_OR_RETURN(const long long minor, f.Integer(7));
+  const int id = IpinMinorToBleId(static_cast<int>(minor));
+  if (id < 0 || beacons.count(id) == 0) {
+    return f.Error("iBeacon Minor " + std::to_string(minor) +
+                   " is not one of the deployed beacons in " + locations);
+  }
+  const std::string& mac = f.field(3);
+  const std::string expected_mac = "BE:AC:20:23:00:0" + std::to_string(minor);
+  if (mac != expected_mac) {
+    return f.Error("MAC '" + mac + "' with Minor " + std::to_string(minor) + "; expected " +
+                   expected_mac);
+  }
+  std::string problem = internal::CheckRss({t, id, value}, RssUnits::kDbm, {});
+  if (problem.empty()) problem = internal::CheckBleRss(value);
+  rss_column->Add(value < 0.0, f.Where(), internal::Num(value));
+  bool drop = false;
+  WG_RETURN_IF_ERROR(dropped->Check("rss", f.Where(), problem, &drop));
+  if (drop) return Status::Ok();
+  if (!log->rss.empty() && t < log->rss.back().t_s) {
+    return f.Error("BLE4 AppTimestamp goes backwards");
+  }
+  if (!log->rss_seen.insert({t, id}).second) {
+    ++log->rss_duplicates;
+    return Status::Ok();
+  }
+  log->rss.push_back({t, id, value});
+  return Status::Ok();
+}
+
+// PRES;AppTimestamp;SensorTimestamp;pressure(hPa);accuracy — on the app clock.
+Status ReadPresLine(const internal::LineFields& f, IpinLog* log) {
+  WG_RETURN_IF_ERROR(f.ExpectCount(5));
+  PressureSample p;
+  WG_ASSIGN_OR_RETURN(p.t_s, f.Number(1));
+  WG_ASSIGN_OR_RETURN(p.hpa, f.Number(3));
+  if (!(p.hpa >= 300.0 && p.hpa <= 1100.0)) {
+    return f.Error("pressure outside [300, 1100] hPa");
+  }
+  if (!log->pressure.empty() && !(p.t_s > log->pressure.back().t_s)) {
+    ++log->pressure_repeats;  // a repeated AppTimestamp: the first reading kept
+    return Status::Ok();
+  }
+  log->pressure.push_back(p);
+  return Status::Ok();
+}
+
+StatusOr<IpinLog> ReadIpinLog(const std::string& log_path,
+                              const std::map<int, const Beacon*>& beacons,
+                              const std::string& locations, internal::DroppedReadings* dropped) {
+  internal::LineReader in(log_path);
+  WG_RETURN_IF_ERROR(in.Open());
+  IpinLog log;
+  // RSS swapped with another field of the BLE4 line (TxPower 0, Major, Minor) shows over the
+  // whole log: an RSS column mostly >= 0 dBm.
+  internal::ColumnCheck rss_column("field 5 (RSS) of the BLE4 lines", "a negative BLE RSSI in dBm");
   std::string line;
   int n = 0;
   while (true) {
@@ -170,138 +301,43 @@ StatusOr<Walk> ConvertIpin(const std::string& log_path, const std::string& ble_l
     }
     const std::string& type = f.field(0);
     if (type == "ACCE" || type == "GYRO" || type == "MAGN") {
-      WG_RETURN_IF_ERROR(f.ExpectCount(7));
-      Vec3Stamped s;
-      WG_ASSIGN_OR_RETURN(const double app_t, f.Number(1));
-      WG_ASSIGN_OR_RETURN(s.sensor_t, f.Number(2));
-      for (int k = 0; k < 3; ++k) {
-        WG_ASSIGN_OR_RETURN(s.v[k], f.Number(3 + k));
-      }
-      WG_RETURN_IF_ERROR(f.Integer(6).status());
-      if (type != "MAGN") {  // an accelerometer or gyro reading past any phone's range
-        ImuSample check;
-        (type == "ACCE" ? check.acc_mps2 : check.gyro_radps) = s.v;
-        bool drop = false;
-        WG_RETURN_IF_ERROR(dropped.Check("imu", f.Where(), internal::CheckImu(check, {}), &drop));
-        if (drop) continue;
-      }
-      std::vector<Vec3Stamped>& series = type == "ACCE" ? acc : type == "GYRO" ? gyro : mag;
-      if (!series.empty() && !(s.sensor_t > series.back().sensor_t)) {
-        return f.Error(type + " SensorTimestamp does not increase");
-      }
-      series.push_back(s);
-      if (type == "ACCE") acc_app_t.push_back(app_t);
+      WG_RETURN_IF_ERROR(ReadInertialLine(f, dropped, &log));
     } else if (type == "POSI") {
-      // 2023 logs: POSI;AppTS;counter;lat;lon;floor;building. Technical annex: no counter.
-      WG_RETURN_IF_ERROR(f.ExpectCount(7, 6));
-      const size_t k = f.size() == 7 ? 3 : 2;
-      Posi p;
-      WG_ASSIGN_OR_RETURN(p.t_s, f.Number(1));
-      WG_ASSIGN_OR_RETURN(p.lat_deg, f.Number(k));
-      WG_ASSIGN_OR_RETURN(p.lon_deg, f.Number(k + 1));
-      WG_ASSIGN_OR_RETURN(const long long floor, f.Integer(k + 2));
-      WG_RETURN_IF_ERROR(f.Integer(k + 3).status());
-      p.floor = static_cast<int>(floor);
-      if (std::fabs(p.lat_deg) > 90.0 || std::fabs(p.lon_deg) > 180.0) {
-        return f.Error("latitude/longitude out of range");
-      }
-      if (!posi.empty() && !(p.t_s > posi.back().t_s)) {
-        return f.Error("POSI timestamp does not increase");
-      }
-      posi.push_back(p);
+      WG_RETURN_IF_ERROR(ReadPosiLine(f, &log));
     } else if (type == "BLE4") {
-      if (f.size() >= 3 && f.field(2) != "iBeacon") {
-        ++non_ibeacon;  // Eddystone frames carry no Minor; none in the 2023 logs
-        continue;
-      }
-      WG_RETURN_IF_ERROR(f.ExpectCount(9));
-      WG_ASSIGN_OR_RETURN(const double t, f.Number(1));
-      WG_ASSIGN_OR_RETURN(const double value, f.Number(4));
-      WG_ASSIGN_OR_RETURN(const long long minor, f.Integer(7));
-      const int id = IpinMinorToBleId(static_cast<int>(minor));
-      if (id < 0 || beacon_by_id.count(id) == 0) {
-        return f.Error("iBeacon Minor " + std::to_string(minor) +
-                       " is not one of the deployed beacons in " + locations);
-      }
-      const std::string& mac = f.field(3);
-      const std::string expected_mac = "BE:AC:20:23:00:0" + std::to_string(minor);
-      if (mac != expected_mac) {
-        return f.Error("MAC '" + mac + "' with Minor " + std::to_string(minor) + "; expected " +
-                       expected_mac);
-      }
-      bool drop = false;
-      WG_RETURN_IF_ERROR(dropped.Check(
-          "rss", f.Where(), internal::CheckRss({t, id, value}, RssUnits::kDbm, {}), &drop));
-      if (drop) continue;
-      if (!rss.empty() && t < rss.back().t_s) return f.Error("BLE4 AppTimestamp goes backwards");
-      if (!rss_seen.insert({t, id}).second) {
-        ++rss_duplicates;
-        continue;
-      }
-      rss.push_back({t, id, value});
+      WG_RETURN_IF_ERROR(ReadBle4Line(f, beacons, locations, dropped, &rss_column, &log));
     } else if (type == "PRES") {
-      // PRES;AppTimestamp;SensorTimestamp;pressure(hPa);accuracy — on the app clock.
-      WG_RETURN_IF_ERROR(f.ExpectCount(5));
-      PressureSample p;
-      WG_ASSIGN_OR_RETURN(p.t_s, f.Number(1));
-      WG_ASSIGN_OR_RETURN(p.hpa, f.Number(3));
-      if (!(p.hpa >= 300.0 && p.hpa <= 1100.0)) {
-        return f.Error("pressure outside [300, 1100] hPa");
-      }
-      if (!pressure.empty() && !(p.t_s > pressure.back().t_s)) {
-        ++pressure_repeats;  // a repeated AppTimestamp: the first reading kept
-        continue;
-      }
-      pressure.push_back(p);
+      WG_RETURN_IF_ERROR(ReadPresLine(f, &log));
     }
     // Other record types (AHRS, WIFI, GNSS, LIGH, SOUN, PROX, ...) are not used.
   }
-  if (posi.empty()) return InvalidArgument(log_path + ": no POSI lines (no ground truth)");
-  if (acc.size() < 2 || gyro.size() < 2) {
+  WG_RETURN_IF_ERROR(rss_column.Check(
+      "BLE4;AppTimestamp;iBeacon;MAC;RSS;TxPower;Major;Minor;UUID (technical annex)"));
+  if (log.posi.empty()) return InvalidArgument(log_path + ": no POSI lines (no ground truth)");
+  if (log.acc.size() < 2 || log.gyro.size() < 2) {
     return InvalidArgument(log_path + ": fewer than two ACCE or GYRO lines");
   }
+  return log;
+}
 
-  Walk walk;
-  walk.meta.name = internal::ToValidUtf8(fs::path(log_path).stem().string());
-  walk.meta.source =
-      "IPIN 2023 competition Track 3 (Torres-Sospedra et al., Zenodo 10.5281/zenodo.8362205), "
-      "GetSensorData log " +
-      fs::path(log_path).filename().string();
-  walk.meta.licence = "none stated by the organisers (cite; do not redistribute)";
-  walk.meta.imu_placement = ImuPlacement::kHandheld;
-  walk.meta.truth_kind = TruthKind::kCheckpoints;
-  walk.meta.radio.kind = RadioKind::kRss;
-  walk.meta.radio.units = RssUnits::kDbm;
-
-  const LocalTangentPlane plane(posi.front().lat_deg, posi.front().lon_deg);
-  walk.meta.extra["ipin.origin_lat_deg"] = posi.front().lat_deg;
-  walk.meta.extra["ipin.origin_lon_deg"] = posi.front().lon_deg;
-  for (const Beacon& b : beacons) {
-    const Eigen::Vector2d en = plane.EastNorth(b.lat_deg, b.lon_deg);
-    walk.anchors.push_back({b.id, Eigen::Vector3d(en.x(), en.y(), 0.0), b.floor});
+// The IMU stream: each ACCE sample inside the GYRO (and MAGN) span, with the gyro (and
+// magnetometer) interpolated at its time, on the app clock (see convert.h).
+Status BuildImu(const IpinLog& log, const std::string& log_path, Walk* walk) {
+  // Sensor clock → app clock.
+  double offset = log.acc_app_t[0] - log.acc[0].sensor_t;
+  for (size_t i = 0; i < log.acc.size(); ++i) {
+    offset = std::min(offset, log.acc_app_t[i] - log.acc[i].sensor_t);
   }
-  for (size_t k = 0; k < posi.size(); ++k) {
-    TruthSample s;
-    s.t_s = posi[k].t_s;
-    const Eigen::Vector2d en = plane.EastNorth(posi[k].lat_deg, posi[k].lon_deg);
-    s.position_m = Eigen::Vector3d(en.x(), en.y(), 0.0);
-    s.floor = posi[k].floor;
-    walk.truth.push_back(s);
-  }
-
-  // Sensor clock → app clock (see convert.h).
-  double offset = acc_app_t[0] - acc[0].sensor_t;
-  for (size_t i = 0; i < acc.size(); ++i) offset = std::min(offset, acc_app_t[i] - acc[i].sensor_t);
   // The common span of the three inertial streams (a magnetometer that is absent or has
   // fewer than two lines is left out).
-  const bool use_mag = mag.size() >= 2;
-  double lo = gyro.front().sensor_t, hi = gyro.back().sensor_t;
+  const bool use_mag = log.mag.size() >= 2;
+  double lo = log.gyro.front().sensor_t, hi = log.gyro.back().sensor_t;
   if (use_mag) {
-    lo = std::max(lo, mag.front().sensor_t);
-    hi = std::min(hi, mag.back().sensor_t);
+    lo = std::max(lo, log.mag.front().sensor_t);
+    hi = std::min(hi, log.mag.back().sensor_t);
   }
   int outside = 0;
-  for (const Vec3Stamped& a : acc) {
+  for (const Vec3Stamped& a : log.acc) {
     if (a.sensor_t < lo || a.sensor_t > hi || a.sensor_t + offset < 0.0) {
       ++outside;
       continue;
@@ -309,56 +345,113 @@ StatusOr<Walk> ConvertIpin(const std::string& log_path, const std::string& ble_l
     ImuSample s;
     s.t_s = a.sensor_t + offset;
     s.acc_mps2 = a.v;
-    s.gyro_radps = Interpolate(gyro, a.sensor_t);
+    s.gyro_radps = Interpolate(log.gyro, a.sensor_t);
     if (use_mag) {
       s.has_mag = true;
-      s.mag_ut = Interpolate(mag, a.sensor_t);
+      s.mag_ut = Interpolate(log.mag, a.sensor_t);
     }
-    walk.imu.push_back(s);
+    walk->imu.push_back(s);
   }
-  if (walk.imu.empty())
+  if (walk->imu.empty()) {
     return InvalidArgument(log_path + ": no ACCE line inside the GYRO/MAGN span");
-  walk.meta.extra["convert.imu_sensor_to_app_offset_s"] = offset;
-  walk.meta.extra["convert.imu_samples_outside_span"] = outside;
-  walk.meta.extra["convert.gyro_lines"] = static_cast<double>(gyro.size());
-  walk.meta.extra["convert.magn_lines"] = static_cast<double>(mag.size());
-  walk.meta.extra["convert.ble_duplicates_dropped"] = rss_duplicates;
-  walk.meta.extra["convert.ble_non_ibeacon_skipped"] = non_ibeacon;
-  walk.rss = std::move(rss);
-  walk.pressure = std::move(pressure);
-  walk.meta.extra["convert.pres_repeated_timestamps_dropped"] = pressure_repeats;
-  if (options.known_start) {
-    if (!(options.known_start_sigma_m > 0.0) || !std::isfinite(options.known_start_sigma_m)) {
-      return InvalidArgument("ipin: the known start's sigma must be finite and > 0");
-    }
-    // The first landmark is the frame's origin; the recording before it is dropped.
-    const double t0 = walk.truth.front().t_s;
-    const auto imu_end = std::find_if(walk.imu.begin(), walk.imu.end(),
-                                      [t0](const ImuSample& s) { return s.t_s >= t0; });
-    const auto rss_end = std::find_if(walk.rss.begin(), walk.rss.end(),
-                                      [t0](const RssSample& s) { return s.t_s >= t0; });
-    walk.meta.extra["convert.imu_samples_before_start_dropped"] =
-        static_cast<double>(imu_end - walk.imu.begin());
-    walk.meta.extra["convert.ble_before_start_dropped"] =
-        static_cast<double>(rss_end - walk.rss.begin());
-    const auto pressure_end = std::find_if(walk.pressure.begin(), walk.pressure.end(),
-                                           [t0](const PressureSample& s) { return s.t_s >= t0; });
-    walk.imu.erase(walk.imu.begin(), imu_end);
-    walk.rss.erase(walk.rss.begin(), rss_end);
-    walk.pressure.erase(walk.pressure.begin(), pressure_end);
-    if (walk.imu.size() < 2) {
-      return InvalidArgument(log_path + ": fewer than two IMU samples after the first POSI");
-    }
-    InitialPose start;
-    start.x_m = walk.truth.front().position_m.x();
-    start.y_m = walk.truth.front().position_m.y();
-    start.sigma_xy_m = options.known_start_sigma_m;
-    start.heading_known = false;
-    start.heading_rad = 0.0;
-    start.sigma_heading_rad = kUnknownHeadingSigmaRad;
-    start.floor = walk.truth.front().floor;
-    walk.meta.initial_pose = start;
   }
+  walk->meta.extra["convert.imu_sensor_to_app_offset_s"] = offset;
+  walk->meta.extra["convert.imu_samples_outside_span"] = outside;
+  walk->meta.extra["convert.gyro_lines"] = static_cast<double>(log.gyro.size());
+  walk->meta.extra["convert.magn_lines"] = static_cast<double>(log.mag.size());
+  return Status::Ok();
+}
+
+// --known-start: the first landmark is the frame's origin and the start (heading unknown); the
+// recording before it is dropped.
+Status ApplyKnownStart(const ConvertOptions& options, const std::string& log_path, Walk* walk) {
+  if (!(options.known_start_sigma_m > 0.0) || !std::isfinite(options.known_start_sigma_m)) {
+    return InvalidArgument("ipin: the known start's sigma must be finite and > 0");
+  }
+  const double t0 = walk->truth.front().t_s;
+  const auto imu_end = std::find_if(walk->imu.begin(), walk->imu.end(),
+                                    [t0](const ImuSample& s) { return s.t_s >= t0; });
+  const auto rss_end = std::find_if(walk->rss.begin(), walk->rss.end(),
+                                    [t0](const RssSample& s) { return s.t_s >= t0; });
+  walk->meta.extra["convert.imu_samples_before_start_dropped"] =
+      static_cast<double>(imu_end - walk->imu.begin());
+  walk->meta.extra["convert.ble_before_start_dropped"] =
+      static_cast<double>(rss_end - walk->rss.begin());
+  const auto pressure_end = std::find_if(walk->pressure.begin(), walk->pressure.end(),
+                                         [t0](const PressureSample& s) { return s.t_s >= t0; });
+  walk->imu.erase(walk->imu.begin(), imu_end);
+  walk->rss.erase(walk->rss.begin(), rss_end);
+  walk->pressure.erase(walk->pressure.begin(), pressure_end);
+  if (walk->imu.size() < 2) {
+    return InvalidArgument(log_path + ": fewer than two IMU samples after the first POSI");
+  }
+  InitialPose start;
+  start.x_m = walk->truth.front().position_m.x();
+  start.y_m = walk->truth.front().position_m.y();
+  start.sigma_xy_m = options.known_start_sigma_m;
+  start.heading_known = false;
+  start.heading_rad = 0.0;
+  start.sigma_heading_rad = kUnknownHeadingSigmaRad;
+  start.floor = walk->truth.front().floor;
+  walk->meta.initial_pose = start;
+  return Status::Ok();
+}
+
+// walk.yaml's description of an IPIN walk, the beacons and landmarks in the local frame whose
+// origin is the first landmark.
+void DescribeAndPlace(const std::string& log_path, const std::vector<Beacon>& beacons,
+                      const std::vector<Posi>& posi, Walk* walk) {
+  walk->meta.name = internal::ToValidUtf8(fs::path(log_path).stem().string());
+  walk->meta.source =
+      "IPIN 2023 competition Track 3 (Torres-Sospedra et al., Zenodo 10.5281/zenodo.8362205), "
+      "GetSensorData log " +
+      fs::path(log_path).filename().string();
+  walk->meta.licence = "none stated by the organisers (cite; do not redistribute)";
+  walk->meta.imu_placement = ImuPlacement::kHandheld;
+  walk->meta.truth_kind = TruthKind::kCheckpoints;
+  walk->meta.radio.kind = RadioKind::kRss;
+  walk->meta.radio.units = RssUnits::kDbm;
+  const LocalTangentPlane plane(posi.front().lat_deg, posi.front().lon_deg);
+  walk->meta.extra["ipin.origin_lat_deg"] = posi.front().lat_deg;
+  walk->meta.extra["ipin.origin_lon_deg"] = posi.front().lon_deg;
+  for (const Beacon& b : beacons) {
+    const Eigen::Vector2d en = plane.EastNorth(b.lat_deg, b.lon_deg);
+    walk->anchors.push_back({b.id, Eigen::Vector3d(en.x(), en.y(), 0.0), b.floor});
+  }
+  for (const Posi& p : posi) {
+    TruthSample s;
+    s.t_s = p.t_s;
+    const Eigen::Vector2d en = plane.EastNorth(p.lat_deg, p.lon_deg);
+    s.position_m = Eigen::Vector3d(en.x(), en.y(), 0.0);
+    s.floor = p.floor;
+    walk->truth.push_back(s);
+  }
+}
+
+}  // namespace
+
+StatusOr<Walk> ConvertIpin(const std::string& log_path, const std::string& ble_locations_csv,
+                           const ConvertOptions& options, std::vector<std::string>* warnings) {
+  internal::DroppedReadings dropped(options.strict);
+  std::string locations = ble_locations_csv;
+  if (locations.empty()) {
+    locations = (fs::path(log_path).parent_path() / "BLE_Locations.csv").string();
+  }
+  WG_ASSIGN_OR_RETURN(const std::vector<Beacon> beacons, ReadBleLocations(locations));
+  std::map<int, const Beacon*> beacon_by_id;
+  for (const Beacon& b : beacons) beacon_by_id[b.id] = &b;
+  WG_ASSIGN_OR_RETURN(IpinLog log, ReadIpinLog(log_path, beacon_by_id, locations, &dropped));
+  WG_RETURN_IF_ERROR(CheckBeaconsNearTheWalk(beacons, locations, log_path, log.posi.front().lat_deg,
+                                             log.posi.front().lon_deg));
+  Walk walk;
+  DescribeAndPlace(log_path, beacons, log.posi, &walk);
+  WG_RETURN_IF_ERROR(BuildImu(log, log_path, &walk));
+  walk.meta.extra["convert.ble_duplicates_dropped"] = log.rss_duplicates;
+  walk.meta.extra["convert.ble_non_ibeacon_skipped"] = log.non_ibeacon;
+  walk.rss = std::move(log.rss);
+  walk.pressure = std::move(log.pressure);
+  walk.meta.extra["convert.pres_repeated_timestamps_dropped"] = log.pressure_repeats;
+  if (options.known_start) WG_RETURN_IF_ERROR(ApplyKnownStart(options, log_path, &walk));
   dropped.Report(&walk.meta, warnings);
   // A slice of a log may hold no BLE reading: then the walk declares no radio.
   if (walk.rss.empty()) walk.meta.radio.kind = RadioKind::kNone;

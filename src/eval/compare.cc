@@ -136,6 +136,8 @@ StatusOr<Comparison> CompareOnWalk(const Walk& walk, const CompareOptions& optio
   c.score_from_s = options.score_from_s;
   c.anchors = walk.anchors;
   c.truth = walk.truth;
+  c.warnings = PlausibilityWarnings(walk);
+  c.warning_count = static_cast<int>(c.warnings.size());
   if (options.compact) {
     c.truth_tum = std::make_shared<internal::TextSpill>();
     c.truth_tum->Append([&](std::ostream& out) { FormatTruthTum(walk.truth, out); });
@@ -146,6 +148,9 @@ StatusOr<Comparison> CompareOnWalk(const Walk& walk, const CompareOptions& optio
     c.errors_csv_rows = std::make_shared<internal::TextSpill>();
   }
   const double distance = walk.TruthDistance();
+  const int total = static_cast<int>(ids.size());
+  int done = 0;
+  if (options.progress) options.progress(0.0, total);
   for (const std::string& id : ids) {
     auto it = options.configs.find(id);
     const YAML::Node config = it != options.configs.end() ? it->second.node() : YAML::Node();
@@ -158,12 +163,18 @@ StatusOr<Comparison> CompareOnWalk(const Walk& walk, const CompareOptions& optio
     const Status applicable = est->CheckApplicable(walk);
     if (!applicable.ok()) {
       if (explicit_list) return FailedPrecondition(id + ": " + applicable.message());
+      if (options.progress) options.progress(++done, total);
       continue;
     }
     EstimatorOutcome o;
     o.id = id;
     const auto start = std::chrono::steady_clock::now();
+    std::optional<ScopedEstimatorProgress> inside;
+    if (options.progress) {
+      inside.emplace([&](double fraction) { options.progress(done + fraction, total); });
+    }
     StatusOr<EstimateResult> r = est->Run(walk);
+    inside.reset();
     o.runtime_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     if (!r.ok()) {
       o.status = r.status();
@@ -188,6 +199,7 @@ StatusOr<Comparison> CompareOnWalk(const Walk& walk, const CompareOptions& optio
       }
     }
     c.outcomes.push_back(std::move(o));
+    if (options.progress) options.progress(++done, total);
   }
   if (c.outcomes.empty()) {
     return FailedPrecondition("no estimator is applicable to walk '" + walk.meta.name + "'");
@@ -476,6 +488,7 @@ nlohmann::ordered_json ResultsJson(const Comparison& c, nlohmann::ordered_json* 
   j["pcrb_filter_rmse_m"] =
       c.pcrb_filter_rmse_m ? nlohmann::ordered_json(*c.pcrb_filter_rmse_m) : nullptr;
   if (!c.pcrb_note.empty()) j["pcrb_note"] = c.pcrb_note;
+  j["warnings"] = {{"count", c.warning_count}, {"messages", nlohmann::ordered_json(c.warnings)}};
   return j;
 }
 

@@ -121,6 +121,11 @@ void RunAggregator::Add(Comparison run) {
     st.out.anchors = std::move(run.anchors);
     st.out.truth = std::move(run.truth);
   }
+  st.out.warning_count += run.warning_count;
+  for (const std::string& w : run.warnings) {
+    if (st.out.warnings.size() >= static_cast<size_t>(kMaxWarningMessages)) break;
+    st.out.warnings.push_back("run " + std::to_string(r) + ": " + w);
+  }
   std::vector<bool> seen(st.estimators.size(), false);
   for (EstimatorOutcome& o : run.outcomes) {
     EstimatorAggregate& e = st.Find(o.id);
@@ -248,7 +253,8 @@ Status RunShare(const RunGenerator& generate, const CompareOptions& options,
   // run being waited for never waits itself: it has already started).
   const int window = 2 * threads + 2;
   CompareOptions run_options = options;
-  run_options.compact = false;  // the aggregator keeps one run's outcomes and drops the rest
+  run_options.compact = false;     // the aggregator keeps one run's outcomes and drops the rest
+  run_options.progress = nullptr;  // runs are counted by mc.progress
   std::mutex mutex;
   std::condition_variable drained;
   std::map<int, Comparison> pending;  // by position in the share

@@ -220,6 +220,9 @@ void PutWalkPart(PartWriter& w, const Comparison& c) {
     w.Int(t.has_z ? 1 : 0);
     PutOptInt(w, t.floor);
   }
+  w.Int(c.warning_count);
+  w.Int(static_cast<long long>(c.warnings.size()));
+  for (const std::string& message : c.warnings) w.String(message);
   w.Line();
 }
 
@@ -240,6 +243,9 @@ void GetWalkPart(PartReader& r, Comparison* c) {
     t.has_z = r.Int(0, 1) == 1;
     t.floor = GetOptInt(r);
   }
+  c->warning_count = static_cast<int>(r.Int(0, INT32_MAX));
+  c->warnings.resize(r.ok() ? r.Count() : 0);
+  for (std::string& message : c->warnings) message = r.String();
 }
 
 // Whether an outcome counts in the figures (RunAggregator keeps the first such run whole).

@@ -220,10 +220,141 @@ Status ParseValues(const Parser& p, const YAML::Node& node, const std::string& w
   return Status::Ok();
 }
 
+// The manifest's top-level settings, each sweep's default.
+struct SweepDefaults {
+  std::vector<std::string> ids;
+  int runs = 1;
+  uint64_t seed = 0;
+  std::string metric;
+  double score_from_s = 0.0;
+};
+
+// A sweep's data: a simulated scenario (with its overrides) or a recorded walk.
+Status ParseSweepData(const Parser& p, const YAML::Node& node, const std::string& what,
+                      StudySweep* s) {
+  if (!node["scenario"] == !node["walk"]) {
+    return p.Error(node, what + ": give exactly one of 'scenario' or 'walk'");
+  }
+  if (node["scenario"]) {
+    WG_ASSIGN_OR_RETURN(s->scenario, p.String(node["scenario"], "scenario"));
+    std::vector<std::string> names;
+    for (const ScenarioInfo& info : Scenarios()) names.push_back(info.name);
+    if (std::find(names.begin(), names.end(), s->scenario) == names.end()) {
+      return p.Error(node["scenario"], "unknown scenario " + internal::Quoted(s->scenario) +
+                                           "; known: " + Join(names));
+    }
+    if (node["overrides"]) {
+      if (!node["overrides"].IsMap()) {
+        return p.Error(node["overrides"], what + ": overrides must be a map of simulator options");
+      }
+      s->overrides = node["overrides"];
+    }
+    return Status::Ok();
+  }
+  WG_ASSIGN_OR_RETURN(std::string walk, p.String(node["walk"], "walk"));
+  fs::path dir(walk);
+  if (dir.is_relative()) dir = fs::path(p.path()).parent_path() / dir;
+  std::error_code ec;
+  if (!fs::is_directory(dir, ec)) {
+    return p.Error(node["walk"], what + ": walk folder " + dir.string() + " does not exist");
+  }
+  s->walk_dir = dir.string();
+  if (node["overrides"] || node["scenario_override"]) {
+    return p.Error(node["overrides"] ? node["overrides"] : node["scenario_override"],
+                   what + ": a recorded walk has no simulator overrides");
+  }
+  if (node["runs"]) {
+    WG_ASSIGN_OR_RETURN(int runs, p.Runs(node["runs"]));
+    if (runs != 1) return p.Error(node["runs"], what + ": a recorded walk is one run");
+  }
+  return Status::Ok();
+}
+
+// A sweep's estimators, runs, seed, metric and score_from_s (the top level's where not given).
+Status ParseSweepSettings(const Parser& p, const YAML::Node& node, const std::string& what,
+                          const SweepDefaults& top, const EstimatorRegistry& registry,
+                          StudySweep* s) {
+  if (node["estimators"]) {
+    WG_ASSIGN_OR_RETURN(s->estimators, p.EstimatorList(node["estimators"], registry));
+  } else if (!top.ids.empty()) {
+    s->estimators = top.ids;
+  } else {
+    return p.Error(node, what + ": no estimators (give 'estimators' here or at the top)");
+  }
+  s->runs = top.runs;
+  if (node["runs"]) {
+    WG_ASSIGN_OR_RETURN(s->runs, p.Runs(node["runs"]));
+  }
+  if (!s->walk_dir.empty()) s->runs = 1;
+  s->seed = top.seed;
+  if (node["seed"]) {
+    WG_ASSIGN_OR_RETURN(s->seed, p.Seed(node["seed"], "seed"));
+  }
+  s->metric = top.metric;
+  if (node["metric"]) {
+    WG_ASSIGN_OR_RETURN(s->metric, p.Metric(node["metric"]));
+  }
+  s->score_from_s = top.score_from_s;
+  if (node["score_from_s"]) {
+    WG_ASSIGN_OR_RETURN(s->score_from_s, p.NonNegative(node["score_from_s"], "score_from_s"));
+  }
+  return Status::Ok();
+}
+
+// estimator_option as {estimator id: option key}: the keys by estimator; the default label
+// joins the distinct keys.
+Status ParseOptionKeyMap(const Parser& p, const YAML::Node& opt, const std::string& what,
+                         StudySweep* s, std::string* default_label) {
+  std::vector<std::string> keys;
+  for (const auto& kv : opt) {
+    WG_ASSIGN_OR_RETURN(std::string id, p.String(kv.first, "estimator id"));
+    if (std::find(s->estimators.begin(), s->estimators.end(), id) == s->estimators.end()) {
+      return p.Error(kv.first, what + ": estimator '" + id + "' is not in the sweep's list (" +
+                                   Join(s->estimators) + ")");
+    }
+    WG_ASSIGN_OR_RETURN(std::string key, p.String(kv.second, "option key of " + id));
+    s->option_keys[id] = key;
+    if (std::find(keys.begin(), keys.end(), key) == keys.end()) keys.push_back(key);
+  }
+  for (const std::string& k : keys) *default_label += (default_label->empty() ? "" : " / ") + k;
+  return Status::Ok();
+}
+
+// What a sweep varies: a simulator override or an estimator option (one key for every
+// estimator, or one per estimator); the label defaults to it.
+Status ParseSweptParameter(const Parser& p, const YAML::Node& node, const std::string& what,
+                           StudySweep* s) {
+  if (!node["scenario_override"] == !node["estimator_option"]) {
+    return p.Error(node, what + ": give exactly one of 'scenario_override' or 'estimator_option'");
+  }
+  std::string default_label;
+  if (node["scenario_override"]) {
+    WG_ASSIGN_OR_RETURN(s->scenario_override,
+                        p.String(node["scenario_override"], "scenario_override"));
+    const YAML::Node& base = s->overrides.node();  // const: a lookup must not add the key
+    if (base.IsDefined() && base[s->scenario_override]) {
+      return p.Error(node["scenario_override"],
+                     what + ": '" + s->scenario_override + "' is both swept and in overrides");
+    }
+    default_label = s->scenario_override;
+  } else {
+    const YAML::Node opt = node["estimator_option"];
+    if (opt.IsScalar()) {
+      WG_ASSIGN_OR_RETURN(std::string key, p.String(opt, "estimator_option"));
+      for (const std::string& id : s->estimators) s->option_keys[id] = key;
+      default_label = key;
+    } else if (opt.IsMap() && opt.size() > 0) {
+      WG_RETURN_IF_ERROR(ParseOptionKeyMap(p, opt, what, s, &default_label));
+    } else {
+      return p.Error(opt, what + ": estimator_option must be an option key or {estimator: key}");
+    }
+  }
+  if (s->label.empty()) s->label = default_label;
+  return Status::Ok();
+}
+
 StatusOr<StudySweep> ParseSweep(const Parser& p, const YAML::Node& node, const StudyManifest& m,
-                                const std::vector<std::string>& top_ids, int top_runs,
-                                uint64_t top_seed, const std::string& top_metric,
-                                double top_score_from_s, const EstimatorRegistry& registry) {
+                                const SweepDefaults& top, const EstimatorRegistry& registry) {
   StudySweep s;
   s.line = p.Line(node);
   if (!node.IsMap()) return p.Error(node, "each sweep must be a map");
@@ -244,105 +375,9 @@ StatusOr<StudySweep> ParseSweep(const Parser& p, const YAML::Node& node, const S
   if (node["label"]) {
     WG_ASSIGN_OR_RETURN(s.label, p.String(node["label"], "label"));
   }
-  // Data.
-  if (!node["scenario"] == !node["walk"]) {
-    return p.Error(node, what + ": give exactly one of 'scenario' or 'walk'");
-  }
-  if (node["scenario"]) {
-    WG_ASSIGN_OR_RETURN(s.scenario, p.String(node["scenario"], "scenario"));
-    std::vector<std::string> names;
-    for (const ScenarioInfo& info : Scenarios()) names.push_back(info.name);
-    if (std::find(names.begin(), names.end(), s.scenario) == names.end()) {
-      return p.Error(node["scenario"], "unknown scenario " + internal::Quoted(s.scenario) +
-                                           "; known: " + Join(names));
-    }
-    if (node["overrides"]) {
-      if (!node["overrides"].IsMap()) {
-        return p.Error(node["overrides"], what + ": overrides must be a map of simulator options");
-      }
-      s.overrides = node["overrides"];
-    }
-  } else {
-    WG_ASSIGN_OR_RETURN(std::string walk, p.String(node["walk"], "walk"));
-    fs::path dir(walk);
-    if (dir.is_relative()) dir = fs::path(p.path()).parent_path() / dir;
-    std::error_code ec;
-    if (!fs::is_directory(dir, ec)) {
-      return p.Error(node["walk"], what + ": walk folder " + dir.string() + " does not exist");
-    }
-    s.walk_dir = dir.string();
-    if (node["overrides"] || node["scenario_override"]) {
-      return p.Error(node["overrides"] ? node["overrides"] : node["scenario_override"],
-                     what + ": a recorded walk has no simulator overrides");
-    }
-    if (node["runs"]) {
-      WG_ASSIGN_OR_RETURN(int runs, p.Runs(node["runs"]));
-      if (runs != 1) return p.Error(node["runs"], what + ": a recorded walk is one run");
-    }
-  }
-  // Estimators, runs, seed, metric.
-  if (node["estimators"]) {
-    WG_ASSIGN_OR_RETURN(s.estimators, p.EstimatorList(node["estimators"], registry));
-  } else if (!top_ids.empty()) {
-    s.estimators = top_ids;
-  } else {
-    return p.Error(node, what + ": no estimators (give 'estimators' here or at the top)");
-  }
-  s.runs = top_runs;
-  if (node["runs"]) {
-    WG_ASSIGN_OR_RETURN(s.runs, p.Runs(node["runs"]));
-  }
-  if (!s.walk_dir.empty()) s.runs = 1;
-  s.seed = top_seed;
-  if (node["seed"]) {
-    WG_ASSIGN_OR_RETURN(s.seed, p.Seed(node["seed"], "seed"));
-  }
-  s.metric = top_metric;
-  if (node["metric"]) {
-    WG_ASSIGN_OR_RETURN(s.metric, p.Metric(node["metric"]));
-  }
-  s.score_from_s = top_score_from_s;
-  if (node["score_from_s"]) {
-    WG_ASSIGN_OR_RETURN(s.score_from_s, p.NonNegative(node["score_from_s"], "score_from_s"));
-  }
-  // What varies.
-  if (!node["scenario_override"] == !node["estimator_option"]) {
-    return p.Error(node, what + ": give exactly one of 'scenario_override' or 'estimator_option'");
-  }
-  std::string default_label;
-  if (node["scenario_override"]) {
-    WG_ASSIGN_OR_RETURN(s.scenario_override,
-                        p.String(node["scenario_override"], "scenario_override"));
-    const YAML::Node& base = s.overrides.node();  // const: a lookup must not add the key
-    if (base.IsDefined() && base[s.scenario_override]) {
-      return p.Error(node["scenario_override"],
-                     what + ": '" + s.scenario_override + "' is both swept and in overrides");
-    }
-    default_label = s.scenario_override;
-  } else {
-    const YAML::Node opt = node["estimator_option"];
-    if (opt.IsScalar()) {
-      WG_ASSIGN_OR_RETURN(std::string key, p.String(opt, "estimator_option"));
-      for (const std::string& id : s.estimators) s.option_keys[id] = key;
-      default_label = key;
-    } else if (opt.IsMap() && opt.size() > 0) {
-      std::vector<std::string> keys;
-      for (const auto& kv : opt) {
-        WG_ASSIGN_OR_RETURN(std::string id, p.String(kv.first, "estimator id"));
-        if (std::find(s.estimators.begin(), s.estimators.end(), id) == s.estimators.end()) {
-          return p.Error(kv.first, what + ": estimator '" + id + "' is not in the sweep's list (" +
-                                       Join(s.estimators) + ")");
-        }
-        WG_ASSIGN_OR_RETURN(std::string key, p.String(kv.second, "option key of " + id));
-        s.option_keys[id] = key;
-        if (std::find(keys.begin(), keys.end(), key) == keys.end()) keys.push_back(key);
-      }
-      for (const std::string& k : keys) default_label += (default_label.empty() ? "" : " / ") + k;
-    } else {
-      return p.Error(opt, what + ": estimator_option must be an option key or {estimator: key}");
-    }
-  }
-  if (s.label.empty()) s.label = default_label;
+  WG_RETURN_IF_ERROR(ParseSweepData(p, node, what, &s));
+  WG_RETURN_IF_ERROR(ParseSweepSettings(p, node, what, top, registry, &s));
+  WG_RETURN_IF_ERROR(ParseSweptParameter(p, node, what, &s));
   WG_RETURN_IF_ERROR(ParseValues(p, node, what, &s));
   // Every cell's estimator configuration must be accepted by its estimator.
   for (size_t i = 0; i < s.values.size(); ++i) {
@@ -426,7 +461,7 @@ StatusOr<StudyManifest> ParseManifestRoot(const YAML::Node& root, const std::str
   std::set<std::string> names;
   for (const YAML::Node& node : sweeps) {
     WG_ASSIGN_OR_RETURN(StudySweep s,
-                        ParseSweep(p, node, m, ids, runs, seed, metric, score_from_s, registry));
+                        ParseSweep(p, node, m, {ids, runs, seed, metric, score_from_s}, registry));
     if (!names.insert(s.name).second) {
       return p.Error(node["name"], "sweep name '" + s.name + "' used twice");
     }

@@ -35,6 +35,29 @@ std::string CheckRange(const RangeSample& s, const ValidationLimits& lim) {
   return "";
 }
 
+std::string CheckBleRss(double rss_dbm) {
+  if (rss_dbm < 0.0) return "";
+  return "BLE rss " + Num(rss_dbm) +
+         " dBm is not below 0 dBm (a Bluetooth LE reading is negative; 0 means unknown)";
+}
+
+void ColumnCheck::Add(bool ok, const std::string& where, const std::string& value) {
+  ++lines_;
+  if (ok) return;
+  if (failed_++ == 0) {
+    first_where_ = where;
+    first_value_ = value;
+  }
+}
+
+Status ColumnCheck::Check(const std::string& layout) const {
+  if (2 * failed_ <= lines_) return Status::Ok();
+  return InvalidArgument(first_where_ + column_ + " is " + first_value_ + ", not " + expected_ +
+                         ", in " + std::to_string(failed_) + " of " + std::to_string(lines_) +
+                         " lines (the first here); expected " + expected_ +
+                         " in every line (two columns swapped? the lines are " + layout + ")");
+}
+
 namespace {
 
 // "name v outside [lo, hi] unit" when v is not in [lo, hi] (NaN included), else "".
@@ -65,6 +88,7 @@ std::string CheckRadioDefaults(const RadioDefaults& r, const ValidationLimits& l
 }
 
 std::string CheckInitialPose(const InitialPose& p, const ValidationLimits& lim) {
+  // 10^7 m by default, not less: UTM northings reach it (see ValidationLimits).
   const double c = lim.max_abs_coordinate_m, two_pi = 6.283185307179586;
   std::string e = Outside("x_m", p.x_m, -c, c, "m");
   if (e.empty()) e = Outside("y_m", p.y_m, -c, c, "m");
@@ -180,6 +204,84 @@ std::string CheckStreamSpans(const Walk& w, bool files) {
   }
   return "";
 }
+
+namespace {
+
+std::string ImuGapWarning(const Walk& w) {
+  const std::vector<ImuGap> gaps = w.ImuGaps();
+  if (gaps.empty()) return "";
+  const auto longest = std::max_element(
+      gaps.begin(), gaps.end(),
+      [](const ImuGap& a, const ImuGap& b) { return a.duration_s() < b.duration_s(); });
+  return "imu.csv: " + std::to_string(gaps.size()) + " gap(s) longer than " + Num(kImuGapFactor) +
+         "x the median sample interval; the longest " + Num(longest->duration_s()) +
+         " s after t = " + Num(longest->t_begin_s) + " s (bridged, not integrated across)";
+}
+
+// The radio's span covered by the IMU's, when they overlap (disjoint spans are an error:
+// CheckStreamSpans) for less than half of the radio's, leaving over 10 s without the IMU.
+std::string CoverageWarning(const Walk& w) {
+  const auto imu = SpanOf(w.imu, "imu", "imu.csv");
+  for (const auto& radio :
+       {SpanOf(w.rss, "rss", "rss.csv"), SpanOf(w.ranges, "range", "range.csv")}) {
+    if (!imu || !radio || !(radio->last > radio->first)) continue;
+    const double common = std::min(imu->last, radio->last) - std::max(imu->first, radio->first);
+    const double share = common / (radio->last - radio->first);
+    const double uncovered = radio->last - radio->first - common;
+    if (share >= 0.5 || common < 0.0 || uncovered < 10.0) continue;
+    return std::string("imu.csv spans [") + Num(imu->first) + ", " + Num(imu->last) + "] s and " +
+           radio->file + " [" + Num(radio->first) + ", " + Num(radio->last) +
+           "] s: the IMU covers " + Num(std::round(share * 1000) / 10) +
+           "% of the radio's span; expected both recorded together";
+  }
+  return "";
+}
+
+}  // namespace
+
+}  // namespace walkgraph::internal
+
+namespace walkgraph {
+
+std::vector<std::string> PlausibilityWarnings(const Walk& w) {
+  std::vector<std::string> out;
+  if (std::string e = internal::ImuGapWarning(w); !e.empty()) out.push_back(e);
+  const std::string prefix = "convert.", suffix = "_invalid_dropped";
+  for (const auto& [key, n] : w.meta.extra) {
+    if (!(n > 0) || key.rfind(prefix, 0) != 0 || key.size() <= prefix.size() + suffix.size() ||
+        key.compare(key.size() - suffix.size(), suffix.size(), suffix) != 0) {
+      continue;
+    }
+    const std::string stream =
+        key.substr(prefix.size(), key.size() - prefix.size() - suffix.size());
+    out.push_back("walk.yaml: the converter dropped " + internal::Num(n) + " " + stream +
+                  " reading(s) of the recording as physically impossible (" + key + ")");
+  }
+  const double eta = w.meta.radio.path_loss.eta;
+  if (!w.rss.empty() && !(eta >= 1.5 && eta <= 6.0)) {
+    out.push_back("walk.yaml: radio: eta " + internal::Num(eta) +
+                  " outside [1.5, 6], the indoor path-loss exponents reported in the literature "
+                  "(accepted up to 10)");
+  }
+  if (w.meta.radio.units == RssUnits::kDbm) {
+    size_t n = 0, first = 0;
+    for (size_t i = 0; i < w.rss.size(); ++i) {
+      if (w.rss[i].rss > 0.0 && n++ == 0) first = i;
+    }
+    if (n > 0) {
+      out.push_back("rss.csv:" + std::to_string(first + 2) + ": " + std::to_string(n) +
+                    " reading(s) above 0 dBm, the first " + internal::Num(w.rss[first].rss) +
+                    " dBm; expected received powers below 0 dBm (a receiver touching its "
+                    "transmitter?)");
+    }
+  }
+  if (std::string e = internal::CoverageWarning(w); !e.empty()) out.push_back(e);
+  return out;
+}
+
+}  // namespace walkgraph
+
+namespace walkgraph::internal {
 
 Status DroppedReadings::Check(const std::string& stream, const std::string& where,
                               const std::string& problem, bool* drop) {

@@ -5,6 +5,7 @@
 
 #include <map>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "walkgraph/io.h"
@@ -17,6 +18,30 @@ namespace walkgraph::internal {
 std::string CheckImu(const ImuSample& s, const ValidationLimits& limits);
 std::string CheckRss(const RssSample& s, RssUnits units, const ValidationLimits& limits);
 std::string CheckRange(const RangeSample& s, const ValidationLimits& limits);
+
+// A Bluetooth LE RSSI in dBm ("" when plausible): below 0 dBm (a BLE transmitter sends at most
+// +20 dBm and loses about 40 dB in its first metre; 0 is iOS's "unknown").
+std::string CheckBleRss(double rss_dbm);
+
+// A converter's check of one column over a whole file: a column where more than half of the
+// lines fail a per-line rule holds something else (two columns swapped), which a reading at a
+// time cannot tell from a few bad readings. Check() then refuses the file, naming the first
+// failing line, the column and what was expected.
+class ColumnCheck {
+ public:
+  // `column`: e.g. "field 4 (RSS)"; `expected`: e.g. "a negative RSSI in dBm".
+  ColumnCheck(std::string column, std::string expected)
+      : column_(std::move(column)), expected_(std::move(expected)) {}
+  // One line: whether it passed the rule; `where` ("file:line: ") and `value` (as text) are
+  // kept for the first failure.
+  void Add(bool ok, const std::string& where, const std::string& value);
+  // InvalidArgument when more than half of the lines failed; else OK.
+  Status Check(const std::string& layout) const;
+
+ private:
+  std::string column_, expected_, first_where_, first_value_;
+  long long lines_ = 0, failed_ = 0;
+};
 
 // Path-loss parameters within physical reason ("" when they are): A_dbm within the RSS limits
 // (RFCode units: [0, 300]), eta in (0, 10], sigma_db in [0.001, 50] dB, d0_m in [0.01, 100] m.

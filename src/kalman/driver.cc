@@ -23,6 +23,9 @@ Status RunKalmanFilter(const std::vector<double>& times, KalmanModel* model,
   std::vector<FilterEpoch> epochs;
   epochs.reserve(times.size());
   for (size_t k = 0; k < times.size(); ++k) {
+    if (k % internal::kProgressEvery == 0) {
+      ReportEstimatorProgress(static_cast<double>(k) / times.size());
+    }
     FilterEpoch e;
     e.t_s = times[k];
     if (k == 0) {

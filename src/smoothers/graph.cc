@@ -12,6 +12,7 @@
 #include <ceres/ceres.h>
 
 #include "smoothers/graph_internal.h"
+#include "walkgraph/estimator.h"
 #include "walkgraph/output.h"
 #include "walkgraph/smoothers/chain_covariance.h"
 
@@ -72,9 +73,13 @@ namespace {
 
 // Every solve stops at the end of the iteration in which cancellation was requested
 // (RequestCancel: a signal in the CLI, Ctrl-C in Python); CheckSummary reports it as kCancelled.
+// After each solver iteration: a signal stops the solve; the iteration is a sign of life for a
+// long walk's progress report (estimator.h ReportEstimatorProgress: the solver cannot tell its
+// fraction, so the fraction reached so far is repeated).
 class CancelCallback : public ceres::IterationCallback {
  public:
   ceres::CallbackReturnType operator()(const ceres::IterationSummary&) override {
+    ReportEstimatorProgress(0.0);
     return CancelRequested() ? ceres::SOLVER_ABORT : ceres::SOLVER_CONTINUE;
   }
 };
