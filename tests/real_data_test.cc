@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cstdio>
 #include <filesystem>
+#include <limits>
 #include <map>
 #include <string>
 #include <vector>
@@ -246,6 +247,71 @@ TEST(PhoneWalkRealData, IpinKnownStartNeedsNoConfig) {
       EXPECT_TRUE(run.ok()) << c.trial << " " << id << ": " << run.status().ToString();
     }
   }
+}
+
+// Issue 41, an unknown start: the four shared trials converted without --known-start, no
+// config. Target: fg-batch p75 <= the best other estimator's on each trial and <= 10 m on three
+// of the four. Met on 05 and 21 (fg-batch 7.76 / 4.08 m against 11.39 / 20.13 m); not met on 01
+// (10.56 against correa-ekf's 8.79 m, scored on the 7 of 14 landmarks it covers) and 52 (52.38
+// against gadeke-kf-rts's 50.76 m; 12 readings of 2 anchors): every start hypothesis, the
+// filters' trajectories included, ends in the same minimum (final costs equal to 1e-6
+// relative), so the error is the cost's global minimum, not the start (on 01 a waypoint at the
+// true first landmark gives 6.13 m at +7.1 in cost). There the test holds today's figure
+// (+5 %) and says the target is not met. fg-window and its online output, whose first window
+// takes the filters' hypotheses: <= 1.05x the figures measured with them (before: 13.61 /
+// 18.44 / 25.63 / 51.52 m and 13.29 / 18.25 / 27.91 / 51.52 m).
+TEST(PhoneWalkRealData, IpinNoStartNeedsNoConfig) {
+  const std::string dir = kShared + "/ipin2023_t3";
+  if (!fs::exists(dir)) GTEST_SKIP() << dir << " not present";
+  const std::string ble = dir + "/BLE_Locations.csv";
+  struct Case {
+    const char* trial;
+    double held_m;  // > 0: the target is not met, fg-batch held at this (today's p75)
+    double window_m, online_m;
+  };
+  const std::vector<Case> cases = {{"01", 10.56, 13.59, 13.27},
+                                   {"05", 0.0, 16.15, 16.32},
+                                   {"21", 0.0, 6.07, 6.03},
+                                   {"52", 52.38, 51.52, 51.52}};
+  const YAML::Node none(YAML::NodeType::Map);
+  int within_10m = 0;
+  for (const Case& c : cases) {
+    auto w =
+        Convert("ipin", {dir + "/IPIN2023_T3_TrainingTrial" + c.trial + "_repetition01.txt", ble});
+    ASSERT_TRUE(w.ok()) << w.status().ToString();
+    std::map<std::string, double> p75;
+    for (const std::string& id : EstimatorRegistry::Builtin().Ids()) {
+      auto est = EstimatorRegistry::Builtin().Create(id);
+      ASSERT_TRUE(est.ok()) << id;
+      if (!(*est)->CheckApplicable(*w).ok()) continue;
+      auto r = (*est)->Run(*w);
+      if (!r.ok()) continue;
+      auto e = ComputeErrors(*w, r->trajectory);
+      if (e.ok() && !e->error_m.empty()) p75[id] = SummarizeErrors(*e, w->TruthDistance()).p75_m;
+    }
+    ASSERT_TRUE(p75.count("fg-batch") && p75.count("fg-window") && p75.count("fg-window-online"))
+        << c.trial;
+    std::string best_id;
+    double best = std::numeric_limits<double>::infinity();
+    for (const auto& [id, v] : p75) {
+      if (id.rfind("fg-", 0) != 0 && v < best) best = v, best_id = id;
+    }
+    const double g = p75.at("fg-batch");
+    std::printf(
+        "trial %s no start: fg-batch p75 %.2f m, fg-window %.2f, online %.2f; best other "
+        "%.2f m (%s)%s\n",
+        c.trial, g, p75.at("fg-window"), p75.at("fg-window-online"), best, best_id.c_str(),
+        g <= best ? "" : " -- target not met");
+    if (c.held_m > 0) {
+      EXPECT_LE(g, 1.05 * c.held_m) << c.trial;
+    } else {
+      EXPECT_LE(g, best) << c.trial;
+    }
+    within_10m += g <= 10.0 ? 1 : 0;
+    EXPECT_LE(p75.at("fg-window"), 1.05 * c.window_m) << c.trial;
+    EXPECT_LE(p75.at("fg-window-online"), 1.05 * c.online_m) << c.trial;
+  }
+  EXPECT_GE(within_10m, 2);  // the target is three of four: 01 (10.56 m) misses it
 }
 
 // PyShoe VICON 2017-11-22-11-48-35 (20 s, 19 m), SE(2)-aligned: the foot-INS graph below IEZ+

@@ -28,6 +28,21 @@ using internal::kGyroBiasKey;
 
 namespace {
 Status CheckStepGraphOptions(const StepGraphOptions& o, const std::string& context);
+
+// StepGraphOptions::start_estimators as ids: split at commas, spaces trimmed; "" none.
+std::vector<std::string> SplitIds(const std::string& list) {
+  std::vector<std::string> ids;
+  if (list.find_first_not_of(' ') == std::string::npos) return ids;
+  size_t begin = 0;
+  while (true) {
+    const size_t end = std::min(list.find(',', begin), list.size());
+    const size_t a = list.find_first_not_of(' ', begin);
+    const size_t b = list.find_last_not_of(' ', end == 0 ? 0 : end - 1);
+    ids.push_back(a < end && b != std::string::npos && b >= a ? list.substr(a, b - a + 1) : "");
+    if (end == list.size()) return ids;
+    begin = end + 1;
+  }
+}
 }  // namespace
 
 namespace {
@@ -174,6 +189,8 @@ void ReadSolverKeys(ConfigReader& r, StepGraphOptions* o) {
   r.Read("init_lag_s", &o->init_lag_s, "initialization window: lag of the fast fixed-lag pass");
   r.Read("start_hypotheses", &o->start_hypotheses,
          "no start: dead reckoning aligned to every fix, turned n ways, each solved (0: off)");
+  r.Read("start_estimators", &o->start_estimators,
+         "no start: comma-separated estimator ids whose trajectories are more start hypotheses");
   r.Read("init_update_s", &o->init_update_s, "initialization window: one update per this period");
   r.Read("init_max_iterations", &o->init_max_iterations,
          "initialization window: LM iterations per update");
@@ -290,6 +307,14 @@ Status CheckStepGraphOptions(const StepGraphOptions& o, const std::string& conte
   WG_RETURN_IF_ERROR(positive(o.init_lag_s, "init_lag_s"));
   if (o.start_hypotheses < 0 || o.start_hypotheses > 360) {
     return InvalidArgument(context + ": start_hypotheses must be in [0, 360]");
+  }
+  for (const std::string& id : SplitIds(o.start_estimators)) {
+    if (id.empty() || id.rfind("fg-", 0) == 0) {
+      return InvalidArgument(context +
+                             ": start_estimators must list estimator ids (none of "
+                             "the step graph's own, fg-*), comma-separated: '" +
+                             o.start_estimators + "'");
+    }
   }
   if (o.window_update_s < 0 || o.init_update_s < 0 || o.window_marginalize_batch_s < 0) {
     return InvalidArgument(context +
@@ -713,6 +738,36 @@ std::vector<std::vector<Eigen::Vector3d>> StepGraph::StartHypotheses(const Walk&
   return out;
 }
 
+std::vector<std::vector<Eigen::Vector3d>> StepGraph::HypothesesFrom(const Trajectory& trajectory,
+                                                                    double until_s) const {
+  const Impl& m = *impl_;
+  std::vector<std::vector<Eigen::Vector3d>> out;
+  if (m.start || m.radio_only || trajectory.empty()) return out;
+  const double t0 = trajectory.points.front().t_s, t1 = trajectory.points.back().t_s;
+  std::vector<Eigen::Vector2d> src, dst;
+  size_t last = 0;  // nodes [0, last) are hypothesized: t <= until_s
+  for (size_t k = 0; k < node_t_.size() && node_t_[k] <= until_s; ++k) {
+    last = k + 1;
+    if (node_t_[k] < t0 || node_t_[k] > t1) continue;
+    src.push_back(init_[k].head<2>());
+    dst.push_back(trajectory.PositionAt(node_t_[k]).head<2>());
+  }
+  if (src.size() < 3) return out;
+  const Alignment a = Align(src, dst, src.size());  // Procrustes (Umeyama, no scale)
+  std::vector<Eigen::Vector3d> aligned(init_.begin(), init_.begin() + static_cast<long>(last));
+  for (Eigen::Vector3d& p : aligned) {
+    p.head<2>() = a.R * p.head<2>() + a.t;
+    p[2] = NormalizeAngle(p[2] + a.rotation_rad);
+  }
+  std::vector<Eigen::Vector3d> positions = aligned;
+  for (size_t k = 0; k < last; ++k) {
+    positions[k].head<2>() = trajectory.PositionAt(node_t_[k]).head<2>();
+  }
+  out.push_back(std::move(aligned));
+  out.push_back(std::move(positions));
+  return out;
+}
+
 namespace {
 
 // The mean pressure of the readings within ±window/2 of t, else the reading nearest in time.
@@ -966,34 +1021,102 @@ StatusOr<EstimateResult> RunWindowNodes(const Walk& walk, const StepGraphOptions
 
 namespace {
 
-// fg-batch's start hypotheses (StepGraphOptions::start_hypotheses): each solved from its own
-// initial nodes; returns the graph of the lowest final cost when one beats `*best` (whose
-// summary it then takes), else null. Diagnostics: start_hypothesis (0: fg-batch's own
-// initialization) and start_hypothesis_cost.k per hypothesis (k = 0 its own).
-StatusOr<std::unique_ptr<FactorGraph>> SolveStartHypotheses(const Walk& walk,
-                                                            const StepGraph& graph,
-                                                            const SolverOptions& so, int n,
+// fg-batch's solver options.
+SolverOptions BatchSolverOptions(const StepGraphOptions& o) {
+  SolverOptions so;
+  so.max_iterations = o.max_iterations;
+  so.initial_trust_region_radius = o.initial_trust_region_radius;
+  so.function_tolerance = o.function_tolerance;
+  so.parameter_tolerance = o.parameter_tolerance;
+  so.num_threads = o.num_threads;
+  return so;
+}
+
+// A start hypothesis: its name in the diagnostics (start_hypothesis_cost.<name>), every node's
+// initial (p, θ) (or the first nodes'), and 1 + its estimator's place in start_estimators (0:
+// not an estimator's).
+struct NamedStart {
+  std::string name;
+  std::vector<Eigen::Vector3d> nodes;
+  int estimator = 0;
+};
+
+// The start hypotheses of StepGraphOptions::start_estimators (StepGraph::HypothesesFrom) over
+// the nodes with t <= until_s; causal: the filters only (an id ending in "-rts" gives its
+// filter's, the id without it). An estimator
+// that cannot run on the walk, or fails, gives none; an id the registry does not know is an
+// error.
+StatusOr<std::vector<NamedStart>> EstimatorStarts(const Walk& walk, const StepGraph& graph,
+                                                  const StepGraphOptions& o, bool causal,
+                                                  double until_s) {
+  std::vector<NamedStart> out;
+  if (walk.meta.initial_pose || !(walk.has_rss() || walk.has_ranges()) ||
+      !(walk.has_imu() || walk.has_odometry())) {
+    return out;
+  }
+  const std::vector<std::string> ids = SplitIds(o.start_estimators);
+  for (size_t i = 0; i < ids.size(); ++i) {
+    const std::string& id = ids[i];
+    const bool smoother = id.size() > 4 && id.compare(id.size() - 4, 4, "-rts") == 0;
+    const std::string run = causal && smoother ? id.substr(0, id.size() - 4) : id;
+    WG_ASSIGN_OR_RETURN(std::unique_ptr<Estimator> e, EstimatorRegistry::Builtin().Create(run));
+    if (!e->CheckApplicable(walk).ok()) continue;
+    StatusOr<EstimateResult> r = e->Run(walk);
+    if (!r.ok()) continue;  // the other hypotheses still stand
+    auto h = graph.HypothesesFrom(r->trajectory, until_s);
+    if (h.size() != 2) continue;
+    out.push_back({run + "/aligned", std::move(h[0]), static_cast<int>(i) + 1});
+    out.push_back({run, std::move(h[1]), static_cast<int>(i) + 1});
+  }
+  return out;
+}
+
+// fg-batch's start hypotheses on a walk with no start: StartHypotheses' turns (named 1..n),
+// then EstimatorStarts.
+StatusOr<std::vector<NamedStart>> BatchStarts(const Walk& walk, const StepGraph& graph,
+                                              const StepGraphOptions& o) {
+  std::vector<NamedStart> starts;
+  for (auto& h : graph.StartHypotheses(walk, o.start_hypotheses)) {
+    starts.push_back({std::to_string(starts.size() + 1), std::move(h), 0});
+  }
+  WG_ASSIGN_OR_RETURN(
+      std::vector<NamedStart> more,
+      EstimatorStarts(walk, graph, o, /*causal=*/false, std::numeric_limits<double>::infinity()));
+  for (NamedStart& h : more) starts.push_back(std::move(h));
+  return starts;
+}
+
+// fg-batch's start hypotheses (BatchStarts): each solved from its own initial nodes; returns
+// the graph of the lowest final cost when one beats `*best` (whose summary it then takes),
+// else null. Diagnostics: start_hypothesis (0: fg-batch's own initialization, k: the k-th
+// hypothesis), start_hypothesis_cost.<name> per hypothesis (.0 its own) and
+// start_hypothesis_estimator (NamedStart::estimator of the winner).
+StatusOr<std::unique_ptr<FactorGraph>> SolveStartHypotheses(const StepGraph& graph,
+                                                            const std::vector<NamedStart>& starts,
+                                                            const SolverOptions& so,
                                                             SolveSummary* best,
                                                             std::map<std::string, double>* d) {
   std::unique_ptr<FactorGraph> winner;
-  const std::vector<std::vector<Eigen::Vector3d>> starts = graph.StartHypotheses(walk, n);
   if (starts.empty()) return winner;
   (*d)["start_hypothesis"] = 0;
+  (*d)["start_hypothesis_estimator"] = 0;
   (*d)["start_hypothesis_cost.0"] = best->final_cost;
   for (size_t h = 0; h < starts.size(); ++h) {
     auto fg = std::make_unique<FactorGraph>();
     WG_RETURN_IF_ERROR(graph.AddTo(fg.get()));
-    for (int k = 0; k < graph.num_nodes(); ++k) {
-      const Eigen::Vector3d& x = starts[h][k];
-      WG_RETURN_IF_ERROR(fg->SetValue(StepGraph::PositionKey(k), {x[0], x[1]}));
-      WG_RETURN_IF_ERROR(fg->SetValue(StepGraph::HeadingKey(k), {x[2]}));
+    for (size_t k = 0; k < starts[h].nodes.size(); ++k) {
+      const Eigen::Vector3d& x = starts[h].nodes[k];
+      const int node = static_cast<int>(k);
+      WG_RETURN_IF_ERROR(fg->SetValue(StepGraph::PositionKey(node), {x[0], x[1]}));
+      WG_RETURN_IF_ERROR(fg->SetValue(StepGraph::HeadingKey(node), {x[2]}));
     }
     StatusOr<SolveSummary> summary = SolveBatch(fg.get(), so);
     if (!summary.ok()) continue;  // a hypothesis that fails to solve is not taken
-    (*d)["start_hypothesis_cost." + std::to_string(h + 1)] = summary->final_cost;
+    (*d)["start_hypothesis_cost." + starts[h].name] = summary->final_cost;
     if (summary->final_cost < best->final_cost) {
       *best = *summary;
       (*d)["start_hypothesis"] = static_cast<double>(h + 1);
+      (*d)["start_hypothesis_estimator"] = starts[h].estimator;
       winner = std::move(fg);
     }
   }
@@ -1027,12 +1150,7 @@ StatusOr<EstimateResult> StepGraphBatch::Run(const Walk& walk) const {
 
   FactorGraph fg;
   WG_RETURN_IF_ERROR(graph->AddTo(&fg));
-  SolverOptions so;
-  so.max_iterations = options_.max_iterations;
-  so.initial_trust_region_radius = options_.initial_trust_region_radius;
-  so.function_tolerance = options_.function_tolerance;
-  so.parameter_tolerance = options_.parameter_tolerance;
-  so.num_threads = options_.num_threads;
+  const SolverOptions so = BatchSolverOptions(options_);
   // auto: dead reckoning for odometry walks (wheel odometry barely drifts), the window for
   // IMU steps (a gyro's heading drift over a long walk leaves dead reckoning in a wrong basin:
   // measured on correa-classroom 0.85 → 0.23 m RMSE, gadeke-outage 18.8 → 0.71 m).
@@ -1065,9 +1183,9 @@ StatusOr<EstimateResult> StepGraphBatch::Run(const Walk& walk) const {
   StatusOr<SolveSummary> summary = SolveBatch(&fg, so);
   if (!summary.ok()) return NumericalError("fg-batch: " + summary.status().message());
   std::map<std::string, double> start_d;
-  WG_ASSIGN_OR_RETURN(
-      std::unique_ptr<FactorGraph> better,
-      SolveStartHypotheses(walk, *graph, so, options_.start_hypotheses, &*summary, &start_d));
+  WG_ASSIGN_OR_RETURN(std::vector<NamedStart> starts, BatchStarts(walk, *graph, options_));
+  WG_ASSIGN_OR_RETURN(std::unique_ptr<FactorGraph> better,
+                      SolveStartHypotheses(*graph, starts, so, &*summary, &start_d));
   FactorGraph& fg_best = better ? *better : fg;
 
   EstimateResult result;
@@ -1151,10 +1269,72 @@ FixedLagSmoother::Options WindowSmootherOptions(const StepGraphOptions& o) {
   return so;
 }
 
+// The graph of nodes 0..last (states and every factor whose newest node is among them), the
+// nodes at `start` (every node's (p, θ) up to last) or else at their dead-reckoning values.
+Status AddFirstNodes(const StepGraph& graph, int last, const std::vector<Eigen::Vector3d>& start,
+                     FactorGraph* fg) {
+  for (SmootherState& s : graph.StaticStates()) WG_RETURN_IF_ERROR(fg->AddState(std::move(s)));
+  const std::vector<Eigen::Vector3d>& x = start.empty() ? graph.initial_nodes() : start;
+  for (int k = 0; k <= last; ++k) {
+    for (SmootherState& s : graph.NodeStates(k, x[k].head<2>(), x[k][2])) {
+      if (s.key == StepGraph::PositionKey(k)) s.value = {x[k][0], x[k][1]};
+      if (s.key == StepGraph::HeadingKey(k)) s.value = {x[k][2]};
+      WG_RETURN_IF_ERROR(fg->AddState(std::move(s)));
+    }
+  }
+  for (int k = 0; k <= last; ++k) {
+    for (SmootherFactor& f : graph.FactorsAt(k)) WG_RETURN_IF_ERROR(fg->AddFactor(std::move(f)));
+  }
+  return Status::Ok();
+}
+
+// fg-window's first window on a walk with no start (issue 41): the nodes of the first
+// align_window_s, when it holds at least 3 radio readings, solved as one batch (fg-batch's solver
+// options) from the window's own initialization and from each causal start estimator's hypotheses
+// (EstimatorStarts), the least final cost kept: the window starts its nodes there. Empty when the
+// walk has a start or no estimator gives a hypothesis. Diagnostics first_window_hypothesis (0: its
+// own, k: the k-th), first_window_estimator (NamedStart::estimator), first_window_cost.<name>.
+StatusOr<std::vector<Eigen::Vector3d>> FirstWindowStart(const Walk& walk, const StepGraph& graph,
+                                                        const StepGraphOptions& o,
+                                                        std::map<std::string, double>* d) {
+  std::vector<Eigen::Vector3d> out;
+  const double until = graph.node_time(0) + o.align_window_s;
+  int readings = 0;  // fewer than 3 in the span: the radio cannot tell the hypotheses apart
+  for (const RssSample& r : walk.rss) readings += r.t_s <= until ? 1 : 0;
+  for (const RangeSample& r : walk.ranges) readings += r.t_s <= until ? 1 : 0;
+  if (readings < 3) return out;
+  WG_ASSIGN_OR_RETURN(std::vector<NamedStart> starts,
+                      EstimatorStarts(walk, graph, o, /*causal=*/true, until));
+  if (starts.empty()) return out;
+  const int last = static_cast<int>(starts.front().nodes.size()) - 1;
+  starts.insert(starts.begin(), NamedStart{"0", {}, 0});  // its own initialization
+  double best = std::numeric_limits<double>::infinity();
+  for (size_t h = 0; h < starts.size(); ++h) {
+    FactorGraph fg;
+    WG_RETURN_IF_ERROR(AddFirstNodes(graph, last, starts[h].nodes, &fg));
+    StatusOr<SolveSummary> s = SolveBatch(&fg, BatchSolverOptions(o));
+    if (!s.ok()) continue;  // a hypothesis that fails to solve is not taken
+    (*d)["first_window_cost." + starts[h].name] = s->final_cost;
+    if (!(s->final_cost < best)) continue;
+    best = s->final_cost;
+    (*d)["first_window_hypothesis"] = static_cast<double>(h);
+    (*d)["first_window_estimator"] = starts[h].estimator;
+    out.clear();
+    for (int k = 0; k <= last; ++k) {
+      const std::vector<double> p = *fg.Value(StepGraph::PositionKey(k));
+      out.emplace_back(p[0], p[1], (*fg.Value(StepGraph::HeadingKey(k)))[0]);
+    }
+  }
+  return out;
+}
+
 StatusOr<EstimateResult> RunWindowNodes(const Walk& walk, const StepGraphOptions& options_) {
   WG_ASSIGN_OR_RETURN(std::unique_ptr<StepGraph> graph, StepGraph::Build(walk, options_));
   const int n = graph->num_nodes();
   const bool online = options_.window_output == WindowOutput::kOnline;
+  std::map<std::string, double> first_d;
+  WG_ASSIGN_OR_RETURN(const std::vector<Eigen::Vector3d> first,
+                      FirstWindowStart(walk, *graph, options_, &first_d));
   FixedLagSmoother smoother(WindowSmootherOptions(options_));
 
   std::vector<TrajectoryPoint> points(n);
@@ -1208,6 +1388,10 @@ StatusOr<EstimateResult> RunWindowNodes(const Walk& walk, const StepGraphOptions
   for (int k = 0; k < n; ++k) {
     if (k == 0) states = graph->StaticStates();
     std::vector<SmootherState> node = graph->NodeStates(k, prev_p, prev_theta);
+    if (k < static_cast<int>(first.size())) {  // the first window's chosen start
+      node[0].value = {first[k][0], first[k][1]};
+      node[1].value = {first[k][2]};
+    }
     prev_p = Eigen::Vector2d(node[0].value[0], node[0].value[1]);
     prev_theta = node[1].value[0];
     for (SmootherState& st : node) states.push_back(std::move(st));
@@ -1265,6 +1449,7 @@ StatusOr<EstimateResult> RunWindowNodes(const Walk& walk, const StepGraphOptions
        {"window_max_states", static_cast<double>(max_states)},
        {"window_max_factors", static_cast<double>(max_factors)},
        {"nodes", n}};
+  d.insert(first_d.begin(), first_d.end());
   AddUpdateLatencyTimings(latency, &result.timings);
   AddWindowGraphDiagnostics(*graph, smoother, walk, options_, &d);
   return result;

@@ -208,6 +208,23 @@ struct StepGraphOptions {
   // initialization, k + 1 the k-th turn; start_hypothesis_cost.k). 0: its own only. Our choice
   // (issue 41: a short first window of fixes leaves the start heading ambiguous).
   int start_hypotheses = 4;
+  // More start hypotheses on a walk with no start (issue 41: an unknown start costs little):
+  // the trajectories of these estimators (comma-separated registry ids, each run with its
+  // defaults; none of the step graph's own), where they can run. Each gives two: the dead
+  // reckoning aligned by Procrustes to the estimator's positions at the node times within its
+  // span, and its positions themselves (clamped to its span) with the aligned headings.
+  // fg-batch solves them like the turns above; the least final cost wins (diagnostics
+  // start_hypothesis_cost.<id> and .<id>/aligned; start_hypothesis_estimator: 1 + the
+  // winner's place in this list, 0 not an estimator's). fg-window (its online output and
+  // fg-batch's window initialization too) solves the nodes of its first align_window_s (when
+  // that holds at least 3 radio readings: fewer cannot tell the hypotheses apart) as one batch
+  // from its own initialization and from the causal estimators' hypotheses over that
+  // span (an id ending in -rts gives its filter's, the id without it), and starts those nodes
+  // at the least-cost solution (first_window_hypothesis, first_window_estimator,
+  // first_window_cost.<name>): the online output of those nodes thus uses the data up to
+  // their end. Empty: none. Our choice: the two filters that run on every step walk
+  // with RSS (Gädeke's PDR + RSS KF with its RTS pass, Prieto's EKF), cheap against a solve.
+  std::string start_estimators = "gadeke-kf-rts,prieto-ekf-wifi";
   double init_update_s = 5.0;
   int init_max_iterations = 10;  // LM iterations per update of that pass
   int max_iterations = 100;
@@ -294,6 +311,13 @@ class StepGraph {
   // to every radio fix, turned by k·2π/n about its centroid; empty when the walk has a start,
   // no radio fix, or no steps.
   std::vector<std::vector<Eigen::Vector3d>> StartHypotheses(const Walk& walk, int n) const;
+  // Start hypotheses from a trajectory (StepGraphOptions::start_estimators), over the nodes
+  // with t <= until_s: [0] the dead reckoning aligned by Procrustes to the trajectory's
+  // positions at the node times within its span, [1] those positions (clamped to its span)
+  // with [0]'s headings. Empty when the walk has a start, is radio-only, or fewer than 3 nodes
+  // lie in the span.
+  std::vector<std::vector<Eigen::Vector3d>> HypothesesFrom(
+      const Trajectory& trajectory, double until_s = std::numeric_limits<double>::infinity()) const;
   // Whether node 0 must be held constant (no prior and no anchors: see the top of this file).
   bool fix_first_node() const { return fix_first_node_; }
   // path_loss "auto" held the path loss because the walk is radio-only (not identifiable).
