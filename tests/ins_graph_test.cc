@@ -499,6 +499,18 @@ TEST(InsGraphBatch, StanceMagnetometerHoldsTheHeadingOfARun) {
   ASSERT_TRUE(c.ok()) << c.status().ToString();
   EXPECT_EQ(c->diagnostics.at("num_stance_magnetic_factors"), 0.0);
   EXPECT_EQ(c->diagnostics.count("stance_magnetic_sigma_rad"), 0u);
+  // A magnetometer that reads zero, or a vertical field (no direction to read): no factor, and
+  // the solve still succeeds.
+  for (const Eigen::Vector3d& field :
+       std::vector<Eigen::Vector3d>{Eigen::Vector3d::Zero(), Eigen::Vector3d(0, 0, -45)}) {
+    for (ImuSample& s : w->imu) {
+      s.has_mag = true;
+      s.mag_ut = field;
+    }
+    auto z = RunEstimator("fg-ins-batch", *w);
+    ASSERT_TRUE(z.ok()) << z.status().ToString();
+    EXPECT_EQ(z->diagnostics.at("num_stance_magnetic_factors"), 0.0);
+  }
 }
 
 TEST(InsGraphBatch, SameInputSameOutputAndEveryNPlacement) {

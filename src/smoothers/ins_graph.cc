@@ -427,6 +427,14 @@ std::vector<InsFactor> GapFactors(const InsGraphContext& c, InsState* a, InsStat
   return out;
 }
 
+// Whether a field vector in the navigation frame has a horizontal direction to read: at least
+// 5 % of its magnitude (a dip under ~87°; not a zero reading), where atan2 and its derivatives
+// are well defined.
+bool HasHorizontalDirection(const Eigen::Vector3d& f) {
+  const double n = f.norm();
+  return std::isfinite(n) && n > 0 && f.head<2>().norm() >= 0.05 * n;
+}
+
 // σ of the stance magnetic heading factor from the field turns of the pairs seen so far: their
 // RMS about the median, ÷√2 (either end of a pair disturbed), at least min_sigma.
 double StanceMagneticSigma(const std::vector<double>& turns, double min_sigma) {
@@ -457,7 +465,7 @@ std::vector<double> StanceMagneticSigmas(const Walk& walk, const ZuptInsSolution
     const std::optional<size_t> k = MagnetometerNear(imu, m);
     if (!k) continue;
     const Eigen::Vector3d f = front.states[*k].q_nb * imu[*k].mag_ut;
-    if (!(f.head<2>().norm() > 0)) continue;
+    if (!HasHorizontalDirection(f)) continue;
     const Seen now{imu[m].t_s, front.states[m].p_n.head<2>(), std::atan2(f.y(), f.x())};
     for (size_t j = seen.size();
          j-- > 0 && now.t_s - seen[j].t_s <= o.stance_magnetic_pair_max_s;) {
@@ -509,8 +517,9 @@ std::vector<InsFactor> InsStanceMagneticFactors(const InsGraphContext& c,
     }
     const std::optional<size_t> m = MagnetometerNear(imu, s.imu_index);
     if (!m) continue;
+    const Eigen::Vector3d f = s.attitude().normalized() * imu[*m].mag_ut;
+    if (!HasHorizontalDirection(f)) continue;
     if (!blocks->field_yaw_set) {
-      const Eigen::Vector3d f = s.attitude().normalized() * imu[*m].mag_ut;
       blocks->field_yaw_rad = std::atan2(f.y(), f.x());
       blocks->field_yaw_set = true;
     }
