@@ -462,9 +462,9 @@ TEST(InsGraphBatch, GapFactorsTieTheStatesEitherSideOfAnImuGap) {
 }
 
 // The stance magnetometer on running (prieto-laps, 3 laps at a run): the heading no longer
-// drifts. Measured by the CLI on seeds 1-4: fg-ins-batch 0.255/0.178/0.247/0.231 m RMSE with
-// it, 0.476/0.179/0.348/0.233 m without (mean 0.74x); 135 factors on 155 strides (none
-// before 20 pairs). A walk without a magnetometer gets none.
+// drifts. Measured by the CLI on seeds 1-4: fg-ins-batch 0.312/0.179/0.265/0.232 m RMSE with
+// it, 0.476/0.179/0.348/0.233 m without (mean 0.80x); 68 factors on 155 strides (stances 3 m
+// apart, none before 20 pairs). A walk without a magnetometer gets none.
 TEST(InsGraphBatch, StanceMagnetometerHoldsTheHeadingOfARun) {
   const int runs = testing::kSanitized ? 1 : 4;
   double with = 0.0, without = 0.0;
@@ -476,7 +476,7 @@ TEST(InsGraphBatch, StanceMagnetometerHoldsTheHeadingOfARun) {
     ASSERT_TRUE(a.ok() && b.ok());
     const double strides = a->diagnostics.at("num_strides");
     const double factors = a->diagnostics.at("num_stance_magnetic_factors");
-    EXPECT_GT(factors, 0.5 * strides);  // one per stance at most, none before the pairs
+    EXPECT_GT(factors, 0.25 * strides);  // one per 3 m at most (a stride ~2 m), none before
     EXPECT_LE(factors, strides + 1.0);
     const double sigma = a->diagnostics.at("stance_magnetic_sigma_rad");
     EXPECT_GE(sigma, InsGraphOptions().stance_magnetic_min_sigma_rad);

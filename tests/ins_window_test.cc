@@ -78,7 +78,7 @@ TEST(InsGraphWindow, LagLongerThanTheWalkEqualsBatch) {
             batch->diagnostics.at("num_radio_factors"));
   EXPECT_EQ(window->diagnostics.at("window_max_states"), window->diagnostics.at("num_states"));
   // The field direction ψ_f, a static block of the window, as the batch's.
-  EXPECT_GT(window->diagnostics.at("num_stance_magnetic_factors"), 5.0);
+  EXPECT_GE(window->diagnostics.at("num_stance_magnetic_factors"), 2.0);
   EXPECT_EQ(window->diagnostics.at("num_stance_magnetic_factors"),
             batch->diagnostics.at("num_stance_magnetic_factors"));
   ASSERT_EQ(window->trajectory.size(), batch->trajectory.size());

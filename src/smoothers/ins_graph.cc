@@ -106,11 +106,11 @@ Status InsGraphOptions::Validate() const {
     return InvalidArgument(
         "fg-ins-batch: need gap_magnetic_min_sigma_rad > 0 and gap_min_spans >= 2");
   }
-  if (!(o.stance_magnetic_min_sigma_rad > 0) || !(o.stance_magnetic_pair_m >= 0) ||
-      !(o.stance_magnetic_pair_max_s > 0) || !std::isfinite(o.stance_magnetic_pair_m) ||
+  if (!(o.stance_magnetic_min_sigma_rad > 0) || !(o.stance_magnetic_spacing_m >= 0) ||
+      !(o.stance_magnetic_pair_max_s > 0) || !std::isfinite(o.stance_magnetic_spacing_m) ||
       !std::isfinite(o.stance_magnetic_pair_max_s) || o.stance_magnetic_min_pairs < 2) {
     return InvalidArgument(
-        "fg-ins-batch: need stance_magnetic_min_sigma_rad > 0, a finite stance_magnetic_pair_m "
+        "fg-ins-batch: need stance_magnetic_min_sigma_rad > 0, a finite stance_magnetic_spacing_m "
         ">= 0, a finite stance_magnetic_pair_max_s > 0 and stance_magnetic_min_pairs >= 2");
   }
   return Status::Ok();
@@ -194,8 +194,9 @@ StatusOr<InsGraphOptions> InsGraphOptionsFromYaml(const YAML::Node& node,
          "learnt from the walk)");
   r.Read("stance_magnetic_min_sigma_rad", &o.stance_magnetic_min_sigma_rad,
          "floor on the learnt sigma of the stance magnetic heading factor");
-  r.Read("stance_magnetic_pair_m", &o.stance_magnetic_pair_m,
-         "learning that sigma: a stance is paired with the last one at least this far away");
+  r.Read("stance_magnetic_spacing_m", &o.stance_magnetic_spacing_m,
+         "disturbances this far apart are taken as independent: factors at stances this far "
+         "from the last one, and the sigma learnt from pairs this far apart");
   r.Read("stance_magnetic_pair_max_s", &o.stance_magnetic_pair_max_s,
          "learning that sigma: and at most this long before it");
   r.Read("stance_magnetic_min_pairs", &o.stance_magnetic_min_pairs,
@@ -460,6 +461,7 @@ std::vector<double> StanceMagneticSigmas(const Walk& walk, const ZuptInsSolution
   std::vector<double> turns;  // the field's turn of each pair so far
   double current = std::numeric_limits<double>::quiet_NaN();
   size_t learnt_from = 0;  // σ is relearnt each time the pairs double (n log n in all)
+  std::optional<Eigen::Vector2d> last_used;  // where the last factor's stance was
   for (const StancePhase& ph : front.phases) {
     const size_t m = MidStance(front, ph);
     const std::optional<size_t> k = MagnetometerNear(imu, m);
@@ -469,7 +471,7 @@ std::vector<double> StanceMagneticSigmas(const Walk& walk, const ZuptInsSolution
     const Seen now{imu[m].t_s, front.states[m].p_n.head<2>(), std::atan2(f.y(), f.x())};
     for (size_t j = seen.size();
          j-- > 0 && now.t_s - seen[j].t_s <= o.stance_magnetic_pair_max_s;) {
-      if ((now.p - seen[j].p).norm() >= o.stance_magnetic_pair_m) {
+      if ((now.p - seen[j].p).norm() >= o.stance_magnetic_spacing_m) {
         turns.push_back(NormalizeAngle(now.field_rad - seen[j].field_rad));
         break;
       }
@@ -481,6 +483,8 @@ std::vector<double> StanceMagneticSigmas(const Walk& walk, const ZuptInsSolution
       learnt_from = turns.size();
     }
     if (!std::isfinite(current)) continue;
+    if (last_used && (now.p - *last_used).norm() < o.stance_magnetic_spacing_m) continue;
+    last_used = now.p;
     for (size_t i = ph.begin; i <= ph.end && i < sigma.size(); ++i) sigma[i] = current;
   }
   return sigma;

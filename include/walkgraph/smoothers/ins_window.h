@@ -66,18 +66,14 @@ namespace walkgraph {
 struct InsWindowOptions {
   // The graph (every fg-ins-batch key; max_iterations is the batch's), with the causal stance
   // detector (StrideOptions::Causal: a window's output at t must not depend on the walk after t).
-  // use_stance_magnetometer is off by default here: a window cannot revise the field direction
-  // ψ_f its marginalized states were tied to, and one learnt from the walk's first stances
-  // carries their local disturbance into every later heading. Measured (jimenez-building
-  // stairs, 8 laps, seeds 1-8, fg-ins-window RMSE without / with): 0.368/0.436, 0.267/0.597,
-  // 0.378/0.257, 0.370/0.309, 0.343/0.481, 0.326/0.184, 0.360/0.324, 0.360/0.437 m, and a σ
-  // floor of 0.1 rad or 200 pairs before the first factor did not mend seeds 2, 5, 8; on
-  // running prieto-laps (10 runs) it helped, 0.379 -> 0.267 m. fg-ins-batch, which solves ψ_f
-  // with the whole walk, gains on every simulated gait (ins_graph.h).
+  // The stance magnetometer (use_stance_magnetometer, ins_graph.h) is on here too. With a
+  // factor at every stance it was not: the window cannot revise the headings it marginalized,
+  // and a disturbed leg's many factors bent them (jimenez-building stairs, 8 laps, 10 runs,
+  // fg-ins-window RMSE 0.338 m without, 0.359 with); with factors at stances 3 m apart 0.256
+  // (running 0.320 -> 0.257, prieto-laps running 0.379 -> 0.274, stairs 0.729 -> 0.405).
   InsGraphOptions graph = [] {
     InsGraphOptions g;
     g.front_end = g.front_end.Causal();
-    g.use_stance_magnetometer = false;
     return g;
   }();
   double lag_s = 10.0;
