@@ -75,7 +75,7 @@ TEST(InsGraphBatch, WellBelowZuptDeadReckoningOnSimulatedFootPresets) {
 // the best foot filter's RTS smoother. Measured: jimenez-building 0.194 m against
 // prieto-ukf-rts 0.331 m (0.59x; per seed 0.34-0.87x, and 1.20x on seed 10);
 // prieto-laps 0.304 m against 0.668 m (0.45x; per seed 0.44-0.59x). With the stance
-// magnetometer (InsGraphOptions::use_stance_magnetometer): 0.146 m (0.44x) and 0.210 m (0.31x).
+// magnetometer (InsGraphOptions::use_stance_magnetometer): 0.149 m (0.45x) and 0.233 m (0.35x).
 void ExpectBelowTheBestFootRts(const std::string& scenario, const std::vector<std::string>& rts,
                                const std::string& config = "{}") {
   const int runs = testing::MonteCarloRuns(10);
@@ -116,12 +116,12 @@ TEST(InsGraphBatch, BelowTheBestFootRtsOnPrietoLaps) {
 }
 
 // Issue 40's target on the simulator's other gaits (seeds 1-10; running 8 laps, stairs 3 laps
-// to keep the slow set short): fg-ins-batch at most 0.8x the best foot filter's RTS. Measured
-// (8 laps each): jimenez-building run 0.168 m against prieto-ekf-rts 0.233 m (0.72x), stairs
-// 0.146 against jimenez-iez-rss-rts 0.609 (0.24x); prieto-laps run 0.228 against
-// jimenez-iez-rts 0.446 (0.51x), stairs 0.211 against prieto-ukf-rts 1.160 (0.18x). On other
-// seed sets (compare --runs 10 --seed 1 / 11 / 21) prieto-laps running gave 0.86x, 0.86x and
-// 0.75x: its jimenez-iez-rts (compass with the true north given) varies more than the graph.
+// to keep the slow set short): fg-ins-batch at most 0.8x the best foot filter's RTS. Measured:
+// jimenez-building run 0.170 m against prieto-ekf-rts 0.233 m (0.73x), stairs 0.197 against
+// prieto-ukf-rts 0.606 (0.33x); prieto-laps run 0.233 against jimenez-iez-rts 0.446 (0.52x),
+// stairs 0.246 against prieto-ukf-rts 1.085 (0.23x). With `compare --runs 10 --seed 1` (other
+// seeds) prieto-laps running gives 0.87x (docs/results.md): its jimenez-iez-rts (compass with
+// the true north given) varies more than the graph.
 TEST(InsGraphBatch, BelowTheBestFootRtsOnJimenezBuildingRunning) {
   ExpectBelowTheBestFootRts(
       "jimenez-building",
