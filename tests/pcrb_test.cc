@@ -9,7 +9,7 @@
 #include <gtest/gtest.h>
 #include <Eigen/Dense>
 
-#include "config/parsers.h"
+#include "eval/pcrb_yaml.h"
 #include "test_util.h"
 #include "walkgraph/compare.h"
 #include "walkgraph/kalman.h"

@@ -23,7 +23,9 @@
 #include <map>
 #include <string>
 
-#include "config/parsers.h"
+#include "config/reader.h"
+#include "eval/pcrb_yaml.h"
+#include "stance/stance_yaml.h"
 #include "walkgraph/config.h"
 #include "walkgraph/estimator.h"
 #include "walkgraph/io.h"

@@ -31,8 +31,10 @@
 
 #include <CLI/CLI.hpp>
 
-#include "config/parsers.h"
+#include "config/reader.h"
+#include "eval/pcrb_yaml.h"
 #include "io/plausibility.h"
+#include "stance/stance_yaml.h"
 #include "util/text.h"
 #include "walkgraph/compare.h"
 #include "walkgraph/config.h"

@@ -69,7 +69,7 @@ struct CompareOptions {
   // MonteCarloOptions::progress and ignores it): called with (estimators done, estimators to
   // run) before the first and after each estimator, and, while one runs, with its fraction added
   // (e.g. 2.25: two done, a quarter of the third) as its driver loop reports it
-  // (estimator.h ReportEstimatorProgress). Calls come from the calling thread.
+  // (progress.h ReportEstimatorProgress). Calls come from the calling thread.
   std::function<void(double done, int total)> progress;
 };
 

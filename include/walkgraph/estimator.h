@@ -17,24 +17,13 @@
 #include <vector>
 
 #include "walkgraph/config.h"
+#include "walkgraph/estimate_result.h"
+#include "walkgraph/progress.h"
 #include "walkgraph/status.h"
 #include "walkgraph/trajectory.h"
 #include "walkgraph/walk.h"
 
 namespace walkgraph {
-
-struct EstimateResult {
-  Trajectory trajectory;
-  // Normalized innovation squared of each accepted measurement update (filters), for
-  // consistency checks; empty where the estimator has no innovations.
-  std::vector<double> nis;
-  // Named figures an estimator wants to report (e.g. "ceres_iterations", "gated_updates"):
-  // deterministic for a given walk and configuration.
-  std::map<std::string, double> diagnostics;
-  // Wall-clock figures in seconds (e.g. "update_latency_p99_s"): machine-dependent, so compare
-  // keeps them out of a Monte Carlo results.json (they go to timing.json).
-  std::map<std::string, double> timings;
-};
 
 class Estimator {
  public:
@@ -45,27 +34,8 @@ class Estimator {
   virtual StatusOr<EstimateResult> Run(const Walk& walk) const = 0;
 };
 
-// Progress inside a running estimator, for the progress report of a long single walk: a driver
-// loop (the filters' sample loops) calls ReportEstimatorProgress(fraction of its work done, in
-// [0, 1]) now and then; the call reaches the callback a ScopedEstimatorProgress installed on the
-// calling thread (CompareOnWalk installs one around each estimator's Run when
-// CompareOptions::progress is set), and is a thread-local load when none is installed. The
-// fraction passed on never goes back: a report below an earlier one repeats the earlier, so a
-// loop that cannot tell its fraction (the solver's iterations) reports 0 as a sign of life.
-void ReportEstimatorProgress(double fraction);
-class ScopedEstimatorProgress {
- public:
-  explicit ScopedEstimatorProgress(std::function<void(double fraction)> callback);
-  ~ScopedEstimatorProgress();
-  ScopedEstimatorProgress(const ScopedEstimatorProgress&) = delete;
-  ScopedEstimatorProgress& operator=(const ScopedEstimatorProgress&) = delete;
-
- private:
-  friend void ReportEstimatorProgress(double fraction);
-  std::function<void(double)> callback_;
-  double reached_ = 0.0;
-  ScopedEstimatorProgress* previous_;
-};
+// Progress inside a running estimator (ReportEstimatorProgress, ScopedEstimatorProgress):
+// walkgraph/progress.h, included here.
 
 using EstimatorFactory = std::function<StatusOr<std::unique_ptr<Estimator>>(const Config& config)>;
 

@@ -39,8 +39,9 @@
 
 #include <Eigen/Core>
 
-#include "walkgraph/estimator.h"
+#include "walkgraph/estimate_result.h"
 #include "walkgraph/kalman.h"
+#include "walkgraph/progress.h"
 #include "walkgraph/status.h"
 #include "walkgraph/trajectory.h"
 
@@ -216,7 +217,7 @@ struct ErrorStateRunOptions {
 };
 
 namespace internal {
-// The driver loops report their progress (estimator.h ReportEstimatorProgress) every this many
+// The driver loops report their progress (progress.h ReportEstimatorProgress) every this many
 // samples or events.
 inline constexpr size_t kProgressEvery = 4096;
 

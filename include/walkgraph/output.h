@@ -21,11 +21,12 @@
 // whole. Temporaries of a process that no longer runs are removed by the next write beside them;
 // they are never read as output.
 //
-// Cancellation: RequestCancel() (async-signal-safe) asks the library to stop; the writers poll
-// it and, when set before the exchange, remove their temporary and return kCancelled with the
-// old output untouched. The walkgraph CLI installs SIGINT/SIGTERM/SIGHUP handlers that call
-// RequestCancel and, when no writer holds a temporary (OutputInProgress() is false), end the
-// process at once with 128 + signal: nothing of walkgraph's is on disk to clean up then.
+// Cancellation (walkgraph/cancel.h): RequestCancel() (async-signal-safe) asks the library to stop;
+// the writers poll it and, when set before the exchange, remove their temporary and return
+// kCancelled with the old output untouched. The walkgraph CLI installs SIGINT/SIGTERM/SIGHUP
+// handlers that call RequestCancel and, when no writer holds a temporary (OutputInProgress() is
+// false), end the process at once with 128 + signal: nothing of walkgraph's is on disk to clean up
+// then.
 #ifndef WALKGRAPH_OUTPUT_H_
 #define WALKGRAPH_OUTPUT_H_
 
@@ -34,6 +35,7 @@
 #include <string>
 #include <vector>
 
+#include "walkgraph/cancel.h"
 #include "walkgraph/status.h"
 
 namespace walkgraph {
@@ -73,15 +75,9 @@ Status WriteOutputFile(const std::string& path, const OutputOptions& options,
 // the folder is walkgraph's own). Fails when the stream fails.
 Status WriteFileInOutput(const std::string& path, const std::function<bool(std::ostream&)>& write);
 
-// Cancellation (see the top of this file). RequestCancel and OutputInProgress are
-// async-signal-safe.
-void RequestCancel(int signal_number) noexcept;
-bool CancelRequested() noexcept;
-// The signal passed to RequestCancel (0 when none).
-int CancelSignal() noexcept;
+// Whether a writer holds a temporary (async-signal-safe). Cancellation itself
+// (RequestCancel, CancelRequested, ...) is walkgraph/cancel.h, included here.
 bool OutputInProgress() noexcept;
-// Clears a request (tests, or a program that goes on after a cancelled operation).
-void ClearCancelRequest() noexcept;
 
 }  // namespace walkgraph
 

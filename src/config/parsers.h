@@ -1,5 +1,6 @@
-// The YAML readers of the library's Options (internal: the config layer). Each reads a map
-// whose keys are the Options' fields (ConfigReader: unknown keys and ill-typed values are
+// The YAML readers of the library's Options (internal: the layer that builds estimators; the
+// front ends' readers are in stance/stance_yaml.h, ins/strides_yaml.h, pdr/pdr_yaml.h). Each reads
+// a map whose keys are the Options' fields (ConfigReader: unknown keys and ill-typed values are
 // errors with the line), then applies the Options' Validate().
 #ifndef WALKGRAPH_SRC_CONFIG_PARSERS_H_
 #define WALKGRAPH_SRC_CONFIG_PARSERS_H_
@@ -11,6 +12,9 @@
 #include <yaml-cpp/yaml.h>
 
 #include "config/reader.h"
+#include "ins/strides_yaml.h"
+#include "pdr/pdr_yaml.h"
+#include "stance/stance_yaml.h"
 #include "walkgraph/dead_reckoning.h"
 #include "walkgraph/filters/correa.h"
 #include "walkgraph/filters/front_end.h"
@@ -18,7 +22,6 @@
 #include "walkgraph/filters/jimenez.h"
 #include "walkgraph/filters/prieto.h"
 #include "walkgraph/filters/tarrio.h"
-#include "walkgraph/pcrb.h"
 #include "walkgraph/pdr.h"
 #include "walkgraph/smoothers/ins_graph.h"
 #include "walkgraph/smoothers/ins_window.h"
@@ -77,16 +80,6 @@ StatusOr<TarrioEstimatorOptions> TarrioEstimatorOptionsFromYaml(const YAML::Node
                                                                 TarrioMode mode, bool smooth,
                                                                 const std::string& id);
 
-// walkgraph/pcrb.h
-// Keys: the field names. Unknown keys are errors.
-StatusOr<PcrbOptions> PcrbOptionsFromYaml(const YAML::Node& node, const std::string& context);
-
-// walkgraph/pdr.h
-// Keys: detector (vertical-peak|fir-magnitude|energy), length_model
-// (weinberg|constant|linear), heading (gyro|complementary), forward_axis (body-x|body-y|pca), and
-// every numeric field by its name; stride (a map of StrideOptions keys).
-StatusOr<PdrOptions> PdrOptionsFromYaml(const YAML::Node& node);
-
 // walkgraph/smoothers/ins_graph.h
 // Keys: front_end (a map of StrideOptions keys), placement (stance|every-n) and every other
 // field by its name.
@@ -108,20 +101,6 @@ StatusOr<InsWindowOptions> InsWindowOptionsFromYaml(
 StatusOr<StepGraphOptions> StepGraphOptionsFromYaml(const YAML::Node& node,
                                                     const std::string& context,
                                                     StepGraphOptions defaults);
-
-// walkgraph/stance.h
-// Keys: detector (glrt|mv|mag|are|multi-condition|adaptive) and every numeric field by its name;
-// a key the map does not name keeps its value in `base` (a front end's own defaults).
-StatusOr<StanceOptions> StanceOptionsFromYaml(const YAML::Node& node);
-
-StatusOr<StanceOptions> StanceOptionsFromYaml(const YAML::Node& node, const StanceOptions& base);
-
-// walkgraph/strides.h
-// Keys: sampling (interval-average|instantaneous), stance (a map, StanceOptions keys), and
-// every other field by its name; a key the map does not name keeps its value in `base`.
-StatusOr<StrideOptions> StrideOptionsFromYaml(const YAML::Node& node);
-
-StatusOr<StrideOptions> StrideOptionsFromYaml(const YAML::Node& node, const StrideOptions& base);
 
 // walkgraph/zupt_ins.h
 // Keys: front_end (a map of StrideOptions keys), output_rate_hz, gauge_sigma_m,

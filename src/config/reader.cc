@@ -9,8 +9,8 @@
 
 #include <yaml-cpp/eventhandler.h>
 
-#include "io/csv_reader.h"
-#include "io/input_file.h"
+#include "util/csv_reader.h"
+#include "util/input_file.h"
 #include "util/text.h"
 
 namespace walkgraph {

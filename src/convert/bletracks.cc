@@ -19,8 +19,8 @@
 #include <nlohmann/json.hpp>
 
 #include "convert/line_fields.h"
-#include "io/input_file.h"
 #include "io/plausibility.h"
+#include "util/input_file.h"
 #include "util/text.h"
 #include "walkgraph/convert.h"
 

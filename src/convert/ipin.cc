@@ -22,9 +22,9 @@
 #include <set>
 
 #include "convert/line_fields.h"
-#include "io/input_file.h"
 #include "io/plausibility.h"
 #include "util/geodesy.h"
+#include "util/input_file.h"
 #include "util/text.h"
 #include "walkgraph/convert.h"
 

@@ -4,7 +4,7 @@
 #include <cmath>
 #include <cstdlib>
 
-#include "io/csv_reader.h"
+#include "util/csv_reader.h"
 #include "util/text.h"
 
 namespace walkgraph::internal {

@@ -3,8 +3,8 @@
 #include <fstream>
 #include <sstream>
 
-#include "io/csv_reader.h"
-#include "io/input_file.h"
+#include "util/csv_reader.h"
+#include "util/input_file.h"
 #include "util/text.h"
 
 namespace walkgraph::internal {

@@ -5,7 +5,7 @@
 #include <set>
 #include <utility>
 
-#include "util/part_bytes.h"
+#include "eval/part_bytes.h"
 #include "walkgraph/compare.h"
 
 namespace walkgraph {

@@ -11,7 +11,8 @@
 #include <Eigen/Cholesky>
 #include <Eigen/SparseCholesky>
 
-#include "config/parsers.h"
+#include "config/reader.h"
+#include "eval/pcrb_yaml.h"
 #include "util/parallel_for.h"
 #include "walkgraph/compare.h"
 #include "walkgraph/config.h"

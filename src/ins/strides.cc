@@ -6,7 +6,9 @@
 #include <map>
 #include <string>
 
-#include "config/parsers.h"
+#include "config/reader.h"
+#include "ins/strides_yaml.h"
+#include "stance/stance_yaml.h"
 #include "util/enum_define.h"
 #include "util/median.h"
 #include "walkgraph/angle.h"

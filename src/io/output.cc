@@ -32,8 +32,6 @@ namespace {
 
 static_assert(std::atomic<int>::is_always_lock_free, "signal handlers need lock-free atomics");
 
-std::atomic<int> g_cancel_signal{0};
-std::atomic<bool> g_cancel{false};
 std::atomic<int> g_in_progress{0};
 std::function<void(const std::string&)> g_phase_hook;
 
@@ -432,17 +430,7 @@ std::string OutputSiblingName(const std::string& name, const char* kind) {
 
 }  // namespace internal
 
-void RequestCancel(int signal_number) noexcept {
-  g_cancel_signal.store(signal_number);
-  g_cancel.store(true);
-}
-bool CancelRequested() noexcept { return g_cancel.load(); }
-int CancelSignal() noexcept { return g_cancel_signal.load(); }
 bool OutputInProgress() noexcept { return g_in_progress.load() > 0; }
-void ClearCancelRequest() noexcept {
-  g_cancel.store(false);
-  g_cancel_signal.store(0);
-}
 
 Status CheckOutputTarget(const std::string& path, OutputKind kind, const OutputOptions& options) {
   WG_ASSIGN_OR_RETURN(const Target t, Resolve(path));

@@ -13,10 +13,10 @@
 #include <unordered_map>
 
 #include "config/reader.h"
-#include "io/csv_reader.h"
-#include "io/input_file.h"
 #include "io/plausibility.h"
+#include "util/csv_reader.h"
 #include "util/geodesy.h"
+#include "util/input_file.h"
 #include "util/text.h"
 #include "walkgraph/angle.h"
 #include "walkgraph/config.h"

@@ -8,7 +8,7 @@
 #include <unsupported/Eigen/SpecialFunctions>
 
 #include "walkgraph/angle.h"
-#include "walkgraph/output.h"
+#include "walkgraph/cancel.h"
 
 namespace walkgraph {
 
@@ -34,7 +34,7 @@ double ChiSquareQuantile(double p, int dof) {
 StatusOr<UpdateOutcome> KalmanUpdate(const Eigen::VectorXd& innovation, const Eigen::MatrixXd& H,
                                      const Eigen::MatrixXd& R, double gate_probability,
                                      Eigen::VectorXd* x, Eigen::MatrixXd* P) {
-  if (CancelRequested()) return Cancelled("filter: interrupted");  // see output.h
+  if (CancelRequested()) return Cancelled("filter: interrupted");  // see cancel.h
   const Eigen::Index n = x->size(), m = innovation.size();
   if (P->rows() != n || P->cols() != n || H.rows() != m || H.cols() != n || R.rows() != m ||
       R.cols() != m) {

@@ -6,7 +6,9 @@
 
 #include <Eigen/Eigenvalues>
 
-#include "config/parsers.h"
+#include "config/reader.h"
+#include "ins/strides_yaml.h"
+#include "pdr/pdr_yaml.h"
 #include "util/enum_define.h"
 #include "walkgraph/angle.h"
 #include "walkgraph/config.h"

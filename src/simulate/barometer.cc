@@ -1,7 +1,7 @@
 #include <cmath>
 
-#include "factors/barometric_height_factor.h"
 #include "simulate/sim_models.h"
+#include "walkgraph/barometric.h"
 
 namespace walkgraph {
 namespace sim {

@@ -6,7 +6,7 @@
 #include <string>
 
 #include "smoothers/graph_internal.h"
-#include "walkgraph/output.h"
+#include "walkgraph/cancel.h"
 
 namespace walkgraph {
 

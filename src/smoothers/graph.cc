@@ -12,8 +12,8 @@
 #include <ceres/ceres.h>
 
 #include "smoothers/graph_internal.h"
-#include "walkgraph/estimator.h"
-#include "walkgraph/output.h"
+#include "walkgraph/cancel.h"
+#include "walkgraph/progress.h"
 #include "walkgraph/smoothers/chain_covariance.h"
 
 namespace walkgraph {
@@ -74,7 +74,7 @@ namespace {
 // Every solve stops at the end of the iteration in which cancellation was requested
 // (RequestCancel: a signal in the CLI, Ctrl-C in Python); CheckSummary reports it as kCancelled.
 // After each solver iteration: a signal stops the solve; the iteration is a sign of life for a
-// long walk's progress report (estimator.h ReportEstimatorProgress: the solver cannot tell its
+// long walk's progress report (progress.h ReportEstimatorProgress: the solver cannot tell its
 // fraction, so the fraction reached so far is repeated).
 class CancelCallback : public ceres::IterationCallback {
  public:

@@ -4,7 +4,8 @@
 #include <cmath>
 #include <limits>
 
-#include "config/parsers.h"
+#include "config/reader.h"
+#include "stance/stance_yaml.h"
 #include "util/text.h"
 #include "walkgraph/config.h"
 

@@ -9,7 +9,7 @@
 #include <thread>
 #include <vector>
 
-#include "walkgraph/output.h"
+#include "walkgraph/cancel.h"
 #include "walkgraph/parallel.h"
 
 namespace walkgraph {
@@ -19,9 +19,8 @@ StatusOr<int> ResolveThreads(int requested, int work_items) {
     return InvalidArgument("threads " + std::to_string(requested) + " is above the limit of " +
                            std::to_string(kMaxThreads) + " (0 = one per hardware thread)");
   }
-  int threads = requested > 0
-                    ? requested
-                    : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  int threads = requested > 0 ? requested
+                              : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   threads = std::min({threads, std::max(1, work_items), kMaxThreads});
   return threads;
 }
@@ -54,9 +53,9 @@ Status ParallelFor(int begin, int end, int threads, const std::function<Status(i
     while (!stop.load()) {
       const int i = next.fetch_add(1);
       if (i >= end) return;
-      Status s = CancelRequested() ? Cancelled("interrupted (signal " +
-                                               std::to_string(CancelSignal()) + ")")
-                                   : Guarded(body, i);
+      Status s = CancelRequested()
+                     ? Cancelled("interrupted (signal " + std::to_string(CancelSignal()) + ")")
+                     : Guarded(body, i);
       if (!s.ok()) {
         std::lock_guard<std::mutex> lock(mutex);
         if (i < failed_index) {

@@ -12,7 +12,7 @@ namespace walkgraph::internal {
 // in order). Indices are handed out in increasing order; after the first failure no new index
 // starts, and the failure of the smallest failed index is returned. An exception escaping `body`
 // becomes a Status (std::bad_alloc: "out of memory"); a worker that cannot be started leaves
-// its share to the others. A cancel request (output.h) stops the loop with kCancelled.
+// its share to the others. A cancel request (walkgraph/cancel.h) stops the loop with kCancelled.
 Status ParallelFor(int begin, int end, int threads, const std::function<Status(int)>& body);
 
 }  // namespace walkgraph::internal

@@ -12,10 +12,11 @@
 #include <set>
 #include <sstream>
 
-#include "config/parsers.h"
-#include "io/input_file.h"
+#include "config/reader.h"
+#include "eval/pcrb_yaml.h"
 #include "report/estimator_style.h"
 #include "report/svg.h"
+#include "util/input_file.h"
 #include "util/text.h"
 #include "walkgraph/config.h"
 #include "walkgraph/io.h"

@@ -5,8 +5,8 @@
 // (a FIFO would block the reader forever; a loop would look like a missing file). Lines are read
 // with a length cap, so a file without line ends (or of NUL bytes) is an error, not a read of
 // the whole file into memory.
-#ifndef WALKGRAPH_SRC_IO_INPUT_FILE_H_
-#define WALKGRAPH_SRC_IO_INPUT_FILE_H_
+#ifndef WALKGRAPH_SRC_UTIL_INPUT_FILE_H_
+#define WALKGRAPH_SRC_UTIL_INPUT_FILE_H_
 
 #include <fstream>
 #include <string>
@@ -53,4 +53,4 @@ class LineReader {
 
 }  // namespace walkgraph::internal
 
-#endif  // WALKGRAPH_SRC_IO_INPUT_FILE_H_
+#endif  // WALKGRAPH_SRC_UTIL_INPUT_FILE_H_

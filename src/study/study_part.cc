@@ -2,8 +2,8 @@
 #include <algorithm>
 #include <filesystem>
 
-#include "io/input_file.h"
-#include "util/part_bytes.h"
+#include "eval/part_bytes.h"
+#include "util/input_file.h"
 #include "walkgraph/study.h"
 
 namespace walkgraph {

@@ -3,14 +3,14 @@
 // One header line naming the columns, then rows of numbers. Accepts a UTF-8 BOM and CRLF line
 // ends; rejects everything else that is not exactly the expected shape, with "path:line: ...".
 // Reads line by line, so a large file is never held in memory as text.
-#ifndef WALKGRAPH_SRC_IO_CSV_READER_H_
-#define WALKGRAPH_SRC_IO_CSV_READER_H_
+#ifndef WALKGRAPH_SRC_UTIL_CSV_READER_H_
+#define WALKGRAPH_SRC_UTIL_CSV_READER_H_
 
 #include <string>
 #include <string_view>
 #include <vector>
 
-#include "io/input_file.h"
+#include "util/input_file.h"
 #include "walkgraph/status.h"
 
 namespace walkgraph::internal {
@@ -63,4 +63,4 @@ void StripCarriageReturn(std::string* line);
 
 }  // namespace walkgraph::internal
 
-#endif  // WALKGRAPH_SRC_IO_CSV_READER_H_
+#endif  // WALKGRAPH_SRC_UTIL_CSV_READER_H_

@@ -1,4 +1,4 @@
-#include "io/input_file.h"
+#include "util/input_file.h"
 
 #include <sys/stat.h>
 

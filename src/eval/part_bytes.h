@@ -2,8 +2,8 @@
 // a Monte Carlo comparison's runs (compare.h). Fields are whitespace-separated tokens; strings
 // are <length>:<bytes>; doubles go by their bits, so what is read back is exactly what was
 // written.
-#ifndef WALKGRAPH_SRC_UTIL_PART_BYTES_H_
-#define WALKGRAPH_SRC_UTIL_PART_BYTES_H_
+#ifndef WALKGRAPH_SRC_EVAL_PART_BYTES_H_
+#define WALKGRAPH_SRC_EVAL_PART_BYTES_H_
 
 #include <charconv>
 #include <cinttypes>
@@ -140,4 +140,4 @@ inline Status GetStatus(PartReader& r) {
 
 }  // namespace walkgraph::internal
 
-#endif  // WALKGRAPH_SRC_UTIL_PART_BYTES_H_
+#endif  // WALKGRAPH_SRC_EVAL_PART_BYTES_H_
