@@ -66,14 +66,18 @@ namespace walkgraph {
 struct InsWindowOptions {
   // The graph (every fg-ins-batch key; max_iterations is the batch's), with the causal stance
   // detector (StrideOptions::Causal: a window's output at t must not depend on the walk after t).
-  // The stance magnetometer (use_stance_magnetometer, ins_graph.h) is on here too. With a
-  // factor at every stance it was not: the window cannot revise the headings it marginalized,
-  // and a disturbed leg's many factors bent them (jimenez-building stairs, 8 laps, 10 runs,
-  // fg-ins-window RMSE 0.338 m without, 0.359 with); with factors at stances 3 m apart 0.256
-  // (running 0.320 -> 0.257, prieto-laps running 0.379 -> 0.274, stairs 0.729 -> 0.405).
+  // The stance magnetometer (use_stance_magnetometer, ins_graph.h) is off by default here: a
+  // window cannot revise the headings it marginalized, and on short walks the field direction
+  // ψ_f it learnt from the first stances bends them. Measured with it on (factors at stances
+  // 3 m apart): over 8 laps, 10 runs, fg-ins-window 0.338 -> 0.256 m on jimenez-building
+  // stairs, 0.320 -> 0.257 running, 0.379 -> 0.274 on prieto-laps running; but over 3 walking
+  // laps of jimenez-building (seeds 300, 301) 0.263 -> 0.358 and 0.203 -> 0.220 m, the online
+  // output 0.290 -> 0.408 and 0.306 -> 0.322 m. (With a factor at every stance it was worse on
+  // 4 of 8 stair seeds.) fg-ins-batch, which solves ψ_f with the whole walk, keeps it on.
   InsGraphOptions graph = [] {
     InsGraphOptions g;
     g.front_end = g.front_end.Causal();
+    g.use_stance_magnetometer = false;
     return g;
   }();
   double lag_s = 10.0;
