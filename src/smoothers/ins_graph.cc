@@ -392,6 +392,14 @@ GapHistory LearnGapHistory(const InsGraphContext& c, size_t k_end, double span_s
   return h;
 }
 
+// The RMS of angles about their median (the learnt σ of both magnetic factors).
+double AngleSpreadAboutMedian(const std::vector<double>& angles) {
+  const double med = internal::Median(angles);
+  double sum2 = 0.0;
+  for (double x : angles) sum2 += std::pow(NormalizeAngle(x - med), 2);
+  return std::sqrt(sum2 / static_cast<double>(angles.size()));
+}
+
 // The yaw tie and the reach bound across an IMU gap between a and b (see the options).
 std::vector<InsFactor> GapFactors(const InsGraphContext& c, InsState* a, InsState* b) {
   const InsGraphOptions& o = c.options;
@@ -414,11 +422,8 @@ std::vector<InsFactor> GapFactors(const InsGraphContext& c, InsState* a, InsStat
   }
   const auto ma = MagnetometerNear(imu, a->imu_index), mb = MagnetometerNear(imu, b->imu_index);
   if (o.use_gap_magnetometer && ma && mb && h.field_turn_rad.size() >= enough) {
-    const double med = internal::Median(h.field_turn_rad);
-    double sum2 = 0.0;
-    for (double x : h.field_turn_rad) sum2 += std::pow(NormalizeAngle(x - med), 2);
-    const double sigma = std::max(std::sqrt(sum2 / static_cast<double>(h.field_turn_rad.size())),
-                                  o.gap_magnetic_min_sigma_rad);
+    const double sigma =
+        std::max(AngleSpreadAboutMedian(h.field_turn_rad), o.gap_magnetic_min_sigma_rad);
     out.push_back(
         MakeFactor(InsFactorKind::kGapMagneticHeading,
                    MagneticHeadingChangeFactor::Create(imu[*ma].mag_ut, imu[*mb].mag_ut, sigma),
@@ -439,10 +444,7 @@ bool HasHorizontalDirection(const Eigen::Vector3d& f) {
 // σ of the stance magnetic heading factor from the field turns of the pairs seen so far: their
 // RMS about the median, ÷√2 (either end of a pair disturbed), at least min_sigma.
 double StanceMagneticSigma(const std::vector<double>& turns, double min_sigma) {
-  const double med = internal::Median(turns);
-  double sum2 = 0.0;
-  for (double x : turns) sum2 += std::pow(NormalizeAngle(x - med), 2);
-  return std::max(std::sqrt(sum2 / (2.0 * static_cast<double>(turns.size()))), min_sigma);
+  return std::max(AngleSpreadAboutMedian(turns) / std::sqrt(2.0), min_sigma);
 }
 
 }  // namespace
