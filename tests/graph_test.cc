@@ -170,6 +170,27 @@ TEST(MarginalCovariancesTest, KeyTwiceUnconstrainedStateAndNaNValuesAreErrors) {
   EXPECT_FALSE(g->SetValue(Symbol('x', 0), {0.0, INFINITY}).ok());
 }
 
+// FactorResiduals: a factor's whitened residuals at the current values (no loss), by the index
+// it was added at; an index past the last is NotFound.
+TEST(FactorGraphTest, FactorResidualsAtTheCurrentValues) {
+  std::unique_ptr<FactorGraph> g = TwoBlockChain(true);
+  // Factor 1 is x0's prior, z = (0.2, -0.1), σ 0.3.
+  ASSERT_TRUE(g->SetValue(Symbol('x', 0), {0.2, 0.5}).ok());
+  auto r = g->FactorResiduals(1);
+  ASSERT_TRUE(r.ok()) << r.status().ToString();
+  ASSERT_EQ(r->size(), 2);
+  EXPECT_NEAR((*r)[0], 0.0, 1e-15);
+  EXPECT_NEAR((*r)[1], 0.6 / 0.3, 1e-12);
+  ASSERT_TRUE(g->SetValue(Symbol('x', 0), {0.5, -0.1}).ok());
+  r = g->FactorResiduals(1);
+  ASSERT_TRUE(r.ok());
+  EXPECT_NEAR((*r)[0], 0.3 / 0.3, 1e-12);
+  EXPECT_NEAR((*r)[1], 0.0, 1e-15);
+  auto past = g->FactorResiduals(g->num_factors());
+  ASSERT_FALSE(past.ok());
+  EXPECT_EQ(past.status().code(), StatusCode::kNotFound);
+}
+
 // Groups within one timestamp take the banded chain solve; a group across two timestamps sends
 // every group to ceres::Covariance (sparse QR). Both must agree, whatever the layout (the
 // blocks of a timestamp go in the order they were added) and however a group lists its keys:

@@ -1,4 +1,5 @@
 #include "walkgraph/smoothers/ins_window.h"
+#include "smoothers/ins_graph_internal.h"
 
 #include <algorithm>
 #include <cmath>

@@ -19,10 +19,10 @@
 //     l(g) path loss (A, η) of group g (0, or the anchor index with path_loss: per-anchor or
 //     hierarchical), m(0) hierarchical's walk-wide mean path loss (A, η),
 //     b(g) range bias, s(g) range scale, g(0) gyro bias.
-//   foot-INS graph (fg-ins-window, fg-ins-batch's covariances):  x(i) position (x, y, z) of state
+//   foot-INS graph (fg-ins-batch, fg-ins-window):  x(i) position (x, y, z) of state
 //     i, v(i) velocity, q(i) attitude (NavQuaternionManifold), g(i) gyro bias, a(i) accelerometer
 //     bias; l(0) path loss (A, η) (hierarchical: m(0) the mean, l(a) anchor index a's), b(a)
-//     range bias of anchor index a.
+//     range bias of anchor index a, f(0) the magnetic field's direction (stance magnetometer).
 #ifndef WALKGRAPH_GRAPH_H_
 #define WALKGRAPH_GRAPH_H_
 
@@ -143,6 +143,9 @@ class FactorGraph {
   std::optional<double> Time(Key key) const;
   size_t num_states() const { return states_.size(); }
   size_t num_factors() const { return factors_.size(); }
+  // The residuals of factor `index` (in the order added) at the current values, without its
+  // robust loss. Errors: no such factor, or its cost function fails to evaluate.
+  StatusOr<Eigen::VectorXd> FactorResiduals(size_t index) const;
 
  private:
   friend StatusOr<SolveSummary> SolveBatch(FactorGraph* graph, const SolverOptions& options);

@@ -481,6 +481,21 @@ Status FactorGraph::SetConstant(Key key, bool constant) {
   return Status::Ok();
 }
 
+StatusOr<Eigen::VectorXd> FactorGraph::FactorResiduals(size_t index) const {
+  if (index >= factors_.size()) {
+    return NotFound("factor graph: no factor " + std::to_string(index));
+  }
+  const GraphFactor& f = factors_[index];
+  std::vector<const double*> blocks;
+  for (Key key : f.keys) blocks.push_back(states_.at(key).spec.value.data());
+  Eigen::VectorXd r(f.cost->num_residuals());
+  if (!f.cost->Evaluate(blocks.data(), r.data(), nullptr)) {
+    return NumericalError("factor graph: factor " + std::to_string(index) +
+                          " could not be evaluated");
+  }
+  return r;
+}
+
 std::vector<Key> FactorGraph::TimedKeys() const { return internal::KeysByTime(states_); }
 
 std::vector<Key> FactorGraph::StaticKeys() const {

@@ -28,6 +28,7 @@
 #include "factors/zaru_factor.h"
 #include "factors/zupt_factor.h"
 #include "smoothers/graph_internal.h"
+#include "smoothers/ins_graph_internal.h"
 #include "util/enum_define.h"
 #include "util/median.h"
 #include "walkgraph/angle.h"
@@ -309,14 +310,6 @@ StatusOr<std::vector<InsState>> InitialInsStates(const Walk& walk, const ZuptIns
     states.push_back(s);
   }
   return states;
-}
-
-void AddInsStateBlocks(ceres::Problem* problem, InsState* s, ceres::Manifold* q_manifold) {
-  problem->AddParameterBlock(s->p.data(), 3);
-  problem->AddParameterBlock(s->v.data(), 3);
-  problem->AddParameterBlock(s->q.data(), 4, q_manifold);
-  problem->AddParameterBlock(s->bg.data(), 3);
-  problem->AddParameterBlock(s->ba.data(), 3);
 }
 
 std::vector<InsFactor> InsStateFactors(const InsGraphContext& c, InsState* s) {
@@ -857,37 +850,137 @@ void AddInsPathLossDiagnostics(const Walk& walk, const InsSharedBlocks& blocks,
   }
 }
 
-void HoldInsRadioBlocks(ceres::Problem* problem, InsSharedBlocks* blocks,
-                        const InsGraphOptions& options) {
-  if (problem->HasParameterBlock(blocks->path_loss.data()) && !blocks->estimate_path_loss) {
-    problem->SetParameterBlockConstant(blocks->path_loss.data());
+namespace {
+constexpr char kInsBlockLetters[kInsBlocksPerState + 1] = "xvqga";
+}  // namespace
+
+Key InsKey(size_t state, InsBlock block) {
+  return Symbol(kInsBlockLetters[static_cast<int>(block)], state);
+}
+
+std::optional<InsBlock> InsBlockOfLetter(char letter) {
+  for (int b = 0; b < kInsBlocksPerState; ++b) {
+    if (letter == kInsBlockLetters[b]) return static_cast<InsBlock>(b);
   }
-  if (options.estimate_range_bias) return;
-  for (auto& [id, bias] : blocks->range_bias_m) {
-    if (problem->HasParameterBlock(&bias)) problem->SetParameterBlockConstant(&bias);
+  return std::nullopt;
+}
+
+int InsBlockSize(InsBlock block) { return block == InsBlock::kQ ? 4 : 3; }
+
+double* InsBlockData(InsState* s, InsBlock block) {
+  switch (block) {
+    case InsBlock::kP:
+      return s->p.data();
+    case InsBlock::kV:
+      return s->v.data();
+    case InsBlock::kQ:
+      return s->q.data();
+    case InsBlock::kBg:
+      return s->bg.data();
+    case InsBlock::kBa:
+      break;
   }
+  return s->ba.data();
+}
+
+std::vector<GraphState> InsStateBlocks(size_t i, const InsState& values,
+                                       const std::shared_ptr<const ceres::Manifold>& q_manifold) {
+  InsState copy = values;
+  std::vector<GraphState> out;
+  for (int b = 0; b < kInsBlocksPerState; ++b) {
+    const InsBlock block = static_cast<InsBlock>(b);
+    GraphState st;
+    st.key = InsKey(i, block);
+    st.t_s = values.t_s;
+    const double* data = InsBlockData(&copy, block);
+    st.value.assign(data, data + InsBlockSize(block));
+    if (block == InsBlock::kQ) st.manifold = q_manifold;
+    out.push_back(std::move(st));
+  }
+  return out;
 }
 
 Key InsStateKey(size_t state, char letter) { return Symbol(letter, state); }
 
 double* InsBlockOfKey(std::vector<InsState>* states, Key key) {
   const uint64_t i = SymbolIndex(key);
-  if (i >= states->size()) return nullptr;
-  InsState& s = (*states)[i];
-  switch (SymbolLetter(key)) {
-    case 'x':
-      return s.p.data();
-    case 'v':
-      return s.v.data();
-    case 'q':
-      return s.q.data();
-    case 'g':
-      return s.bg.data();
-    case 'a':
-      return s.ba.data();
-    default:
-      return nullptr;
+  const std::optional<InsBlock> block = InsBlockOfLetter(SymbolLetter(key));
+  if (i >= states->size() || !block) return nullptr;
+  return InsBlockData(&(*states)[i], *block);
+}
+
+void InsKeyMap::RegisterState(size_t i, InsState* state) {
+  for (int b = 0; b < kInsBlocksPerState; ++b) {
+    const InsBlock block = static_cast<InsBlock>(b);
+    double* data = InsBlockData(state, block);
+    if (mapped_.emplace(data, Mapped{InsKey(i, block), data, InsBlockSize(block)}).second) {
+      order_.push_back(data);
+    }
   }
+}
+
+StatusOr<GraphState> InsKeyMap::SharedState(const double* block) {
+  GraphState st;
+  InsSharedBlocks& sh = *shared_;
+  auto anchor_key = [&](char letter, int id) -> StatusOr<Key> {
+    const int ai = walk_.AnchorIndex(id);
+    if (ai < 0) return InternalError("foot-INS graph: a walk-wide block of an unknown anchor");
+    return Symbol(letter, static_cast<uint64_t>(ai));
+  };
+  if (block == sh.path_loss.data()) {
+    st.key = Symbol(sh.per_anchor_path_loss ? 'm' : 'l', 0);
+    st.value.assign(sh.path_loss.begin(), sh.path_loss.end());
+    st.constant = !sh.estimate_path_loss;
+    return st;
+  }
+  if (block == &sh.field_yaw_rad) {
+    st.key = Symbol('f', 0);
+    st.value = {sh.field_yaw_rad};
+    return st;
+  }
+  for (auto& [id, bias] : sh.range_bias_m) {
+    if (&bias != block) continue;
+    WG_ASSIGN_OR_RETURN(st.key, anchor_key('b', id));
+    st.value = {bias};
+    st.constant = !options_.estimate_range_bias;
+    return st;
+  }
+  for (auto& [id, pl] : sh.anchor_path_loss) {
+    if (pl.data() != block) continue;
+    WG_ASSIGN_OR_RETURN(st.key, anchor_key('l', id));
+    st.value.assign(pl.begin(), pl.end());
+    return st;
+  }
+  return InternalError("foot-INS graph: a factor on a block that is no state's");
+}
+
+StatusOr<GraphFactor> InsKeyMap::ToGraphFactor(InsFactor* f, std::vector<GraphState>* new_states) {
+  GraphFactor out;
+  for (double* block : f->blocks) {
+    auto it = mapped_.find(block);
+    if (it == mapped_.end()) {
+      WG_ASSIGN_OR_RETURN(GraphState st, SharedState(block));
+      it = mapped_.emplace(block, Mapped{st.key, block, static_cast<int>(st.value.size())}).first;
+      order_.push_back(block);
+      new_states->push_back(std::move(st));
+    }
+    out.keys.push_back(it->second.key);
+  }
+  out.cost = std::shared_ptr<ceres::CostFunction>(f->cost.release());
+  out.loss = std::shared_ptr<const ceres::LossFunction>(f->loss.release());
+  return out;
+}
+
+Status InsKeyMap::CopyValues(const std::function<StatusOr<std::vector<double>>(Key)>& value) const {
+  for (const double* block : order_) {
+    const Mapped& m = mapped_.at(block);
+    WG_ASSIGN_OR_RETURN(std::vector<double> v, value(m.key));
+    if (v.size() != static_cast<size_t>(m.size)) {
+      return InternalError("foot-INS graph: " + KeyToString(m.key) + " has another size");
+    }
+    std::copy(v.begin(), v.end(), m.block);
+  }
+  return Status::Ok();
 }
 
 StatusOr<std::vector<std::vector<GraphFactor>>> InsUserFactors(const InsGraphContext& c,
@@ -917,50 +1010,6 @@ StatusOr<std::vector<std::vector<GraphFactor>>> InsUserFactors(const InsGraphCon
     out[newest].push_back(std::move(factors[i]));
   }
   return out;
-}
-
-namespace {
-
-// A shared cost function for a problem that owns its cost functions: the problem deletes the
-// wrapper, the wrapped one lives on with its other owners.
-class SharedCost : public ceres::CostFunction {
- public:
-  explicit SharedCost(std::shared_ptr<ceres::CostFunction> cost) : cost_(std::move(cost)) {
-    set_num_residuals(cost_->num_residuals());
-    *mutable_parameter_block_sizes() = cost_->parameter_block_sizes();
-  }
-  bool Evaluate(double const* const* parameters, double* residuals,
-                double** jacobians) const override {
-    return cost_->Evaluate(parameters, residuals, jacobians);
-  }
-
- private:
-  std::shared_ptr<ceres::CostFunction> cost_;
-};
-
-}  // namespace
-
-Status AddInsUserFactors(ceres::Problem* problem, std::vector<InsState>* states,
-                         const std::vector<std::vector<GraphFactor>>& factors) {
-  for (const auto& at : factors) {
-    for (const GraphFactor& f : at) {
-      std::vector<double*> blocks;
-      for (const Key key : f.keys) blocks.push_back(InsBlockOfKey(states, key));
-      ceres::LossFunction* loss =
-          f.loss ? new ceres::LossFunctionWrapper(const_cast<ceres::LossFunction*>(f.loss.get()),
-                                                  ceres::DO_NOT_TAKE_OWNERSHIP)
-                 : nullptr;
-      problem->AddResidualBlock(new SharedCost(f.cost), loss, blocks);
-    }
-  }
-  return Status::Ok();
-}
-
-void AddInsFactors(ceres::Problem* problem, std::vector<InsFactor>* factors) {
-  for (InsFactor& f : *factors) {
-    problem->AddResidualBlock(f.cost.release(), f.loss.release(), f.blocks);
-  }
-  factors->clear();
 }
 
 Trajectory InsStatesTrajectory(const Walk& walk, const std::vector<InsState>& states,
@@ -1030,56 +1079,121 @@ Status InsGraphBatch::CheckApplicable(const Walk& walk) const {
 
 namespace {
 
-// (x, y, yaw) covariance of every state by the graphs' one extractor (graph_internal.h: the
-// banded chain solve, ceres::Covariance where the graph is no chain), the states' blocks keyed
-// x(i) p, v(i), q(i), g(i) b_g, a(i) b_a at their time, the radio's blocks static. False (and
-// `out` untouched) when it cannot be computed (rank deficiency).
-// The walk-wide path-loss block's key: l(0), or m(0) when it is hierarchical's mean (l(id)
-// are then the anchors').
-Key InsPathLossKey(const InsSharedBlocks& radio) {
-  return Symbol(radio.per_anchor_path_loss ? 'm' : 'l', 0);
+// One build of the batch graph: the states (valued as they are now) with the walk's factors in
+// the order the factor makers give them (segment, radio, stance magnetic, then the user's), the
+// walk-wide blocks as static states in the order first named; and each RSS factor's anchor id
+// and index in the graph (for TestInsAnchors).
+struct InsBatchGraph {
+  std::unique_ptr<FactorGraph> graph;
+  std::unique_ptr<InsKeyMap> keys;
+  size_t num_radio = 0, num_magnetic = 0;
+  std::vector<std::pair<int, size_t>> rss;
+};
+
+StatusOr<InsBatchGraph> BuildInsBatch(const InsGraphContext& context, std::vector<InsState>* states,
+                                      InsSharedBlocks* radio,
+                                      const std::vector<std::vector<GraphFactor>>& user) {
+  InsBatchGraph out;
+  const size_t last = states->size() - 1;
+  WG_ASSIGN_OR_RETURN(std::vector<InsFactor> factors, InsSegmentFactors(context, states, 0, last));
+  radio->bias_prior_added.clear();  // a new graph: priors again, bias values kept
+  radio->path_loss_prior_added = false;
+  radio->anchor_path_loss_prior_added.clear();
+  WG_ASSIGN_OR_RETURN(std::vector<InsFactor> radio_factors,
+                      InsRadioFactors(context, states, 0, last, radio));
+  std::vector<InsFactor> magnetic = InsStanceMagneticFactors(context, states, 0, last, radio);
+  out.num_radio = radio_factors.size();
+  out.num_magnetic = magnetic.size();
+  for (InsFactor& f : radio_factors) factors.push_back(std::move(f));
+  for (InsFactor& f : magnetic) factors.push_back(std::move(f));
+
+  out.keys = std::make_unique<InsKeyMap>(*context.walk, context.options, radio);
+  for (size_t i = 0; i < states->size(); ++i) out.keys->RegisterState(i, &(*states)[i]);
+  std::vector<GraphState> shared;
+  std::vector<GraphFactor> graph_factors;
+  for (InsFactor& f : factors) {
+    if (f.kind == InsFactorKind::kRss) out.rss.emplace_back(f.anchor_id, graph_factors.size());
+    WG_ASSIGN_OR_RETURN(GraphFactor g, out.keys->ToGraphFactor(&f, &shared));
+    graph_factors.push_back(std::move(g));
+  }
+  out.graph = std::make_unique<FactorGraph>();
+  const auto manifold = std::make_shared<NavQuaternionManifold>();
+  for (size_t i = 0; i < states->size(); ++i) {
+    for (GraphState& st : InsStateBlocks(i, (*states)[i], manifold)) {
+      WG_RETURN_IF_ERROR(out.graph->AddState(std::move(st)));
+    }
+  }
+  for (GraphState& st : shared) WG_RETURN_IF_ERROR(out.graph->AddState(std::move(st)));
+  for (GraphFactor& f : graph_factors) WG_RETURN_IF_ERROR(out.graph->AddFactor(std::move(f)));
+  for (const auto& at : user) {
+    for (const GraphFactor& f : at) WG_RETURN_IF_ERROR(out.graph->AddFactor(f));
+  }
+  return out;
 }
 
-bool InsPoseCovariances(ceres::Problem* problem, std::vector<InsState>* states,
-                        InsSharedBlocks* radio, std::vector<std::optional<Eigen::Matrix3d>>* out) {
-  internal::KeyedBlocks blocks;
-  blocks.reserve(5 * states->size() + 1);
+// One batch solve of the foot-INS graph, relinearized while the biases move
+// (max_relinearizations): each round builds the graph again at the new biases (the
+// preintegrations are made at their first state's), and its figures.
+struct InsBatchSolve {
+  InsBatchGraph built;
+  int iterations = 0, relinearizations = 0;
+  double initial_cost = 0.0, final_cost = 0.0;
+  bool converged = false;
+};
+
+// The largest change of a gyro and of an accelerometer bias from `before`.
+std::pair<double, double> BiasChange(const std::vector<InsState>& before,
+                                     const std::vector<InsState>& after) {
+  double dg = 0.0, da = 0.0;
+  for (size_t i = 0; i < after.size(); ++i) {
+    for (int k = 0; k < 3; ++k) {
+      dg = std::max(dg, std::fabs(after[i].bg[k] - before[i].bg[k]));
+      da = std::max(da, std::fabs(after[i].ba[k] - before[i].ba[k]));
+    }
+  }
+  return {dg, da};
+}
+
+StatusOr<InsBatchSolve> SolveInsBatch(const InsGraphContext& context, std::vector<InsState>* states,
+                                      InsSharedBlocks* radio,
+                                      const std::vector<std::vector<GraphFactor>>& user,
+                                      const SolverOptions& solver) {
+  const InsGraphOptions& o = context.options;
+  InsBatchSolve out;
+  for (int round = 0; round <= o.max_relinearizations; ++round) {
+    WG_ASSIGN_OR_RETURN(out.built, BuildInsBatch(context, states, radio, user));
+    const std::vector<InsState> linearization = *states;
+    FactorGraph* graph = out.built.graph.get();
+    StatusOr<SolveSummary> summary = SolveBatch(graph, solver);
+    if (!summary.ok()) {
+      return Status(summary.status().code(), "fg-ins-batch: " + summary.status().message());
+    }
+    WG_RETURN_IF_ERROR(out.built.keys->CopyValues([graph](Key k) { return graph->Value(k); }));
+    if (round == 0) out.initial_cost = summary->initial_cost;
+    out.final_cost = summary->final_cost;
+    out.iterations += summary->iterations;
+    out.converged = summary->termination == Termination::kConverged;
+    const auto [dg, da] = BiasChange(linearization, *states);
+    if (dg <= o.relinearize_gyro_bias_radps && da <= o.relinearize_acc_bias_mps2) break;
+    if (round < o.max_relinearizations) ++out.relinearizations;
+  }
+  return out;
+}
+
+// (x, y, yaw) covariance of every state (graph.h MarginalCovariances: the banded chain solve)
+// in the tangent space of NavQuaternionManifold, δθ_z the yaw. False (and `out` untouched) when
+// it cannot be computed (rank deficiency).
+bool InsPoseCovariances(FactorGraph* graph, size_t num_states,
+                        std::vector<std::optional<Eigen::Matrix3d>>* out) {
   std::vector<std::vector<Key>> groups;
-  groups.reserve(states->size());
-  for (size_t i = 0; i < states->size(); ++i) {
-    InsState& s = (*states)[i];
-    blocks.push_back({Symbol('x', i), s.p.data(), s.t_s, blocks.size()});
-    blocks.push_back({Symbol('v', i), s.v.data(), s.t_s, blocks.size()});
-    blocks.push_back({Symbol('q', i), s.q.data(), s.t_s, blocks.size()});
-    blocks.push_back({Symbol('g', i), s.bg.data(), s.t_s, blocks.size()});
-    blocks.push_back({Symbol('a', i), s.ba.data(), s.t_s, blocks.size()});
-    groups.push_back({Symbol('x', i), Symbol('q', i)});
+  groups.reserve(num_states);
+  for (size_t i = 0; i < num_states; ++i) {
+    groups.push_back({InsKey(i, InsBlock::kP), InsKey(i, InsBlock::kQ)});
   }
-  if (problem->HasParameterBlock(radio->path_loss.data())) {
-    blocks.push_back(
-        {InsPathLossKey(*radio), radio->path_loss.data(), std::nullopt, blocks.size()});
-  }
-  for (auto& [id, v] : radio->anchor_path_loss) {
-    if (problem->HasParameterBlock(v.data())) {
-      blocks.push_back(
-          {Symbol('l', static_cast<uint64_t>(id)), v.data(), std::nullopt, blocks.size()});
-    }
-  }
-  for (auto& [id, bias] : radio->range_bias_m) {
-    if (problem->HasParameterBlock(&bias)) {
-      blocks.push_back(
-          {Symbol('b', static_cast<uint64_t>(id)), &bias, std::nullopt, blocks.size()});
-    }
-  }
-  if (problem->HasParameterBlock(&radio->field_yaw_rad)) {
-    blocks.push_back({Symbol('f', 0), &radio->field_yaw_rad, std::nullopt, blocks.size()});
-  }
-  internal::SortKeyedBlocks(&blocks);  // each key once: the letters differ, ids are unique
-  StatusOr<std::vector<Eigen::MatrixXd>> cov =
-      internal::KeyedMarginalCovariances(problem, blocks, groups, "fg-ins-batch covariance");
+  StatusOr<std::vector<Eigen::MatrixXd>> cov = MarginalCovariances(graph, groups);
   if (!cov.ok()) return false;
-  std::vector<std::optional<Eigen::Matrix3d>> pose(states->size());
-  for (size_t i = 0; i < states->size(); ++i) {
+  std::vector<std::optional<Eigen::Matrix3d>> pose(num_states);
+  for (size_t i = 0; i < num_states; ++i) {
     const Eigen::MatrixXd& c = (*cov)[i];
     if (c.rows() != 6) return false;  // p or q held constant: no pose covariance
     const int index[3] = {0, 1, 5};   // x, y of p; δθ_z of q (the yaw)
@@ -1094,103 +1208,19 @@ bool InsPoseCovariances(ceres::Problem* problem, std::vector<InsState>* states,
   return true;
 }
 
-}  // namespace
-
-namespace {
-
-// One batch solve of the foot-INS graph, relinearized while the biases move
-// (max_relinearizations), and its figures. rss: each RSS factor's anchor and residual block.
-struct InsBatchSolve {
-  std::unique_ptr<ceres::Problem> problem;
-  int iterations = 0, relinearizations = 0;
-  size_t num_radio = 0, num_magnetic = 0;
-  double initial_cost = 0.0, final_cost = 0.0;
-  bool converged = false;
-  std::vector<std::pair<int, ceres::ResidualBlockId>> rss;
-};
-
-// The graph of `states` (from their current values) with the walk's factors and the user's.
-StatusOr<std::unique_ptr<ceres::Problem>> BuildInsBatch(
-    const InsGraphContext& context, std::vector<InsState>* states, InsSharedBlocks* radio,
-    const std::vector<std::vector<GraphFactor>>& user, InsBatchSolve* out) {
-  auto problem = std::make_unique<ceres::Problem>();
-  ceres::Manifold* manifold = new NavQuaternionManifold;  // owned by the problem
-  for (InsState& s : *states) AddInsStateBlocks(problem.get(), &s, manifold);
-  WG_ASSIGN_OR_RETURN(std::vector<InsFactor> factors,
-                      InsSegmentFactors(context, states, 0, states->size() - 1));
-  AddInsFactors(problem.get(), &factors);
-  radio->bias_prior_added.clear();  // a new problem: priors again, bias values kept
-  radio->path_loss_prior_added = false;
-  radio->anchor_path_loss_prior_added.clear();
-  WG_ASSIGN_OR_RETURN(std::vector<InsFactor> radio_factors,
-                      InsRadioFactors(context, states, 0, states->size() - 1, radio));
-  out->num_radio = radio_factors.size();
-  out->rss.clear();
-  for (InsFactor& f : radio_factors) {
-    const ceres::ResidualBlockId id =
-        problem->AddResidualBlock(f.cost.release(), f.loss.release(), f.blocks);
-    if (f.kind == InsFactorKind::kRss) out->rss.emplace_back(f.anchor_id, id);
-  }
-  std::vector<InsFactor> magnetic =
-      InsStanceMagneticFactors(context, states, 0, states->size() - 1, radio);
-  out->num_magnetic = magnetic.size();
-  AddInsFactors(problem.get(), &magnetic);
-  WG_RETURN_IF_ERROR(AddInsUserFactors(problem.get(), states, user));
-  HoldInsRadioBlocks(problem.get(), radio, context.options);
-  return problem;
-}
-
-StatusOr<InsBatchSolve> SolveInsBatch(const InsGraphContext& context, std::vector<InsState>* states,
-                                      InsSharedBlocks* radio,
-                                      const std::vector<std::vector<GraphFactor>>& user,
-                                      const ceres::Solver::Options& solver) {
-  const InsGraphOptions& o = context.options;
-  InsBatchSolve out;
-  for (int round = 0; round <= o.max_relinearizations; ++round) {
-    WG_ASSIGN_OR_RETURN(out.problem, BuildInsBatch(context, states, radio, user, &out));
-    std::vector<std::array<double, 6>> linearization(states->size());
-    for (size_t i = 0; i < states->size(); ++i) {
-      for (int k = 0; k < 3; ++k) {
-        linearization[i][k] = (*states)[i].bg[k];
-        linearization[i][3 + k] = (*states)[i].ba[k];
-      }
-    }
-    ceres::Solver::Summary summary;
-    ceres::Solve(solver, out.problem.get(), &summary);
-    WG_RETURN_IF_ERROR(internal::CheckSummary(summary, "fg-ins-batch").status());
-    if (round == 0) out.initial_cost = summary.initial_cost;
-    out.final_cost = summary.final_cost;
-    out.iterations += static_cast<int>(summary.iterations.size());
-    out.converged = summary.termination_type == ceres::CONVERGENCE;
-    double dg = 0.0, da = 0.0;
-    for (size_t i = 0; i < states->size(); ++i) {
-      for (int k = 0; k < 3; ++k) {
-        dg = std::max(dg, std::fabs((*states)[i].bg[k] - linearization[i][k]));
-        da = std::max(da, std::fabs((*states)[i].ba[k] - linearization[i][3 + k]));
-      }
-    }
-    if (dg <= o.relinearize_gyro_bias_radps && da <= o.relinearize_acc_bias_mps2) break;
-    if (round < o.max_relinearizations) ++out.relinearizations;
-  }
-  return out;
-}
-
 // auto's choice after a global solve (InsGraphOptions::path_loss): do the anchors' mean
 // residuals disagree with the one path loss?
 std::optional<internal::AnchorOffsetTest> TestInsAnchors(const InsGraphOptions& o,
                                                          const InsSharedBlocks& radio,
-                                                         const InsBatchSolve& solve) {
+                                                         const InsBatchGraph& built) {
   if (o.path_loss != PathLossMode::kAuto || !radio.estimate_path_loss ||
-      radio.per_anchor_path_loss || !(o.path_loss_anchor_test_z > 0) || solve.rss.empty()) {
+      radio.per_anchor_path_loss || !(o.path_loss_anchor_test_z > 0) || built.rss.empty()) {
     return std::nullopt;
   }
   std::vector<std::pair<int, double>> residuals;
-  for (const auto& [anchor, id] : solve.rss) {
-    double r = 0.0;
-    if (solve.problem->EvaluateResidualBlock(id, /*apply_loss_function=*/false, nullptr, &r,
-                                             nullptr)) {
-      residuals.emplace_back(anchor, r);
-    }
+  for (const auto& [anchor, index] : built.rss) {
+    StatusOr<Eigen::VectorXd> r = built.graph->FactorResiduals(index);
+    if (r.ok()) residuals.emplace_back(anchor, (*r)[0]);
   }
   return internal::TestAnchorOffsets(residuals, o.path_loss_anchor_test_z);
 }
@@ -1234,15 +1264,14 @@ StatusOr<EstimateResult> InsGraphBatch::Run(const Walk& walk) const {
   so.gradient_tolerance = o.gradient_tolerance;
   so.initial_trust_region_radius = o.initial_trust_region_radius;
   WG_RETURN_IF_ERROR(so.Validate());
-  const ceres::Solver::Options solver = internal::ToCeres(so);
 
   InsSharedBlocks radio;
-  WG_ASSIGN_OR_RETURN(InsBatchSolve solve, SolveInsBatch(context, &states, &radio, user, solver));
-  const std::optional<internal::AnchorOffsetTest> test = TestInsAnchors(o, radio, solve);
+  WG_ASSIGN_OR_RETURN(InsBatchSolve solve, SolveInsBatch(context, &states, &radio, user, so));
+  const std::optional<internal::AnchorOffsetTest> test = TestInsAnchors(o, radio, solve.built);
   if (test && test->disagree) {  // per anchor, from the global solution
     context.options.path_loss = PathLossMode::kHierarchical;
     const int iterations = solve.iterations;
-    WG_ASSIGN_OR_RETURN(solve, SolveInsBatch(context, &states, &radio, user, solver));
+    WG_ASSIGN_OR_RETURN(solve, SolveInsBatch(context, &states, &radio, user, so));
     solve.iterations += iterations;
   }
 
@@ -1250,14 +1279,14 @@ StatusOr<EstimateResult> InsGraphBatch::Run(const Walk& walk) const {
   std::vector<std::optional<Eigen::Matrix3d>> state_cov(states.size());
   bool cov_ok = false;
   if (o.compute_covariance) {
-    cov_ok = InsPoseCovariances(solve.problem.get(), &states, &radio, &state_cov);
+    cov_ok = InsPoseCovariances(solve.built.graph.get(), states.size(), &state_cov);
   }
   result.trajectory = InsStatesTrajectory(walk, states, state_cov, o, /*close_segments=*/true);
   auto& d = result.diagnostics;
   d["num_states"] = static_cast<double>(states.size());
   AddFrontEndDiagnostics(front, &d);
-  d["num_radio_factors"] = static_cast<double>(solve.num_radio);
-  AddStanceMagneticDiagnostics(magnetic_sigma, solve.num_magnetic, &d);
+  d["num_radio_factors"] = static_cast<double>(solve.built.num_radio);
+  AddStanceMagneticDiagnostics(magnetic_sigma, solve.built.num_magnetic, &d);
   AddInsPathLossDiagnostics(walk, radio, &d);
   if (test) {
     d["path_loss_anchor_chi2"] = test->statistic;

@@ -14,6 +14,7 @@
 #include "config/parsers.h"
 #include "estimators/builtin.h"
 #include "factors/nav_quaternion_manifold.h"
+#include "smoothers/ins_graph_internal.h"
 #include "walkgraph/angle.h"
 #include "walkgraph/config.h"
 #include "walkgraph/kalman.h"
@@ -24,42 +25,11 @@ namespace walkgraph {
 
 namespace {
 
-// State i's blocks have keys x(i) p, v(i) v, q(i) q, g(i) b_g, a(i) b_a (graph.h); the static
-// states l(0) the path loss (hierarchical: m(0) the mean, l(a) anchor index a's) and b(a) the
-// range bias of anchor index a.
-constexpr int kBlocksPerState = 5;
-enum InsBlock { kP = 0, kV = 1, kQ = 2, kBg = 3, kBa = 4 };
-constexpr char kBlockLetters[kBlocksPerState + 1] = "xvqga";
-StateKey Key(size_t i, int block) { return Symbol(kBlockLetters[block], i); }
-StateKey RangeBiasKey(int anchor_index) { return Symbol('b', static_cast<uint64_t>(anchor_index)); }
-StateKey PathLossKey(int anchor_index) { return Symbol('l', static_cast<uint64_t>(anchor_index)); }
-// The block of a state's key (kP … kBa), or −1 for a static state's.
-int BlockOfKey(StateKey key) {
-  for (int b = 0; b < kBlocksPerState; ++b) {
-    if (SymbolLetter(key) == kBlockLetters[b]) return b;
-  }
-  return -1;
+// The keys of the states' and the walk-wide blocks: InsKeyMap (ins_graph_internal.h).
+void SetBlock(InsState* s, InsBlock block, const std::vector<double>& v) {
+  std::copy(v.begin(), v.begin() + InsBlockSize(block), InsBlockData(s, block));
 }
-
-double* BlockOf(InsState* s, int block) {
-  switch (block) {
-    case kP:
-      return s->p.data();
-    case kV:
-      return s->v.data();
-    case kQ:
-      return s->q.data();
-    case kBg:
-      return s->bg.data();
-    default:
-      return s->ba.data();
-  }
-}
-int BlockSize(int block) { return block == kQ ? 4 : 3; }
-
-void SetBlock(InsState* s, int block, const std::vector<double>& v) {
-  std::copy(v.begin(), v.begin() + BlockSize(block), BlockOf(s, block));
-}
+bool IsPositionKey(StateKey key) { return InsBlockOfLetter(SymbolLetter(key)) == InsBlock::kP; }
 
 const char* const kWindowKeys[] = {"lag_s",
                                    "window_update_s",
@@ -211,8 +181,6 @@ class InsWindowRun {
   StatusOr<InsState> EstimateOf(size_t i);
   void StoreCovariances(const std::vector<size_t>& states);
   Status ToSmoother(std::vector<InsFactor>* factors);
-  using KeyIt = std::unordered_map<const double*, StateKey>::iterator;
-  StatusOr<KeyIt> AddStaticBlock(const double* block);
   void HoldAcrossGap(size_t i);
   Status AddState(size_t i);
   Status Update(size_t i);
@@ -233,11 +201,9 @@ class InsWindowRun {
   std::vector<InsState> build_, front_states_, lagged_, current_;
   size_t n_ = 0;
   InsGraphContext context_;
-  std::unordered_map<const double*, StateKey> key_of_;
   InsSharedBlocks radio_;
+  std::unique_ptr<InsKeyMap> keys_;     // of build_'s and radio_'s blocks
   std::vector<double> magnetic_sigma_;  // StanceMagneticSigmas
-  std::set<StateKey> statics_added_;
-  StateKey path_loss_key_ = 0;  // the walk-wide path-loss block's (l(0), or m(0) the mean)
   std::vector<std::optional<Eigen::Matrix3d>> cov_;
   std::vector<SmootherState> new_states_;
   std::vector<SmootherFactor> new_factors_;
@@ -270,13 +236,8 @@ Status InsWindowRun::Start() {
   context_.options = g_;
   magnetic_sigma_ = StanceMagneticSigmas(walk_, front_, g_);
   context_.stance_magnetic_sigma = &magnetic_sigma_;
-  for (size_t i = 0; i < n_; ++i) {
-    for (int b = 0; b < kBlocksPerState; ++b) key_of_[BlockOf(&build_[i], b)] = Key(i, b);
-  }
-  path_loss_key_ = ResolveInsPathLoss(g_, walk_.meta.radio) == PathLossMode::kHierarchical
-                       ? Symbol('m', 0)
-                       : PathLossKey(0);
-  key_of_[radio_.path_loss.data()] = path_loss_key_;
+  keys_ = std::make_unique<InsKeyMap>(walk_, g_, &radio_);
+  for (size_t i = 0; i < n_; ++i) keys_->RegisterState(i, &build_[i]);
   WG_ASSIGN_OR_RETURN(user_, InsUserFactors(context_, &build_));
   lagged_ = current_ = build_;
   cov_.assign(n_, std::nullopt);
@@ -288,22 +249,23 @@ Status InsWindowRun::Start() {
     if (online_) return;
     std::vector<size_t> states;
     for (StateKey k : keys) {
-      if (BlockOfKey(k) == kP) states.push_back(SymbolIndex(k));
+      if (IsPositionKey(k)) states.push_back(SymbolIndex(k));
     }
     StoreCovariances(states);
   });
   smoother_.set_on_marginalize([this](StateKey key, double, const std::vector<double>& v) {
-    const int block = BlockOfKey(key);
-    if (block >= 0) SetBlock(&lagged_[SymbolIndex(key)], block, v);
+    const std::optional<InsBlock> block = InsBlockOfLetter(SymbolLetter(key));
+    if (block) SetBlock(&lagged_[SymbolIndex(key)], *block, v);
   });
   return Status::Ok();
 }
 
 StatusOr<InsState> InsWindowRun::EstimateOf(size_t i) {
   InsState s = build_[i];
-  for (int b = 0; b < kBlocksPerState; ++b) {
-    WG_ASSIGN_OR_RETURN(std::vector<double> v, smoother_.Estimate(Key(i, b)));
-    SetBlock(&s, b, v);
+  for (int b = 0; b < kInsBlocksPerState; ++b) {
+    const InsBlock block = static_cast<InsBlock>(b);
+    WG_ASSIGN_OR_RETURN(std::vector<double> v, smoother_.Estimate(InsKey(i, block)));
+    SetBlock(&s, block, v);
   }
   return s;
 }
@@ -312,7 +274,7 @@ StatusOr<InsState> InsWindowRun::EstimateOf(size_t i) {
 void InsWindowRun::StoreCovariances(const std::vector<size_t>& states) {
   if (!g_.compute_covariance || states.empty()) return;
   std::vector<std::vector<StateKey>> groups;
-  for (size_t i : states) groups.push_back({Key(i, kP), Key(i, kQ)});
+  for (size_t i : states) groups.push_back({InsKey(i, InsBlock::kP), InsKey(i, InsBlock::kQ)});
   StatusOr<std::vector<Eigen::MatrixXd>> c = smoother_.MarginalCovariances(groups);
   if (!c.ok()) return;  // rank-deficient window: these states go without covariance
   const int index[3] = {0, 1, 5};
@@ -326,58 +288,9 @@ void InsWindowRun::StoreCovariances(const std::vector<size_t>& states) {
   }
 }
 
-// A block met for the first time that is no state's, added as a static state to the same
-// update: an anchor's range bias or (hierarchical) path loss, keyed by its anchor index, or the
-// magnetic field's direction f(0).
-StatusOr<InsWindowRun::KeyIt> InsWindowRun::AddStaticBlock(const double* block) {
-  if (block == &radio_.field_yaw_rad) {  // the stance magnetic heading factors' ψ_f
-    auto it = key_of_.emplace(block, Symbol('f', 0)).first;
-    SmootherState st;
-    st.key = it->second;
-    st.value = {radio_.field_yaw_rad};
-    new_states_.push_back(std::move(st));
-    return it;
-  }
-  auto add = [&](int id, StateKey (*key)(int), std::vector<double> value,
-                 bool constant) -> StatusOr<KeyIt> {
-    const int ai = walk_.AnchorIndex(id);
-    if (ai < 0) return InternalError("fg-ins-window: a static block of an unknown anchor");
-    auto it = key_of_.emplace(block, key(ai)).first;
-    SmootherState st;
-    st.key = it->second;
-    st.value = std::move(value);
-    st.constant = constant;
-    new_states_.push_back(std::move(st));
-    return it;
-  };
-  for (auto& [id, bias] : radio_.range_bias_m) {
-    if (&bias == block) return add(id, RangeBiasKey, {bias}, !g_.estimate_range_bias);
-  }
-  for (auto& [id, pl] : radio_.anchor_path_loss) {
-    if (pl.data() == block) return add(id, PathLossKey, {pl[0], pl[1]}, false);
-  }
-  return InternalError("fg-ins-window: factor on an unknown block");
-}
-
 Status InsWindowRun::ToSmoother(std::vector<InsFactor>* factors) {
   for (InsFactor& f : *factors) {
-    SmootherFactor sf;
-    for (double* block : f.blocks) {
-      auto it = key_of_.find(block);
-      if (it == key_of_.end()) {
-        WG_ASSIGN_OR_RETURN(it, AddStaticBlock(block));
-      }
-      if (it->second == path_loss_key_ && statics_added_.insert(path_loss_key_).second) {
-        SmootherState st;
-        st.key = path_loss_key_;
-        st.value = std::vector<double>(radio_.path_loss.begin(), radio_.path_loss.end());
-        st.constant = !radio_.estimate_path_loss;  // as in fg-ins-batch
-        new_states_.push_back(std::move(st));
-      }
-      sf.keys.push_back(it->second);
-    }
-    sf.cost = std::move(f.cost);
-    sf.loss = std::shared_ptr<const ceres::LossFunction>(f.loss.release());
+    WG_ASSIGN_OR_RETURN(SmootherFactor sf, keys_->ToGraphFactor(&f, &new_states_));
     new_factors_.push_back(std::move(sf));
   }
   factors->clear();
@@ -392,7 +305,7 @@ void InsWindowRun::HoldAcrossGap(size_t i) {
   }
   if (!bridged || !(o_.gap_hold_max_s > 0)) return;
   if (!smoother_.holding()) {
-    yaw_sigma_before_gap_ = YawSigma(&smoother_, Key(i - 1, kQ));
+    yaw_sigma_before_gap_ = YawSigma(&smoother_, InsKey(i - 1, InsBlock::kQ));
     smoother_.HoldFrom(build_[i - 1].t_s);
     ++holds_;
   }
@@ -409,13 +322,8 @@ Status InsWindowRun::AddState(size_t i) {
       build_[i - 1].ba = last_.ba;
     }
   }
-  for (int b = 0; b < kBlocksPerState; ++b) {
-    SmootherState st;
-    st.key = Key(i, b);
+  for (SmootherState& st : InsStateBlocks(i, init, manifold_)) {
     st.t_s = build_[i].t_s;
-    st.value.resize(static_cast<size_t>(BlockSize(b)));
-    std::copy_n(BlockOf(&init, b), BlockSize(b), st.value.begin());
-    if (b == kQ) st.manifold = manifold_;
     new_states_.push_back(std::move(st));
   }
   // State 0: the gauge and its unary factors; state i > 0: the segment i−1 → i alone
@@ -459,7 +367,7 @@ Status InsWindowRun::Update(size_t i) {
   max_keys_ = std::max(max_keys_, smoother_.WindowKeys().size());
   WG_ASSIGN_OR_RETURN(last_, EstimateOf(i));
   if (smoother_.holding()) {
-    const std::optional<double> yaw_sigma = YawSigma(&smoother_, Key(i, kQ));
+    const std::optional<double> yaw_sigma = YawSigma(&smoother_, InsKey(i, InsBlock::kQ));
     const double release = yaw_sigma_before_gap_.value_or(o_.gap_release_yaw_sigma_rad);
     if (build_[i].t_s >= hold_until_s_ || (yaw_sigma && *yaw_sigma <= release)) {
       held_s_ = std::max(held_s_, build_[i].t_s - (hold_until_s_ - o_.gap_hold_max_s));
@@ -469,7 +377,7 @@ Status InsWindowRun::Update(size_t i) {
   if (online_) {
     std::vector<size_t> in_window;
     for (size_t j : pending_) {
-      if (!smoother_.Contains(Key(j, kP))) {  // left already (window_update_s > lag_s)
+      if (!smoother_.Contains(InsKey(j, InsBlock::kP))) {  // left already (window_update_s > lag_s)
         current_[j] = lagged_[j];
         continue;
       }
@@ -489,7 +397,7 @@ EstimateResult InsWindowRun::Finish() {
     // The states still in the window at the end: their final (smoothed) estimates.
     std::vector<size_t> states;
     for (StateKey key : smoother_.WindowKeys()) {
-      if (BlockOfKey(key) == kP) states.push_back(SymbolIndex(key));
+      if (IsPositionKey(key)) states.push_back(SymbolIndex(key));
     }
     StoreCovariances(states);
     smoother_.Flush();
@@ -508,16 +416,16 @@ EstimateResult InsWindowRun::Finish() {
   d["window_unconverged_solves"] = unconverged_;
   d["ceres_final_cost"] = final_cost_;  // of the last solve
   d["window_max_keys"] = static_cast<double>(max_keys_);
-  d["window_max_states"] = static_cast<double>(max_keys_ / kBlocksPerState);
+  d["window_max_states"] = static_cast<double>(max_keys_ / kInsBlocksPerState);
   d["window_gap_holds"] = holds_;
   d["window_gap_hold_max_s"] = held_s_;  // longest time from a gap to its release
   d["states_without_covariance"] = g_.compute_covariance ? static_cast<double>(missing) : 0.0;
   d["covariance_ok"] = g_.compute_covariance && missing == 0 ? 1.0 : 0.0;
   if (radio_.estimate_path_loss) {  // the window's last estimates of the static blocks
-    auto v = smoother_.Estimate(path_loss_key_);
+    auto v = smoother_.Estimate(Symbol(radio_.per_anchor_path_loss ? 'm' : 'l', 0));
     if (v.ok() && v->size() == 2) radio_.path_loss = {(*v)[0], (*v)[1]};
     for (auto& [id, pl] : radio_.anchor_path_loss) {
-      auto va = smoother_.Estimate(PathLossKey(walk_.AnchorIndex(id)));
+      auto va = smoother_.Estimate(Symbol('l', static_cast<uint64_t>(walk_.AnchorIndex(id))));
       if (va.ok() && va->size() == 2) pl = {(*va)[0], (*va)[1]};
     }
   }

@@ -124,12 +124,6 @@ class InsGraphWindow : public Estimator {
   InsWindowOptions options_;
 };
 
-// Every state's lagged estimate from a window pass (lagged output, whatever
-// options.window_output says), in InitialInsStates(walk, ·, options.graph)'s order: what
-// fg-ins-batch starts from with initialization: window.
-StatusOr<std::vector<InsState>> InsWindowLaggedStates(const Walk& walk,
-                                                      const InsWindowOptions& options);
-
 }  // namespace walkgraph
 
 #endif  // WALKGRAPH_SMOOTHERS_INS_WINDOW_H_
