@@ -164,225 +164,243 @@ std::vector<Anchor> PickAnchors(const Params& p, std::vector<Anchor> all) {
 
 const Preset* FindPreset(const std::string& name);
 
+void TarrioCircleDefaults(Params* p) {
+  p->source = "000 (Tarrio et al.) Sec. IV";
+  p->placement = ImuPlacement::kWaist;
+  p->imu_rate_hz = 50.0;
+  p->laps = 4;
+  p->has_laps = true;
+  p->noise.acc_noise_mps2 = 5.7575e-2;
+  p->gyro_bias_dph = 10.0;
+  p->mag = false;
+  p->gait.weinberg_k = 0.45;
+  p->radio.path_loss = {-60.0, 2.5, 1.0, 5.0};
+  p->radio.sensitivity = -95.0;
+  p->radio.period_s = 0.5;
+  p->num_anchors = 9;
+  p->extra["sim.delta_t_s"] = 2.0;
+}
+
+Status TarrioCircleBuild(Params* p, std::vector<Anchor>* anchors, sim::MotionPlan* plan) {
+  *anchors = sim::GridAnchors(p->num_anchors, 0.0, 0.0, 20.0, 20.0, 0.0);
+  const double circumference = 2.0 * kPi * 8.0;
+  const int laps = LapsFor(*p, circumference);
+  *plan = sim::MotionPlan(Eigen::Vector2d(18.0, 10.0), 0.5 * kPi);
+  plan->Stop(p->start_still_s);
+  plan->Walk(sim::CirclePath({10.0, 10.0}, 8.0, 0.0, laps), p->speed_mps, p->start_still_s > 0.0,
+             p->end_still_s > 0.0);
+  plan->Stop(p->end_still_s);
+  p->extra["sim.loop_length_m"] = circumference;
+  p->extra["sim.laps"] = laps;
+  return Status::Ok();
+}
+
+void CorreaClassroomDefaults(Params* p) {
+  p->source = "001 (Correa et al.) Sec. IV, scenario 1";
+  p->placement = ImuPlacement::kHip;
+  p->speed_mps = 0.9;
+  p->laps = 24;
+  p->has_laps = true;
+  p->start_still_s = 5.0;
+  p->end_still_s = 5.0;
+  p->noise = SparkfunStick();
+  p->field.disturbance_ut = 5.0;
+  p->field.disturbance_count = 6;
+  p->field.area_max = Eigen::Vector2d(14.552, 10.648);
+  p->radio.path_loss = {-45.0, 2.3, 1.0, 4.0};
+  p->radio.sensitivity = -101.0;
+  p->radio.period_s = 1.0;
+}
+
+Status CorreaClassroomBuild(Params* p, std::vector<Anchor>* anchors, sim::MotionPlan* plan) {
+  const double W = 14.552, H = 10.648;
+  std::vector<Anchor> all;
+  const std::vector<Eigen::Vector2d> spots = {{0, 0},     {W, 0},     {W, H},     {0, H},
+                                              {W / 2, 0}, {W, H / 2}, {W / 2, H}, {0, H / 2}};
+  for (size_t i = 0; i < spots.size(); ++i) {
+    all.push_back({static_cast<int>(i) + 1,
+                   Eigen::Vector3d(Q(spots[i].x(), 1e-3), Q(spots[i].y(), 1e-3), 0.0),
+                   std::nullopt});
+  }
+  *anchors = PickAnchors(*p, all);
+  const auto rect = sim::RectangleLoop(0.5, 0.5, W - 1.0, H - 1.0);
+  const int laps = LapsFor(*p, 46.4);
+  *plan = sim::MotionPlan(rect[0], 0.0);
+  plan->Stop(p->start_still_s);
+  plan->WalkWaypoints(sim::RepeatLoop(rect, laps), p->speed_mps, p->corner_radius_m, 2.0);
+  plan->Stop(p->end_still_s);
+  p->extra["sim.loop_length_m"] = sim::PolylineLength(sim::RepeatLoop(rect, 1));
+  p->extra["sim.laps"] = laps;
+  return Status::Ok();
+}
+
+void CorreaCorridorDefaults(Params* p) {
+  p->source = "001 (Correa et al.) Sec. IV, scenario 2";
+  p->placement = ImuPlacement::kHip;
+  p->speed_mps = 1.0;
+  p->laps = 1;
+  p->has_laps = true;
+  p->start_still_s = 10.0;
+  p->end_still_s = 10.0;
+  p->noise = SparkfunStick();
+  p->field.disturbance_ut = 5.0;
+  p->field.disturbance_count = 10;
+  p->field.area_max = Eigen::Vector2d(11.2, 47.6);
+  p->radio.path_loss = {-45.0, 2.3, 1.0, 4.0};
+  p->radio.sensitivity = -101.0;
+  p->radio.period_s = 1.0;
+}
+
+Status CorreaCorridorBuild(Params* p, std::vector<Anchor>* anchors, sim::MotionPlan* plan) {
+  std::vector<Anchor> all;
+  const std::vector<Eigen::Vector2d> spots = {{0, 2},    {0, 16},    {0, 30},    {0, 45.6},
+                                              {11.2, 9}, {11.2, 23}, {11.2, 37}, {5.6, 47.6}};
+  for (size_t i = 0; i < spots.size(); ++i) {
+    all.push_back(
+        {static_cast<int>(i) + 1, Eigen::Vector3d(spots[i].x(), spots[i].y(), 0), std::nullopt});
+  }
+  *anchors = PickAnchors(*p, all);
+  const Eigen::Vector2d A(1.0, 2.0), B(1.0, 45.6);
+  std::vector<Eigen::Vector2d> w = {A};
+  const int laps = LapsFor(*p, 2.0 * (B - A).norm());
+  for (int i = 0; i < laps; ++i) {
+    w.push_back(B);
+    w.push_back(A);
+  }
+  *plan = sim::MotionPlan(A, 0.5 * kPi);
+  plan->Stop(p->start_still_s);
+  plan->WalkWaypoints(w, p->speed_mps, p->corner_radius_m, 10.0);
+  plan->Stop(p->end_still_s);
+  p->extra["sim.laps"] = laps;
+  return Status::Ok();
+}
+
+void HandheldPhoneDefaults(Params* p) {
+  // correa-corridor's walk, anchors and radio (below), a phone's carriage: body y forward
+  // (the device yawed −90° on the walker), a forward swing leading the vertical (1 m/s²,
+  // of the order of the vertical one), a shaking hand at the stops (0.45 m/s²: peaks
+  // ~0.65 m/s², above the fixed 0.5, as IPIN's phones held still), a magnetometer. A test
+  // walk for the PDR front end's 'auto' carriage, not a paper's set-up.
+  p->source = "issue 41 (a handheld phone on 001's corridor, Sec. IV scenario 2)";
+  p->placement = ImuPlacement::kHandheld;
+  p->speed_mps = 1.0;
+  p->laps = 1;
+  p->has_laps = true;
+  p->start_still_s = 20.0;
+  p->end_still_s = 10.0;
+  p->noise = SparkfunStick();
+  p->field.disturbance_ut = 5.0;
+  p->field.disturbance_count = 10;
+  p->field.area_max = Eigen::Vector2d(11.2, 47.6);
+  p->radio.path_loss = {-45.0, 2.3, 1.0, 4.0};
+  p->radio.sensitivity = -101.0;
+  p->radio.period_s = 1.0;
+  p->device_yaw_deg = -90.0;
+  p->forward_swing_mps2 = 1.0;
+  p->hand_shake_mps2 = 0.45;
+  // A hand's vertical swing is larger than a waist's: K = 0.4 gives 2.2 m/s² at these
+  // 0.58-m steps (IPIN's phones: median step peaks 1.5-2.8 m/s²).
+  p->gait.weinberg_k = 0.4;
+}
+
+Status HandheldPhoneBuild(Params* p, std::vector<Anchor>* anchors, sim::MotionPlan* plan) {
+  return FindPreset("correa-corridor")->build(p, anchors, plan);
+}
+
+void GadekeOutageDefaults(Params* p) {
+  p->source = "003 (Gaedeke et al.) Sec. 4-5";
+  p->placement = ImuPlacement::kHip;
+  p->imu_rate_hz = 10.0;
+  p->speed_mps = 1.25;
+  p->start_still_s = 5.0;
+  p->end_still_s = 5.0;
+  p->noise = XsensMti();
+  p->field.disturbance_ut = 8.0;
+  p->field.disturbance_count = 15;
+  p->field.area_max = Eigen::Vector2d(60, 30);
+  p->radio.path_loss = {-45.0, 2.8, 1.0, 5.0};
+  p->radio.sensitivity = -95.0;
+  p->radio.period_s = 0.25;
+  p->radio.detection = {1.0, 25.0, 4.0};
+  p->num_anchors = 62;
+}
+
+Status GadekeOutageBuild(Params* p, std::vector<Anchor>* anchors, sim::MotionPlan* plan) {
+  *anchors = PickAnchors(*p, JitteredGrid(6, 11, 0, 0, 60, 30, 1.0, 0.0, 62, 3));
+  const std::vector<Eigen::Vector2d> loop = {{5, 5},   {55, 5},  {55, 25}, {30, 25},
+                                             {30, 15}, {20, 15}, {20, 25}, {5, 25}};
+  const double loop_len = sim::PolylineLength(sim::RepeatLoop(loop, 1));
+  const int laps = static_cast<int>(std::ceil(p->run_length_m / loop_len)) + 1;
+  const auto path = CutPolyline(sim::RepeatLoop(loop, laps), p->run_length_m);
+  *plan = sim::MotionPlan(loop[0], 0.0);
+  plan->Stop(p->start_still_s);
+  plan->WalkWaypoints(path, p->speed_mps, p->corner_radius_m, 2.0);
+  plan->Stop(p->end_still_s);
+  p->extra["sim.run_length_m"] = p->run_length_m;
+  p->extra["sim.loop_length_m"] = loop_len;
+  return Status::Ok();
+}
+
+void PrietoLapsDefaults(Params* p) {
+  p->source = "002 (Prieto et al.) Sec. IV-A";
+  p->foot = true;
+  p->placement = ImuPlacement::kFoot;
+  p->speed_mps = 0.975;
+  p->laps = 8;
+  p->has_laps = true;
+  p->start_still_s = 10.0;
+  p->end_still_s = 5.0;
+  p->noise = XsensMti();
+  p->field.disturbance_ut = 8.0;
+  p->field.disturbance_count = 10;
+  p->field.area_min = Eigen::Vector2d(0, 0);
+  p->field.area_max = Eigen::Vector2d(40, 17.2);
+  p->toa_on = true;
+  p->radio.path_loss = {-40.0, 3.0, 1.0, 6.0};
+  p->radio.sensitivity = -95.0;
+  p->radio.period_s = 1.0;
+  p->radio.jitter_s = 0.1;
+  p->radio.nlos = {0.3, 15.0, 6.0, 3.0};
+  p->radio.toa_sigma_m = 1.5;
+}
+
+Status PrietoLapsBuild(Params* p, std::vector<Anchor>* anchors, sim::MotionPlan* plan) {
+  *anchors = PickAnchors(*p, {{1, {-3, -3, 0}, std::nullopt},
+                              {2, {43, -3, 0}, std::nullopt},
+                              {3, {43, 20.2, 0}, std::nullopt},
+                              {4, {-3, 20.2, 0}, std::nullopt}});
+  const auto rect = sim::RectangleLoop(0, 0, 40, 17.2);
+  const int laps = LapsFor(*p, 114.4);
+  *plan = sim::MotionPlan(rect[0], 0.0);
+  plan->Stop(p->start_still_s);
+  plan->WalkWaypoints(sim::RepeatLoop(rect, laps), p->speed_mps, p->corner_radius_m, 2.0);
+  plan->Stop(p->end_still_s);
+  p->extra["sim.loop_length_m"] = 114.4;
+  p->extra["sim.laps"] = laps;
+  return Status::Ok();
+}
+
 const std::vector<Preset>& Presets() {
   static const std::vector<Preset> presets = {
       {"tarrio-circle",
        "000 Sec. IV: 9 anchors over 400 m², r = 8 m circle at 1 m/s, waist IMU 50 Hz",
-       [](Params* p) {
-         p->source = "000 (Tarrio et al.) Sec. IV";
-         p->placement = ImuPlacement::kWaist;
-         p->imu_rate_hz = 50.0;
-         p->laps = 4;
-         p->has_laps = true;
-         p->noise.acc_noise_mps2 = 5.7575e-2;
-         p->gyro_bias_dph = 10.0;
-         p->mag = false;
-         p->gait.weinberg_k = 0.45;
-         p->radio.path_loss = {-60.0, 2.5, 1.0, 5.0};
-         p->radio.sensitivity = -95.0;
-         p->radio.period_s = 0.5;
-         p->num_anchors = 9;
-         p->extra["sim.delta_t_s"] = 2.0;
-       },
-       [](Params* p, std::vector<Anchor>* anchors, sim::MotionPlan* plan) {
-         *anchors = sim::GridAnchors(p->num_anchors, 0.0, 0.0, 20.0, 20.0, 0.0);
-         const double circumference = 2.0 * kPi * 8.0;
-         const int laps = LapsFor(*p, circumference);
-         *plan = sim::MotionPlan(Eigen::Vector2d(18.0, 10.0), 0.5 * kPi);
-         plan->Stop(p->start_still_s);
-         plan->Walk(sim::CirclePath({10.0, 10.0}, 8.0, 0.0, laps), p->speed_mps,
-                    p->start_still_s > 0.0, p->end_still_s > 0.0);
-         plan->Stop(p->end_still_s);
-         p->extra["sim.loop_length_m"] = circumference;
-         p->extra["sim.laps"] = laps;
-         return Status::Ok();
-       }},
+       TarrioCircleDefaults, TarrioCircleBuild},
       {"correa-classroom",
        "001 Sec. IV: 155 m² classroom, 8 motes, 46.4 m rectangle for > 20 min, hip IMU",
-       [](Params* p) {
-         p->source = "001 (Correa et al.) Sec. IV, scenario 1";
-         p->placement = ImuPlacement::kHip;
-         p->speed_mps = 0.9;
-         p->laps = 24;
-         p->has_laps = true;
-         p->start_still_s = 5.0;
-         p->end_still_s = 5.0;
-         p->noise = SparkfunStick();
-         p->field.disturbance_ut = 5.0;
-         p->field.disturbance_count = 6;
-         p->field.area_max = Eigen::Vector2d(14.552, 10.648);
-         p->radio.path_loss = {-45.0, 2.3, 1.0, 4.0};
-         p->radio.sensitivity = -101.0;
-         p->radio.period_s = 1.0;
-       },
-       [](Params* p, std::vector<Anchor>* anchors, sim::MotionPlan* plan) {
-         const double W = 14.552, H = 10.648;
-         std::vector<Anchor> all;
-         const std::vector<Eigen::Vector2d> spots = {
-             {0, 0}, {W, 0}, {W, H}, {0, H}, {W / 2, 0}, {W, H / 2}, {W / 2, H}, {0, H / 2}};
-         for (size_t i = 0; i < spots.size(); ++i) {
-           all.push_back({static_cast<int>(i) + 1,
-                          Eigen::Vector3d(Q(spots[i].x(), 1e-3), Q(spots[i].y(), 1e-3), 0.0),
-                          std::nullopt});
-         }
-         *anchors = PickAnchors(*p, all);
-         const auto rect = sim::RectangleLoop(0.5, 0.5, W - 1.0, H - 1.0);
-         const int laps = LapsFor(*p, 46.4);
-         *plan = sim::MotionPlan(rect[0], 0.0);
-         plan->Stop(p->start_still_s);
-         plan->WalkWaypoints(sim::RepeatLoop(rect, laps), p->speed_mps, p->corner_radius_m, 2.0);
-         plan->Stop(p->end_still_s);
-         p->extra["sim.loop_length_m"] = sim::PolylineLength(sim::RepeatLoop(rect, 1));
-         p->extra["sim.laps"] = laps;
-         return Status::Ok();
-       }},
+       CorreaClassroomDefaults, CorreaClassroomBuild},
       {"correa-corridor",
        "001 Sec. IV: 11.2 × 47.6 m corridor, 8 motes, A → B → A with stops, hip IMU",
-       [](Params* p) {
-         p->source = "001 (Correa et al.) Sec. IV, scenario 2";
-         p->placement = ImuPlacement::kHip;
-         p->speed_mps = 1.0;
-         p->laps = 1;
-         p->has_laps = true;
-         p->start_still_s = 10.0;
-         p->end_still_s = 10.0;
-         p->noise = SparkfunStick();
-         p->field.disturbance_ut = 5.0;
-         p->field.disturbance_count = 10;
-         p->field.area_max = Eigen::Vector2d(11.2, 47.6);
-         p->radio.path_loss = {-45.0, 2.3, 1.0, 4.0};
-         p->radio.sensitivity = -101.0;
-         p->radio.period_s = 1.0;
-       },
-       [](Params* p, std::vector<Anchor>* anchors, sim::MotionPlan* plan) {
-         std::vector<Anchor> all;
-         const std::vector<Eigen::Vector2d> spots = {
-             {0, 2}, {0, 16}, {0, 30}, {0, 45.6}, {11.2, 9}, {11.2, 23}, {11.2, 37}, {5.6, 47.6}};
-         for (size_t i = 0; i < spots.size(); ++i) {
-           all.push_back({static_cast<int>(i) + 1, Eigen::Vector3d(spots[i].x(), spots[i].y(), 0),
-                          std::nullopt});
-         }
-         *anchors = PickAnchors(*p, all);
-         const Eigen::Vector2d A(1.0, 2.0), B(1.0, 45.6);
-         std::vector<Eigen::Vector2d> w = {A};
-         const int laps = LapsFor(*p, 2.0 * (B - A).norm());
-         for (int i = 0; i < laps; ++i) {
-           w.push_back(B);
-           w.push_back(A);
-         }
-         *plan = sim::MotionPlan(A, 0.5 * kPi);
-         plan->Stop(p->start_still_s);
-         plan->WalkWaypoints(w, p->speed_mps, p->corner_radius_m, 10.0);
-         plan->Stop(p->end_still_s);
-         p->extra["sim.laps"] = laps;
-         return Status::Ok();
-       }},
+       CorreaCorridorDefaults, CorreaCorridorBuild},
       {"handheld-phone",
        "issue 41: correa-corridor walked with a phone held in portrait (y forward), stops with "
        "a shaking hand",
-       [](Params* p) {
-         // correa-corridor's walk, anchors and radio (below), a phone's carriage: body y forward
-         // (the device yawed −90° on the walker), a forward swing leading the vertical (1 m/s²,
-         // of the order of the vertical one), a shaking hand at the stops (0.45 m/s²: peaks
-         // ~0.65 m/s², above the fixed 0.5, as IPIN's phones held still), a magnetometer. A test
-         // walk for the PDR front end's 'auto' carriage, not a paper's set-up.
-         p->source = "issue 41 (a handheld phone on 001's corridor, Sec. IV scenario 2)";
-         p->placement = ImuPlacement::kHandheld;
-         p->speed_mps = 1.0;
-         p->laps = 1;
-         p->has_laps = true;
-         p->start_still_s = 20.0;
-         p->end_still_s = 10.0;
-         p->noise = SparkfunStick();
-         p->field.disturbance_ut = 5.0;
-         p->field.disturbance_count = 10;
-         p->field.area_max = Eigen::Vector2d(11.2, 47.6);
-         p->radio.path_loss = {-45.0, 2.3, 1.0, 4.0};
-         p->radio.sensitivity = -101.0;
-         p->radio.period_s = 1.0;
-         p->device_yaw_deg = -90.0;
-         p->forward_swing_mps2 = 1.0;
-         p->hand_shake_mps2 = 0.45;
-         // A hand's vertical swing is larger than a waist's: K = 0.4 gives 2.2 m/s² at these
-         // 0.58-m steps (IPIN's phones: median step peaks 1.5-2.8 m/s²).
-         p->gait.weinberg_k = 0.4;
-       },
-       [](Params* p, std::vector<Anchor>* anchors, sim::MotionPlan* plan) {
-         return FindPreset("correa-corridor")->build(p, anchors, plan);
-       }},
+       HandheldPhoneDefaults, HandheldPhoneBuild},
       {"gadeke-outage",
        "003: hip IMU 10 Hz, 62 anchors at 4 Hz, 700 m run, WSN outage 0.3·t to 0.8·t",
-       [](Params* p) {
-         p->source = "003 (Gaedeke et al.) Sec. 4-5";
-         p->placement = ImuPlacement::kHip;
-         p->imu_rate_hz = 10.0;
-         p->speed_mps = 1.25;
-         p->start_still_s = 5.0;
-         p->end_still_s = 5.0;
-         p->noise = XsensMti();
-         p->field.disturbance_ut = 8.0;
-         p->field.disturbance_count = 15;
-         p->field.area_max = Eigen::Vector2d(60, 30);
-         p->radio.path_loss = {-45.0, 2.8, 1.0, 5.0};
-         p->radio.sensitivity = -95.0;
-         p->radio.period_s = 0.25;
-         p->radio.detection = {1.0, 25.0, 4.0};
-         p->num_anchors = 62;
-       },
-       [](Params* p, std::vector<Anchor>* anchors, sim::MotionPlan* plan) {
-         *anchors = PickAnchors(*p, JitteredGrid(6, 11, 0, 0, 60, 30, 1.0, 0.0, 62, 3));
-         const std::vector<Eigen::Vector2d> loop = {{5, 5},   {55, 5},  {55, 25}, {30, 25},
-                                                    {30, 15}, {20, 15}, {20, 25}, {5, 25}};
-         const double loop_len = sim::PolylineLength(sim::RepeatLoop(loop, 1));
-         const int laps = static_cast<int>(std::ceil(p->run_length_m / loop_len)) + 1;
-         const auto path = CutPolyline(sim::RepeatLoop(loop, laps), p->run_length_m);
-         *plan = sim::MotionPlan(loop[0], 0.0);
-         plan->Stop(p->start_still_s);
-         plan->WalkWaypoints(path, p->speed_mps, p->corner_radius_m, 2.0);
-         plan->Stop(p->end_still_s);
-         p->extra["sim.run_length_m"] = p->run_length_m;
-         p->extra["sim.loop_length_m"] = loop_len;
-         return Status::Ok();
-       }},
+       GadekeOutageDefaults, GadekeOutageBuild},
       {"prieto-laps",
        "002 Sec. IV-A: foot IMU 100 Hz, 4 APs with RSS + TOA at ~1 Hz, 8 laps ≈ 915 m, NLOS",
-       [](Params* p) {
-         p->source = "002 (Prieto et al.) Sec. IV-A";
-         p->foot = true;
-         p->placement = ImuPlacement::kFoot;
-         p->speed_mps = 0.975;
-         p->laps = 8;
-         p->has_laps = true;
-         p->start_still_s = 10.0;
-         p->end_still_s = 5.0;
-         p->noise = XsensMti();
-         p->field.disturbance_ut = 8.0;
-         p->field.disturbance_count = 10;
-         p->field.area_min = Eigen::Vector2d(0, 0);
-         p->field.area_max = Eigen::Vector2d(40, 17.2);
-         p->toa_on = true;
-         p->radio.path_loss = {-40.0, 3.0, 1.0, 6.0};
-         p->radio.sensitivity = -95.0;
-         p->radio.period_s = 1.0;
-         p->radio.jitter_s = 0.1;
-         p->radio.nlos = {0.3, 15.0, 6.0, 3.0};
-         p->radio.toa_sigma_m = 1.5;
-       },
-       [](Params* p, std::vector<Anchor>* anchors, sim::MotionPlan* plan) {
-         *anchors = PickAnchors(*p, {{1, {-3, -3, 0}, std::nullopt},
-                                     {2, {43, -3, 0}, std::nullopt},
-                                     {3, {43, 20.2, 0}, std::nullopt},
-                                     {4, {-3, 20.2, 0}, std::nullopt}});
-         const auto rect = sim::RectangleLoop(0, 0, 40, 17.2);
-         const int laps = LapsFor(*p, 114.4);
-         *plan = sim::MotionPlan(rect[0], 0.0);
-         plan->Stop(p->start_still_s);
-         plan->WalkWaypoints(sim::RepeatLoop(rect, laps), p->speed_mps, p->corner_radius_m, 2.0);
-         plan->Stop(p->end_still_s);
-         p->extra["sim.loop_length_m"] = 114.4;
-         p->extra["sim.laps"] = laps;
-         return Status::Ok();
-       }},
+       PrietoLapsDefaults, PrietoLapsBuild},
   };
   return presets;
 }
