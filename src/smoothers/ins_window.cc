@@ -30,11 +30,11 @@ namespace {
 constexpr int kBlocksPerState = 5;
 enum InsBlock { kP = 0, kV = 1, kQ = 2, kBg = 3, kBa = 4 };
 constexpr char kBlockLetters[kBlocksPerState + 1] = "xvqga";
-StateKey Key(size_t i, int block) { return Symbol(kBlockLetters[block], i); }
-StateKey RangeBiasKey(int anchor_index) { return Symbol('b', static_cast<uint64_t>(anchor_index)); }
-StateKey PathLossKey(int anchor_index) { return Symbol('l', static_cast<uint64_t>(anchor_index)); }
+Key StateBlockKey(size_t i, int block) { return Symbol(kBlockLetters[block], i); }
+Key RangeBiasKey(int anchor_index) { return Symbol('b', static_cast<uint64_t>(anchor_index)); }
+Key PathLossKey(int anchor_index) { return Symbol('l', static_cast<uint64_t>(anchor_index)); }
 // The block of a state's key (kP … kBa), or −1 for a static state's.
-int BlockOfKey(StateKey key) {
+int BlockOfKey(Key key) {
   for (int b = 0; b < kBlocksPerState; ++b) {
     if (SymbolLetter(key) == kBlockLetters[b]) return b;
   }
@@ -94,7 +94,7 @@ InsState CarryForward(const InsState& front_a, const InsState& front_b,
 }
 
 // Yaw σ of a state's attitude in the window (δθ_z of its tangent), when computable.
-std::optional<double> YawSigma(FixedLagSmoother* smoother, StateKey q_key) {
+std::optional<double> YawSigma(FixedLagSmoother* smoother, Key q_key) {
   if (!smoother->Contains(q_key)) return std::nullopt;
   StatusOr<Eigen::MatrixXd> c = smoother->MarginalCovariance(q_key);
   if (!c.ok() || !((*c)(2, 2) >= 0.0)) return std::nullopt;
@@ -211,7 +211,7 @@ class InsWindowRun {
   StatusOr<InsState> EstimateOf(size_t i);
   void StoreCovariances(const std::vector<size_t>& states);
   Status ToSmoother(std::vector<InsFactor>* factors);
-  using KeyIt = std::unordered_map<const double*, StateKey>::iterator;
+  using KeyIt = std::unordered_map<const double*, Key>::iterator;
   StatusOr<KeyIt> AddStaticBlock(const double* block);
   void HoldAcrossGap(size_t i);
   Status AddState(size_t i);
@@ -233,14 +233,14 @@ class InsWindowRun {
   std::vector<InsState> build_, front_states_, lagged_, current_;
   size_t n_ = 0;
   InsGraphContext context_;
-  std::unordered_map<const double*, StateKey> key_of_;
+  std::unordered_map<const double*, Key> key_of_;
   InsSharedBlocks radio_;
   std::vector<double> magnetic_sigma_;  // StanceMagneticSigmas
-  std::set<StateKey> statics_added_;
-  StateKey path_loss_key_ = 0;  // the walk-wide path-loss block's (l(0), or m(0) the mean)
+  std::set<Key> statics_added_;
+  Key path_loss_key_ = 0;  // the walk-wide path-loss block's (l(0), or m(0) the mean)
   std::vector<std::optional<Eigen::Matrix3d>> cov_;
-  std::vector<SmootherState> new_states_;
-  std::vector<SmootherFactor> new_factors_;
+  std::vector<GraphState> new_states_;
+  std::vector<GraphFactor> new_factors_;
   std::vector<std::vector<GraphFactor>> user_;  // InsGraphOptions::user_factors by newest state
   std::vector<double> latency_;
   std::vector<size_t> pending_;
@@ -271,7 +271,7 @@ Status InsWindowRun::Start() {
   magnetic_sigma_ = StanceMagneticSigmas(walk_, front_, g_);
   context_.stance_magnetic_sigma = &magnetic_sigma_;
   for (size_t i = 0; i < n_; ++i) {
-    for (int b = 0; b < kBlocksPerState; ++b) key_of_[BlockOf(&build_[i], b)] = Key(i, b);
+    for (int b = 0; b < kBlocksPerState; ++b) key_of_[BlockOf(&build_[i], b)] = StateBlockKey(i, b);
   }
   path_loss_key_ = ResolveInsPathLoss(g_, walk_.meta.radio) == PathLossMode::kHierarchical
                        ? Symbol('m', 0)
@@ -284,15 +284,15 @@ Status InsWindowRun::Start() {
   last_ = build_[0];
   last_update_t_ = build_[0].t_s;
   gaps_ = walk_.ImuGaps();
-  smoother_.set_before_marginalize([this](const std::vector<StateKey>& keys) {
+  smoother_.set_before_marginalize([this](const std::vector<Key>& keys) {
     if (online_) return;
     std::vector<size_t> states;
-    for (StateKey k : keys) {
+    for (Key k : keys) {
       if (BlockOfKey(k) == kP) states.push_back(SymbolIndex(k));
     }
     StoreCovariances(states);
   });
-  smoother_.set_on_marginalize([this](StateKey key, double, const std::vector<double>& v) {
+  smoother_.set_on_marginalize([this](Key key, double, const std::vector<double>& v) {
     const int block = BlockOfKey(key);
     if (block >= 0) SetBlock(&lagged_[SymbolIndex(key)], block, v);
   });
@@ -302,7 +302,7 @@ Status InsWindowRun::Start() {
 StatusOr<InsState> InsWindowRun::EstimateOf(size_t i) {
   InsState s = build_[i];
   for (int b = 0; b < kBlocksPerState; ++b) {
-    WG_ASSIGN_OR_RETURN(std::vector<double> v, smoother_.Estimate(Key(i, b)));
+    WG_ASSIGN_OR_RETURN(std::vector<double> v, smoother_.Estimate(StateBlockKey(i, b)));
     SetBlock(&s, b, v);
   }
   return s;
@@ -311,8 +311,8 @@ StatusOr<InsState> InsWindowRun::EstimateOf(size_t i) {
 // (x, y, yaw) covariances of states in the current window: tangent (δp, δθ), δθ_z the yaw.
 void InsWindowRun::StoreCovariances(const std::vector<size_t>& states) {
   if (!g_.compute_covariance || states.empty()) return;
-  std::vector<std::vector<StateKey>> groups;
-  for (size_t i : states) groups.push_back({Key(i, kP), Key(i, kQ)});
+  std::vector<std::vector<Key>> groups;
+  for (size_t i : states) groups.push_back({StateBlockKey(i, kP), StateBlockKey(i, kQ)});
   StatusOr<std::vector<Eigen::MatrixXd>> c = smoother_.MarginalCovariances(groups);
   if (!c.ok()) return;  // rank-deficient window: these states go without covariance
   const int index[3] = {0, 1, 5};
@@ -332,18 +332,18 @@ void InsWindowRun::StoreCovariances(const std::vector<size_t>& states) {
 StatusOr<InsWindowRun::KeyIt> InsWindowRun::AddStaticBlock(const double* block) {
   if (block == &radio_.field_yaw_rad) {  // the stance magnetic heading factors' ψ_f
     auto it = key_of_.emplace(block, Symbol('f', 0)).first;
-    SmootherState st;
+    GraphState st;
     st.key = it->second;
     st.value = {radio_.field_yaw_rad};
     new_states_.push_back(std::move(st));
     return it;
   }
-  auto add = [&](int id, StateKey (*key)(int), std::vector<double> value,
+  auto add = [&](int id, Key (*key)(int), std::vector<double> value,
                  bool constant) -> StatusOr<KeyIt> {
     const int ai = walk_.AnchorIndex(id);
     if (ai < 0) return InternalError("fg-ins-window: a static block of an unknown anchor");
     auto it = key_of_.emplace(block, key(ai)).first;
-    SmootherState st;
+    GraphState st;
     st.key = it->second;
     st.value = std::move(value);
     st.constant = constant;
@@ -361,14 +361,14 @@ StatusOr<InsWindowRun::KeyIt> InsWindowRun::AddStaticBlock(const double* block) 
 
 Status InsWindowRun::ToSmoother(std::vector<InsFactor>* factors) {
   for (InsFactor& f : *factors) {
-    SmootherFactor sf;
+    GraphFactor sf;
     for (double* block : f.blocks) {
       auto it = key_of_.find(block);
       if (it == key_of_.end()) {
         WG_ASSIGN_OR_RETURN(it, AddStaticBlock(block));
       }
       if (it->second == path_loss_key_ && statics_added_.insert(path_loss_key_).second) {
-        SmootherState st;
+        GraphState st;
         st.key = path_loss_key_;
         st.value = std::vector<double>(radio_.path_loss.begin(), radio_.path_loss.end());
         st.constant = !radio_.estimate_path_loss;  // as in fg-ins-batch
@@ -392,7 +392,7 @@ void InsWindowRun::HoldAcrossGap(size_t i) {
   }
   if (!bridged || !(o_.gap_hold_max_s > 0)) return;
   if (!smoother_.holding()) {
-    yaw_sigma_before_gap_ = YawSigma(&smoother_, Key(i - 1, kQ));
+    yaw_sigma_before_gap_ = YawSigma(&smoother_, StateBlockKey(i - 1, kQ));
     smoother_.HoldFrom(build_[i - 1].t_s);
     ++holds_;
   }
@@ -410,8 +410,8 @@ Status InsWindowRun::AddState(size_t i) {
     }
   }
   for (int b = 0; b < kBlocksPerState; ++b) {
-    SmootherState st;
-    st.key = Key(i, b);
+    GraphState st;
+    st.key = StateBlockKey(i, b);
     st.t_s = build_[i].t_s;
     st.value.resize(static_cast<size_t>(BlockSize(b)));
     std::copy_n(BlockOf(&init, b), BlockSize(b), st.value.begin());
@@ -459,7 +459,7 @@ Status InsWindowRun::Update(size_t i) {
   max_keys_ = std::max(max_keys_, smoother_.WindowKeys().size());
   WG_ASSIGN_OR_RETURN(last_, EstimateOf(i));
   if (smoother_.holding()) {
-    const std::optional<double> yaw_sigma = YawSigma(&smoother_, Key(i, kQ));
+    const std::optional<double> yaw_sigma = YawSigma(&smoother_, StateBlockKey(i, kQ));
     const double release = yaw_sigma_before_gap_.value_or(o_.gap_release_yaw_sigma_rad);
     if (build_[i].t_s >= hold_until_s_ || (yaw_sigma && *yaw_sigma <= release)) {
       held_s_ = std::max(held_s_, build_[i].t_s - (hold_until_s_ - o_.gap_hold_max_s));
@@ -469,7 +469,7 @@ Status InsWindowRun::Update(size_t i) {
   if (online_) {
     std::vector<size_t> in_window;
     for (size_t j : pending_) {
-      if (!smoother_.Contains(Key(j, kP))) {  // left already (window_update_s > lag_s)
+      if (!smoother_.Contains(StateBlockKey(j, kP))) {  // left already (window_update_s > lag_s)
         current_[j] = lagged_[j];
         continue;
       }
@@ -488,7 +488,7 @@ EstimateResult InsWindowRun::Finish() {
   if (!online_) {
     // The states still in the window at the end: their final (smoothed) estimates.
     std::vector<size_t> states;
-    for (StateKey key : smoother_.WindowKeys()) {
+    for (Key key : smoother_.WindowKeys()) {
       if (BlockOfKey(key) == kP) states.push_back(SymbolIndex(key));
     }
     StoreCovariances(states);
