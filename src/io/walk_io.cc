@@ -32,12 +32,8 @@ using internal::CsvReader;
 
 namespace {
 
-// Shortest "%g" rendering of a number for messages.
-std::string G(double v) {
-  char buf[32];
-  std::snprintf(buf, sizeof(buf), "%g", v);
-  return buf;
-}
+// A number for messages (%g).
+std::string G(double v) { return internal::Num(v); }
 
 // ----------------------------------------------------------------- row checks
 // Each returns "" when the row is acceptable, else what was expected. Shared by the readers
