@@ -9,44 +9,33 @@
 
 namespace walkgraph {
 
-const char* ToString(ImuPlacement p) {
-  switch (p) {
-    case ImuPlacement::kNone:
-      return "none";
-    case ImuPlacement::kFoot:
-      return "foot";
-    case ImuPlacement::kWaist:
-      return "waist";
-    case ImuPlacement::kHip:
-      return "hip";
-    case ImuPlacement::kHandheld:
-      return "handheld";
-  }
-  return "none";
+const EnumNames<ImuPlacement>& ImuPlacementNames() {
+  static const EnumNames<ImuPlacement> names = {{"none", ImuPlacement::kNone},
+                                                {"foot", ImuPlacement::kFoot},
+                                                {"waist", ImuPlacement::kWaist},
+                                                {"hip", ImuPlacement::kHip},
+                                                {"handheld", ImuPlacement::kHandheld}};
+  return names;
 }
-const char* ToString(TruthKind k) {
-  switch (k) {
-    case TruthKind::kNone:
-      return "none";
-    case TruthKind::kContinuous:
-      return "continuous";
-    case TruthKind::kCheckpoints:
-      return "checkpoints";
-  }
-  return "none";
+const EnumNames<TruthKind>& TruthKindNames() {
+  static const EnumNames<TruthKind> names = {{"none", TruthKind::kNone},
+                                             {"continuous", TruthKind::kContinuous},
+                                             {"checkpoints", TruthKind::kCheckpoints}};
+  return names;
 }
-const char* ToString(RadioKind k) {
-  switch (k) {
-    case RadioKind::kNone:
-      return "none";
-    case RadioKind::kRss:
-      return "rss";
-    case RadioKind::kRange:
-      return "range";
-  }
-  return "none";
+const EnumNames<RadioKind>& RadioKindNames() {
+  static const EnumNames<RadioKind> names = {
+      {"none", RadioKind::kNone}, {"rss", RadioKind::kRss}, {"range", RadioKind::kRange}};
+  return names;
 }
-const char* ToString(RssUnits u) { return u == RssUnits::kDbm ? "dbm" : "rfcode"; }
+const EnumNames<RssUnits>& RssUnitsNames() {
+  static const EnumNames<RssUnits> names = {{"dbm", RssUnits::kDbm}, {"rfcode", RssUnits::kRfcode}};
+  return names;
+}
+const char* ToString(ImuPlacement p) { return EnumName(ImuPlacementNames(), p); }
+const char* ToString(TruthKind k) { return EnumName(TruthKindNames(), k); }
+const char* ToString(RadioKind k) { return EnumName(RadioKindNames(), k); }
+const char* ToString(RssUnits u) { return EnumName(RssUnitsNames(), u); }
 
 int Walk::StartFloor() const {
   if (meta.initial_pose && meta.initial_pose->floor) return *meta.initial_pose->floor;

@@ -30,23 +30,23 @@ struct Between {
   }
 };
 
-SmootherState Scalar(StateKey key, double t_s) {
-  SmootherState s;
+GraphState Scalar(Key key, double t_s) {
+  GraphState s;
   s.key = key;
   s.t_s = t_s;
   s.value = {0.0};
   return s;
 }
 
-SmootherFactor PriorOn(StateKey key, double z, double sigma) {
-  SmootherFactor f;
+GraphFactor PriorOn(Key key, double z, double sigma) {
+  GraphFactor f;
   f.cost.reset(new ceres::AutoDiffCostFunction<Prior, 1, 1>(new Prior{z, sigma}));
   f.keys = {key};
   return f;
 }
 
-SmootherFactor BetweenOf(StateKey a, StateKey b, double d, double sigma) {
-  SmootherFactor f;
+GraphFactor BetweenOf(Key a, Key b, double d, double sigma) {
+  GraphFactor f;
   f.cost.reset(new ceres::AutoDiffCostFunction<Between, 1, 1, 1>(new Between{d, sigma}));
   f.keys = {a, b};
   return f;
@@ -54,8 +54,8 @@ SmootherFactor BetweenOf(StateKey a, StateKey b, double d, double sigma) {
 
 // A 1-D chain x_k at t = k s: a prior on x_0, unit steps, a noisy "fix" on every state.
 StatusOr<FixedLagSmoother::UpdateResult> AddState(FixedLagSmoother* s, int k) {
-  std::vector<SmootherState> states;
-  std::vector<SmootherFactor> factors;
+  std::vector<GraphState> states;
+  std::vector<GraphFactor> factors;
   states.push_back(Scalar(k, k));
   factors.push_back(PriorOn(k, k + (k % 2 ? 0.3 : -0.3), 1.0));
   if (k > 0) factors.push_back(BetweenOf(k - 1, k, 1.0, 0.1));
@@ -68,16 +68,16 @@ TEST(FixedLagSmoother, KeepsTheLagAndAHeldStretch) {
   FixedLagSmoother s(o);
   for (int k = 0; k <= 5; ++k) ASSERT_TRUE(AddState(&s, k).ok());
   // t_newest = 5, lag 2: states older than t = 3 have left.
-  EXPECT_EQ(s.WindowKeys(), (std::vector<StateKey>{3, 4, 5}));
+  EXPECT_EQ(s.WindowKeys(), (std::vector<Key>{3, 4, 5}));
   s.HoldFrom(4.0);
   EXPECT_TRUE(s.holding());
   for (int k = 6; k <= 9; ++k) ASSERT_TRUE(AddState(&s, k).ok());
   // Held: nothing from t = 4 on leaves, however old (state 3 left at the lag).
-  EXPECT_EQ(s.WindowKeys(), (std::vector<StateKey>{4, 5, 6, 7, 8, 9}));
+  EXPECT_EQ(s.WindowKeys(), (std::vector<Key>{4, 5, 6, 7, 8, 9}));
   s.Release();
   EXPECT_FALSE(s.holding());
   ASSERT_TRUE(AddState(&s, 10).ok());
-  EXPECT_EQ(s.WindowKeys(), (std::vector<StateKey>{8, 9, 10}));
+  EXPECT_EQ(s.WindowKeys(), (std::vector<Key>{8, 9, 10}));
 }
 
 TEST(FixedLagSmoother, RefusesNaNAndTimesBeforeTheWindowAndChangesNothing) {
@@ -85,9 +85,9 @@ TEST(FixedLagSmoother, RefusesNaNAndTimesBeforeTheWindowAndChangesNothing) {
   o.lag_s = 2.0;
   FixedLagSmoother s(o);
   for (int k = 0; k <= 5; ++k) ASSERT_TRUE(AddState(&s, k).ok());
-  const std::vector<StateKey> window = s.WindowKeys();
-  auto refused = [&](SmootherState bad, const char* message) {
-    std::vector<SmootherState> states;
+  const std::vector<Key> window = s.WindowKeys();
+  auto refused = [&](GraphState bad, const char* message) {
+    std::vector<GraphState> states;
     states.push_back(Scalar(100, 6.0));  // a good state first: it must not be added either
     states.push_back(std::move(bad));
     auto r = s.Update(std::move(states), {});
@@ -99,25 +99,25 @@ TEST(FixedLagSmoother, RefusesNaNAndTimesBeforeTheWindowAndChangesNothing) {
   };
   refused(Scalar(101, std::nan("")), "non-finite time");
   refused(Scalar(102, 1.0), "goes back before the window");  // states before t = 3 are gone
-  SmootherState nan_value = Scalar(103, 6.0);
+  GraphState nan_value = Scalar(103, 6.0);
   nan_value.value = {std::nan("")};
   refused(nan_value, "non-finite value");
   refused(Scalar(100, 6.5), "added twice");  // the same key twice in one update
   // A factor naming one state twice (a Ceres abort before) or an unknown state: refused before
   // its update's states are added.
-  std::vector<SmootherState> with_bad_factor;
+  std::vector<GraphState> with_bad_factor;
   with_bad_factor.push_back(Scalar(105, 6.0));
   auto twice = s.Update(std::move(with_bad_factor), {BetweenOf(105, 105, 1.0, 1.0)});
   ASSERT_FALSE(twice.ok());
   EXPECT_NE(twice.status().message().find("twice"), std::string::npos) << twice.status().message();
   EXPECT_FALSE(s.Contains(105));
-  std::vector<SmootherState> with_unknown;
+  std::vector<GraphState> with_unknown;
   with_unknown.push_back(Scalar(106, 6.0));
   EXPECT_FALSE(s.Update(std::move(with_unknown), {BetweenOf(106, 999, 1.0, 1.0)}).ok());
   EXPECT_FALSE(s.Contains(106));
   EXPECT_EQ(s.WindowKeys(), window);
   // Inside the window (older than the newest state) is still fine.
-  std::vector<SmootherState> inside;
+  std::vector<GraphState> inside;
   inside.push_back(Scalar(104, 4.5));
   EXPECT_TRUE(s.Update(std::move(inside), {PriorOn(104, 4.5, 1.0)}).ok());
 }
@@ -150,7 +150,7 @@ TEST(FixedLagSmoother, HeldSolvesIterateToHeldMaxIterations) {
   o.solver.initial_trust_region_radius = 1e-3;
   o.held_max_iterations = 100;
   auto first_update = [](FixedLagSmoother* s) {
-    std::vector<SmootherFactor> factors;
+    std::vector<GraphFactor> factors;
     factors.push_back(PriorOn(0, 1000.0, 1.0));
     return s->Update({Scalar(0, 0.0)}, std::move(factors));
   };

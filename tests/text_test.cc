@@ -1,7 +1,9 @@
-// util/text.h: user data quoted safely in messages, numbers readably, UTF-8 checks.
+// util/text.h: user data quoted safely in messages, numbers readably, UTF-8 checks, and the
+// one splitter, trimmer and joiner of fields.
 #include "util/text.h"
 
 #include <string>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -28,6 +30,44 @@ TEST(Num, SixSignificantDigits) {
   EXPECT_EQ(Num(0.1234567), "0.123457");
   EXPECT_EQ(Num(1e300), "1e+300");
   EXPECT_EQ(Num(-2.5), "-2.5");
+}
+
+TEST(Num, SignificantDigitsOnRequest) {
+  EXPECT_EQ(Num(0.1234567, 6), Num(0.1234567));
+  EXPECT_EQ(Num(0.12345678901234, 10), "0.123456789");
+  EXPECT_EQ(Num(1234567890123.0, 10), "1.23456789e+12");
+  EXPECT_EQ(Num(2.0, 10), "2");
+}
+
+TEST(Fixed, DecimalsAfterThePoint) {
+  EXPECT_EQ(Fixed(0.5, 2), "0.50");
+  EXPECT_EQ(Fixed(2.0, 0), "2");
+  EXPECT_EQ(Fixed(-1.23456, 3), "-1.235");
+  EXPECT_EQ(Fixed(1e6, 1), "1000000.0");
+}
+
+TEST(Split, KeepsEveryFieldAsItIs) {
+  using V = std::vector<std::string>;
+  EXPECT_EQ(Split("a,b,c", ','), (V{"a", "b", "c"}));
+  EXPECT_EQ(Split("a,,b", ','), (V{"a", "", "b"}));
+  EXPECT_EQ(Split("", ','), (V{""}));
+  EXPECT_EQ(Split(",", ','), (V{"", ""}));
+  EXPECT_EQ(Split(" a ;b", ';'), (V{" a ", "b"}));  // spaces kept: Trim is separate
+  EXPECT_EQ(Split("a b", ','), (V{"a b"}));
+}
+
+TEST(Trim, SpacesAndTabsOnly) {
+  EXPECT_EQ(Trim("  a b\t"), "a b");
+  EXPECT_EQ(Trim(" \t "), "");
+  EXPECT_EQ(Trim(""), "");
+  EXPECT_EQ(Trim("\ra\n"), "\ra\n");  // other white space is data
+}
+
+TEST(Join, SeparatorBetweenEachTwo) {
+  EXPECT_EQ(Join({}, ", "), "");
+  EXPECT_EQ(Join({"a"}, ", "), "a");
+  EXPECT_EQ(Join({"t_s", "x_m", "y_m"}, ","), "t_s,x_m,y_m");
+  EXPECT_EQ(Join({"", "b"}, ","), ",b");
 }
 
 TEST(Utf8, ValidityAndRepair) {

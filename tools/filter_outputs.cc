@@ -9,10 +9,10 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
-#include <sstream>
 #include <string>
 #include <vector>
 
+#include "util/text.h"
 #include "walkgraph/estimator.h"
 #include "walkgraph/io.h"
 #include "walkgraph/logging.h"
@@ -80,9 +80,9 @@ std::vector<std::vector<double>> Read(const fs::path& path) {
   std::string line;
   while (std::getline(in, line)) {
     std::vector<double> row;
-    std::stringstream ss(line);
-    std::string tok;
-    while (std::getline(ss, tok, ',')) row.push_back(std::stod(tok));
+    for (const std::string& field : walkgraph::internal::Split(line, ',')) {
+      row.push_back(std::stod(field));
+    }
     rows.push_back(row);
   }
   return rows;

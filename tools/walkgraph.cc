@@ -173,22 +173,17 @@ std::string ParseSeed(const std::string& text, uint64_t* seed) {
 // --estimators "a, b,c": ids without empty entries; spaces around an id are ignored.
 walkgraph::StatusOr<std::vector<std::string>> SplitIds(const std::string& text) {
   std::vector<std::string> ids;
-  if (text.find_first_not_of(" \t") == std::string::npos) return ids;
-  size_t start = 0;
-  while (true) {
-    const size_t comma = text.find(',', start);
-    std::string id = text.substr(start, comma == std::string::npos ? comma : comma - start);
-    const size_t first = id.find_first_not_of(" \t"), last = id.find_last_not_of(" \t");
-    id = first == std::string::npos ? "" : id.substr(first, last - first + 1);
+  if (walkgraph::internal::Trim(text).empty()) return ids;
+  for (const std::string& field : walkgraph::internal::Split(text, ',')) {
+    std::string id = walkgraph::internal::Trim(field);
     if (id.empty()) {
       return walkgraph::InvalidArgument(
           "--estimators: empty estimator id in the list; expected comma-separated ids such as "
           "fg-batch,tarrio-kf (see walkgraph list)");
     }
-    ids.push_back(id);
-    if (comma == std::string::npos) return ids;
-    start = comma + 1;
+    ids.push_back(std::move(id));
   }
+  return ids;
 }
 
 // Reads --config FILE.yaml: either the options of one estimator, or (for compare) a map from

@@ -13,6 +13,8 @@
 
 #include <Eigen/Core>
 
+#include "walkgraph/enum_names.h"
+
 namespace walkgraph {
 
 enum class ImuPlacement { kNone, kFoot, kWaist, kHip, kHandheld };
@@ -20,6 +22,11 @@ enum class TruthKind { kNone, kContinuous, kCheckpoints };
 enum class RadioKind { kNone, kRss, kRange };
 enum class RssUnits { kDbm, kRfcode };
 
+// Each enum's one table of names (walk.yaml's spelling), read by ToString and by the walk reader.
+const EnumNames<ImuPlacement>& ImuPlacementNames();
+const EnumNames<TruthKind>& TruthKindNames();
+const EnumNames<RadioKind>& RadioKindNames();
+const EnumNames<RssUnits>& RssUnitsNames();
 const char* ToString(ImuPlacement p);
 const char* ToString(TruthKind k);
 const char* ToString(RadioKind k);

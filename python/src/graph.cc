@@ -17,6 +17,8 @@
 #include "factors/position_random_walk_factor.h"
 #include "factors/range_factor.h"
 #include "factors/rss_factor.h"
+#include "smoothers/graph_internal.h"
+#include "util/text.h"
 #include "walkgraph/graph.h"
 #include "walkgraph/io.h"
 #include "walkgraph/smoothers/fixed_lag_smoother.h"
@@ -32,13 +34,17 @@ Key SymbolOf(const std::string& letter, uint64_t index) {
   return Symbol(letter[0], index);
 }
 
+// A robust loss by the estimators' names (graph_options.h LossKindNames); None or "none": squared.
 std::shared_ptr<const ceres::LossFunction> Loss(const std::optional<std::string>& loss,
                                                 double scale) {
   if (!loss) return nullptr;
   if (!(scale > 0)) Raise(InvalidArgument("loss_scale must be > 0"));
-  if (*loss == "huber") return std::make_shared<ceres::HuberLoss>(scale);
-  if (*loss == "cauchy") return std::make_shared<ceres::CauchyLoss>(scale);
-  Raise(InvalidArgument("loss must be None, 'huber' or 'cauchy', not '" + *loss + "'"));
+  const StatusOr<LossKind> kind = LossKindFromString(*loss);
+  if (!kind.ok()) {
+    Raise(InvalidArgument("loss must be None or one of " + EnumNameList(LossKindNames()) +
+                          ", not " + internal::Quoted(*loss)));
+  }
+  return internal::MakeLoss(*kind, scale);
 }
 
 void CheckSigma(double sigma, const char* what) {

@@ -167,8 +167,9 @@ case("symbol-two-letters", """
 case("symbol-index-too-large", """
     walkgraph.symbol("x", 2 ** 60)""", "ValueError", r"2\^56")
 case("factor-unknown-loss", """
-    walkgraph.factors.range(x(0), x(1), 1.0, [0.0, 0.0, 0.0], 0.3, loss="tukey")""",
-     "ValueError", r"loss must be None, 'huber' or 'cauchy'")
+    walkgraph.factors.range(x(0), x(1), 1.0, [0.0, 0.0, 0.0], 0.3, loss="welsch")""",
+     "ValueError", r"loss must be None or one of none, huber, cauchy, soft-l1, arctan, tukey, "
+                   r"not 'welsch'")
 case("factor-zero-loss-scale", """
     walkgraph.factors.range(x(0), x(1), 1.0, [0.0, 0.0, 0.0], 0.3, loss="huber",
                             loss_scale=0.0)""", "ValueError", r"loss_scale must be > 0")

@@ -212,6 +212,23 @@ def test_graph_core_batch_and_fixed_lag():
     assert walkgraph.key_to_string(x(12)) == "x12"
 
 
+def test_every_estimator_loss_name_is_a_factor_loss():
+    # One range factor 10 sigma off (s = 100) under each of the estimators' six loss names (the
+    # same table as their YAML options): its cost is Ceres' 0.5 rho(s) with scale 1 (the range
+    # factor's distance is smoothed by ~1e-8 relative).
+    x, b = walkgraph.symbol("x", 0), walkgraph.symbol("b", 0)
+    expected = {None: 50.0, "none": 50.0, "huber": 0.5 * (2 * 10 - 1),
+                "cauchy": 0.5 * math.log(101.0), "soft-l1": math.sqrt(101.0) - 1.0,
+                "arctan": 0.5 * math.atan2(100.0, 1.0), "tukey": 0.5 / 3.0}
+    for loss, cost in expected.items():
+        g = walkgraph.FactorGraph()
+        g.add_state(b, [0.0], constant=True)
+        g.add_state(x, [0.0, 0.0])
+        g.add_factor(walkgraph.factors.position_prior(x, [0.0, 0.0], 1.0))
+        g.add_factor(walkgraph.factors.range(x, b, 0.0, [10.0, 0.0, 0.0], 1.0, loss=loss))
+        assert g.solve()["initial_cost"] == pytest.approx(cost, rel=1e-6), loss
+
+
 def test_ctrl_c_stops_a_long_run_and_the_library_goes_on():
     # A child process runs a long fixed-lag smoothing and gets SIGINT after 1 s: it must raise
     # KeyboardInterrupt within a few seconds, then run again normally.

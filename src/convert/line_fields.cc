@@ -11,29 +11,17 @@ namespace walkgraph::internal {
 
 namespace {
 
-std::string Trim(const std::string& s) {
-  const size_t b = s.find_first_not_of(" \t");
-  if (b == std::string::npos) return "";
-  const size_t e = s.find_last_not_of(" \t");
-  return s.substr(b, e - b + 1);
+std::string_view WithoutCarriageReturn(std::string_view line) {
+  if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
+  return line;
 }
 
 }  // namespace
 
 LineFields::LineFields(std::string path, int line_number, std::string_view line, char separator)
-    : path_(std::move(path)), line_number_(line_number) {
-  if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
-  size_t start = 0;
-  while (true) {
-    const size_t pos = line.find(separator, start);
-    if (pos == std::string_view::npos) {
-      fields_.emplace_back(line.substr(start));
-      break;
-    }
-    fields_.emplace_back(line.substr(start, pos - start));
-    start = pos + 1;
-  }
-}
+    : path_(std::move(path)),
+      line_number_(line_number),
+      fields_(Split(WithoutCarriageReturn(line), separator)) {}
 
 std::string LineFields::Where() const { return path_ + ":" + std::to_string(line_number_) + ": "; }
 

@@ -1,7 +1,6 @@
 #include "convert/text_table.h"
 
-#include <fstream>
-#include <sstream>
+#include <cctype>
 
 #include "util/csv_reader.h"
 #include "util/input_file.h"
@@ -19,13 +18,14 @@ StatusOr<TextTable> ReadTextTable(const std::string& path, size_t columns, bool 
     WG_ASSIGN_OR_RETURN(const bool more, in.Next(&line));
     if (!more) break;
     ++n;
+    // Commas and runs of white space (as istream's >> reads it) separate the fields.
     for (char& ch : line) {
-      if (ch == ',' || ch == '\t') ch = ' ';
+      if (ch == ',' || std::isspace(static_cast<unsigned char>(ch))) ch = ' ';
     }
-    std::istringstream ss(line);
     std::vector<std::string> tokens;
-    std::string tok;
-    while (ss >> tok) tokens.push_back(tok);
+    for (std::string& field : Split(line, ' ')) {
+      if (!field.empty()) tokens.push_back(std::move(field));
+    }
     if (tokens.empty()) continue;
     if (has_header && table.header.empty() && table.rows.empty()) {
       table.header = tokens;

@@ -264,11 +264,7 @@ std::vector<const Column*> TableColumns(const Comparison& c) {
   return out;
 }
 
-std::string Fixed(double v, int precision) {
-  std::ostringstream s;
-  s << std::fixed << std::setprecision(precision) << v;
-  return s.str();
-}
+using internal::Fixed;
 
 }  // namespace
 

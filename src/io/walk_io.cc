@@ -32,12 +32,8 @@ using internal::CsvReader;
 
 namespace {
 
-// Shortest "%g" rendering of a number for messages.
-std::string G(double v) {
-  char buf[32];
-  std::snprintf(buf, sizeof(buf), "%g", v);
-  return buf;
-}
+// A number for messages (%g).
+std::string G(double v) { return internal::Num(v); }
 
 // ----------------------------------------------------------------- row checks
 // Each returns "" when the row is acceptable, else what was expected. Shared by the readers
@@ -121,15 +117,15 @@ std::string CheckStoreyHeight(double h) {
 // ----------------------------------------------------------------- walk.yaml
 
 template <typename E>
-Status ParseEnum(const std::string& text, const std::vector<std::pair<const char*, E>>& table,
-                 const std::string& where, E* out) {
+Status ParseEnum(const std::string& text, const EnumNames<E>& table, const std::string& where,
+                 E* out) {
   std::string options;
   for (const auto& [name, value] : table) {
     if (text == name) {
       *out = value;
       return Status::Ok();
     }
-    options += (options.empty() ? "" : "|") + std::string(name);
+    options += (options.empty() ? "" : "|") + name;
   }
   return InvalidArgument(where + ": " + internal::Quoted(text) + " is not one of " + options);
 }
@@ -148,12 +144,8 @@ Status ReadRadio(const YAML::Node& radio, const std::string& path, RadioDefaults
   rr.Read("range_sigma_m", &radio_out->range_sigma_m);
   rr.Read("calibrated", &radio_out->calibrated);
   WG_RETURN_IF_ERROR(rr.Finish());
-  WG_RETURN_IF_ERROR(ParseEnum<RadioKind>(
-      kind, {{"none", RadioKind::kNone}, {"rss", RadioKind::kRss}, {"range", RadioKind::kRange}},
-      path + ": radio.kind", &radio_out->kind));
-  WG_RETURN_IF_ERROR(ParseEnum<RssUnits>(units,
-                                         {{"dbm", RssUnits::kDbm}, {"rfcode", RssUnits::kRfcode}},
-                                         path + ": radio.units", &radio_out->units));
+  WG_RETURN_IF_ERROR(ParseEnum(kind, RadioKindNames(), path + ": radio.kind", &radio_out->kind));
+  WG_RETURN_IF_ERROR(ParseEnum(units, RssUnitsNames(), path + ": radio.units", &radio_out->units));
   const PathLossParams& pl = radio_out->path_loss;
   if (!(pl.eta > 0.0) || !(pl.d0_m > 0.0) || !(pl.sigma_db > 0.0) ||
       !(radio_out->range_sigma_m > 0.0) || !std::isfinite(pl.A_dbm)) {
@@ -196,18 +188,9 @@ Status ReadMeta(const std::string& path, WalkMeta* meta) {
   if (frame != "enu") {
     return InvalidArgument(path + ": frame '" + frame + "'; expected 'enu' (x east, y north, m)");
   }
-  WG_RETURN_IF_ERROR(ParseEnum<ImuPlacement>(placement,
-                                             {{"none", ImuPlacement::kNone},
-                                              {"foot", ImuPlacement::kFoot},
-                                              {"waist", ImuPlacement::kWaist},
-                                              {"hip", ImuPlacement::kHip},
-                                              {"handheld", ImuPlacement::kHandheld}},
-                                             path + ": imu_placement", &meta->imu_placement));
-  WG_RETURN_IF_ERROR(ParseEnum<TruthKind>(truth,
-                                          {{"none", TruthKind::kNone},
-                                           {"continuous", TruthKind::kContinuous},
-                                           {"checkpoints", TruthKind::kCheckpoints}},
-                                          path + ": truth", &meta->truth_kind));
+  WG_RETURN_IF_ERROR(
+      ParseEnum(placement, ImuPlacementNames(), path + ": imu_placement", &meta->imu_placement));
+  WG_RETURN_IF_ERROR(ParseEnum(truth, TruthKindNames(), path + ": truth", &meta->truth_kind));
   if (radio.IsDefined() && !radio.IsNull()) {
     WG_RETURN_IF_ERROR(ReadRadio(radio, path, &meta->radio));
   }

@@ -2,11 +2,11 @@
 
 #include <cmath>
 #include <functional>
-#include <iomanip>
 #include <limits>
 #include <sstream>
 
 #include "report/svg.h"
+#include "util/text.h"
 
 namespace walkgraph::report {
 
@@ -81,11 +81,7 @@ double Badness(Best best, double v) {
   return best == Best::kClosestToTwo ? std::abs(v - 2.0) : v;
 }
 
-std::string Fixed(double v, int precision) {
-  std::ostringstream s;
-  s << std::fixed << std::setprecision(precision) << v;
-  return s.str();
-}
+using internal::Fixed;
 
 // The best (smallest badness) value of each column among the ranked outcomes.
 std::vector<double> BestValues(const Comparison& c, const std::vector<Column>& cols) {

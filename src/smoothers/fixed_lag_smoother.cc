@@ -12,7 +12,7 @@ namespace walkgraph {
 
 namespace {
 
-std::string KeyName(StateKey k) { return "state " + KeyToString(k); }
+std::string KeyName(Key k) { return "state " + KeyToString(k); }
 
 }  // namespace
 
@@ -25,7 +25,7 @@ FixedLagSmoother::~FixedLagSmoother() {
   problem_.reset();  // before the cost functions and manifolds it points to
 }
 
-Status FixedLagSmoother::AddFactor(SmootherFactor f) {
+Status FixedLagSmoother::AddFactor(GraphFactor f) {
   if (!f.cost) return InvalidArgument("fixed-lag smoother: factor without a cost function");
   if (f.cost->parameter_block_sizes().size() != f.keys.size()) {
     return InvalidArgument("fixed-lag smoother: factor has " +
@@ -53,13 +53,13 @@ Status FixedLagSmoother::AddFactor(SmootherFactor f) {
   stored.spec = std::move(f);
   stored.residual = problem_->AddResidualBlock(
       stored.spec.cost.get(), const_cast<ceres::LossFunction*>(stored.spec.loss.get()), blocks);
-  for (StateKey k : stored.spec.keys) states_[k].factors.insert(id);
+  for (Key k : stored.spec.keys) states_[k].factors.insert(id);
   return Status::Ok();
 }
 
-Status FixedLagSmoother::CheckNewFactors(const std::vector<SmootherState>& new_states,
-                                         const std::vector<SmootherFactor>& new_factors) const {
-  for (const SmootherFactor& f : new_factors) {
+Status FixedLagSmoother::CheckNewFactors(const std::vector<GraphState>& new_states,
+                                         const std::vector<GraphFactor>& new_factors) const {
+  for (const GraphFactor& f : new_factors) {
     if (!f.cost) return InvalidArgument("fixed-lag smoother: factor without a cost function");
     const std::vector<int32_t>& sizes = f.cost->parameter_block_sizes();
     if (sizes.size() != f.keys.size()) {
@@ -67,7 +67,7 @@ Status FixedLagSmoother::CheckNewFactors(const std::vector<SmootherState>& new_s
                              " parameter blocks but " + std::to_string(f.keys.size()) + " keys");
     }
     for (size_t i = 0; i < f.keys.size(); ++i) {
-      const StateKey k = f.keys[i];
+      const Key k = f.keys[i];
       if (std::find(f.keys.begin(), f.keys.begin() + i, k) != f.keys.begin() + i) {
         return InvalidArgument("fixed-lag smoother: a factor names " + KeyName(k) + " twice");
       }
@@ -76,7 +76,7 @@ Status FixedLagSmoother::CheckNewFactors(const std::vector<SmootherState>& new_s
         size = it->second.value.size();
       } else {
         auto n = std::find_if(new_states.begin(), new_states.end(),
-                              [k](const SmootherState& s) { return s.key == k; });
+                              [k](const GraphState& s) { return s.key == k; });
         if (n == new_states.end()) {
           return InvalidArgument("fixed-lag smoother: factor on " + KeyName(k) +
                                  ", which is not in the window (unknown or already marginalized)");
@@ -91,9 +91,9 @@ Status FixedLagSmoother::CheckNewFactors(const std::vector<SmootherState>& new_s
   return Status::Ok();
 }
 
-Status FixedLagSmoother::CheckNewStates(const std::vector<SmootherState>& new_states) const {
-  std::set<StateKey> added;
-  for (const SmootherState& s : new_states) {
+Status FixedLagSmoother::CheckNewStates(const std::vector<GraphState>& new_states) const {
+  std::set<Key> added;
+  for (const GraphState& s : new_states) {
     const std::string name = "fixed-lag smoother: " + KeyName(s.key);
     if (states_.count(s.key) || !added.insert(s.key).second) {
       return InvalidArgument(name + " added twice");
@@ -119,11 +119,11 @@ Status FixedLagSmoother::CheckNewStates(const std::vector<SmootherState>& new_st
 }
 
 StatusOr<FixedLagSmoother::UpdateResult> FixedLagSmoother::Update(
-    std::vector<SmootherState> new_states, std::vector<SmootherFactor> new_factors) {
+    std::vector<GraphState> new_states, std::vector<GraphFactor> new_factors) {
   if (CancelRequested()) return Cancelled("fixed-lag smoother: interrupted");
   WG_RETURN_IF_ERROR(CheckNewStates(new_states));
   WG_RETURN_IF_ERROR(CheckNewFactors(new_states, new_factors));  // nothing changes on failure
-  for (SmootherState& s : new_states) {
+  for (GraphState& s : new_states) {
     State& st = states_[s.key];
     st.order = next_state_order_++;
     st.value = s.value;
@@ -137,10 +137,10 @@ StatusOr<FixedLagSmoother::UpdateResult> FixedLagSmoother::Update(
   // cannot move the optimum: the old terms are at their minimum and the new ones at zero, so the
   // sum is minimal too (e.g. an odometry step with no reading). Then the solve is skipped.
   bool informative = !solved_;
-  for (SmootherFactor& f : new_factors) {
+  for (GraphFactor& f : new_factors) {
     if (!informative) {
       std::vector<const double*> blocks;
-      for (StateKey k : f.keys) {
+      for (Key k : f.keys) {
         auto it = states_.find(k);
         if (it == states_.end()) break;
         blocks.push_back(it->second.value.data());
@@ -186,7 +186,7 @@ StatusOr<FixedLagSmoother::UpdateResult> FixedLagSmoother::Update(
 }
 
 Status FixedLagSmoother::MarginalizeOlderThan(double cutoff_s, int* count) {
-  std::set<StateKey> old;
+  std::set<Key> old;
   for (const auto& [key, st] : states_) {
     if (st.spec.t_s && *st.spec.t_s < cutoff_s) old.insert(key);
   }
@@ -195,14 +195,14 @@ Status FixedLagSmoother::MarginalizeOlderThan(double cutoff_s, int* count) {
   marginalized_before_s_ = std::max(marginalized_before_s_.value_or(cutoff_s), cutoff_s);
 
   std::set<int> touching;
-  for (StateKey k : old) touching.insert(states_[k].factors.begin(), states_[k].factors.end());
+  for (Key k : old) touching.insert(states_[k].factors.begin(), states_[k].factors.end());
   std::vector<FactorRef> refs;
   for (int id : touching) {
     const Factor& f = factors_[id];
     FactorRef r;
     r.cost = f.spec.cost.get();
     r.loss = f.spec.loss.get();
-    for (StateKey k : f.spec.keys) {
+    for (Key k : f.spec.keys) {
       State& st = states_[k];
       BlockRef b;
       b.key = k;
@@ -216,25 +216,25 @@ Status FixedLagSmoother::MarginalizeOlderThan(double cutoff_s, int* count) {
   }
   WG_ASSIGN_OR_RETURN(MarginalPrior prior, Marginalize(refs, old, options_.eigenvalue_tolerance));
 
-  if (before_marginalize_) before_marginalize_(std::vector<StateKey>(old.begin(), old.end()));
-  for (StateKey k : old) {
+  if (before_marginalize_) before_marginalize_(std::vector<Key>(old.begin(), old.end()));
+  for (Key k : old) {
     const State& st = states_[k];
     if (on_marginalize_) on_marginalize_(k, *st.spec.t_s, st.value);
   }
   for (int id : touching) {
     problem_->RemoveResidualBlock(factors_[id].residual);
-    for (StateKey k : factors_[id].spec.keys) {
+    for (Key k : factors_[id].spec.keys) {
       auto it = states_.find(k);
       if (it != states_.end()) it->second.factors.erase(id);
     }
     factors_.erase(id);
   }
-  for (StateKey k : old) {
+  for (Key k : old) {
     problem_->RemoveParameterBlock(states_[k].value.data());
     states_.erase(k);
   }
   if (!prior.empty()) {
-    SmootherFactor f;
+    GraphFactor f;
     for (const BlockRef& b : prior.blocks) f.keys.push_back(b.key);
     f.cost = prior.MakeCostFunction();
     WG_RETURN_IF_ERROR(AddFactor(std::move(f)));
@@ -242,15 +242,15 @@ Status FixedLagSmoother::MarginalizeOlderThan(double cutoff_s, int* count) {
   return Status::Ok();
 }
 
-StatusOr<std::vector<double>> FixedLagSmoother::Estimate(StateKey key) const {
+StatusOr<std::vector<double>> FixedLagSmoother::Estimate(Key key) const {
   auto it = states_.find(key);
   if (it == states_.end())
     return NotFound("fixed-lag smoother: " + KeyName(key) + " not in window");
   return it->second.value;
 }
 
-StatusOr<Eigen::MatrixXd> FixedLagSmoother::MarginalCovariance(StateKey key) {
-  return MarginalCovariance(std::vector<StateKey>{key});
+StatusOr<Eigen::MatrixXd> FixedLagSmoother::MarginalCovariance(Key key) {
+  return MarginalCovariance(std::vector<Key>{key});
 }
 
 namespace {
@@ -265,7 +265,7 @@ internal::KeyedBlocks BlocksOf(States* states) {
 }
 }  // namespace
 
-StatusOr<Eigen::MatrixXd> FixedLagSmoother::MarginalCovariance(const std::vector<StateKey>& keys) {
+StatusOr<Eigen::MatrixXd> FixedLagSmoother::MarginalCovariance(const std::vector<Key>& keys) {
   WG_ASSIGN_OR_RETURN(Eigen::MatrixXd c,
                       internal::CeresMarginalCovariance(problem_.get(), BlocksOf(&states_), keys,
                                                         "fixed-lag smoother"));
@@ -274,7 +274,7 @@ StatusOr<Eigen::MatrixXd> FixedLagSmoother::MarginalCovariance(const std::vector
 }
 
 StatusOr<std::vector<Eigen::MatrixXd>> FixedLagSmoother::MarginalCovariances(
-    const std::vector<std::vector<StateKey>>& groups) {
+    const std::vector<std::vector<Key>>& groups) {
   WG_ASSIGN_OR_RETURN(std::vector<Eigen::MatrixXd> out,
                       internal::KeyedMarginalCovariances(problem_.get(), BlocksOf(&states_), groups,
                                                          "fixed-lag smoother"));
@@ -282,11 +282,11 @@ StatusOr<std::vector<Eigen::MatrixXd>> FixedLagSmoother::MarginalCovariances(
   return out;
 }
 
-std::vector<StateKey> FixedLagSmoother::WindowKeys() const { return internal::KeysByTime(states_); }
+std::vector<Key> FixedLagSmoother::WindowKeys() const { return internal::KeysByTime(states_); }
 
 void FixedLagSmoother::Flush() const {
   if (!on_marginalize_) return;
-  for (StateKey k : WindowKeys()) {
+  for (Key k : WindowKeys()) {
     const State& st = states_.at(k);
     on_marginalize_(k, *st.spec.t_s, st.value);
   }

@@ -29,7 +29,7 @@ namespace {
 void SetBlock(InsState* s, InsBlock block, const std::vector<double>& v) {
   std::copy(v.begin(), v.begin() + InsBlockSize(block), InsBlockData(s, block));
 }
-bool IsPositionKey(StateKey key) { return InsBlockOfLetter(SymbolLetter(key)) == InsBlock::kP; }
+bool IsPositionKey(Key key) { return InsBlockOfLetter(SymbolLetter(key)) == InsBlock::kP; }
 
 const char* const kWindowKeys[] = {"lag_s",
                                    "window_update_s",
@@ -64,7 +64,7 @@ InsState CarryForward(const InsState& front_a, const InsState& front_b,
 }
 
 // Yaw σ of a state's attitude in the window (δθ_z of its tangent), when computable.
-std::optional<double> YawSigma(FixedLagSmoother* smoother, StateKey q_key) {
+std::optional<double> YawSigma(FixedLagSmoother* smoother, Key q_key) {
   if (!smoother->Contains(q_key)) return std::nullopt;
   StatusOr<Eigen::MatrixXd> c = smoother->MarginalCovariance(q_key);
   if (!c.ok() || !((*c)(2, 2) >= 0.0)) return std::nullopt;
@@ -205,8 +205,8 @@ class InsWindowRun {
   std::unique_ptr<InsKeyMap> keys_;     // of build_'s and radio_'s blocks
   std::vector<double> magnetic_sigma_;  // StanceMagneticSigmas
   std::vector<std::optional<Eigen::Matrix3d>> cov_;
-  std::vector<SmootherState> new_states_;
-  std::vector<SmootherFactor> new_factors_;
+  std::vector<GraphState> new_states_;
+  std::vector<GraphFactor> new_factors_;
   std::vector<std::vector<GraphFactor>> user_;  // InsGraphOptions::user_factors by newest state
   std::vector<double> latency_;
   std::vector<size_t> pending_;
@@ -245,15 +245,15 @@ Status InsWindowRun::Start() {
   last_ = build_[0];
   last_update_t_ = build_[0].t_s;
   gaps_ = walk_.ImuGaps();
-  smoother_.set_before_marginalize([this](const std::vector<StateKey>& keys) {
+  smoother_.set_before_marginalize([this](const std::vector<Key>& keys) {
     if (online_) return;
     std::vector<size_t> states;
-    for (StateKey k : keys) {
+    for (Key k : keys) {
       if (IsPositionKey(k)) states.push_back(SymbolIndex(k));
     }
     StoreCovariances(states);
   });
-  smoother_.set_on_marginalize([this](StateKey key, double, const std::vector<double>& v) {
+  smoother_.set_on_marginalize([this](Key key, double, const std::vector<double>& v) {
     const std::optional<InsBlock> block = InsBlockOfLetter(SymbolLetter(key));
     if (block) SetBlock(&lagged_[SymbolIndex(key)], *block, v);
   });
@@ -273,7 +273,7 @@ StatusOr<InsState> InsWindowRun::EstimateOf(size_t i) {
 // (x, y, yaw) covariances of states in the current window: tangent (δp, δθ), δθ_z the yaw.
 void InsWindowRun::StoreCovariances(const std::vector<size_t>& states) {
   if (!g_.compute_covariance || states.empty()) return;
-  std::vector<std::vector<StateKey>> groups;
+  std::vector<std::vector<Key>> groups;
   for (size_t i : states) groups.push_back({InsKey(i, InsBlock::kP), InsKey(i, InsBlock::kQ)});
   StatusOr<std::vector<Eigen::MatrixXd>> c = smoother_.MarginalCovariances(groups);
   if (!c.ok()) return;  // rank-deficient window: these states go without covariance
@@ -290,7 +290,7 @@ void InsWindowRun::StoreCovariances(const std::vector<size_t>& states) {
 
 Status InsWindowRun::ToSmoother(std::vector<InsFactor>* factors) {
   for (InsFactor& f : *factors) {
-    WG_ASSIGN_OR_RETURN(SmootherFactor sf, keys_->ToGraphFactor(&f, &new_states_));
+    WG_ASSIGN_OR_RETURN(GraphFactor sf, keys_->ToGraphFactor(&f, &new_states_));
     new_factors_.push_back(std::move(sf));
   }
   factors->clear();
@@ -322,7 +322,7 @@ Status InsWindowRun::AddState(size_t i) {
       build_[i - 1].ba = last_.ba;
     }
   }
-  for (SmootherState& st : InsStateBlocks(i, init, manifold_)) {
+  for (GraphState& st : InsStateBlocks(i, init, manifold_)) {
     st.t_s = build_[i].t_s;
     new_states_.push_back(std::move(st));
   }
@@ -396,7 +396,7 @@ EstimateResult InsWindowRun::Finish() {
   if (!online_) {
     // The states still in the window at the end: their final (smoothed) estimates.
     std::vector<size_t> states;
-    for (StateKey key : smoother_.WindowKeys()) {
+    for (Key key : smoother_.WindowKeys()) {
       if (IsPositionKey(key)) states.push_back(SymbolIndex(key));
     }
     StoreCovariances(states);

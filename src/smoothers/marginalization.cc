@@ -37,13 +37,12 @@ Eigen::MatrixXd PseudoInverse(const Eigen::MatrixXd& H, double tol) {
 }  // namespace
 
 StatusOr<MarginalPrior> Marginalize(const std::vector<FactorRef>& factors,
-                                    const std::set<StateKey>& marginalize,
-                                    double eigenvalue_tolerance) {
+                                    const std::set<Key>& marginalize, double eigenvalue_tolerance) {
   MarginalPrior out;
   if (marginalize.empty() || factors.empty()) return out;
 
   // Column layout: marginalized blocks first, then the remaining ones, each in first-seen order.
-  std::map<StateKey, int> offset;
+  std::map<Key, int> offset;
   std::vector<BlockRef> order_m, order_r;
   for (const FactorRef& f : factors) {
     for (const BlockRef& b : f.blocks) {

@@ -917,14 +917,13 @@ Status CheckStepWalk(const Walk& walk) {
 }
 
 void AddStaticDiagnostics(const StepGraph& graph,
-                          const std::function<std::vector<double>(StateKey)>& value_of,
-                          const Walk& walk, const StepGraphOptions& o,
-                          std::map<std::string, double>* d) {
+                          const std::function<std::vector<double>(Key)>& value_of, const Walk& walk,
+                          const StepGraphOptions& o, std::map<std::string, double>* d) {
   // Name: "<what>" for a walk-wide block, "<what>.<anchor id>" per anchor.
   auto name = [&](const std::string& what, bool per_anchor, int group) {
     return per_anchor ? what + "." + std::to_string(walk.anchors[group].id) : what;
   };
-  for (const SmootherState& s : graph.StaticStates()) {
+  for (const GraphState& s : graph.StaticStates()) {
     if (s.constant) continue;
     const std::vector<double> v = value_of(s.key);
     const char letter = SymbolLetter(s.key);
@@ -1128,17 +1127,17 @@ StatusOr<std::unique_ptr<FactorGraph>> SolveStartHypotheses(const StepGraph& gra
 Status StepGraphBatch::CheckApplicable(const Walk& walk) const { return CheckStepWalk(walk); }
 
 Status StepGraph::AddTo(FactorGraph* fg) const {
-  for (SmootherState& s : StaticStates()) WG_RETURN_IF_ERROR(fg->AddState(std::move(s)));
+  for (GraphState& s : StaticStates()) WG_RETURN_IF_ERROR(fg->AddState(std::move(s)));
   for (int k = 0; k < num_nodes(); ++k) {
     const Eigen::Vector3d& x = init_[k];
-    for (SmootherState& s : NodeStates(k, x.head<2>(), x[2])) {
+    for (GraphState& s : NodeStates(k, x.head<2>(), x[2])) {
       if (k > 0 && s.key == PositionKey(k)) s.value = {x[0], x[1]};
       if (k > 0 && s.key == HeadingKey(k)) s.value = {x[2]};
       WG_RETURN_IF_ERROR(fg->AddState(std::move(s)));
     }
   }
   for (int k = 0; k < num_nodes(); ++k) {
-    for (SmootherFactor& f : FactorsAt(k)) WG_RETURN_IF_ERROR(fg->AddFactor(std::move(f)));
+    for (GraphFactor& f : FactorsAt(k)) WG_RETURN_IF_ERROR(fg->AddFactor(std::move(f)));
   }
   return Status::Ok();
 }
@@ -1198,7 +1197,7 @@ StatusOr<EstimateResult> StepGraphBatch::Run(const Walk& walk) const {
   d["initialized_from_window"] = window_init ? 1.0 : 0.0;
   d["nodes"] = n;
   d["residual_blocks"] = static_cast<double>(fg_best.num_factors());
-  auto value = [&](StateKey k) { return *fg_best.Value(k); };  // every key below is in the graph
+  auto value = [&](Key k) { return *fg_best.Value(k); };  // every key below is in the graph
   AddStaticDiagnostics(*graph, value, walk, options_, &d);
   AddGraphDiagnostics(*graph, walk, &d);
   for (int k = 0; k < n; ++k) {
@@ -1209,7 +1208,7 @@ StatusOr<EstimateResult> StepGraphBatch::Run(const Walk& walk) const {
       SetHeight(*graph, value(StepGraph::HeightKey(k))[0], &result.trajectory.points.back());
   }
   if (options_.covariance) {
-    std::vector<std::vector<StateKey>> groups;
+    std::vector<std::vector<Key>> groups;
     for (int k = 0; k < n; ++k) {
       groups.push_back({StepGraph::PositionKey(k), StepGraph::HeadingKey(k)});
     }
@@ -1244,7 +1243,7 @@ void AddWindowGraphDiagnostics(const StepGraph& graph, const FixedLagSmoother& s
                                std::map<std::string, double>* d) {
   AddStaticDiagnostics(
       graph,
-      [&](StateKey k) {
+      [&](Key k) {
         auto v = smoother.Estimate(k);
         return v.ok() ? *v : std::vector<double>{0.0, 0.0};
       },
@@ -1273,17 +1272,17 @@ FixedLagSmoother::Options WindowSmootherOptions(const StepGraphOptions& o) {
 // nodes at `start` (every node's (p, θ) up to last) or else at their dead-reckoning values.
 Status AddFirstNodes(const StepGraph& graph, int last, const std::vector<Eigen::Vector3d>& start,
                      FactorGraph* fg) {
-  for (SmootherState& s : graph.StaticStates()) WG_RETURN_IF_ERROR(fg->AddState(std::move(s)));
+  for (GraphState& s : graph.StaticStates()) WG_RETURN_IF_ERROR(fg->AddState(std::move(s)));
   const std::vector<Eigen::Vector3d>& x = start.empty() ? graph.initial_nodes() : start;
   for (int k = 0; k <= last; ++k) {
-    for (SmootherState& s : graph.NodeStates(k, x[k].head<2>(), x[k][2])) {
+    for (GraphState& s : graph.NodeStates(k, x[k].head<2>(), x[k][2])) {
       if (s.key == StepGraph::PositionKey(k)) s.value = {x[k][0], x[k][1]};
       if (s.key == StepGraph::HeadingKey(k)) s.value = {x[k][2]};
       WG_RETURN_IF_ERROR(fg->AddState(std::move(s)));
     }
   }
   for (int k = 0; k <= last; ++k) {
-    for (SmootherFactor& f : graph.FactorsAt(k)) WG_RETURN_IF_ERROR(fg->AddFactor(std::move(f)));
+    for (GraphFactor& f : graph.FactorsAt(k)) WG_RETURN_IF_ERROR(fg->AddFactor(std::move(f)));
   }
   return Status::Ok();
 }
@@ -1339,11 +1338,11 @@ StatusOr<EstimateResult> RunWindowNodes(const Walk& walk, const StepGraphOptions
 
   std::vector<TrajectoryPoint> points(n);
   std::vector<bool> have(n, false);
-  auto node_of = [](StateKey key) { return static_cast<int>(SymbolIndex(key)); };
+  auto node_of = [](Key key) { return static_cast<int>(SymbolIndex(key)); };
   // (x, y, θ) covariances of the given nodes from the current window, in one banded solve.
   auto store_covariances = [&](const std::vector<int>& nodes) {
     if (!options_.covariance || nodes.empty()) return;
-    std::vector<std::vector<StateKey>> groups;
+    std::vector<std::vector<Key>> groups;
     for (int k : nodes) groups.push_back({StepGraph::PositionKey(k), StepGraph::HeadingKey(k)});
     auto c = smoother.MarginalCovariances(groups);
     if (!c.ok()) return;  // rank-deficient window: these nodes go without covariance
@@ -1351,15 +1350,15 @@ StatusOr<EstimateResult> RunWindowNodes(const Walk& walk, const StepGraphOptions
       points[nodes[i]].covariance = PoseCovariance(0.5 * ((*c)[i] + (*c)[i].transpose()));
     }
   };
-  smoother.set_before_marginalize([&](const std::vector<StateKey>& keys) {
+  smoother.set_before_marginalize([&](const std::vector<Key>& keys) {
     if (online) return;
     std::vector<int> nodes;
-    for (StateKey key : keys) {
+    for (Key key : keys) {
       if (SymbolLetter(key) == 'x') nodes.push_back(node_of(key));
     }
     store_covariances(nodes);
   });
-  smoother.set_on_marginalize([&](StateKey key, double t, const std::vector<double>& v) {
+  smoother.set_on_marginalize([&](Key key, double t, const std::vector<double>& v) {
     if (online) return;
     const int k = node_of(key);
     points[k].t_s = t;
@@ -1381,21 +1380,21 @@ StatusOr<EstimateResult> RunWindowNodes(const Walk& walk, const StepGraphOptions
   double prev_theta = graph->initial_nodes()[0][2];
   // Nodes are fed one update each, or (window_update_s > 0) gathered into one update per
   // period; new nodes start from dead reckoning off the previous node's estimate.
-  std::vector<SmootherState> states;
-  std::vector<SmootherFactor> factors;
+  std::vector<GraphState> states;
+  std::vector<GraphFactor> factors;
   std::vector<int> pending;
   double last_update_t = graph->node_time(0);
   for (int k = 0; k < n; ++k) {
     if (k == 0) states = graph->StaticStates();
-    std::vector<SmootherState> node = graph->NodeStates(k, prev_p, prev_theta);
+    std::vector<GraphState> node = graph->NodeStates(k, prev_p, prev_theta);
     if (k < static_cast<int>(first.size())) {  // the first window's chosen start
       node[0].value = {first[k][0], first[k][1]};
       node[1].value = {first[k][2]};
     }
     prev_p = Eigen::Vector2d(node[0].value[0], node[0].value[1]);
     prev_theta = node[1].value[0];
-    for (SmootherState& st : node) states.push_back(std::move(st));
-    for (SmootherFactor& f : graph->FactorsAt(k)) factors.push_back(std::move(f));
+    for (GraphState& st : node) states.push_back(std::move(st));
+    for (GraphFactor& f : graph->FactorsAt(k)) factors.push_back(std::move(f));
     pending.push_back(k);
     if (k + 1 < n && graph->node_time(k) - last_update_t < options_.window_update_s) continue;
     last_update_t = graph->node_time(k);
@@ -1432,7 +1431,7 @@ StatusOr<EstimateResult> RunWindowNodes(const Walk& walk, const StepGraphOptions
   if (!online) {
     // The nodes still in the window at the end: their final (smoothed) estimates.
     std::vector<int> nodes;
-    for (StateKey key : smoother.WindowKeys()) {
+    for (Key key : smoother.WindowKeys()) {
       if (SymbolLetter(key) == 'x') nodes.push_back(node_of(key));
     }
     store_covariances(nodes);

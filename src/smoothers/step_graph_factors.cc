@@ -28,19 +28,19 @@ using internal::PathLossKey;
 using internal::RangeBiasKey;
 using internal::RangeScaleKey;
 
-std::vector<SmootherState> StepGraph::StaticStates() const {
+std::vector<GraphState> StepGraph::StaticStates() const {
   const Impl& m = *impl_;
-  std::vector<SmootherState> out;
+  std::vector<GraphState> out;
   // One state per calibration group of the anchors with that kind of reading (group: the
   // anchor index or 0), each starting at `value`.
-  auto per_group = [&](const std::vector<bool>& has, int (Impl::*group)(int) const,
-                       StateKey (*key)(int), std::vector<double> value, bool constant) {
+  auto per_group = [&](const std::vector<bool>& has, int (Impl::*group)(int) const, Key (*key)(int),
+                       std::vector<double> value, bool constant) {
     std::set<int> groups;
     for (size_t a = 0; a < m.anchors.size(); ++a) {
       if (has[a]) groups.insert((m.*group)(static_cast<int>(a)));
     }
     for (int gr : groups) {
-      SmootherState s;
+      GraphState s;
       s.key = key(gr);
       s.value = value;
       s.constant = constant;
@@ -52,7 +52,7 @@ std::vector<SmootherState> StepGraph::StaticStates() const {
     per_group(m.anchor_has_rss, &Impl::PathLossGroup, PathLossKey, {pl.A_dbm, pl.eta},
               m.o.path_loss == PathLossMode::kFixed);
     if (m.o.path_loss == PathLossMode::kHierarchical) {
-      SmootherState s;
+      GraphState s;
       s.key = kPathLossMeanKey;
       s.value = {pl.A_dbm, pl.eta};
       out.push_back(std::move(s));
@@ -65,7 +65,7 @@ std::vector<SmootherState> StepGraph::StaticStates() const {
               m.o.range_scale == CalibrationScope::kNone);
   }
   if (!m.odometry && !m.radio_only && m.o.estimate_gyro_bias) {
-    SmootherState s;
+    GraphState s;
     s.key = kGyroBiasKey;
     s.value = {0.0};
     out.push_back(std::move(s));
@@ -73,12 +73,12 @@ std::vector<SmootherState> StepGraph::StaticStates() const {
   return out;
 }
 
-std::vector<SmootherState> StepGraph::NodeStates(int k, const Eigen::Vector2d& prev_p,
-                                                 double prev_theta) const {
+std::vector<GraphState> StepGraph::NodeStates(int k, const Eigen::Vector2d& prev_p,
+                                              double prev_theta) const {
   const Impl& m = *impl_;
   const Eigen::Vector3d x =
       k > 0 ? m.Predict(k, Eigen::Vector3d(prev_p.x(), prev_p.y(), prev_theta)) : init_[0];
-  SmootherState p, th;
+  GraphState p, th;
   p.key = PositionKey(k);
   p.t_s = node_t_[k];
   p.value = {x[0], x[1]};
@@ -89,7 +89,7 @@ std::vector<SmootherState> StepGraph::NodeStates(int k, const Eigen::Vector2d& p
   if (k == 0 && fix_first_node_) p.constant = th.constant = true;
   if (m.radio_only) th.constant = true;  // no heading information without steps
   if (!m.floors) return {p, th};
-  SmootherState z;
+  GraphState z;
   z.key = HeightKey(k);
   z.t_s = node_t_[k];
   z.value = {m.node_z[k]};
@@ -99,10 +99,9 @@ std::vector<SmootherState> StepGraph::NodeStates(int k, const Eigen::Vector2d& p
 namespace {
 
 // A factor that takes ownership of `cost`.
-void AppendFactor(ceres::CostFunction* cost, std::vector<StateKey> keys,
-                  std::shared_ptr<const ceres::LossFunction> loss,
-                  std::vector<SmootherFactor>* out) {
-  SmootherFactor f;
+void AppendFactor(ceres::CostFunction* cost, std::vector<Key> keys,
+                  std::shared_ptr<const ceres::LossFunction> loss, std::vector<GraphFactor>* out) {
+  GraphFactor f;
   f.cost.reset(cost);
   f.keys = std::move(keys);
   f.loss = std::move(loss);
@@ -112,8 +111,8 @@ void AppendFactor(ceres::CostFunction* cost, std::vector<StateKey> keys,
 }  // namespace
 
 // The factors of the readings whose newest node is k (radio, waypoints).
-void StepGraph::Impl::AddReadingFactors(int k, std::vector<SmootherFactor>* out) const {
-  auto add = [&](ceres::CostFunction* cost, std::vector<StateKey> keys,
+void StepGraph::Impl::AddReadingFactors(int k, std::vector<GraphFactor>* out) const {
+  auto add = [&](ceres::CostFunction* cost, std::vector<Key> keys,
                  std::shared_ptr<const ceres::LossFunction> loss = nullptr) {
     AppendFactor(cost, std::move(keys), std::move(loss), out);
   };
@@ -121,7 +120,7 @@ void StepGraph::Impl::AddReadingFactors(int k, std::vector<SmootherFactor>* out)
   const double sign = radio.units == RssUnits::kDbm ? 1.0 : -1.0;
   const double range_sigma = o.range_sigma_m > 0 ? o.range_sigma_m : radio.range_sigma_m;
   for (const Reading& r : readings_at[k]) {
-    std::vector<StateKey> keys = {PositionKey(r.node_a)};
+    std::vector<Key> keys = {PositionKey(r.node_a)};
     if (r.node_b >= 0) keys.push_back(PositionKey(r.node_b));
     const bool two = r.node_b >= 0;
     if (r.kind == Reading::Kind::kWaypoint) {
@@ -170,16 +169,16 @@ void StepGraph::Impl::AddReadingFactors(int k, std::vector<SmootherFactor>* out)
   }
 }
 
-std::vector<SmootherFactor> StepGraph::FactorsAt(int k) const {
+std::vector<GraphFactor> StepGraph::FactorsAt(int k) const {
   const Impl& m = *impl_;
   const StepGraphOptions& o = m.o;
-  std::vector<SmootherFactor> out;
-  auto add = [&](ceres::CostFunction* cost, std::vector<StateKey> keys,
+  std::vector<GraphFactor> out;
+  auto add = [&](ceres::CostFunction* cost, std::vector<Key> keys,
                  std::shared_ptr<const ceres::LossFunction> loss = nullptr) {
     AppendFactor(cost, std::move(keys), std::move(loss), &out);
   };
-  auto add_owned = [&](std::unique_ptr<ceres::CostFunction> cost, std::vector<StateKey> keys) {
-    SmootherFactor f;
+  auto add_owned = [&](std::unique_ptr<ceres::CostFunction> cost, std::vector<Key> keys) {
+    GraphFactor f;
     f.cost = std::move(cost);
     f.keys = std::move(keys);
     out.push_back(std::move(f));
@@ -195,7 +194,7 @@ std::vector<SmootherFactor> StepGraph::FactorsAt(int k) const {
             {HeadingKey(0)});
       }
     }
-    for (const SmootherState& s : StaticStates()) {
+    for (const GraphState& s : StaticStates()) {
       if (s.constant) continue;
       const char letter = SymbolLetter(s.key);
       if (s.key == kGyroBiasKey) {

@@ -33,12 +33,11 @@ inline std::unique_ptr<ceres::CostFunction> DiagonalPrior(const Eigen::VectorXd&
 }
 
 // The static states' keys (graph.h lists the letters); group: the anchor index or 0.
-inline constexpr StateKey kGyroBiasKey = Symbol('g', 0);
-inline StateKey PathLossKey(int group) { return Symbol('l', static_cast<uint64_t>(group)); }
-inline constexpr StateKey kPathLossMeanKey =
-    Symbol('m', 0);  // hierarchical: the walk's mean (A, η)
-inline StateKey RangeBiasKey(int group) { return Symbol('b', static_cast<uint64_t>(group)); }
-inline StateKey RangeScaleKey(int group) { return Symbol('s', static_cast<uint64_t>(group)); }
+inline constexpr Key kGyroBiasKey = Symbol('g', 0);
+inline Key PathLossKey(int group) { return Symbol('l', static_cast<uint64_t>(group)); }
+inline constexpr Key kPathLossMeanKey = Symbol('m', 0);  // hierarchical: the walk's mean (A, η)
+inline Key RangeBiasKey(int group) { return Symbol('b', static_cast<uint64_t>(group)); }
+inline Key RangeScaleKey(int group) { return Symbol('s', static_cast<uint64_t>(group)); }
 
 }  // namespace internal
 
@@ -131,7 +130,7 @@ struct StepGraph::Impl {
   void DeadReckon(const Walk& walk, StepGraph* g);
   Status AttachReadings(const Walk& walk, StepGraph* g);
   void PlaceStart(const Walk& walk, StepGraph* g);
-  void AddReadingFactors(int k, std::vector<SmootherFactor>* out) const;
+  void AddReadingFactors(int k, std::vector<GraphFactor>* out) const;
   std::vector<std::vector<GraphFactor>> user_at;  // the user's factors, by newest node
 
   // Dead reckoning: node k's (p, θ) from node k − 1's by its increment (odometry: move along

@@ -38,11 +38,7 @@ double ErrorStats::*FieldOf(const std::string& m) {
 
 bool KnownMetric(const std::string& m) { return FieldOf(m) != nullptr || m == "rmse_over_pcrb"; }
 
-std::string Join(const std::vector<std::string>& v) {
-  std::string out;
-  for (const std::string& s : v) out += (out.empty() ? "" : ", ") + s;
-  return out;
-}
+std::string Join(const std::vector<std::string>& names) { return internal::Join(names, ", "); }
 
 // ------------------------------------------------------------------ manifest parsing
 
@@ -655,11 +651,7 @@ StatusOr<StudyResult> RunStudy(const StudyManifest& m, const StudyOptions& optio
 
 namespace {
 
-std::string Num(double v) {
-  char buf[32];
-  std::snprintf(buf, sizeof(buf), "%.10g", v);
-  return buf;
-}
+std::string Num(double v) { return internal::Num(v, 10); }
 
 std::string CsvField(const std::string& s) {
   if (s.find_first_of(",\"\n\r") == std::string::npos) return s;

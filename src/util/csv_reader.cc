@@ -11,34 +11,14 @@ namespace walkgraph::internal {
 
 namespace {
 
-std::string Join(const std::vector<std::string>& v) {
-  std::string s;
-  for (size_t i = 0; i < v.size(); ++i) s += (i ? "," : "") + v[i];
-  return s;
-}
-
-std::string Trim(const std::string& s) {
-  const size_t b = s.find_first_not_of(" \t");
-  if (b == std::string::npos) return "";
-  const size_t e = s.find_last_not_of(" \t");
-  return s.substr(b, e - b + 1);
-}
+std::string Join(const std::vector<std::string>& names) { return internal::Join(names, ","); }
 
 }  // namespace
 
 std::vector<std::string> SplitCsvLine(const std::string& line) {
-  std::vector<std::string> out;
-  size_t start = 0;
-  while (true) {
-    const size_t comma = line.find(',', start);
-    if (comma == std::string::npos) {
-      out.push_back(Trim(line.substr(start)));
-      break;
-    }
-    out.push_back(Trim(line.substr(start, comma - start)));
-    start = comma + 1;
-  }
-  return out;
+  std::vector<std::string> fields = Split(line, ',');
+  for (std::string& f : fields) f = Trim(f);
+  return fields;
 }
 
 bool ParseFiniteDouble(std::string_view field, double* value) {

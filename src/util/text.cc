@@ -1,6 +1,8 @@
 #include "util/text.h"
 
 #include <cstdio>
+#include <iomanip>
+#include <sstream>
 
 namespace walkgraph::internal {
 
@@ -78,10 +80,46 @@ std::string Quoted(std::string_view text, size_t max_bytes) {
   return out;
 }
 
-std::string Num(double value) {
-  char buf[32];
-  std::snprintf(buf, sizeof(buf), "%g", value);
+std::string Num(double value, int significant_digits) {
+  char buf[48];
+  std::snprintf(buf, sizeof(buf), "%.*g", significant_digits, value);
   return buf;
+}
+
+std::string Fixed(double value, int decimals) {
+  std::ostringstream s;
+  s << std::fixed << std::setprecision(decimals) << value;
+  return s.str();
+}
+
+std::vector<std::string> Split(std::string_view line, char separator) {
+  std::vector<std::string> fields;
+  size_t start = 0;
+  while (true) {
+    const size_t pos = line.find(separator, start);
+    if (pos == std::string_view::npos) {
+      fields.emplace_back(line.substr(start));
+      return fields;
+    }
+    fields.emplace_back(line.substr(start, pos - start));
+    start = pos + 1;
+  }
+}
+
+std::string Trim(std::string_view text) {
+  const size_t b = text.find_first_not_of(" \t");
+  if (b == std::string_view::npos) return "";
+  const size_t e = text.find_last_not_of(" \t");
+  return std::string(text.substr(b, e - b + 1));
+}
+
+std::string Join(const std::vector<std::string>& parts, std::string_view separator) {
+  std::string out;
+  for (size_t i = 0; i < parts.size(); ++i) {
+    if (i > 0) out += separator;
+    out += parts[i];
+  }
+  return out;
 }
 
 }  // namespace walkgraph::internal

@@ -1,9 +1,11 @@
-// Text for messages (internal): user data quoted safely and briefly, numbers readably.
+// Small text helpers (internal): user data quoted safely and briefly for messages, numbers
+// readably, and the one splitter, trimmer and joiner of fields.
 #ifndef WALKGRAPH_SRC_UTIL_TEXT_H_
 #define WALKGRAPH_SRC_UTIL_TEXT_H_
 
 #include <string>
 #include <string_view>
+#include <vector>
 
 namespace walkgraph::internal {
 
@@ -16,8 +18,19 @@ std::string Quoted(std::string_view text, size_t max_bytes = kMaxEchoBytes);
 // Where a number was expected: at most 24 bytes echoed.
 inline std::string QuotedNumber(std::string_view text) { return Quoted(text, 24); }
 
-// A number for a message: %g (six significant digits), never hundreds of digits.
-std::string Num(double value);
+// A number for a message or a table: %g with `significant_digits` (six: plain %g), never
+// hundreds of digits.
+std::string Num(double value, int significant_digits = 6);
+// `value` with `decimals` digits after the point (std::fixed: 0.5 at 2 is "0.50").
+std::string Fixed(double value, int decimals);
+
+// The fields of `line` between each `separator`, as they are (empty fields kept: "a,,b" has
+// three, "" has one).
+std::vector<std::string> Split(std::string_view line, char separator);
+// `text` without the spaces and tabs around it.
+std::string Trim(std::string_view text);
+// `parts` with `separator` between each two.
+std::string Join(const std::vector<std::string>& parts, std::string_view separator);
 
 // True when `text` is valid UTF-8 (no overlong forms, no surrogates).
 bool IsValidUtf8(std::string_view text);

@@ -13,26 +13,25 @@
 
 int main() {
   using walkgraph::FixedLagSmoother;
-  using walkgraph::SmootherFactor;
-  using walkgraph::SmootherState;
+  using walkgraph::GraphFactor;
+  using walkgraph::GraphState;
   const std::vector<Eigen::Vector3d> anchors = {{0, 5, 0}, {10, -5, 0}, {20, 5, 0}};
 
   FixedLagSmoother::Options options;
   options.lag_s = 5.0;
   FixedLagSmoother smoother(options);
   double last_error_m = 0.0;
-  smoother.set_on_marginalize(
-      [&](walkgraph::StateKey key, double t_s, const std::vector<double>& p) {
-        if (key < 100) last_error_m = std::hypot(p[0] - t_s, p[1]);  // truth: (t, 0)
-      });
+  smoother.set_on_marginalize([&](walkgraph::Key key, double t_s, const std::vector<double>& p) {
+    if (key < 100) last_error_m = std::hypot(p[0] - t_s, p[1]);  // truth: (t, 0)
+  });
 
   // Static states (no timestamp, never marginalized): one range bias per anchor, held at 0.
-  std::vector<SmootherState> states;
+  std::vector<GraphState> states;
   for (int a = 0; a < 3; ++a) states.push_back({100 + a, std::nullopt, {0.0}, nullptr, true});
   for (int k = 0; k <= 20; ++k) {
     const double t = k;
-    SmootherState s{k, t, {t + 0.3, -0.2}, nullptr, false};  // a rough initial guess
-    std::vector<SmootherFactor> factors;
+    GraphState s{k, t, {t + 0.3, -0.2}, nullptr, false};  // a rough initial guess
+    std::vector<GraphFactor> factors;
     if (k > 0) {
       factors.push_back({std::unique_ptr<ceres::CostFunction>(
                              walkgraph::PositionRandomWalkFactor::Create(1.0, 1.0)),

@@ -5,7 +5,7 @@
 //   s.Update(new_states, new_factors);                // add, solve, marginalize
 //   s.Estimate(key);  s.MarginalCovariance(key);
 //
-// States are parameter blocks identified by a StateKey, each with a timestamp (or none: a
+// States are parameter blocks identified by a Key, each with a timestamp (or none: a
 // "static" state such as a path-loss or bias block, which stays in the window for the whole
 // run) and an optional ceres::Manifold. Factors are cost functions over states by key, with an
 // optional robust loss.
@@ -49,10 +49,6 @@
 
 namespace walkgraph {
 
-// The graph core's states and factors (graph.h): a smoother is fed what a FactorGraph holds.
-using SmootherState = GraphState;
-using SmootherFactor = GraphFactor;
-
 class FixedLagSmoother {
  public:
   static SolverOptions WindowSolverDefaults() {
@@ -92,7 +88,7 @@ class FixedLagSmoother {
   };
   // Called for each state as it leaves the window: key, time, final (lagged) estimate.
   using MarginalizeCallback =
-      std::function<void(StateKey key, double t_s, const std::vector<double>& value)>;
+      std::function<void(Key key, double t_s, const std::vector<double>& value)>;
 
   explicit FixedLagSmoother(Options options);
   ~FixedLagSmoother();
@@ -102,7 +98,7 @@ class FixedLagSmoother {
   void set_on_marginalize(MarginalizeCallback cb) { on_marginalize_ = std::move(cb); }
   // Called with the keys about to be marginalized while they are still in the window (before
   // on_marginalize), e.g. to query their MarginalCovariance.
-  void set_before_marginalize(std::function<void(const std::vector<StateKey>& keys)> cb) {
+  void set_before_marginalize(std::function<void(const std::vector<Key>& keys)> cb) {
     before_marginalize_ = std::move(cb);
   }
 
@@ -114,25 +110,25 @@ class FixedLagSmoother {
   void Release() { hold_from_s_.reset(); }
   bool holding() const { return hold_from_s_.has_value(); }
 
-  StatusOr<UpdateResult> Update(std::vector<SmootherState> new_states,
-                                std::vector<SmootherFactor> new_factors);
+  StatusOr<UpdateResult> Update(std::vector<GraphState> new_states,
+                                std::vector<GraphFactor> new_factors);
 
   // Current estimate of a state in the window (or a static state).
-  StatusOr<std::vector<double>> Estimate(StateKey key) const;
+  StatusOr<std::vector<double>> Estimate(Key key) const;
   // Marginal covariance of a state in its tangent space, given everything in the window
   // (including the marginalization prior). Fails (never aborts) when it is not positive
   // definite, e.g. an unobservable direction.
-  StatusOr<Eigen::MatrixXd> MarginalCovariance(StateKey key);
+  StatusOr<Eigen::MatrixXd> MarginalCovariance(Key key);
   // Joint marginal covariance of several states (tangent spaces stacked in `keys` order).
-  StatusOr<Eigen::MatrixXd> MarginalCovariance(const std::vector<StateKey>& keys);
+  StatusOr<Eigen::MatrixXd> MarginalCovariance(const std::vector<Key>& keys);
   // Several joint covariances at once, each group the states of one timestamp (or a subset):
   // one banded solve over the window (chain_covariance.h) when the window is chain-structured,
   // else one MarginalCovariance per group.
   StatusOr<std::vector<Eigen::MatrixXd>> MarginalCovariances(
-      const std::vector<std::vector<StateKey>>& groups);
+      const std::vector<std::vector<Key>>& groups);
   // Timed states still in the window, oldest first.
-  std::vector<StateKey> WindowKeys() const;
-  bool Contains(StateKey key) const { return states_.count(key) > 0; }
+  std::vector<Key> WindowKeys() const;
+  bool Contains(Key key) const { return states_.count(key) > 0; }
   // What the window holds now (timed and static states; factors including the prior): the
   // smoother's memory, bounded by the lag however long the walk.
   size_t NumStates() const { return states_.size(); }
@@ -143,25 +139,25 @@ class FixedLagSmoother {
 
  private:
   struct State {
-    SmootherState spec;
+    GraphState spec;
     std::vector<double> value;  // the solver's parameter block (stable address)
     std::set<int> factors;      // ids of factors touching it
     std::uint64_t order = 0;    // states added before it (marginalized ones included)
   };
   struct Factor {
-    SmootherFactor spec;
+    GraphFactor spec;
     ceres::ResidualBlockId residual = nullptr;
   };
 
-  Status CheckNewStates(const std::vector<SmootherState>& new_states) const;
-  Status CheckNewFactors(const std::vector<SmootherState>& new_states,
-                         const std::vector<SmootherFactor>& new_factors) const;
-  Status AddFactor(SmootherFactor f);
+  Status CheckNewStates(const std::vector<GraphState>& new_states) const;
+  Status CheckNewFactors(const std::vector<GraphState>& new_states,
+                         const std::vector<GraphFactor>& new_factors) const;
+  Status AddFactor(GraphFactor f);
   Status MarginalizeOlderThan(double cutoff_s, int* count);
 
   Options options_;
   std::unique_ptr<ceres::Problem> problem_;
-  std::map<StateKey, State> states_;
+  std::map<Key, State> states_;
   std::map<int, Factor> factors_;
   int next_factor_id_ = 0;
   std::uint64_t next_state_order_ = 0;
@@ -170,7 +166,7 @@ class FixedLagSmoother {
   std::optional<double> hold_from_s_;
   bool solved_ = false;  // a solve has run: the estimate is (near) optimal
   MarginalizeCallback on_marginalize_;
-  std::function<void(const std::vector<StateKey>&)> before_marginalize_;
+  std::function<void(const std::vector<Key>&)> before_marginalize_;
 };
 
 // Wall-clock figures of a run's updates (seconds each): update_latency_median_s, _p99_s and

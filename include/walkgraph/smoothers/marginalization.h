@@ -29,11 +29,9 @@
 
 namespace walkgraph {
 
-using StateKey = Key;  // graph.h
-
 // One parameter block as marginalization sees it.
 struct BlockRef {
-  StateKey key = 0;
+  Key key = 0;
   double* values = nullptr;  // current estimate (ambient)
   int ambient_size = 0;
   const ceres::Manifold* manifold = nullptr;  // nullptr = Euclidean
@@ -64,7 +62,7 @@ struct MarginalPrior {
 // alone. An empty `marginalize` or a result that constrains nothing gives an empty prior.
 // Fails if a factor cannot be evaluated.
 StatusOr<MarginalPrior> Marginalize(const std::vector<FactorRef>& factors,
-                                    const std::set<StateKey>& marginalize,
+                                    const std::set<Key>& marginalize,
                                     double eigenvalue_tolerance = 1e-12);
 
 }  // namespace walkgraph

@@ -281,10 +281,10 @@ class StepGraph {
   int num_nodes() const { return static_cast<int>(node_t_.size()); }
   double node_time(int k) const { return node_t_[k]; }
   // Node k's keys (graph.h): x(k) its position, h(k) its heading.
-  static StateKey PositionKey(int k) { return Symbol('x', static_cast<uint64_t>(k)); }
-  static StateKey HeadingKey(int k) { return Symbol('h', static_cast<uint64_t>(k)); }
+  static Key PositionKey(int k) { return Symbol('x', static_cast<uint64_t>(k)); }
+  static Key HeadingKey(int k) { return Symbol('h', static_cast<uint64_t>(k)); }
   // z(k): node k's height (m above floor 0), a state when has_floors().
-  static StateKey HeightKey(int k) { return Symbol('z', static_cast<uint64_t>(k)); }
+  static Key HeightKey(int k) { return Symbol('z', static_cast<uint64_t>(k)); }
   // Whether the graph estimates a height per node (StepGraphOptions::floors, pressure.csv).
   bool has_floors() const;
   // The floor of a height (walk.yaml storey_height_m).
@@ -295,15 +295,14 @@ class StepGraph {
   const StepFrontEndReport& front_end_report() const;
 
   // Static (untimed) states: path loss, range bias, gyro bias blocks.
-  std::vector<SmootherState> StaticStates() const;
+  std::vector<GraphState> StaticStates() const;
   // Node k's two states (three with has_floors(): the height last), initialized from node k−1's (p,
   // θ) by its step (dead reckoning); node 0 from the start.
-  std::vector<SmootherState> NodeStates(int k, const Eigen::Vector2d& prev_p,
-                                        double prev_theta) const;
+  std::vector<GraphState> NodeStates(int k, const Eigen::Vector2d& prev_p, double prev_theta) const;
   // The initial (p, θ) of every node (dead reckoning from the start).
   const std::vector<Eigen::Vector3d>& initial_nodes() const { return init_; }
   // Every factor whose newest node is k (priors on static states come with k = 0).
-  std::vector<SmootherFactor> FactorsAt(int k) const;
+  std::vector<GraphFactor> FactorsAt(int k) const;
   // The whole graph into `fg` (fg-batch's graph before it solves): every state at its dead-
   // reckoning value and every factor, the user's included. A caller may add more and solve.
   Status AddTo(FactorGraph* fg) const;
