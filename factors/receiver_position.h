@@ -25,13 +25,21 @@ struct Receiver {
   // Distance to the anchor from p_a alone (p_b == nullptr) or from the interpolation.
   template <typename T>
   T Distance(const T* p_a, const T* p_b) const {
+    return DistanceTo(p_a, p_b, static_cast<const T*>(nullptr));
+  }
+  // The same to an anchor whose horizontal position is a state: (anchor_xy[0], anchor_xy[1],
+  // anchor_m.z()); anchor_xy == nullptr: anchor_m.
+  template <typename T>
+  T DistanceTo(const T* p_a, const T* p_b, const T* anchor_xy) const {
     using std::sqrt;
     T q[3];
     for (int i = 0; i < kDim; ++i) {
       q[i] = p_b == nullptr ? p_a[i] : T(1.0 - alpha) * p_a[i] + T(alpha) * p_b[i];
     }
     if (kDim == 2) q[2] = T(receiver_height_m);
-    const T dx = q[0] - T(anchor_m.x()), dy = q[1] - T(anchor_m.y()), dz = q[2] - T(anchor_m.z());
+    const T ax = anchor_xy == nullptr ? T(anchor_m.x()) : anchor_xy[0];
+    const T ay = anchor_xy == nullptr ? T(anchor_m.y()) : anchor_xy[1];
+    const T dx = q[0] - ax, dy = q[1] - ay, dz = q[2] - T(anchor_m.z());
     return sqrt(dx * dx + dy * dy + dz * dz + T(1e-6));
   }
 };

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <limits>
+#include <set>
 #include <utility>
 
 #include "util/median.h"
@@ -59,6 +60,42 @@ int Walk::AnchorIndex(int id) const {
     if (anchors[i].id == id) return static_cast<int>(i);
   }
   return -1;
+}
+
+bool Walk::has_unknown_anchors() const {
+  return std::any_of(anchors.begin(), anchors.end(),
+                     [](const Anchor& a) { return !a.position_known; });
+}
+
+Walk WithoutAnchors(const Walk& walk, const std::set<int>& ids, UnknownAnchorsDropped* dropped) {
+  UnknownAnchorsDropped d;
+  Walk out = walk;
+  out.anchors.clear();
+  for (const Anchor& a : walk.anchors) {
+    if (ids.count(a.id) == 0) out.anchors.push_back(a);
+  }
+  d.anchors = static_cast<int>(walk.anchors.size() - out.anchors.size());
+  auto drop = [&](auto* samples) {
+    const size_t before = samples->size();
+    samples->erase(std::remove_if(samples->begin(), samples->end(),
+                                  [&](const auto& s) { return ids.count(s.anchor_id) > 0; }),
+                   samples->end());
+    return static_cast<int>(before - samples->size());
+  };
+  if (d.anchors > 0) {
+    d.rss_readings = drop(&out.rss);
+    d.range_readings = drop(&out.ranges);
+  }
+  if (dropped) *dropped = d;
+  return out;
+}
+
+Walk WithoutUnknownAnchors(const Walk& walk, UnknownAnchorsDropped* dropped) {
+  std::set<int> unknown;
+  for (const Anchor& a : walk.anchors) {
+    if (!a.position_known) unknown.insert(a.id);
+  }
+  return WithoutAnchors(walk, unknown, dropped);
 }
 
 double MedianImuIntervalS(const std::vector<ImuSample>& imu) {

@@ -256,8 +256,11 @@ TEST(PrietoFilter, InsVariantsNeedAFootImu) {
     EXPECT_EQ(s.code(), StatusCode::kFailedPrecondition) << id;
     EXPECT_NE(s.message().find("foot-mounted"), std::string::npos) << s.message();
     EXPECT_FALSE((*est)->Run(*hip).ok()) << id;
-    // The public entry point does the same check.
-    auto* filter = dynamic_cast<const PrietoFilter*>(est->get());
+    // The public entry point does the same check. (Create wraps the estimators that need
+    // surveyed anchors, estimator.h; the factory gives the filter itself.)
+    auto raw = EstimatorRegistry::Builtin().Find(id)->factory(YAML::Node());
+    ASSERT_TRUE(raw.ok()) << id;
+    auto* filter = dynamic_cast<const PrietoFilter*>(raw->get());
     ASSERT_NE(filter, nullptr);
     const auto direct = RunPrietoFilter(*hip, filter->options());
     EXPECT_EQ(direct.status().code(), StatusCode::kFailedPrecondition) << id;

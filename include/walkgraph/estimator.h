@@ -43,6 +43,12 @@ struct EstimatorInfo {
   std::string id;
   std::string description;  // one line: paper, equations, sensors
   EstimatorFactory factory;
+  // Whether the estimator handles anchors of unknown position itself (fg-batch makes them
+  // states). Otherwise Create wraps it: on a walk with such anchors it runs on
+  // WithoutUnknownAnchors(walk) and its diagnostics count what was left out
+  // (unknown_anchors_ignored, unknown_anchor_readings_ignored). The wrapper is not the
+  // estimator's class: `factory` gives the estimator itself (e.g. for a dynamic_cast).
+  bool estimates_unknown_anchors = false;
 };
 
 class EstimatorRegistry {

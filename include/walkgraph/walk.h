@@ -8,6 +8,7 @@
 
 #include <map>
 #include <optional>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -95,10 +96,21 @@ struct WalkMeta {
   std::map<std::string, double> extra;
 };
 
+// A radio transmitter. Its position is surveyed (sigma_m 0: known exactly), uncertain
+// (sigma_m > 0: position_m is a mean with σ sigma_m per horizontal axis) or unknown
+// (position_known false: anchors.csv leaves x_m and y_m empty; position_m's x and y are then
+// NaN, so that nothing can take it for a place). Estimators that need surveyed anchors (the
+// papers' filters) leave the unknown ones and their readings out (WithoutUnknownAnchors);
+// fg-batch makes unknown and uncertain anchors states (step_graph.h).
 struct Anchor {
   int id = 0;
   Eigen::Vector3d position_m = Eigen::Vector3d::Zero();
   std::optional<int> floor;  // anchors.csv `floor` column (multi-floor walks)
+  bool position_known = true;
+  double sigma_m = 0.0;    // anchors.csv `sigma_m`: 0 surveyed, > 0 uncertain (metres, 1σ)
+  std::string group = "";  // anchors.csv `group`: e.g. ble, wifi, uwb ("" none)
+
+  bool surveyed() const { return position_known && sigma_m == 0.0; }
 };
 
 struct ImuSample {
@@ -204,6 +216,8 @@ struct Walk {
   double AnchorHeightM(const Anchor& a) const;
   // Index into `anchors` of the anchor with this id, or -1.
   int AnchorIndex(int id) const;
+  // Whether an anchor's position is unknown (Anchor::position_known false).
+  bool has_unknown_anchors() const;
   // First and last timestamp over every stream (0, 0 for an empty walk).
   double StartTime() const;
   // The holes in `imu` (see ImuGap), in time order; empty with fewer than 3 samples.
@@ -215,6 +229,19 @@ struct Walk {
   // empty without truth); TruthDistance() is its last element.
   std::vector<double> TruthDistances() const;
 };
+
+// What WithoutUnknownAnchors left out.
+struct UnknownAnchorsDropped {
+  int anchors = 0;
+  int rss_readings = 0;
+  int range_readings = 0;
+};
+// `walk` without its anchors of unknown position and their RSS and range readings (the walk
+// the estimators that need surveyed anchors see; uncertain anchors stay, at their mean).
+Walk WithoutUnknownAnchors(const Walk& walk, UnknownAnchorsDropped* dropped = nullptr);
+// `walk` without the anchors of these ids and their RSS and range readings.
+Walk WithoutAnchors(const Walk& walk, const std::set<int>& ids,
+                    UnknownAnchorsDropped* dropped = nullptr);
 
 }  // namespace walkgraph
 

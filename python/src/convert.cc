@@ -290,6 +290,9 @@ void SetWalkStream(Walk* w, const std::string& s, const py::handle& v) {
     const auto rows = Rows(v, s, {4}, "id, x_m, y_m, z_m");
     for (size_t i = 0; i < rows.size(); ++i) {
       w->anchors.push_back({AnchorId(rows[i][0], s, i), {rows[i][1], rows[i][2], rows[i][3]}});
+      // NaN x and y: an anchor of unknown position (anchors.csv's empty x_m, y_m).
+      if (std::isnan(rows[i][1]) && std::isnan(rows[i][2]))
+        w->anchors.back().position_known = false;
     }
   } else if (s == "waypoints") {
     w->waypoints.clear();

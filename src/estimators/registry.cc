@@ -1,5 +1,6 @@
 #include <algorithm>
 #include <cmath>
+#include <memory>
 #include <string>
 #include <variant>
 #include <vector>
@@ -81,6 +82,30 @@ YAML::Node ConfigWith(const OptionDefault& d) {
   return node;
 }
 
+// An estimator that needs every anchor's position, on walks with anchors of unknown position:
+// runs without them and their readings, and says how many it left out.
+class SurveyedAnchorsOnly : public Estimator {
+ public:
+  explicit SurveyedAnchorsOnly(std::unique_ptr<Estimator> inner) : inner_(std::move(inner)) {}
+  Status CheckApplicable(const Walk& walk) const override {
+    if (!walk.has_unknown_anchors()) return inner_->CheckApplicable(walk);
+    return inner_->CheckApplicable(WithoutUnknownAnchors(walk));
+  }
+  StatusOr<EstimateResult> Run(const Walk& walk) const override {
+    if (!walk.has_unknown_anchors()) return inner_->Run(walk);
+    UnknownAnchorsDropped dropped;
+    const Walk known = WithoutUnknownAnchors(walk, &dropped);
+    WG_ASSIGN_OR_RETURN(EstimateResult result, inner_->Run(known));
+    result.diagnostics["unknown_anchors_ignored"] = dropped.anchors;
+    result.diagnostics["unknown_anchor_readings_ignored"] =
+        dropped.rss_readings + dropped.range_readings;
+    return result;
+  }
+
+ private:
+  std::unique_ptr<Estimator> inner_;
+};
+
 }  // namespace
 
 StatusOr<std::vector<OptionDefault>> EstimatorRegistry::OptionDefaults(
@@ -106,7 +131,9 @@ StatusOr<std::unique_ptr<Estimator>> EstimatorRegistry::Create(const std::string
     for (const EstimatorInfo& e : entries_) ids += (ids.empty() ? "" : ", ") + e.id;
     return NotFound("unknown estimator " + internal::Quoted(id) + "; known: " + ids);
   }
-  return info->factory(config);
+  WG_ASSIGN_OR_RETURN(std::unique_ptr<Estimator> estimator, info->factory(config));
+  if (info->estimates_unknown_anchors) return estimator;
+  return std::unique_ptr<Estimator>(std::make_unique<SurveyedAnchorsOnly>(std::move(estimator)));
 }
 
 std::vector<std::string> EstimatorRegistry::Ids() const {

@@ -134,7 +134,9 @@ StatusOr<Comparison> CompareOnWalk(const Walk& walk, const CompareOptions& optio
   c.walk_name = walk.meta.name;
   c.truth_kind = walk.meta.truth_kind;
   c.score_from_s = options.score_from_s;
-  c.anchors = walk.anchors;
+  for (const Anchor& a : walk.anchors) {  // the ones with a place (the report draws them)
+    if (a.position_known) c.anchors.push_back(a);
+  }
   c.truth = walk.truth;
   c.warnings = PlausibilityWarnings(walk);
   c.warning_count = static_cast<int>(c.warnings.size());
@@ -508,6 +510,40 @@ Status WriteTruthFiles(const Comparison& c, const fs::path& tmp) {
   });
 }
 
+// anchors_estimated/<id>.csv for each estimator that placed anchors (EstimateResult::anchors):
+// id,x_m,y_m,var_x_m2,cov_xy_m2,var_y_m2,readings,observable; empty fields where there is no
+// position or covariance.
+Status WriteAnchorEstimates(const Comparison& c, const fs::path& tmp) {
+  for (const EstimatorOutcome& o : c.outcomes) {
+    if (!o.status.ok() || o.result.anchors.empty()) continue;
+    std::error_code ec;
+    fs::create_directories(tmp / "anchors_estimated", ec);
+    if (ec) return IoError(tmp.string() + ": cannot create anchors_estimated/: " + ec.message());
+    WG_RETURN_IF_ERROR(WriteFileInOutput(
+        (tmp / "anchors_estimated" / (o.id + ".csv")).string(), [&](std::ostream& out) {
+          out << "id,x_m,y_m,var_x_m2,cov_xy_m2,var_y_m2,readings,observable\n";
+          for (const AnchorEstimate& a : o.result.anchors) {
+            out << a.id << ',';
+            if (a.observable) {
+              out << internal::Num(a.position_m.x()) << ',' << internal::Num(a.position_m.y());
+            } else {
+              out << ',';
+            }
+            if (a.covariance) {
+              const Eigen::Matrix2d& P = *a.covariance;
+              out << ',' << internal::Num(P(0, 0)) << ',' << internal::Num(P(0, 1)) << ','
+                  << internal::Num(P(1, 1));
+            } else {
+              out << ",,,";
+            }
+            out << ',' << a.readings << ',' << (a.observable ? 1 : 0) << '\n';
+          }
+          return true;
+        }));
+  }
+  return Status::Ok();
+}
+
 Status WriteComparisonFiles(const Comparison& c, const fs::path& tmp) {
   std::error_code ec;
   if (!fs::create_directories(tmp / "trajectories", ec)) {
@@ -557,6 +593,8 @@ Status WriteComparisonFiles(const Comparison& c, const fs::path& tmp) {
                           });
     if (!s.ok()) return s;
   }
+  s = WriteAnchorEstimates(c, tmp);
+  if (!s.ok()) return s;
   s = WriteTruthFiles(c, tmp);
   if (!s.ok()) return s;
   const std::string html = RenderHtmlReport(c);

@@ -45,7 +45,9 @@ struct Box {
 
 Box SceneBox(const Walk& walk) {
   Box box;
-  for (const Anchor& a : walk.anchors) box.Grow(a.position_m.x(), a.position_m.y());
+  for (const Anchor& a : walk.anchors) {
+    if (a.position_known) box.Grow(a.position_m.x(), a.position_m.y());
+  }
   for (const TruthSample& t : walk.truth) box.Grow(t.position_m.x(), t.position_m.y());
   if (walk.meta.initial_pose) box.Grow(walk.meta.initial_pose->x_m, walk.meta.initial_pose->y_m);
   return box;

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <optional>
 
 #include "util/text.h"
@@ -138,11 +139,15 @@ double DistanceToAnchors(const Eigen::Vector2d& p, const Eigen::Vector2d& lo,
 std::string CheckFrames(const Walk& w, bool files) {
   constexpr double kMaxAnchorDistanceM = 1e5;
   if (w.anchors.empty() || (w.rss.empty() && w.ranges.empty())) return "";
-  Eigen::Vector2d lo = w.anchors[0].position_m.head<2>(), hi = lo;
+  // The anchors with a position (an unknown one is in the walk's frame by definition).
+  const Eigen::Vector2d inf = Eigen::Vector2d::Constant(std::numeric_limits<double>::infinity());
+  Eigen::Vector2d lo = inf, hi = -inf;
   for (const Anchor& a : w.anchors) {
+    if (!a.position_known) continue;
     lo = lo.cwiseMin(a.position_m.head<2>());
     hi = hi.cwiseMax(a.position_m.head<2>());
   }
+  if (!(lo.x() <= hi.x())) return "";
   auto far = [&](const Eigen::Vector2d& p, const std::string& where) -> std::string {
     const double d = DistanceToAnchors(p, lo, hi);
     if (d <= kMaxAnchorDistanceM) return "";

@@ -1,12 +1,14 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cctype>
 #include <charconv>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
+#include <limits>
 #include <map>
 #include <set>
 #include <sstream>
@@ -252,28 +254,112 @@ Status ReadMeta(const std::string& path, WalkMeta* meta) {
 
 // ----------------------------------------------------------------- CSV streams
 
+// anchors.csv: id,x_m,y_m,z_m, then any of floor, sigma_m, group in that order.
+internal::CsvHeaders AnchorHeaders() {
+  internal::CsvHeaders h;
+  const std::vector<std::string> base = {"id", "x_m", "y_m", "z_m"};
+  const std::vector<std::string> optional = {"floor", "sigma_m", "group"};
+  for (int mask = 0; mask < 8; ++mask) {
+    std::vector<std::string> header = base;
+    for (int i = 0; i < 3; ++i) {
+      if (mask & (1 << i)) header.push_back(optional[i]);
+    }
+    h.accepted.push_back(std::move(header));
+  }
+  return h;
+}
+
+constexpr double kMaxAnchorSigmaM = 1000.0;
+constexpr size_t kMaxGroupBytes = 32;
+
+// "" when `group` is a plain word (letters, digits, '_', '-', '.'; at most 32 bytes).
+std::string CheckAnchorGroup(const std::string& group) {
+  if (group.size() > kMaxGroupBytes) return "group longer than 32 characters";
+  for (char c : group) {
+    if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-' || c == '.')) {
+      return "group " + internal::Quoted(group) +
+             " is not a plain word; expected letters, digits, '_', '-' or '.' (e.g. ble, wifi)";
+    }
+  }
+  return "";
+}
+
+// "" when the anchor's survey fields agree (sigma_m in [0, 1000] m, none on an unknown anchor).
+std::string CheckAnchorSurvey(const Anchor& a) {
+  if (!(a.sigma_m >= 0.0 && a.sigma_m <= kMaxAnchorSigmaM)) {
+    return "sigma_m " + G(a.sigma_m) + " outside [0, 1000] m";
+  }
+  if (!a.position_known && a.sigma_m > 0.0) {
+    return "sigma_m " + G(a.sigma_m) +
+           " on an anchor of unknown position (empty x_m, y_m); expected 0 or empty";
+  }
+  return CheckAnchorGroup(a.group);
+}
+
 Status ReadAnchors(const std::string& path, const ValidationLimits& lim,
                    std::vector<Anchor>* anchors) {
-  CsvReader r(path, {"id", "x_m", "y_m", "z_m"}, {"floor"});
+  CsvReader r(path, AnchorHeaders());
   WG_RETURN_IF_ERROR(r.Open());
-  std::vector<double> f;
+  const int floor_col = r.Column("floor"), sigma_col = r.Column("sigma_m"),
+            group_col = r.Column("group");
+  std::vector<std::string> f;
   std::set<int> ids;
+  // Column i as a finite number.
+  auto number = [&](int i, double* v) -> Status {
+    if (internal::ParseFiniteDouble(f[i], v)) return Status::Ok();
+    return InvalidArgument(r.Where() + "column '" + r.ColumnName(i) +
+                           "': expected a finite decimal number, found " +
+                           internal::QuotedNumber(f[i]));
+  };
   while (true) {
-    WG_ASSIGN_OR_RETURN(bool more, r.Next(&f));
+    WG_ASSIGN_OR_RETURN(bool more, r.NextText(&f));
     if (!more) break;
-    if (!IsIntegral(f[0]) || f[0] < 0) {
+    double id = 0.0;
+    WG_RETURN_IF_ERROR(number(0, &id));
+    if (!IsIntegral(id) || id < 0) {
       return InvalidArgument(r.Where() + "id must be a non-negative integer");
     }
     Anchor a;
-    a.id = static_cast<int>(f[0]);
-    a.position_m = Eigen::Vector3d(f[1], f[2], f[3]);
-    if (r.num_columns() == 5) {
-      if (const std::string e = CheckFloor(f[4]); !e.empty()) {
+    a.id = static_cast<int>(id);
+    a.position_known = !(f[1].empty() && f[2].empty());
+    if (a.position_known) {
+      if (f[1].empty() || f[2].empty()) {
+        return InvalidArgument(r.Where() +
+                               "x_m and y_m must both be numbers (a surveyed or uncertain "
+                               "position) or both empty (an unknown position)");
+      }
+      WG_RETURN_IF_ERROR(number(1, &a.position_m.x()));
+      WG_RETURN_IF_ERROR(number(2, &a.position_m.y()));
+    } else {
+      const double nan = std::numeric_limits<double>::quiet_NaN();
+      a.position_m.x() = a.position_m.y() = nan;
+    }
+    if (f[3].empty()) {
+      if (a.position_known) {
+        return InvalidArgument(r.Where() +
+                               "column 'z_m' empty; expected a number (it may be empty only "
+                               "with x_m and y_m, for an anchor of unknown position)");
+      }
+      a.position_m.z() = 0.0;
+    } else {
+      WG_RETURN_IF_ERROR(number(3, &a.position_m.z()));
+    }
+    if (floor_col >= 0) {
+      double floor = 0.0;
+      WG_RETURN_IF_ERROR(number(floor_col, &floor));
+      if (const std::string e = CheckFloor(floor); !e.empty()) {
         return InvalidArgument(r.Where() + e);
       }
-      a.floor = static_cast<int>(f[4]);
+      a.floor = static_cast<int>(floor);
     }
-    if (a.position_m.cwiseAbs().maxCoeff() > lim.max_abs_coordinate_m) {
+    if (sigma_col >= 0 && !f[sigma_col].empty()) WG_RETURN_IF_ERROR(number(sigma_col, &a.sigma_m));
+    if (group_col >= 0) a.group = f[group_col];
+    if (const std::string e = CheckAnchorSurvey(a); !e.empty()) {
+      return InvalidArgument(r.Where() + e);
+    }
+    const double largest =
+        a.position_known ? a.position_m.cwiseAbs().maxCoeff() : std::fabs(a.position_m.z());
+    if (largest > lim.max_abs_coordinate_m) {
       return InvalidArgument(r.Where() + "coordinate beyond " + G(lim.max_abs_coordinate_m) + " m");
     }
     if (!ids.insert(a.id).second) {
@@ -644,10 +730,17 @@ Status ValidateAnchors(const Walk& walk, const ValidationLimits& limits, std::se
   for (size_t i = 0; i < walk.anchors.size(); ++i) {
     if (walk.anchors[i].id < 0)
       return InvalidArgument("anchors[" + std::to_string(i) + "]: negative id");
-    if (!walk.anchors[i].position_m.allFinite()) {
+    const Anchor& a = walk.anchors[i];
+    // An unknown position's x and y are not read (NaN from the reader, anything in code).
+    const Eigen::Vector3d p =
+        a.position_known ? a.position_m : Eigen::Vector3d(0.0, 0.0, a.position_m.z());
+    if (!p.allFinite()) {
       return InvalidArgument("anchors[" + std::to_string(i) + "]: non-finite position");
     }
-    if (walk.anchors[i].position_m.cwiseAbs().maxCoeff() > limits.max_abs_coordinate_m) {
+    if (const std::string e = CheckAnchorSurvey(a); !e.empty()) {
+      return InvalidArgument("anchors[" + std::to_string(i) + "]: " + e);
+    }
+    if (p.cwiseAbs().maxCoeff() > limits.max_abs_coordinate_m) {
       return InvalidArgument("anchors[" + std::to_string(i) + "]: coordinate beyond " +
                              G(limits.max_abs_coordinate_m) + " m");
     }
@@ -786,6 +879,30 @@ Status ValidateWalk(const Walk& walk, const ValidationLimits& limits) {
 
 namespace {
 
+// anchors.csv: the optional columns only when some anchor needs them; an unknown position's
+// x_m, y_m empty.
+bool WriteAnchors(const Walk& walk, std::ostream& o) {
+  const bool floor = walk.anchors[0].floor.has_value();
+  bool sigma = false, group = false;
+  for (const Anchor& a : walk.anchors) {
+    sigma = sigma || a.sigma_m > 0.0;
+    group = group || !a.group.empty();
+  }
+  o << "id,x_m,y_m,z_m" << (floor ? ",floor" : "") << (sigma ? ",sigma_m" : "")
+    << (group ? ",group" : "") << '\n';
+  for (const Anchor& a : walk.anchors) {
+    o << a.id << ',';
+    if (a.position_known) o << Num(a.position_m.x()) << ',' << Num(a.position_m.y());
+    if (!a.position_known) o << ',';  // unknown: x_m and y_m empty
+    o << ',' << Num(a.position_m.z());
+    if (floor) o << ',' << *a.floor;
+    if (sigma) o << ',' << Num(a.sigma_m);
+    if (group) o << ',' << a.group;
+    o << '\n';
+  }
+  return true;
+}
+
 Status WriteWalkFiles(const Walk& walk, const fs::path& root) {
   const WalkMeta& m = walk.meta;
   WG_RETURN_IF_ERROR(WriteFileInOutput((root / "walk.yaml").string(), [&](std::ostream& o) {
@@ -838,17 +955,8 @@ Status WriteWalkFiles(const Walk& walk, const fs::path& root) {
     return e.good();
   }));
   if (!walk.anchors.empty()) {
-    WG_RETURN_IF_ERROR(WriteFileInOutput((root / "anchors.csv").string(), [&](std::ostream& o) {
-      const bool floor = walk.anchors[0].floor.has_value();
-      o << "id,x_m,y_m,z_m" << (floor ? ",floor" : "") << '\n';
-      for (const Anchor& a : walk.anchors) {
-        o << a.id << ',' << Num(a.position_m.x()) << ',' << Num(a.position_m.y()) << ','
-          << Num(a.position_m.z());
-        if (floor) o << ',' << *a.floor;
-        o << '\n';
-      }
-      return true;
-    }));
+    WG_RETURN_IF_ERROR(WriteFileInOutput((root / "anchors.csv").string(),
+                                         [&](std::ostream& o) { return WriteAnchors(walk, o); }));
   }
   if (!walk.imu.empty()) {
     const bool mag = walk.imu[0].has_mag;

@@ -198,9 +198,12 @@ std::string DataJson(const Comparison& c, const std::vector<LineStyle>& styles) 
     sep = ",";
   }
   s << "],\"anchors\":[";
-  for (size_t i = 0; i < c.anchors.size(); ++i) {
-    s << (i ? "," : "") << "[" << c.anchors[i].id << ',' << Num(c.anchors[i].position_m.x(), 2)
-      << ',' << Num(c.anchors[i].position_m.y(), 2) << "]";
+  const char* anchor_sep = "";
+  for (const Anchor& a : c.anchors) {
+    if (!a.position_known) continue;  // nowhere to draw it
+    s << anchor_sep << "[" << a.id << ',' << Num(a.position_m.x(), 2) << ','
+      << Num(a.position_m.y(), 2) << "]";
+    anchor_sep = ",";
   }
   s << "],\"pcrb\":";
   if (!c.pcrb_t_s.empty() && c.pcrb_smoother_m.size() == c.pcrb_t_s.size()) {

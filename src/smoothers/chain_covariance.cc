@@ -252,7 +252,7 @@ void AssembleInformation(const Jacobians& J, int n_chain, Band* a_band, Eigen::M
 StatusOr<std::vector<Eigen::MatrixXd>> ChainMarginalCovariances(
     ceres::Problem* problem, const std::vector<std::vector<double*>>& groups,
     const std::vector<double*>& statics, double inlier_sigma, int max_bandwidth,
-    const std::vector<bool>& wanted) {
+    const std::vector<bool>& wanted, std::vector<Eigen::MatrixXd>* static_covariances) {
   if (!wanted.empty() && wanted.size() != groups.size()) {
     return InvalidArgument("covariance: 'wanted' must have one entry per group");
   }
@@ -310,6 +310,19 @@ StatusOr<std::vector<Eigen::MatrixXd>> ChainMarginalCovariances(
       return NumericalError("covariance: static blocks not observable");
     }
     Sinv = llt.solve(Eigen::MatrixXd::Identity(n_static, n_static));
+  }
+  if (static_covariances != nullptr) {
+    static_covariances->clear();
+    for (double* b : statics) {
+      if (problem->IsParameterBlockConstant(b)) {
+        static_covariances->emplace_back(0, 0);
+        continue;
+      }
+      const Column& c = column_of.at(b);
+      const Eigen::MatrixXd block =
+          Sinv.block(c.offset - n_chain, c.offset - n_chain, c.size, c.size);
+      static_covariances->push_back(0.5 * (block + block.transpose()));
+    }
   }
   for (size_t g = 0; g < groups.size(); ++g) {
     if (!wanted.empty() && !wanted[g]) continue;

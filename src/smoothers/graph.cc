@@ -301,8 +301,12 @@ StatusOr<std::vector<Eigen::MatrixXd>> KeyedMarginalCovariances(
   std::vector<size_t> var, begin;
   var.reserve(blocks.size());
   begin.reserve(groups.size() + 1);
-  bool usable = true;  // every group within one chain state (one timestamp)
-  for (const std::vector<Key>& g : groups) {
+  // Every group within one chain state (one timestamp), or one static block alone (its
+  // marginal is the Schur complement's inverse: ChainMarginalCovariances' static_covariances).
+  bool usable = true;
+  std::vector<int> static_of(groups.size(), -1);  // a one-static group: its place in `statics`
+  for (size_t gi = 0; gi < groups.size(); ++gi) {
+    const std::vector<Key>& g = groups[gi];
     WG_RETURN_IF_ERROR(CheckDistinctKeys(g, who));
     begin.push_back(var.size());
     for (Key k : g) {
@@ -314,7 +318,12 @@ StatusOr<std::vector<Eigen::MatrixXd>> KeyedMarginalCovariances(
       if (place[b].state == kStatic) {
         if (!problem->IsParameterBlockConstant(kb->value)) {
           var.push_back(b);
-          usable = false;
+          const auto it = std::find(statics.begin(), statics.end(), kb->value);
+          if (g.size() == 1 && it != statics.end()) {
+            static_of[gi] = static_cast<int>(it - statics.begin());
+          } else {
+            usable = false;
+          }
         }
       } else if (!place[b].constant) {
         var.push_back(b);
@@ -326,7 +335,7 @@ StatusOr<std::vector<Eigen::MatrixXd>> KeyedMarginalCovariances(
   std::vector<bool> wanted(chain.size(), false);
   std::vector<int> uses(chain.size(), 0);
   for (size_t i = 0; usable && i < groups.size(); ++i) {
-    if (begin[i] == begin[i + 1]) continue;
+    if (begin[i] == begin[i + 1] || static_of[i] >= 0) continue;
     const size_t state = place[var[begin[i]]].state;
     for (size_t v = begin[i]; v < begin[i + 1]; ++v)
       usable = usable && place[var[v]].state == state;
@@ -336,10 +345,11 @@ StatusOr<std::vector<Eigen::MatrixXd>> KeyedMarginalCovariances(
     }
   }
   StatusOr<std::vector<Eigen::MatrixXd>> banded = InternalError("not computed");
+  std::vector<Eigen::MatrixXd> static_cov;
   if (usable) {
     banded = ChainMarginalCovariances(problem, chain, statics, kChainInlierSigma,
-                                      kChainMaxBandwidth, wanted);
-    usable = banded.ok();
+                                      kChainMaxBandwidth, wanted, &static_cov);
+    usable = banded.ok() && static_cov.size() == statics.size();
   }
   std::vector<Eigen::MatrixXd> out;
   out.reserve(groups.size());
@@ -351,6 +361,8 @@ StatusOr<std::vector<Eigen::MatrixXd>> KeyedMarginalCovariances(
       for (size_t v = begin[i]; v < begin[i + 1]; ++v) keys.push_back(blocks[var[v]].key);
       WG_ASSIGN_OR_RETURN(Eigen::MatrixXd c, CeresMarginalCovariance(problem, blocks, keys, who));
       out.push_back(std::move(c));
+    } else if (static_of[i] >= 0) {
+      out.push_back(static_cov[static_of[i]]);
     } else {
       out.push_back(
           GroupMarginal(place, var.data() + begin[i], var.data() + begin[i + 1], uses, &*banded));

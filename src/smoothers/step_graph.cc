@@ -5,6 +5,7 @@
 #include <cmath>
 #include <limits>
 #include <map>
+#include <set>
 
 #include <ceres/ceres.h>
 #include <Eigen/Geometry>
@@ -12,6 +13,7 @@
 #include "config/parsers.h"
 #include "estimators/builtin.h"
 #include "factors/barometric_height_factor.h"
+#include "smoothers/anchor_search.h"
 #include "smoothers/graph_internal.h"
 #include "smoothers/step_graph_impl.h"
 #include "util/text.h"
@@ -151,6 +153,19 @@ void ReadRadioKeys(ConfigReader& r, StepGraphOptions* o) {
              "range scale error s (rho = (1 + s) d + b): none, global or per anchor");
   r.Read("range_scale_prior_sigma", &o->range_scale_prior_sigma,
          "prior sigma of the range scale error s");
+  r.Read("anchor_search_margin_m", &o->anchor_search_margin_m,
+         "fg-batch, unknown anchors: grid search over the path's extent plus this margin");
+  r.Read("anchor_search_step_m", &o->anchor_search_step_m,
+         "fg-batch, unknown anchors: the coarse grid's spacing");
+  r.Read("anchor_min_readings", &o->anchor_min_readings,
+         "fg-batch, unknown anchors: fewer readings leave an anchor unobservable");
+  r.Read("anchor_min_spread_m", &o->anchor_min_spread_m,
+         "fg-batch, unknown anchors: least spread (1 sigma) of the path across its narrowest "
+         "direction at the anchor's readings");
+  r.Read("anchor_distinct_radius_m", &o->anchor_distinct_radius_m,
+         "fg-batch, unknown anchors: another grid minimum farther than this is another place");
+  r.Read("anchor_min_cost_gap", &o->anchor_min_cost_gap,
+         "fg-batch, unknown anchors: least cost by which the best place beats any other");
   r.Read("align_window_s", &o->align_window_s,
          "span of dead reckoning aligned to the radio fixes for the start check");
   r.Read("start_check", &o->start_check, "drop a known start heading that the radio contradicts");
@@ -262,6 +277,20 @@ Status CheckStepGraphOptions(const StepGraphOptions& o, const std::string& conte
   WG_RETURN_IF_ERROR(positive(o.range_bias_prior_sigma_m, "range_bias_prior_sigma_m"));
   WG_RETURN_IF_ERROR(positive(o.range_scale_prior_sigma, "range_scale_prior_sigma"));
   WG_RETURN_IF_ERROR(positive(o.align_window_s, "align_window_s"));
+  WG_RETURN_IF_ERROR(positive(o.anchor_search_margin_m, "anchor_search_margin_m"));
+  WG_RETURN_IF_ERROR(positive(o.anchor_search_step_m, "anchor_search_step_m"));
+  WG_RETURN_IF_ERROR(positive(o.anchor_distinct_radius_m, "anchor_distinct_radius_m"));
+  if (o.anchor_min_readings < 3 || o.anchor_min_spread_m < 0 || !(o.anchor_min_cost_gap >= 0)) {
+    return InvalidArgument(context +
+                           ": anchor_min_readings must be >= 3, anchor_min_spread_m and "
+                           "anchor_min_cost_gap >= 0");
+  }
+  if (!(o.anchor_search_margin_m <= 1e4 && o.anchor_search_step_m >= 0.01 &&
+        (o.anchor_search_margin_m / o.anchor_search_step_m) <= 1e4)) {
+    return InvalidArgument(context +
+                           ": anchor_search_margin_m <= 10 km, anchor_search_step_m >= 0.01 m, "
+                           "margin/step <= 10000");
+  }
   WG_RETURN_IF_ERROR(positive(o.start_check_rad, "start_check_rad"));
   WG_RETURN_IF_ERROR(positive(o.start_check_sigmas, "start_check_sigmas"));
   WG_RETURN_IF_ERROR(positive(o.lag_s, "lag_s"));
@@ -610,9 +639,13 @@ Status StepGraph::Impl::AttachReadings(const Walk& walk, StepGraph* g) {
   return Status::Ok();
 }
 
-void StepGraph::Impl::PlaceStart(const Walk& walk, StepGraph* g) {
+void StepGraph::Impl::PlaceStart(const Walk& full_walk, StepGraph* g) {
   const StepGraphOptions& o = this->o;
   const int n = g->num_nodes();
+  // The radio fixes below use the anchors of given position only (an unknown one's position is
+  // a guess being estimated: fg-batch's).
+  const Walk known = full_walk.has_unknown_anchors() ? WithoutUnknownAnchors(full_walk) : Walk();
+  const Walk& walk = full_walk.has_unknown_anchors() ? known : full_walk;
   if (radio_only) {
     // Initial positions: the radio position fixes, interpolated in time (the anchors' centroid
     // where no fix exists); headings are not states of a radio-only walk (held at 0).
@@ -659,6 +692,14 @@ void StepGraph::Impl::PlaceStart(const Walk& walk, StepGraph* g) {
     } else {
       g->fix_first_node_ = !(any_rss || any_range) || walk.anchors.size() < 3;
     }
+    // Anchors that are states (walk.h Anchor) do not fix the frame by themselves: with fewer
+    // than 2 heard anchors of given position, node 0 is the gauge (the walk's own frame).
+    int placed = 0;
+    for (size_t i = 0; i < anchors.size(); ++i) {
+      const bool heard = anchor_has_rss[i] || anchor_has_range[i];
+      placed += heard && anchors[i].position_known ? 1 : 0;
+    }
+    if (placed < 2) g->fix_first_node_ = true;
   } else if (any_rss || any_range) {
     CheckStartHeading(walk, g);
   }
@@ -671,6 +712,24 @@ StatusOr<std::unique_ptr<StepGraph>> StepGraph::Build(const Walk& walk, const St
   Impl& m = *g->impl_;
   m.o = o;
   m.anchors = walk.anchors;
+  for (const Anchor& a : walk.anchors) {
+    bool state = !a.surveyed();
+    if (!a.position_known && !a.position_m.head<2>().allFinite()) {
+      return InvalidArgument("step graph: anchor " + std::to_string(a.id) +
+                             " has no position (anchors.csv x_m, y_m empty); fg-batch estimates "
+                             "it, the other estimators run without it (registry)");
+    }
+    if (state && o.rss_residual == RssResidual::kRange) {
+      // The range-domain RSS residual has no path-loss block: uncertain anchors are held at
+      // their mean there; unknown ones need the dB residual.
+      if (!a.position_known) {
+        return InvalidArgument("step graph: anchor " + std::to_string(a.id) +
+                               " of unknown position needs rss_residual: db");
+      }
+      state = false;
+    }
+    m.anchor_state.push_back(state);
+  }
   m.waypoints = walk.waypoints;
   m.radio = walk.meta.radio;
   if (std::isfinite(o.A_dbm)) m.radio.path_loss.A_dbm = o.A_dbm;
@@ -699,6 +758,8 @@ StatusOr<std::unique_ptr<StepGraph>> StepGraph::Build(const Walk& walk, const St
 }
 
 bool StepGraph::path_loss_per_anchor() const { return impl_->PathLossPerAnchor(); }
+
+bool StepGraph::AnchorIsState(int anchor_index) const { return impl_->AnchorIsState(anchor_index); }
 
 bool StepGraph::has_floors() const { return impl_->floors; }
 
@@ -930,6 +991,9 @@ void AddStaticDiagnostics(const StepGraph& graph,
     const int g = static_cast<int>(SymbolIndex(s.key));
     if (s.key == kGyroBiasKey) {
       (*d)["gyro_bias_radps"] = v[0];
+    } else if (letter == 'p') {  // an anchor's position (fg-batch: anchors_estimated too)
+      (*d)[name("anchor_x_m", true, g)] = v[0];
+      (*d)[name("anchor_y_m", true, g)] = v[1];
     } else if (letter == 's') {
       (*d)[name("range_scale", o.range_scale == CalibrationScope::kPerAnchor, g)] = v[0];
     } else if (letter == 'b') {
@@ -1142,8 +1206,35 @@ Status StepGraph::AddTo(FactorGraph* fg) const {
   return Status::Ok();
 }
 
-StatusOr<EstimateResult> StepGraphBatch::Run(const Walk& walk) const {
-  WG_RETURN_IF_ERROR(CheckApplicable(walk));
+namespace {
+
+// The anchors that are states (StepGraph::AnchorIsState) at their solved positions, into `out`;
+// returns their indices.
+std::vector<int> AnchorEstimates(const Walk& walk, const StepGraph& graph,
+                                 const std::function<std::vector<double>(Key)>& value,
+                                 std::vector<AnchorEstimate>* out) {
+  std::vector<int> states;
+  for (size_t a = 0; a < walk.anchors.size(); ++a) {
+    if (!graph.AnchorIsState(static_cast<int>(a))) continue;
+    states.push_back(static_cast<int>(a));
+    AnchorEstimate e;
+    e.id = walk.anchors[a].id;
+    const std::vector<double> v = value(StepGraph::AnchorKey(static_cast<int>(a)));
+    e.position_m = Eigen::Vector2d(v[0], v[1]);
+    for (const RssSample& r : walk.rss) e.readings += r.anchor_id == e.id ? 1 : 0;
+    for (const RangeSample& r : walk.ranges) e.readings += r.anchor_id == e.id ? 1 : 0;
+    out->push_back(e);
+  }
+  return states;
+}
+
+// One fg-batch solve of `walk`. `from` (not null): start every node there (a previous solve's
+// nodes) instead of fg-batch's own initialization, with no start hypotheses. `nodes` (not
+// null): the solution's (p, θ) per node. Anchors that are states (StepGraph::AnchorIsState)
+// come back in result.anchors with their covariance.
+StatusOr<EstimateResult> SolveBatchWalk(const Walk& walk, const StepGraphOptions& options_,
+                                        const std::vector<Eigen::Vector3d>* from,
+                                        std::vector<Eigen::Vector3d>* nodes) {
   WG_ASSIGN_OR_RETURN(std::unique_ptr<StepGraph> graph, StepGraph::Build(walk, options_));
   const int n = graph->num_nodes();
 
@@ -1154,8 +1245,19 @@ StatusOr<EstimateResult> StepGraphBatch::Run(const Walk& walk) const {
   // IMU steps (a gyro's heading drift over a long walk leaves dead reckoning in a wrong basin:
   // measured on correa-classroom 0.85 → 0.23 m RMSE, gadeke-outage 18.8 → 0.71 m).
   const bool window_init =
-      options_.initialization == StepGraphInit::kWindow ||
-      (options_.initialization == StepGraphInit::kAuto && !walk.has_odometry());
+      from == nullptr &&
+      (options_.initialization == StepGraphInit::kWindow ||
+       (options_.initialization == StepGraphInit::kAuto && !walk.has_odometry()));
+  if (from != nullptr) {
+    if (static_cast<int>(from->size()) != n) {
+      return InternalError("fg-batch: a previous solve has a different node count");
+    }
+    for (int k = 0; k < n; ++k) {
+      const Eigen::Vector3d& x = (*from)[k];
+      WG_RETURN_IF_ERROR(fg.SetValue(StepGraph::PositionKey(k), {x[0], x[1]}));
+      WG_RETURN_IF_ERROR(fg.SetValue(StepGraph::HeadingKey(k), {x[2]}));
+    }
+  }
   if (window_init) {
     // Start from the fixed-lag smoother's lagged estimates (it grows the solution
     // incrementally, so it does not get lost).
@@ -1182,7 +1284,10 @@ StatusOr<EstimateResult> StepGraphBatch::Run(const Walk& walk) const {
   StatusOr<SolveSummary> summary = SolveBatch(&fg, so);
   if (!summary.ok()) return NumericalError("fg-batch: " + summary.status().message());
   std::map<std::string, double> start_d;
-  WG_ASSIGN_OR_RETURN(std::vector<NamedStart> starts, BatchStarts(walk, *graph, options_));
+  std::vector<NamedStart> starts;
+  if (from == nullptr) {
+    WG_ASSIGN_OR_RETURN(starts, BatchStarts(walk, *graph, options_));
+  }
   WG_ASSIGN_OR_RETURN(std::unique_ptr<FactorGraph> better,
                       SolveStartHypotheses(*graph, starts, so, &*summary, &start_d));
   FactorGraph& fg_best = better ? *better : fg;
@@ -1207,11 +1312,24 @@ StatusOr<EstimateResult> StepGraphBatch::Run(const Walk& walk) const {
     if (graph->has_floors())
       SetHeight(*graph, value(StepGraph::HeightKey(k))[0], &result.trajectory.points.back());
   }
+  if (nodes != nullptr) {
+    nodes->clear();
+    for (const TrajectoryPoint& p : result.trajectory.points) {
+      nodes->emplace_back(p.position_m.x(), p.position_m.y(), p.heading_rad);
+    }
+  }
+  const std::vector<int> anchor_states = AnchorEstimates(walk, *graph, value, &result.anchors);
+  if (!anchor_states.empty()) {
+    // The frame the anchors are in: 0 the known start's, 1 the anchors' of given position,
+    // 2 the walk's own (node 0 held where it started).
+    d["gauge"] = walk.meta.initial_pose ? 0.0 : graph->fix_first_node() ? 2.0 : 1.0;
+  }
   if (options_.covariance) {
     std::vector<std::vector<Key>> groups;
     for (int k = 0; k < n; ++k) {
       groups.push_back({StepGraph::PositionKey(k), StepGraph::HeadingKey(k)});
     }
+    for (int a : anchor_states) groups.push_back({StepGraph::AnchorKey(a)});
     auto cov = MarginalCovariances(&fg_best, groups);
     if (!cov.ok()) {
       d["covariance_failed"] = 1.0;  // e.g. rank-deficient: trajectory without covariances
@@ -1219,10 +1337,171 @@ StatusOr<EstimateResult> StepGraphBatch::Run(const Walk& walk) const {
       for (int k = 0; k < n; ++k) {
         result.trajectory.points[k].covariance = PoseCovariance((*cov)[k]);
       }
+      for (size_t i = 0; i < anchor_states.size(); ++i) {
+        const Eigen::MatrixXd& c = (*cov)[n + i];
+        result.anchors[i].covariance = Eigen::Matrix2d(0.5 * (c + c.transpose()));
+      }
     }
   }
   InsertStops(walk, options_.max_step_duration_s, &result.trajectory);
   return result;
+}
+
+// Where the path was at time t: the nodes' positions, interpolated.
+Eigen::Vector2d PathAt(const std::vector<double>& t, const std::vector<Eigen::Vector3d>& x,
+                       double ts) {
+  const auto it = std::lower_bound(t.begin(), t.end(), ts);
+  if (it == t.begin()) return x.front().head<2>();
+  if (it == t.end()) return x.back().head<2>();
+  const size_t b = static_cast<size_t>(it - t.begin());
+  const double w = (ts - t[b - 1]) / (t[b] - t[b - 1]);
+  return (1.0 - w) * x[b - 1].head<2>() + w * x[b].head<2>();
+}
+
+// The grid search's options for a range anchor and for an RSS one (anchor_search.h), from the
+// graph's options and the first solve's estimates (diagnostics `fd`).
+struct SearchSetup {
+  internal::AnchorSearchOptions range, rss;
+};
+SearchSetup SearchOptions(const Walk& walk, const StepGraphOptions& o,
+                          const std::map<std::string, double>& fd) {
+  const PathLossParams& pl = walk.meta.radio.path_loss;
+  internal::AnchorSearchOptions so;
+  so.margin_m = o.anchor_search_margin_m;
+  so.step_m = o.anchor_search_step_m;
+  so.min_readings = o.anchor_min_readings;
+  so.min_spread_m = o.anchor_min_spread_m;
+  so.distinct_radius_m = o.anchor_distinct_radius_m;
+  so.min_cost_gap = o.anchor_min_cost_gap;
+  SearchSetup out{so, so};
+  internal::AnchorSearchOptions& r = out.range;
+  r.range = true;
+  r.sigma = o.range_sigma_m > 0 ? o.range_sigma_m : walk.meta.radio.range_sigma_m;
+  r.loss_scale = o.range_loss_scale;
+  r.range_scale = fd.count("range_scale") ? fd.at("range_scale") : 0.0;
+  // The anchor's bias: held where the graph holds it (at the walk's estimate when there is
+  // one bias for the walk), else free with its prior.
+  r.level_prior_sigma = o.range_bias == CalibrationScope::kNone ? 0.0 : o.range_bias_prior_sigma_m;
+  if (o.range_bias == CalibrationScope::kGlobal && fd.count("range_bias_m")) {
+    r.level_prior = fd.at("range_bias_m");
+    r.level_prior_sigma = 0.0;
+  }
+  // An RSS anchor's transmit level A: the walk's (held: σ 0), or the first solve's estimate with
+  // the spread one anchor may have around it, else the prior.
+  internal::AnchorSearchOptions& q = out.rss;
+  q.range = false;
+  q.sigma = o.sigma_db > 0 ? o.sigma_db : pl.sigma_db;
+  q.loss_scale = o.rss_loss_scale;
+  q.sign = walk.meta.radio.units == RssUnits::kDbm ? 1.0 : -1.0;
+  q.d0_m = pl.d0_m;
+  bool held_radio_only = false;
+  const PathLossMode mode = ResolvePathLoss(walk, o, &held_radio_only);
+  const bool A_estimated = fd.count("path_loss_A") > 0;
+  q.level_prior = A_estimated ? fd.at("path_loss_A") : std::isfinite(o.A_dbm) ? o.A_dbm : pl.A_dbm;
+  q.eta = fd.count("path_loss_eta") ? fd.at("path_loss_eta") : o.eta > 0 ? o.eta : pl.eta;
+  q.level_prior_sigma = o.A_prior_sigma_db;
+  if (mode == PathLossMode::kFixed || (mode == PathLossMode::kGlobal && A_estimated)) {
+    q.level_prior_sigma = 0.0;
+  } else if (mode == PathLossMode::kHierarchical) {
+    q.level_prior_sigma =
+        A_estimated ? o.A_spread_prior_db : std::hypot(o.A_prior_sigma_db, o.A_spread_prior_db);
+  }
+  return out;
+}
+
+// fg-batch on a walk with anchors of unknown position (step_graph.h, "Anchors of unknown
+// position"): the walk without them solved first; each placed on that path by a grid search
+// (anchor_search.h) or declared unobservable and left out; then every placed anchor a state
+// in one joint solve from the first solution.
+StatusOr<EstimateResult> SolveWithUnknownAnchors(const Walk& walk, const StepGraphOptions& o) {
+  UnknownAnchorsDropped dropped;
+  const Walk known = WithoutUnknownAnchors(walk, &dropped);
+  std::vector<Eigen::Vector3d> first_nodes;
+  WG_ASSIGN_OR_RETURN(EstimateResult first, SolveBatchWalk(known, o, nullptr, &first_nodes));
+  std::vector<double> node_t;
+  // The node times: the first solve's trajectory without the stops InsertStops added.
+  WG_ASSIGN_OR_RETURN(std::unique_ptr<StepGraph> first_graph, StepGraph::Build(known, o));
+  for (int k = 0; k < first_graph->num_nodes(); ++k) node_t.push_back(first_graph->node_time(k));
+
+  const bool radio_only = !walk.has_odometry() && !walk.has_imu();
+  const SearchSetup search = SearchOptions(walk, o, first.diagnostics);
+  Walk joint = walk;
+  std::vector<AnchorEstimate> unobservable;
+  std::map<std::string, double> verdicts;
+  std::set<int> left_out;
+  for (Anchor& a : joint.anchors) {
+    if (a.position_known) continue;
+    std::vector<Eigen::Vector2d> q;
+    std::vector<double> v;
+    // Its ranges (a ranging radio); an anchor without ranges, its RSS readings.
+    for (const RangeSample& r : walk.ranges) {
+      if (r.anchor_id != a.id) continue;
+      q.push_back(PathAt(node_t, first_nodes, r.t_s));
+      v.push_back(r.range_m);
+    }
+    const bool range = !v.empty();
+    for (const RssSample& r : walk.rss) {
+      if (range || r.anchor_id != a.id) continue;
+      q.push_back(PathAt(node_t, first_nodes, r.t_s));
+      v.push_back(r.rss);
+    }
+    internal::AnchorSearchOptions so = range ? search.range : search.rss;
+    so.dz_m = o.receiver_height_m - walk.AnchorHeightM(a);
+    // A radio-only walk has no path without its anchors to search along.
+    const internal::AnchorSearchResult found =
+        radio_only ? internal::AnchorSearchResult{} : internal::SearchAnchor(q, v, so);
+    if (!radio_only && found.verdict != internal::AnchorSearchResult::Verdict::kFewReadings &&
+        found.verdict != internal::AnchorSearchResult::Verdict::kNarrowGeometry) {
+      // How clearly the best place stood out (the other basin's cost above it; inf: none).
+      verdicts["anchor_search_gap." + std::to_string(a.id)] = found.second_cost - found.cost;
+    }
+    if (!radio_only && found.placed()) {
+      a.position_m.head<2>() = found.position_m;
+      continue;
+    }
+    AnchorEstimate e;
+    e.id = a.id;
+    e.observable = false;
+    e.readings = static_cast<int>(v.size());
+    unobservable.push_back(e);
+    left_out.insert(a.id);
+    verdicts[std::string("unknown_anchors_unobservable.") +
+             (radio_only ? "radio_only" : internal::ToString(found.verdict))] += 1.0;
+  }
+  // The unobservable anchors leave the walk with their readings.
+  UnknownAnchorsDropped left;
+  const Walk solved = WithoutAnchors(joint, left_out, &left);
+  EstimateResult result;
+  if (static_cast<int>(left_out.size()) == dropped.anchors) {
+    result = std::move(first);  // nothing placed: the first solve is the answer
+  } else {
+    WG_ASSIGN_OR_RETURN(result, SolveBatchWalk(solved, o, &first_nodes, nullptr));
+    result.diagnostics["unknown_anchors_first_pass_cost"] = first.diagnostics["final_cost"];
+  }
+  auto& d = result.diagnostics;
+  d.insert(verdicts.begin(), verdicts.end());
+  d["unknown_anchors"] = dropped.anchors;
+  d["unknown_anchors_estimated"] = dropped.anchors - static_cast<double>(left_out.size());
+  d["unknown_anchors_unobservable"] = static_cast<double>(left_out.size());
+  d["unknown_anchor_readings_ignored"] = left.rss_readings + left.range_readings;
+  if (!d.count("gauge")) {  // nothing placed: the first solve's frame
+    int placed = 0;
+    std::set<int> heard;
+    for (const RssSample& r : known.rss) heard.insert(r.anchor_id);
+    for (const RangeSample& r : known.ranges) heard.insert(r.anchor_id);
+    for (const Anchor& a : known.anchors) placed += heard.count(a.id) ? 1 : 0;
+    d["gauge"] = walk.meta.initial_pose ? 0.0 : placed >= 2 ? 1.0 : 2.0;
+  }
+  for (AnchorEstimate& e : unobservable) result.anchors.push_back(e);
+  return result;
+}
+
+}  // namespace
+
+StatusOr<EstimateResult> StepGraphBatch::Run(const Walk& walk) const {
+  WG_RETURN_IF_ERROR(CheckApplicable(walk));
+  if (walk.has_unknown_anchors()) return SolveWithUnknownAnchors(walk, options_);
+  return SolveBatchWalk(walk, options_, nullptr, nullptr);
 }
 
 Status StepGraphWindow::CheckApplicable(const Walk& walk) const { return CheckStepWalk(walk); }
@@ -1472,10 +1751,12 @@ Status RegisterStepGraphSmoothers(EstimatorRegistry* registry) {
       {"fg-batch",
        "factor graph, full batch: steps/odometry + RSS (dB) / ranges (bias, robust), Ceres "
        "sparse Cholesky",
-       OptionsFactory<StepGraphBatch>(parse("fg-batch", StepGraphOptions()))}));
+       OptionsFactory<StepGraphBatch>(parse("fg-batch", StepGraphOptions())),
+       /*estimates_unknown_anchors=*/true}));
   WG_RETURN_IF_ERROR(registry->Register(
       {"fg-batch-selfcal", "fg-batch with path-loss self-calibration (A, η estimated; weak prior)",
-       OptionsFactory<StepGraphBatch>(parse("fg-batch-selfcal", selfcal))}));
+       OptionsFactory<StepGraphBatch>(parse("fg-batch-selfcal", selfcal)),
+       /*estimates_unknown_anchors=*/true}));
   WG_RETURN_IF_ERROR(registry->Register(
       {"fg-window",
        "factor graph, fixed-lag smoother (10 s lag, marginalization prior): lagged estimates",

@@ -5,6 +5,7 @@
 #include <utility>
 #include <vector>
 
+#include "factors/anchor_state_factors.h"
 #include "factors/barometric_height_factor.h"
 #include "factors/difference_prior_factor.h"
 #include "factors/heading_factor.h"
@@ -63,6 +64,13 @@ std::vector<GraphState> StepGraph::StaticStates() const {
               m.o.range_bias == CalibrationScope::kNone);
     per_group(m.anchor_has_range, &Impl::RangeScaleGroup, RangeScaleKey, {0.0},
               m.o.range_scale == CalibrationScope::kNone);
+  }
+  for (size_t a = 0; a < m.anchors.size(); ++a) {
+    if (!m.AnchorIsState(static_cast<int>(a))) continue;
+    GraphState s;
+    s.key = internal::AnchorPositionKey(static_cast<int>(a));
+    s.value = {m.anchors[a].position_m.x(), m.anchors[a].position_m.y()};
+    out.push_back(std::move(s));
   }
   if (!m.odometry && !m.radio_only && m.o.estimate_gyro_bias) {
     GraphState s;
@@ -131,7 +139,31 @@ void StepGraph::Impl::AddReadingFactors(int k, std::vector<GraphFactor>* out) co
       continue;
     }
     const Eigen::Vector3d& anchor = anchors[r.index].position_m;
-    if (r.kind == Reading::Kind::kRss && o.rss_residual == RssResidual::kDb) {
+    const bool anchor_state = AnchorIsState(r.index);
+    if (anchor_state && r.kind == Reading::Kind::kRss) {  // Build: RSS in dB then
+      RssFactor<2>::Reading rd;
+      rd.rss = r.value;
+      rd.anchor_m = anchor;
+      rd.sigma_db = pl.sigma_db;
+      rd.sign = sign;
+      rd.d0_m = pl.d0_m;
+      rd.receiver_height_m = o.receiver_height_m;
+      FloorAware(r.index, r.node_a, r.node_b, r.alpha, sign, &rd.rss, &rd.anchor_m,
+                 &rd.receiver_height_m);
+      keys.push_back(internal::AnchorPositionKey(r.index));
+      keys.push_back(PathLossKey(PathLossGroup(r.index)));
+      add(two ? AnchorRssFactor<2>::CreateInterpolated(rd, r.alpha)
+              : AnchorRssFactor<2>::Create(rd),
+          keys, rss_loss);
+    } else if (anchor_state) {
+      keys.push_back(internal::AnchorPositionKey(r.index));
+      keys.push_back(RangeBiasKey(RangeBiasGroup(r.index)));
+      keys.push_back(RangeScaleKey(RangeScaleGroup(r.index)));
+      add(two ? AnchorRangeFactor<2>::CreateInterpolated(r.value, anchor.z(), range_sigma, r.alpha,
+                                                         o.receiver_height_m)
+              : AnchorRangeFactor<2>::Create(r.value, anchor.z(), range_sigma, o.receiver_height_m),
+          keys, range_loss);
+    } else if (r.kind == Reading::Kind::kRss && o.rss_residual == RssResidual::kDb) {
       RssFactor<2>::Reading rd;
       rd.rss = r.value;
       rd.anchor_m = anchor;
@@ -201,6 +233,12 @@ std::vector<GraphFactor> StepGraph::FactorsAt(int k) const {
         add_owned(DiagonalPrior(Eigen::VectorXd::Zero(1),
                                 Eigen::VectorXd::Constant(1, o.gyro_bias_prior_sigma_radps)),
                   {s.key});
+      } else if (letter == 'p') {  // an anchor's position: its survey's σ (none if unknown)
+        const Anchor& a = m.anchors[SymbolIndex(s.key)];
+        if (a.position_known && a.sigma_m > 0.0) {
+          add_owned(DiagonalPrior(a.position_m.head<2>(), Eigen::Vector2d::Constant(a.sigma_m)),
+                    {s.key});
+        }
       } else if (letter == 's') {
         add_owned(DiagonalPrior(Eigen::VectorXd::Zero(1),
                                 Eigen::VectorXd::Constant(1, o.range_scale_prior_sigma)),

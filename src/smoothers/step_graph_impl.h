@@ -38,6 +38,8 @@ inline Key PathLossKey(int group) { return Symbol('l', static_cast<uint64_t>(gro
 inline constexpr Key kPathLossMeanKey = Symbol('m', 0);  // hierarchical: the walk's mean (A, η)
 inline Key RangeBiasKey(int group) { return Symbol('b', static_cast<uint64_t>(group)); }
 inline Key RangeScaleKey(int group) { return Symbol('s', static_cast<uint64_t>(group)); }
+// p(a): the horizontal position of anchor index a, a state when it is not surveyed.
+inline Key AnchorPositionKey(int anchor) { return Symbol('p', static_cast<uint64_t>(anchor)); }
 
 }  // namespace internal
 
@@ -115,6 +117,12 @@ struct StepGraph::Impl {
     *rss += sign * radio.path_loss.floor_loss_db * std::abs(Floor(z) - *anchor_floor[a]);
   }
   std::vector<bool> anchor_has_rss, anchor_has_range;
+  // anchor_state[a]: anchor index a's (x, y) is the state p(a) (an unknown or uncertain anchor:
+  // walk.h Anchor), starting at its position_m; uncertain ones get a prior N(position_m, σ²).
+  std::vector<bool> anchor_state;
+  bool AnchorIsState(int a) const {
+    return anchor_state[a] && (anchor_has_rss[a] || anchor_has_range[a]);
+  }
   std::shared_ptr<const ceres::Manifold> angle = std::make_shared<AngleManifold>();
   std::shared_ptr<const ceres::LossFunction> rss_loss, range_loss, mag_loss;
 

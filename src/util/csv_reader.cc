@@ -109,6 +109,22 @@ Status CsvReader::Open() {
 }
 
 StatusOr<bool> CsvReader::Next(std::vector<double>* fields) {
+  std::vector<std::string> parts;
+  WG_ASSIGN_OR_RETURN(const bool any, NextText(&parts));
+  if (!any) return false;
+  fields->resize(num_columns_);
+  for (size_t i = 0; i < parts.size(); ++i) {
+    if (!ParseFiniteDouble(parts[i], &(*fields)[i])) {
+      const std::string& name = header_[i];
+      return InvalidArgument(Where() + "column '" + name +
+                             "': expected a finite decimal number, found " +
+                             QuotedNumber(parts[i]));
+    }
+  }
+  return true;
+}
+
+StatusOr<bool> CsvReader::NextText(std::vector<std::string>* fields) {
   WG_ASSIGN_OR_RETURN(const bool any, lines_.Next(&buffer_));
   if (!any) return false;
   if (buffer_.empty()) {
@@ -121,19 +137,10 @@ StatusOr<bool> CsvReader::Next(std::vector<double>* fields) {
       if (!rest.empty()) return InvalidArgument(blank + "empty line inside the data");
     }
   }
-  const std::vector<std::string> parts = SplitCsvLine(buffer_);
-  if (parts.size() != num_columns_) {
+  *fields = SplitCsvLine(buffer_);
+  if (fields->size() != num_columns_) {
     return InvalidArgument(Where() + "expected " + std::to_string(num_columns_) +
-                           " comma-separated columns, found " + std::to_string(parts.size()));
-  }
-  fields->resize(num_columns_);
-  for (size_t i = 0; i < parts.size(); ++i) {
-    if (!ParseFiniteDouble(parts[i], &(*fields)[i])) {
-      const std::string& name = header_[i];
-      return InvalidArgument(Where() + "column '" + name +
-                             "': expected a finite decimal number, found " +
-                             QuotedNumber(parts[i]));
-    }
+                           " comma-separated columns, found " + std::to_string(fields->size()));
   }
   return true;
 }

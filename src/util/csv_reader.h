@@ -33,6 +33,11 @@ class CsvReader {
   // Reads the next data row into `fields` (size = number of header columns). Returns false at
   // the end of the file. Blank lines are errors (they are where truncated files show up).
   StatusOr<bool> Next(std::vector<double>* fields);
+  // The same row checks (blank lines, number of columns), the fields as text (trimmed), for a
+  // file with empty or non-numeric fields (anchors.csv).
+  StatusOr<bool> NextText(std::vector<std::string>* fields);
+  // The name of column i of the header that was read.
+  const std::string& ColumnName(size_t i) const { return header_[i]; }
 
   int line() const { return lines_.line(); }
   size_t num_columns() const { return num_columns_; }

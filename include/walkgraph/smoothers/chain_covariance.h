@@ -33,12 +33,15 @@ namespace walkgraph {
 // aborts — when H is not positive definite (an unobservable direction) or when the problem is
 // not chain-structured (half-bandwidth above max_bandwidth). `wanted` (empty: all) selects the
 // groups whose covariance is returned; the others come back empty (0 × 0).
+// `static_covariances` (not null): each static block's marginal covariance, S⁻¹'s diagonal
+// block, in the order of `statics` (a constant one 0 × 0).
 inline constexpr double kChainInlierSigma = 3.0;
 inline constexpr int kChainMaxBandwidth = 64;
 StatusOr<std::vector<Eigen::MatrixXd>> ChainMarginalCovariances(
     ceres::Problem* problem, const std::vector<std::vector<double*>>& groups,
     const std::vector<double*>& statics, double inlier_sigma = kChainInlierSigma,
-    int max_bandwidth = kChainMaxBandwidth, const std::vector<bool>& wanted = {});
+    int max_bandwidth = kChainMaxBandwidth, const std::vector<bool>& wanted = {},
+    std::vector<Eigen::MatrixXd>* static_covariances = nullptr);
 
 }  // namespace walkgraph
 

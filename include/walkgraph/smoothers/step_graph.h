@@ -24,6 +24,21 @@
 // read long, and longer with distance) — each free with a weak prior, or held at 0.
 // Robust losses per factor type (none | huber | cauchy | soft-l1 | arctan | tukey, scale in σ).
 //
+// Anchors of unknown position (anchors.csv x_m, y_m empty) and uncertain ones (sigma_m > 0):
+// their horizontal position is a state p(a), an uncertain one with the prior N(position,
+// sigma_m²) per axis (AnchorRssFactor / AnchorRangeFactor instead of the fixed-anchor factors).
+// fg-batch places the unknown ones without a guess: (1) the walk solved without them; (2) each
+// placed on that path by a coarse grid search over its extent plus a margin (anchor_search.h:
+// the robust range or RSS cost, the anchor's bias or transmit power at its median), or
+// declared unobservable (too few readings, a path too narrow around it, or two places that
+// explain its readings about as well) and left out with its readings; (3) one joint solve from
+// (1)'s nodes. Diagnostics: unknown_anchors, unknown_anchors_estimated,
+// unknown_anchors_unobservable (+ .few_readings / .narrow_geometry / .ambiguous),
+// unknown_anchor_readings_ignored, anchor_x_m.<id> / anchor_y_m.<id>, gauge (0 the known
+// start's frame, 1 the anchors' of given position, 2 the walk's own: node 0 held); each
+// anchor's estimate and covariance in EstimateResult::anchors. fg-window and the other
+// estimators run without the unknown anchors (the registry's wrapper, estimator.h) and keep
+// the uncertain ones as states (fg-window) or at their mean (the filters).
 // Gauge: with a known start (initial_pose) its prior fixes position and heading softly; with
 // no start but radio anchors the anchors fix the frame; with neither, node 0 is held constant
 // (the only gauge freedom of a dead-reckoning graph is its start pose).
@@ -185,6 +200,20 @@ struct StepGraphOptions {
   CalibrationScope range_scale = CalibrationScope::kGlobal;  // ρ = (1 + s)·d + b
   double range_scale_prior_sigma = 0.1;
 
+  // Anchors of unknown position (fg-batch; walk.h Anchor, "Anchors of unknown position" at the
+  // top of this file): the grid search over the path's extent plus anchor_search_margin_m at
+  // anchor_search_step_m (refined to a tenth), and the verdict "unobservable" for an anchor
+  // with fewer than anchor_min_readings readings, a path that spreads less than
+  // anchor_min_spread_m (1σ) across its narrowest direction at its readings, or a second grid
+  // minimum farther than anchor_distinct_radius_m within anchor_min_cost_gap of the best
+  // (χ²(2) at 99 %: the two places are not told apart). Our choices, not tuned on a walk.
+  double anchor_search_margin_m = 20.0;
+  double anchor_search_step_m = 1.0;
+  int anchor_min_readings = 10;
+  double anchor_min_spread_m = 1.0;
+  double anchor_distinct_radius_m = 5.0;
+  double anchor_min_cost_gap = 9.21;
+
   // Initialization and solver. fg-batch starts from dead reckoning ("dead-reckoning"), from
   // the lagged estimates of a fast fixed-lag pass ("window": lag init_lag_s, one update per
   // init_update_s), or ("auto") from dead reckoning for odometry walks and the window for IMU
@@ -285,6 +314,12 @@ class StepGraph {
   static Key HeadingKey(int k) { return Symbol('h', static_cast<uint64_t>(k)); }
   // z(k): node k's height (m above floor 0), a state when has_floors().
   static Key HeightKey(int k) { return Symbol('z', static_cast<uint64_t>(k)); }
+  // p(a): the horizontal position (x, y) of anchor index a (walk.anchors), a static state when
+  // the anchor is not surveyed (walk.h Anchor) and heard; see AnchorIsState.
+  static Key AnchorKey(int anchor_index) {
+    return Symbol('p', static_cast<uint64_t>(anchor_index));
+  }
+  bool AnchorIsState(int anchor_index) const;
   // Whether the graph estimates a height per node (StepGraphOptions::floors, pressure.csv).
   bool has_floors() const;
   // The floor of a height (walk.yaml storey_height_m).

@@ -1,0 +1,150 @@
+#include "smoothers/anchor_search.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include <Eigen/Eigenvalues>
+
+namespace walkgraph::internal {
+
+const char* ToString(AnchorSearchResult::Verdict v) {
+  switch (v) {
+    case AnchorSearchResult::Verdict::kPlaced:
+      return "placed";
+    case AnchorSearchResult::Verdict::kFewReadings:
+      return "few_readings";
+    case AnchorSearchResult::Verdict::kNarrowGeometry:
+      return "narrow_geometry";
+    case AnchorSearchResult::Verdict::kAmbiguous:
+      return "ambiguous";
+  }
+  return "?";
+}
+
+namespace {
+
+// The cost C(a) of the top of anchor_search.h; `scratch` is reused between cells.
+double CellCost(const Eigen::Vector2d& a, const std::vector<Eigen::Vector2d>& q,
+                const std::vector<double>& v, const AnchorSearchOptions& o,
+                std::vector<double> scratch[2]) {
+  const size_t n = q.size();
+  scratch[0].resize(n);
+  std::vector<double>& r = scratch[0];
+  for (size_t i = 0; i < n; ++i) {
+    const double d = std::sqrt((q[i] - a).squaredNorm() + o.dz_m * o.dz_m + 1e-6);
+    r[i] = o.range ? v[i] - (1.0 + o.range_scale) * d
+                   : v[i] + o.sign * 10.0 * o.eta * std::log10(d / o.d0_m);
+  }
+  // The level (bias b or transmit power A) that explains the readings best, robustly.
+  double level = o.level_prior, cost = 0.0;
+  if (o.level_prior_sigma > 0.0) {
+    std::vector<double>& sorted = scratch[1];
+    sorted = r;
+    std::nth_element(sorted.begin(), sorted.begin() + n / 2, sorted.end());
+    level = sorted[n / 2];
+    const double e = (level - o.level_prior) / o.level_prior_sigma;
+    cost = e * e;
+  }
+  const double c2 = o.loss_scale * o.loss_scale;
+  for (size_t i = 0; i < n; ++i) {
+    const double e = (r[i] - level) / o.sigma;
+    cost += c2 * std::log1p(e * e / c2);  // Cauchy: ρ(e²) = c²·log(1 + e²/c²)
+  }
+  return cost;
+}
+
+}  // namespace
+
+AnchorSearchResult SearchAnchor(const std::vector<Eigen::Vector2d>& receivers,
+                                const std::vector<double>& values, const AnchorSearchOptions& o) {
+  AnchorSearchResult out;
+  out.second_cost = std::numeric_limits<double>::infinity();
+  const size_t n = receivers.size();
+  if (static_cast<int>(n) < std::max(o.min_readings, 3) || values.size() != n) {
+    out.verdict = AnchorSearchResult::Verdict::kFewReadings;
+    return out;
+  }
+  Eigen::Vector2d mean = Eigen::Vector2d::Zero();
+  for (const Eigen::Vector2d& q : receivers) mean += q;
+  mean /= static_cast<double>(n);
+  Eigen::Matrix2d cov = Eigen::Matrix2d::Zero();
+  for (const Eigen::Vector2d& q : receivers) cov += (q - mean) * (q - mean).transpose();
+  cov /= static_cast<double>(n);
+  out.spread_m = std::sqrt(
+      std::max(0.0, Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(cov).eigenvalues().minCoeff()));
+  if (out.spread_m < o.min_spread_m) {
+    out.verdict = AnchorSearchResult::Verdict::kNarrowGeometry;
+    return out;
+  }
+  Eigen::Vector2d lo = receivers[0], hi = receivers[0];
+  for (const Eigen::Vector2d& q : receivers) {
+    lo = lo.cwiseMin(q);
+    hi = hi.cwiseMax(q);
+  }
+  lo.array() -= o.margin_m;
+  hi.array() += o.margin_m;
+  const int nx = static_cast<int>(std::ceil((hi.x() - lo.x()) / o.step_m)) + 1;
+  const int ny = static_cast<int>(std::ceil((hi.y() - lo.y()) / o.step_m)) + 1;
+  std::vector<double> cost(static_cast<size_t>(nx) * ny);
+  std::vector<double> scratch[2];
+  auto cell = [&](int i, int j) {
+    return Eigen::Vector2d(lo.x() + i * o.step_m, lo.y() + j * o.step_m);
+  };
+  int best = 0;
+  for (int j = 0; j < ny; ++j) {
+    for (int i = 0; i < nx; ++i) {
+      const size_t c = static_cast<size_t>(j) * nx + i;
+      cost[c] = CellCost(cell(i, j), receivers, values, o, scratch);
+      if (cost[c] < cost[best]) best = static_cast<int>(c);
+    }
+  }
+  const Eigen::Vector2d coarse = cell(best % nx, best / nx);
+  // The region within min_cost_gap of the best: one piece around the best cell (4-connected),
+  // not reaching the grid's edge; any other cell of it farther than distinct_radius_m is another
+  // place (its least cost: second_cost).
+  const double limit = cost[best] + o.min_cost_gap;
+  std::vector<char> seen(cost.size(), 0);
+  std::vector<int> stack = {best};
+  seen[best] = 1;
+  bool edge = false;
+  while (!stack.empty()) {
+    const int c = stack.back();
+    stack.pop_back();
+    const int i = c % nx, j = c / nx;
+    edge = edge || i == 0 || j == 0 || i == nx - 1 || j == ny - 1;
+    const int next[4][2] = {{i - 1, j}, {i + 1, j}, {i, j - 1}, {i, j + 1}};
+    for (const auto& ij : next) {
+      if (ij[0] < 0 || ij[1] < 0 || ij[0] >= nx || ij[1] >= ny) continue;
+      const int k = ij[1] * nx + ij[0];
+      if (seen[k] || !(cost[k] < limit)) continue;
+      seen[k] = 1;
+      stack.push_back(k);
+    }
+  }
+  for (size_t c = 0; c < cost.size(); ++c) {
+    if (seen[c] || !(cost[c] < out.second_cost)) continue;
+    const int i = static_cast<int>(c) % nx, j = static_cast<int>(c) / nx;
+    if ((cell(i, j) - coarse).norm() > o.distinct_radius_m) out.second_cost = cost[c];
+  }
+  // Refine around the best cell.
+  out.position_m = coarse;
+  out.cost = cost[best];
+  const double fine = o.step_m / 10.0;
+  for (int dj = -10; dj <= 10; ++dj) {
+    for (int di = -10; di <= 10; ++di) {
+      const Eigen::Vector2d a = coarse + Eigen::Vector2d(di * fine, dj * fine);
+      const double c = CellCost(a, receivers, values, o, scratch);
+      if (c < out.cost) {
+        out.cost = c;
+        out.position_m = a;
+      }
+    }
+  }
+  if (edge || out.second_cost - out.cost < o.min_cost_gap) {
+    out.verdict = AnchorSearchResult::Verdict::kAmbiguous;
+  }
+  return out;
+}
+
+}  // namespace walkgraph::internal
