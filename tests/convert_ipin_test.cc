@@ -1,6 +1,8 @@
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -328,6 +330,92 @@ TEST_F(ConvertIpinMalformed, NoGroundTruth) {
   auto walk = Convert("ipin", {(dir_ / "log.txt").string()});
   ASSERT_FALSE(walk.ok());
   EXPECT_THAT(walk.status().message(), HasSubstr("no POSI"));
+}
+
+// Issue 44: `convert ipin --wifi` (ConvertOptions::ipin_wifi): each access point an anchor of
+// unknown position, group wifi, id kIpinWifiAnchorIdBase + the BSSID's last three bytes; the
+// readings of one scan (one SensorTimeStamp) at one time; an access point heard fewer than
+// ipin_wifi_min_readings times dropped and counted; without the option WIFI lines are skipped.
+TEST_F(ConvertIpinMalformed, WifiAccessPointsAreAnchorsOfUnknownPosition) {
+  const std::string body =
+      "BLE4;0.6;iBeacon;BE:AC:20:23:00:02;-70;0;1;2;UUID\n"
+      "WIFI;0.61;65094.18;SSID1;20:23:00:00:00:01;2437;-60\n"
+      "WIFI;0.62;65094.18;SSID2;20:23:00:00:00:15;2452;-63\n"  // same scan: t 0.61
+      "WIFI;0.90;65095.18;SSID1;20:23:00:00:00:01;2437;-61\n"
+      "WIFI;0.90;65095.18;OTHER;AA:BB:CC:00:00:01;2437;-80\n";  // same last 3 bytes as SSID1
+  auto plain = ConvertText(body);
+  ASSERT_TRUE(plain.ok()) << plain.status().message();
+  EXPECT_EQ(plain->anchors.size(), 3u);
+  EXPECT_EQ(plain->rss.size(), 1u);
+  ConvertOptions o;
+  o.ipin_wifi = true;
+  o.ipin_wifi_min_readings = 2;
+  auto walk = Convert("ipin", {(dir_ / "log.txt").string()}, o);
+  ASSERT_TRUE(walk.ok()) << walk.status().message();
+  const int ap1 = kIpinWifiAnchorIdBase + 0x000001, ap2 = kIpinWifiAnchorIdBase + 0x000015;
+  ASSERT_GE(walk->AnchorIndex(ap1), 0);
+  EXPECT_LT(walk->AnchorIndex(ap2), 0);  // one reading: below the minimum
+  const Anchor& a = walk->anchors[static_cast<size_t>(walk->AnchorIndex(ap1))];
+  EXPECT_FALSE(a.position_known);
+  EXPECT_EQ(a.group, "wifi");
+  EXPECT_FALSE(std::isfinite(a.position_m.x()));
+  std::vector<std::pair<double, int>> rss;
+  for (const RssSample& r : walk->rss) rss.emplace_back(r.t_s, r.anchor_id);
+  const std::vector<std::pair<double, int>> expected = {{0.6, 3}, {0.61, ap1}, {0.90, ap1}};
+  EXPECT_EQ(rss, expected);
+  EXPECT_EQ(walk->meta.extra.at("convert.wifi_access_points"), 1.0);
+  EXPECT_EQ(walk->meta.extra.at("convert.wifi_access_points_too_few_readings"), 1.0);
+  EXPECT_EQ(walk->meta.extra.at("convert.wifi_id_collisions_dropped"), 1.0);
+  // The scan's second line took the scan's time: with min 1, SSID2 is read at 0.61.
+  o.ipin_wifi_min_readings = 1;
+  walk = Convert("ipin", {(dir_ / "log.txt").string()}, o);
+  ASSERT_TRUE(walk.ok());
+  ASSERT_GE(walk->AnchorIndex(ap2), 0);
+  for (const RssSample& r : walk->rss) {
+    if (r.anchor_id == ap2) EXPECT_EQ(r.t_s, 0.61);
+  }
+}
+
+TEST_F(ConvertIpinMalformed, WifiBadBssidNamesFileAndLine) {
+  ConvertText("WIFI;0.61;65094.18;SSID1;20:23:00:00:01;2437;-60\n");
+  ConvertOptions o;
+  o.ipin_wifi = true;
+  auto walk = Convert("ipin", {(dir_ / "log.txt").string()}, o);
+  ASSERT_FALSE(walk.ok());
+  EXPECT_THAT(walk.status().message(), HasSubstr("log.txt:9: MAC_BSSID '20:23:00:00:01'"));
+  o.ipin_wifi_min_readings = 0;
+  EXPECT_FALSE(Convert("ipin", {(dir_ / "log.txt").string()}, o).ok());
+}
+
+// The shared trials with --wifi: every access point heard >= 10 times is an anchor of unknown
+// position; the BLE readings and beacons are as without it.
+TEST(ConvertIpin, WifiOfTheSharedTrials) {
+  if (!fs::exists(kIpin)) GTEST_SKIP() << kIpin << " not present";
+  ConvertOptions o;
+  o.ipin_wifi = true;
+  for (const fs::path& log : Logs()) {
+    SCOPED_TRACE(log.string());
+    auto ble = Convert("ipin", {log.string()});
+    auto walk = Convert("ipin", {log.string()}, o);
+    ASSERT_TRUE(ble.ok() && walk.ok()) << walk.status().message();
+    EXPECT_TRUE(ValidateWalk(*walk).ok()) << ValidateWalk(*walk).message();
+    size_t wifi_anchors = 0, wifi_readings = 0;
+    for (const Anchor& a : walk->anchors) {
+      if (a.group != "wifi") continue;
+      ++wifi_anchors;
+      EXPECT_FALSE(a.position_known);
+    }
+    for (const RssSample& r : walk->rss) wifi_readings += r.anchor_id >= kIpinWifiAnchorIdBase;
+    EXPECT_EQ(walk->anchors.size(), ble->anchors.size() + wifi_anchors);
+    EXPECT_EQ(walk->rss.size(), ble->rss.size() + wifi_readings);
+    EXPECT_GE(wifi_anchors, 10u);
+    EXPECT_GE(wifi_readings, 10 * wifi_anchors);
+    EXPECT_TRUE(
+        std::is_sorted(walk->rss.begin(), walk->rss.end(),
+                       [](const RssSample& a, const RssSample& b) { return a.t_s < b.t_s; }));
+    std::printf("%s: %zu access points, %zu readings\n", log.filename().c_str(), wifi_anchors,
+                wifi_readings);
+  }
 }
 
 }  // namespace

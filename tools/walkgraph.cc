@@ -103,6 +103,13 @@ void AddWalkCommands(CLI::App* app, CliArgs* a) {
                     "is dropped");
   convert->add_option("--known-start-sigma", a->convert_options.known_start_sigma_m,
                       "ipin: sigma of that start position, m (default 0.5)");
+  convert->add_flag("--wifi", a->convert_options.ipin_wifi,
+                    "ipin: the WIFI readings too, each access point an anchor of unknown position "
+                    "(group wifi; only the factor graphs place it)");
+  convert
+      ->add_option("--wifi-min-readings", a->convert_options.ipin_wifi_min_readings,
+                   "ipin: an access point heard fewer times is dropped (default 10)")
+      ->check(CLI::PositiveNumber);
   convert->add_flag("--strict", a->convert_options.strict,
                     "refuse a source holding a physically impossible reading (default: drop it, "
                     "count it in walk.yaml extra convert.<stream>_invalid_dropped, warn with its "

@@ -28,7 +28,15 @@ struct ConvertOptions {
   // meta.extra "convert.<stream>_invalid_dropped" (stream: imu, rss, range), with a warning
   // naming the source file:line of the first few; `strict` refuses the source instead.
   bool strict = false;
+  // ipin: the WIFI lines too, each access point an anchor of unknown position (anchors.csv x, y
+  // empty; group wifi; id kIpinWifiAnchorIdBase + the BSSID's last three bytes, the same in
+  // every walk of a building), its readings in rss.csv; an access point heard fewer than
+  // ipin_wifi_min_readings times is dropped (counted in "convert.wifi_*"): too few readings to
+  // place it. Off by default: only the factor graphs place transmitters nobody surveyed.
+  bool ipin_wifi = false;
+  int ipin_wifi_min_readings = 10;
 };
+inline constexpr int kIpinWifiAnchorIdBase = 1000000000;
 
 struct ConverterInfo {
   std::string format;       // "plaza", ...

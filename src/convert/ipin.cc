@@ -16,9 +16,13 @@
 // the data supports; Minors 4 and 6 rest partly on elimination.
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
+#include <limits>
 #include <map>
+#include <optional>
 #include <set>
 
 #include "convert/line_fields.h"
@@ -166,6 +170,13 @@ struct IpinLog {
   std::vector<PressureSample> pressure;
   std::set<std::pair<double, int>> rss_seen;
   int rss_duplicates = 0, non_ibeacon = 0, pressure_repeats = 0;
+  // WIFI (ConvertOptions::ipin_wifi): readings by access point, on the app clock; the BSSID
+  // of each anchor id; the last line's scan (SensorTimeStamp, AppTimestamp).
+  std::vector<RssSample> wifi;
+  std::map<int, std::string> wifi_bssid;
+  std::set<std::string> wifi_id_collisions;
+  int wifi_duplicates = 0;
+  std::optional<std::pair<double, double>> wifi_scan;
 };
 
 // ACCE, GYRO, MAGN: TYPE;AppTimestamp;SensorTimestamp;x;y;z;accuracy.
@@ -259,6 +270,66 @@ Status ReadBle4Line(const internal::LineFields& f, const std::map<int, const Bea
   return Status::Ok();
 }
 
+// A BSSID "aa:bb:cc:dd:ee:ff" (hex, either case) as a 48-bit number; none when malformed.
+std::optional<uint64_t> ParseBssid(const std::string& s) {
+  if (s.size() != 17) return std::nullopt;
+  uint64_t v = 0;
+  for (size_t i = 0; i < s.size(); ++i) {
+    const char c = s[i];
+    if (i % 3 == 2) {
+      if (c != ':') return std::nullopt;
+      continue;
+    }
+    int d = -1;
+    if (c >= '0' && c <= '9') d = c - '0';
+    if (c >= 'a' && c <= 'f') d = c - 'a' + 10;
+    if (c >= 'A' && c <= 'F') d = c - 'A' + 10;
+    if (d < 0) return std::nullopt;
+    v = v * 16 + static_cast<uint64_t>(d);
+  }
+  return v;
+}
+
+// WIFI;AppTimestamp;SensorTimeStamp;Name_SSID;MAC_BSSID;Frequency;RSS (technical annex). An
+// access point is an anchor of unknown position, id kIpinWifiAnchorIdBase + the BSSID's last
+// three bytes (the same in every walk of a building; two BSSIDs that share them: the second
+// is dropped, counted). The readings of one scan (one SensorTimeStamp on consecutive lines)
+// keep the first line's AppTimestamp, so they stay one radio epoch.
+Status ReadWifiLine(const internal::LineFields& f, internal::DroppedReadings* dropped,
+                    IpinLog* log) {
+  WG_RETURN_IF_ERROR(f.ExpectCount(7));
+  WG_ASSIGN_OR_RETURN(double t, f.Number(1));
+  WG_ASSIGN_OR_RETURN(const double sensor_t, f.Number(2));
+  WG_ASSIGN_OR_RETURN(const double value, f.Number(6));
+  const std::optional<uint64_t> bssid = ParseBssid(f.field(4));
+  if (!bssid) {
+    return f.Error("MAC_BSSID '" + f.field(4) + "'; expected six hex bytes as aa:bb:cc:dd:ee:ff");
+  }
+  if (log->wifi_scan && log->wifi_scan->first == sensor_t) t = log->wifi_scan->second;
+  log->wifi_scan = std::make_pair(sensor_t, t);
+  const int id = kIpinWifiAnchorIdBase + static_cast<int>(*bssid & 0xFFFFFF);
+  auto [it, added] = log->wifi_bssid.emplace(id, f.field(4));
+  if (!added && it->second != f.field(4)) {
+    log->wifi_id_collisions.insert(f.field(4));
+    return Status::Ok();
+  }
+  std::string problem = internal::CheckRss({t, id, value}, RssUnits::kDbm, {});
+  if (problem.empty() && !(value < 0.0))
+    problem = "a WiFi RSS of " + internal::Num(value) + " dBm; expected a negative dBm";
+  bool drop = false;
+  WG_RETURN_IF_ERROR(dropped->Check("wifi", f.Where(), problem, &drop));
+  if (drop) return Status::Ok();
+  if (!log->wifi.empty() && t < log->wifi.back().t_s) {
+    return f.Error("WIFI AppTimestamp goes backwards");
+  }
+  if (!log->rss_seen.insert({t, id}).second) {
+    ++log->wifi_duplicates;
+    return Status::Ok();
+  }
+  log->wifi.push_back({t, id, value});
+  return Status::Ok();
+}
+
 // PRES;AppTimestamp;SensorTimestamp;pressure(hPa);accuracy — on the app clock.
 Status ReadPresLine(const internal::LineFields& f, IpinLog* log) {
   WG_RETURN_IF_ERROR(f.ExpectCount(5));
@@ -278,7 +349,8 @@ Status ReadPresLine(const internal::LineFields& f, IpinLog* log) {
 
 StatusOr<IpinLog> ReadIpinLog(const std::string& log_path,
                               const std::map<int, const Beacon*>& beacons,
-                              const std::string& locations, internal::DroppedReadings* dropped) {
+                              const std::string& locations, bool wifi,
+                              internal::DroppedReadings* dropped) {
   internal::LineReader in(log_path);
   WG_RETURN_IF_ERROR(in.Open());
   IpinLog log;
@@ -308,8 +380,10 @@ StatusOr<IpinLog> ReadIpinLog(const std::string& log_path,
       WG_RETURN_IF_ERROR(ReadBle4Line(f, beacons, locations, dropped, &rss_column, &log));
     } else if (type == "PRES") {
       WG_RETURN_IF_ERROR(ReadPresLine(f, &log));
+    } else if (type == "WIFI" && wifi) {
+      WG_RETURN_IF_ERROR(ReadWifiLine(f, dropped, &log));
     }
-    // Other record types (AHRS, WIFI, GNSS, LIGH, SOUN, PROX, ...) are not used.
+    // Other record types (AHRS, GNSS, LIGH, SOUN, PROX, ...; WIFI unless asked) are not used.
   }
   WG_RETURN_IF_ERROR(rss_column.Check(
       "BLE4;AppTimestamp;iBeacon;MAC;RSS;TxPower;Major;Minor;UUID (technical annex)"));
@@ -430,8 +504,61 @@ void DescribeAndPlace(const std::string& log_path, const std::vector<Beacon>& be
 
 }  // namespace
 
+// The access points heard at least `min_readings` times become anchors of unknown position
+// (group wifi), their readings join the BLE ones in time order (a scan's after the BLE readings
+// of the same time); the others are dropped, counted. Their floor is not known either: on a
+// walk whose beacons have floors they are given the start's (the first landmark's, which IPIN's
+// scoring trials give with the start), a guess that a multi-floor walk can get wrong.
+void AddWifi(IpinLog* log, int min_readings, Walk* walk) {
+  std::optional<int> floor;
+  const bool floors = std::any_of(walk->anchors.begin(), walk->anchors.end(),
+                                  [](const Anchor& a) { return a.floor.has_value(); });
+  if (floors && !log->posi.empty()) floor = log->posi.front().floor;
+  std::map<int, int> count;
+  for (const RssSample& r : log->wifi) ++count[r.anchor_id];
+  int kept = 0, few = 0, few_readings = 0;
+  for (const auto& [id, n] : count) {
+    if (n < min_readings) {
+      ++few;
+      few_readings += n;
+      continue;
+    }
+    Anchor a;
+    a.id = id;
+    const double nan = std::numeric_limits<double>::quiet_NaN();
+    a.position_m = Eigen::Vector3d(nan, nan, 0.0);  // x, y unknown; z unknown too: floor 0's
+    a.position_known = false;
+    a.group = "wifi";
+    a.floor = floor;
+    walk->anchors.push_back(a);
+    ++kept;
+  }
+  std::vector<RssSample> merged;
+  merged.reserve(walk->rss.size() + log->wifi.size());
+  std::merge(walk->rss.begin(), walk->rss.end(), log->wifi.begin(), log->wifi.end(),
+             std::back_inserter(merged),
+             [](const RssSample& a, const RssSample& b) { return a.t_s < b.t_s; });
+  merged.erase(std::remove_if(merged.begin(), merged.end(),
+                              [&](const RssSample& r) {
+                                return r.anchor_id >= kIpinWifiAnchorIdBase &&
+                                       count[r.anchor_id] < min_readings;
+                              }),
+               merged.end());
+  walk->rss = std::move(merged);
+  auto& x = walk->meta.extra;
+  x["convert.wifi_access_points"] = kept;
+  x["convert.wifi_access_points_too_few_readings"] = few;
+  x["convert.wifi_readings_of_those_dropped"] = few_readings;
+  x["convert.wifi_duplicates_dropped"] = log->wifi_duplicates;
+  x["convert.wifi_id_collisions_dropped"] = static_cast<double>(log->wifi_id_collisions.size());
+}
+
 StatusOr<Walk> ConvertIpin(const std::string& log_path, const std::string& ble_locations_csv,
                            const ConvertOptions& options, std::vector<std::string>* warnings) {
+  if (options.ipin_wifi_min_readings < 1) {
+    return InvalidArgument(
+        "ipin: the minimum number of WiFi readings per access point must be >= 1");
+  }
   internal::DroppedReadings dropped(options.strict);
   std::string locations = ble_locations_csv;
   if (locations.empty()) {
@@ -440,7 +567,8 @@ StatusOr<Walk> ConvertIpin(const std::string& log_path, const std::string& ble_l
   WG_ASSIGN_OR_RETURN(const std::vector<Beacon> beacons, ReadBleLocations(locations));
   std::map<int, const Beacon*> beacon_by_id;
   for (const Beacon& b : beacons) beacon_by_id[b.id] = &b;
-  WG_ASSIGN_OR_RETURN(IpinLog log, ReadIpinLog(log_path, beacon_by_id, locations, &dropped));
+  WG_ASSIGN_OR_RETURN(IpinLog log,
+                      ReadIpinLog(log_path, beacon_by_id, locations, options.ipin_wifi, &dropped));
   WG_RETURN_IF_ERROR(CheckBeaconsNearTheWalk(beacons, locations, log_path, log.posi.front().lat_deg,
                                              log.posi.front().lon_deg));
   Walk walk;
@@ -449,6 +577,7 @@ StatusOr<Walk> ConvertIpin(const std::string& log_path, const std::string& ble_l
   walk.meta.extra["convert.ble_duplicates_dropped"] = log.rss_duplicates;
   walk.meta.extra["convert.ble_non_ibeacon_skipped"] = log.non_ibeacon;
   walk.rss = std::move(log.rss);
+  if (options.ipin_wifi) AddWifi(&log, options.ipin_wifi_min_readings, &walk);
   walk.pressure = std::move(log.pressure);
   walk.meta.extra["convert.pres_repeated_timestamps_dropped"] = log.pressure_repeats;
   if (options.known_start) WG_RETURN_IF_ERROR(ApplyKnownStart(options, log_path, &walk));
