@@ -56,11 +56,8 @@ class AnchorRssFactor {
   template <typename T>
   bool Evaluate(const T* p_a, const T* p_b, const T* anchor, const T* path_loss,
                 T* residual) const {
-    using std::log10;
-    const T d = receiver_.DistanceTo(p_a, p_b, anchor);
-    const T expected =
-        path_loss[0] - T(reading_.sign * 10.0) * path_loss[1] * log10(d / T(reading_.d0_m));
-    residual[0] = (T(reading_.rss) - expected) / T(reading_.sigma_db);
+    residual[0] =
+        RssFactor<kDim>::Whitened(reading_, receiver_.DistanceTo(p_a, p_b, anchor), path_loss);
     return true;
   }
 

@@ -57,14 +57,20 @@ class RssFactor {
         new RssFactor(reading, alpha));
   }
 
+  // r of the top of this file for `reading` at distance d, path loss (A, η) = path_loss (the
+  // one place the model is written; AnchorRssFactor uses it too).
+  template <typename T>
+  static T Whitened(const Reading& reading, const T& d, const T* path_loss) {
+    using std::log10;
+    const T expected =
+        path_loss[0] - T(reading.sign * 10.0) * path_loss[1] * log10(d / T(reading.d0_m));
+    return (T(reading.rss) - expected) / T(reading.sigma_db);
+  }
+
  private:
   template <typename T>
   bool Evaluate(const T* p_a, const T* p_b, const T* path_loss, T* residual) const {
-    using std::log10;
-    const T d = receiver_.Distance(p_a, p_b);
-    const T expected =
-        path_loss[0] - T(reading_.sign * 10.0) * path_loss[1] * log10(d / T(reading_.d0_m));
-    residual[0] = (T(reading_.rss) - expected) / T(reading_.sigma_db);
+    residual[0] = Whitened(reading_, receiver_.Distance(p_a, p_b), path_loss);
     return true;
   }
 
