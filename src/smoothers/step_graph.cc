@@ -1606,6 +1606,23 @@ StatusOr<std::vector<Eigen::Vector3d>> FirstWindowStart(const Walk& walk, const 
   return out;
 }
 
+// fg-window-online's output of the nodes just updated: each one's estimate right after its update.
+Status OnlinePoints(const StepGraph& graph, const FixedLagSmoother& smoother,
+                    const std::vector<int>& nodes, std::vector<TrajectoryPoint>* points,
+                    std::vector<bool>* have) {
+  for (int j : nodes) {
+    WG_ASSIGN_OR_RETURN(std::vector<double> pj, smoother.Estimate(StepGraph::PositionKey(j)));
+    WG_ASSIGN_OR_RETURN(std::vector<double> hj, smoother.Estimate(StepGraph::HeadingKey(j)));
+    (*points)[j] = MakePoint(graph.node_time(j), pj.data(), hj[0]);
+    if (graph.has_floors()) {
+      WG_ASSIGN_OR_RETURN(std::vector<double> zj, smoother.Estimate(StepGraph::HeightKey(j)));
+      SetHeight(graph, zj[0], &(*points)[j]);
+    }
+    (*have)[j] = true;
+  }
+  return Status::Ok();
+}
+
 StatusOr<EstimateResult> RunWindowNodes(const Walk& walk, const StepGraphOptions& options_) {
   WG_ASSIGN_OR_RETURN(std::unique_ptr<StepGraph> graph, StepGraph::Build(walk, options_));
   const int n = graph->num_nodes();
@@ -1693,16 +1710,7 @@ StatusOr<EstimateResult> RunWindowNodes(const Walk& walk, const StepGraphOptions
     prev_p = Eigen::Vector2d(p[0], p[1]);
     prev_theta = h[0];
     if (online) {
-      for (int j : pending) {
-        WG_ASSIGN_OR_RETURN(std::vector<double> pj, smoother.Estimate(StepGraph::PositionKey(j)));
-        WG_ASSIGN_OR_RETURN(std::vector<double> hj, smoother.Estimate(StepGraph::HeadingKey(j)));
-        points[j] = MakePoint(graph->node_time(j), pj.data(), hj[0]);
-        if (graph->has_floors()) {
-          WG_ASSIGN_OR_RETURN(std::vector<double> zj, smoother.Estimate(StepGraph::HeightKey(j)));
-          SetHeight(*graph, zj[0], &points[j]);
-        }
-        have[j] = true;
-      }
+      WG_RETURN_IF_ERROR(OnlinePoints(*graph, smoother, pending, &points, &have));
       store_covariances(pending);
     }
     pending.clear();
