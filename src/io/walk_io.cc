@@ -903,57 +903,60 @@ bool WriteAnchors(const Walk& walk, std::ostream& o) {
   return true;
 }
 
-Status WriteWalkFiles(const Walk& walk, const fs::path& root) {
+// walk.yaml of `walk` (walk-format.md).
+bool WriteWalkYaml(const Walk& walk, std::ostream& o) {
   const WalkMeta& m = walk.meta;
-  WG_RETURN_IF_ERROR(WriteFileInOutput((root / "walk.yaml").string(), [&](std::ostream& o) {
-    YAML::Emitter e;
-    e << YAML::BeginMap;
-    e << YAML::Key << "format_version" << YAML::Value << 1;
-    e << YAML::Key << "name" << YAML::Value << m.name;
-    e << YAML::Key << "source" << YAML::Value << m.source;
-    e << YAML::Key << "licence" << YAML::Value << m.licence;
-    if (m.storey_height_m != kDefaultStoreyHeightM) {
-      e << YAML::Key << "storey_height_m" << YAML::Value << Num(m.storey_height_m);
+  YAML::Emitter e;
+  e << YAML::BeginMap;
+  e << YAML::Key << "format_version" << YAML::Value << 1;
+  e << YAML::Key << "name" << YAML::Value << m.name;
+  e << YAML::Key << "source" << YAML::Value << m.source;
+  e << YAML::Key << "licence" << YAML::Value << m.licence;
+  if (m.storey_height_m != kDefaultStoreyHeightM) {
+    e << YAML::Key << "storey_height_m" << YAML::Value << Num(m.storey_height_m);
+  }
+  e << YAML::Key << "imu_placement" << YAML::Value << ToString(m.imu_placement);
+  e << YAML::Key << "frame" << YAML::Value << "enu";
+  e << YAML::Key << "truth" << YAML::Value << ToString(m.truth_kind);
+  e << YAML::Key << "radio" << YAML::Value << YAML::BeginMap;
+  e << YAML::Key << "kind" << YAML::Value << ToString(m.radio.kind);
+  e << YAML::Key << "units" << YAML::Value << ToString(m.radio.units);
+  e << YAML::Key << "A_dbm" << YAML::Value << Num(m.radio.path_loss.A_dbm);
+  e << YAML::Key << "eta" << YAML::Value << Num(m.radio.path_loss.eta);
+  e << YAML::Key << "d0_m" << YAML::Value << Num(m.radio.path_loss.d0_m);
+  e << YAML::Key << "sigma_db" << YAML::Value << Num(m.radio.path_loss.sigma_db);
+  if (m.radio.path_loss.floor_loss_db != 0.0 || (!walk.anchors.empty() && walk.anchors[0].floor)) {
+    e << YAML::Key << "floor_loss_db" << YAML::Value << Num(m.radio.path_loss.floor_loss_db);
+  }
+  e << YAML::Key << "range_sigma_m" << YAML::Value << Num(m.radio.range_sigma_m);
+  e << YAML::Key << "calibrated" << YAML::Value << m.radio.calibrated;
+  e << YAML::EndMap;
+  if (m.initial_pose) {
+    const InitialPose& p = *m.initial_pose;
+    e << YAML::Key << "initial_pose" << YAML::Value << YAML::BeginMap;
+    e << YAML::Key << "x_m" << YAML::Value << Num(p.x_m);
+    e << YAML::Key << "y_m" << YAML::Value << Num(p.y_m);
+    if (p.heading_known) e << YAML::Key << "heading_rad" << YAML::Value << Num(p.heading_rad);
+    e << YAML::Key << "sigma_xy_m" << YAML::Value << Num(p.sigma_xy_m);
+    if (p.heading_known) {
+      e << YAML::Key << "sigma_heading_rad" << YAML::Value << Num(p.sigma_heading_rad);
     }
-    e << YAML::Key << "imu_placement" << YAML::Value << ToString(m.imu_placement);
-    e << YAML::Key << "frame" << YAML::Value << "enu";
-    e << YAML::Key << "truth" << YAML::Value << ToString(m.truth_kind);
-    e << YAML::Key << "radio" << YAML::Value << YAML::BeginMap;
-    e << YAML::Key << "kind" << YAML::Value << ToString(m.radio.kind);
-    e << YAML::Key << "units" << YAML::Value << ToString(m.radio.units);
-    e << YAML::Key << "A_dbm" << YAML::Value << Num(m.radio.path_loss.A_dbm);
-    e << YAML::Key << "eta" << YAML::Value << Num(m.radio.path_loss.eta);
-    e << YAML::Key << "d0_m" << YAML::Value << Num(m.radio.path_loss.d0_m);
-    e << YAML::Key << "sigma_db" << YAML::Value << Num(m.radio.path_loss.sigma_db);
-    if (m.radio.path_loss.floor_loss_db != 0.0 ||
-        (!walk.anchors.empty() && walk.anchors[0].floor)) {
-      e << YAML::Key << "floor_loss_db" << YAML::Value << Num(m.radio.path_loss.floor_loss_db);
-    }
-    e << YAML::Key << "range_sigma_m" << YAML::Value << Num(m.radio.range_sigma_m);
-    e << YAML::Key << "calibrated" << YAML::Value << m.radio.calibrated;
+    if (p.floor) e << YAML::Key << "floor" << YAML::Value << *p.floor;
     e << YAML::EndMap;
-    if (m.initial_pose) {
-      const InitialPose& p = *m.initial_pose;
-      e << YAML::Key << "initial_pose" << YAML::Value << YAML::BeginMap;
-      e << YAML::Key << "x_m" << YAML::Value << Num(p.x_m);
-      e << YAML::Key << "y_m" << YAML::Value << Num(p.y_m);
-      if (p.heading_known) e << YAML::Key << "heading_rad" << YAML::Value << Num(p.heading_rad);
-      e << YAML::Key << "sigma_xy_m" << YAML::Value << Num(p.sigma_xy_m);
-      if (p.heading_known) {
-        e << YAML::Key << "sigma_heading_rad" << YAML::Value << Num(p.sigma_heading_rad);
-      }
-      if (p.floor) e << YAML::Key << "floor" << YAML::Value << *p.floor;
-      e << YAML::EndMap;
-    }
-    if (!m.extra.empty()) {
-      e << YAML::Key << "extra" << YAML::Value << YAML::BeginMap;
-      for (const auto& [k, v] : m.extra) e << YAML::Key << k << YAML::Value << Num(v);
-      e << YAML::EndMap;
-    }
+  }
+  if (!m.extra.empty()) {
+    e << YAML::Key << "extra" << YAML::Value << YAML::BeginMap;
+    for (const auto& [k, v] : m.extra) e << YAML::Key << k << YAML::Value << Num(v);
     e << YAML::EndMap;
-    o << e.c_str() << "\n";
-    return e.good();
-  }));
+  }
+  e << YAML::EndMap;
+  o << e.c_str() << "\n";
+  return e.good();
+}
+
+Status WriteWalkFiles(const Walk& walk, const fs::path& root) {
+  WG_RETURN_IF_ERROR(WriteFileInOutput((root / "walk.yaml").string(),
+                                       [&](std::ostream& o) { return WriteWalkYaml(walk, o); }));
   if (!walk.anchors.empty()) {
     WG_RETURN_IF_ERROR(WriteFileInOutput((root / "anchors.csv").string(),
                                          [&](std::ostream& o) { return WriteAnchors(walk, o); }));
