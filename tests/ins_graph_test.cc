@@ -671,7 +671,7 @@ TEST(InsGraphBatch, UserFactorsReachBatchAndWindow) {
     out->push_back(
         {std::shared_ptr<ceres::CostFunction>(PositionPriorFactor<3>::Create(target, 0.01)),
          nullptr,
-         {InsStateKey(state, 'x')}});
+         {InsKey(state, InsBlock::kP)}});
     return Status::Ok();
   };
   InsWindowOptions wo;
@@ -689,7 +689,7 @@ TEST(InsGraphBatch, UserFactorsReachBatchAndWindow) {
     out->push_back({std::shared_ptr<ceres::CostFunction>(
                         PositionPriorFactor<2>::Create(Eigen::Vector2d::Zero(), 1.0)),
                     nullptr,
-                    {InsStateKey(0, 'x')}});  // a 2-D factor on a 3-D block
+                    {InsKey(0, InsBlock::kP)}});  // a 2-D factor on a 3-D block
     (void)times;
     return Status::Ok();
   };
@@ -702,7 +702,7 @@ TEST(InsGraphBatch, UserFactorsReachBatchAndWindow) {
     out->push_back({std::shared_ptr<ceres::CostFunction>(
                         PositionPriorFactor<3>::Create(Eigen::Vector2d::Zero(), 1.0)),
                     nullptr,
-                    {InsStateKey(times.size(), 'x')}});
+                    {InsKey(times.size(), InsBlock::kP)}});
     return Status::Ok();
   };
   wo.graph = bad;

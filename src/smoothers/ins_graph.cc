@@ -100,8 +100,6 @@ std::vector<GraphState> InsStateBlocks(size_t i, const InsState& values,
   return out;
 }
 
-Key InsStateKey(size_t state, char letter) { return Symbol(letter, state); }
-
 double* InsBlockOfKey(std::vector<InsState>* states, Key key) {
   const uint64_t i = SymbolIndex(key);
   const std::optional<InsBlock> block = InsBlockOfLetter(SymbolLetter(key));

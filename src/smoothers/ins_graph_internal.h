@@ -168,9 +168,7 @@ PathLossMode ResolveInsPathLoss(const InsGraphOptions& options, const RadioDefau
 void AddInsPathLossDiagnostics(const Walk& walk, const InsSharedBlocks& blocks,
                                std::map<std::string, double>* diagnostics);
 
-// The key of one of a state's blocks (see InsGraphOptions::user_factors) and back: the block
-// of `key` among `states`, or null when it names none.
-Key InsStateKey(size_t state, char letter);
+// The block of `key` (InsKey below) among `states`, or null when it names none.
 double* InsBlockOfKey(std::vector<InsState>* states, Key key);
 
 // A state's five blocks, in the graph's order, and their keys x(i), v(i), q(i), g(i), a(i).

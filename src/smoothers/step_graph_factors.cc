@@ -140,7 +140,8 @@ void StepGraph::Impl::AddReadingFactors(int k, std::vector<GraphFactor>* out) co
     }
     const Eigen::Vector3d& anchor = anchors[r.index].position_m;
     const bool anchor_state = AnchorIsState(r.index);
-    if (anchor_state && r.kind == Reading::Kind::kRss) {  // Build: RSS in dB then
+    // The dB-domain reading (RssFactor, AnchorRssFactor), floors taken into account.
+    auto rss_reading = [&] {
       RssFactor<2>::Reading rd;
       rd.rss = r.value;
       rd.anchor_m = anchor;
@@ -150,6 +151,10 @@ void StepGraph::Impl::AddReadingFactors(int k, std::vector<GraphFactor>* out) co
       rd.receiver_height_m = o.receiver_height_m;
       FloorAware(r.index, r.node_a, r.node_b, r.alpha, sign, &rd.rss, &rd.anchor_m,
                  &rd.receiver_height_m);
+      return rd;
+    };
+    if (anchor_state && r.kind == Reading::Kind::kRss) {  // Build: RSS in dB then
+      const RssFactor<2>::Reading rd = rss_reading();
       keys.push_back(internal::AnchorPositionKey(r.index));
       keys.push_back(PathLossKey(PathLossGroup(r.index)));
       add(two ? AnchorRssFactor<2>::CreateInterpolated(rd, r.alpha)
@@ -164,15 +169,7 @@ void StepGraph::Impl::AddReadingFactors(int k, std::vector<GraphFactor>* out) co
               : AnchorRangeFactor<2>::Create(r.value, anchor.z(), range_sigma, o.receiver_height_m),
           keys, range_loss);
     } else if (r.kind == Reading::Kind::kRss && o.rss_residual == RssResidual::kDb) {
-      RssFactor<2>::Reading rd;
-      rd.rss = r.value;
-      rd.anchor_m = anchor;
-      rd.sigma_db = pl.sigma_db;
-      rd.sign = sign;
-      rd.d0_m = pl.d0_m;
-      rd.receiver_height_m = o.receiver_height_m;
-      FloorAware(r.index, r.node_a, r.node_b, r.alpha, sign, &rd.rss, &rd.anchor_m,
-                 &rd.receiver_height_m);
+      const RssFactor<2>::Reading rd = rss_reading();
       keys.push_back(PathLossKey(PathLossGroup(r.index)));
       add(two ? RssFactor<2>::CreateInterpolated(rd, r.alpha) : RssFactor<2>::Create(rd), keys,
           rss_loss);

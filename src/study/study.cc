@@ -2,23 +2,11 @@
 #include "walkgraph/study.h"
 
 #include <algorithm>
-#include <cctype>
 #include <cmath>
-#include <cstdio>
-#include <filesystem>
-#include <fstream>
-#include <iomanip>
 #include <limits>
-#include <set>
-#include <sstream>
 
-#include "config/reader.h"
 #include "eval/pcrb_yaml.h"
-#include "report/estimator_style.h"
-#include "report/svg.h"
 #include "study/study_internal.h"
-#include "util/input_file.h"
-#include "util/text.h"
 #include "walkgraph/config.h"
 #include "walkgraph/io.h"
 #include "walkgraph/simulate.h"
