@@ -37,7 +37,7 @@ Status RegisterCorrea(EstimatorRegistry* registry);                 // filters/c
 Status RegisterPrieto(EstimatorRegistry* registry);                 // filters/prieto.cc
 Status RegisterGadeke(EstimatorRegistry* registry);                 // filters/gadeke.cc
 Status RegisterJimenezIez(EstimatorRegistry* registry);             // filters/jimenez.cc
-Status RegisterStepGraphSmoothers(EstimatorRegistry* registry);     // smoothers/step_graph.cc
+Status RegisterStepGraphSmoothers(EstimatorRegistry* registry);     // smoothers/step_graph_run.cc
 Status RegisterInsGraphBatch(EstimatorRegistry* registry);          // smoothers/ins_graph.cc
 Status RegisterInsGraphWindow(EstimatorRegistry* registry);         // smoothers/ins_window.cc
 

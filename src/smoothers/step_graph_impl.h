@@ -1,8 +1,8 @@
-// StepGraph's internals shared by step_graph.cc (building the graph, the estimators) and
-// step_graph_factors.cc (its states and factors, node by node). The factors' autodiff (Jet) code
-// is instantiated in step_graph_factors.cc alone, which CMakeLists.txt compiles with room to
-// inline it (WALKGRAPH_JET_UNITS: GCC left the odometry factor's Jet arithmetic as calls, ~2x
-// its instructions, once its unit's inlining budget was spent).
+// StepGraph's internals shared by step_graph_build.cc (building the graph), step_graph_run.cc,
+// step_graph_window.cc and step_graph_factors.cc (its states and factors, node by node). The
+// factors' autodiff (Jet) code is instantiated in step_graph_factors.cc alone, which CMakeLists.txt
+// compiles with room to inline it (WALKGRAPH_JET_UNITS: GCC left the odometry factor's Jet
+// arithmetic as calls, ~2x its instructions, once its unit's inlining budget was spent).
 #ifndef WALKGRAPH_SRC_SMOOTHERS_STEP_GRAPH_IMPL_H_
 #define WALKGRAPH_SRC_SMOOTHERS_STEP_GRAPH_IMPL_H_
 
@@ -40,6 +40,13 @@ inline Key RangeBiasKey(int group) { return Symbol('b', static_cast<uint64_t>(gr
 inline Key RangeScaleKey(int group) { return Symbol('s', static_cast<uint64_t>(group)); }
 // p(a): the horizontal position of anchor index a, a state when it is not surveyed.
 inline Key AnchorPositionKey(int anchor) { return Symbol('p', static_cast<uint64_t>(anchor)); }
+
+// path_loss "auto" resolved for `walk`; *held_radio_only: auto held it (neither steps nor
+// odometry).
+PathLossMode ResolvePathLoss(const Walk& walk, const StepGraphOptions& o, bool* held_radio_only);
+// Nodes whose interval (t_{k−1}, t_k] overlaps an IMU gap, on walks whose steps come from the
+// IMU (imu_steps; odometry and radio-only walks have none).
+std::vector<bool> BridgedNodes(const Walk& walk, bool imu_steps, const std::vector<double>& t);
 
 }  // namespace internal
 

@@ -1,0 +1,590 @@
+// fg-batch (StepGraphBatch), what it shares with fg-window (step_graph_run.h) and the
+// registration of the step-graph smoothers.
+#include <algorithm>
+#include <cmath>
+#include <functional>
+#include <limits>
+#include <map>
+#include <set>
+#include <string>
+
+#include "config/parsers.h"
+#include "estimators/builtin.h"
+#include "smoothers/anchor_search.h"
+#include "smoothers/step_graph_impl.h"
+#include "smoothers/step_graph_run.h"
+#include "walkgraph/smoothers/step_graph.h"
+
+namespace walkgraph {
+namespace internal {
+
+Status CheckStepWalk(const Walk& walk) {
+  if (!walk.has_odometry() && !walk.has_imu() &&
+      (!(walk.has_rss() || walk.has_ranges()) || walk.anchors.size() < 3)) {
+    return FailedPrecondition(
+        "the step graph needs odometry.csv or an IMU (steps), or radio to >= 3 anchors");
+  }
+  return Status::Ok();
+}
+
+void AddStaticDiagnostics(const StepGraph& graph,
+                          const std::function<std::vector<double>(Key)>& value_of, const Walk& walk,
+                          const StepGraphOptions& o, std::map<std::string, double>* d) {
+  // Name: "<what>" for a walk-wide block, "<what>.<anchor id>" per anchor.
+  auto name = [&](const std::string& what, bool per_anchor, int group) {
+    return per_anchor ? what + "." + std::to_string(walk.anchors[group].id) : what;
+  };
+  for (const GraphState& s : graph.StaticStates()) {
+    if (s.constant) continue;
+    const std::vector<double> v = value_of(s.key);
+    const char letter = SymbolLetter(s.key);
+    const int g = static_cast<int>(SymbolIndex(s.key));
+    if (s.key == kGyroBiasKey) {
+      (*d)["gyro_bias_radps"] = v[0];
+    } else if (letter == 'p') {  // an anchor's position (fg-batch: anchors_estimated too)
+      (*d)[name("anchor_x_m", true, g)] = v[0];
+      (*d)[name("anchor_y_m", true, g)] = v[1];
+    } else if (letter == 's') {
+      (*d)[name("range_scale", o.range_scale == CalibrationScope::kPerAnchor, g)] = v[0];
+    } else if (letter == 'b') {
+      (*d)[name("range_bias_m", o.range_bias == CalibrationScope::kPerAnchor, g)] = v[0];
+    } else {  // l(g): per anchor unless global; m(0): hierarchical's walk-wide mean
+      const bool per_anchor = letter == 'l' && graph.path_loss_per_anchor();
+      (*d)[name("path_loss_A", per_anchor, g)] = v[0];
+      (*d)[name("path_loss_eta", per_anchor, g)] = v[1];
+    }
+  }
+}
+
+void AddGraphDiagnostics(const StepGraph& graph, const Walk& walk,
+                         std::map<std::string, double>* d) {
+  if (walk.has_rss()) {
+    (*d)["path_loss_estimated"] = graph.path_loss_estimated() ? 1.0 : 0.0;
+    if (graph.path_loss_held_radio_only()) (*d)["path_loss_held_radio_only"] = 1.0;
+  }
+  if (graph.start_heading_contradicted_rad() > 0.0) {
+    (*d)["start_heading_contradicted_rad"] = graph.start_heading_contradicted_rad();
+  }
+  if (graph.has_floors()) (*d)["stair_steps"] = graph.stair_steps();
+  if (walk.has_imu() && !walk.has_odometry()) AddFrontEndDiagnostics(graph.front_end_report(), d);
+}
+
+// A node's height and the floor it is on.
+void SetHeight(const StepGraph& graph, double z_m, TrajectoryPoint* point) {
+  point->position_m.z() = z_m;
+  point->floor = graph.FloorOfHeight(z_m);
+}
+
+TrajectoryPoint MakePoint(double t, const double* p, double theta) {
+  TrajectoryPoint pt;
+  pt.t_s = t;
+  pt.position_m = Eigen::Vector3d(p[0], p[1], 0.0);
+  pt.heading_rad = NormalizeAngle(theta);
+  return pt;
+}
+
+// (x, y, θ) covariance from a node's tangent-space covariance: 3×3, or 2×2 when the heading
+// is not a state (radio-only walks: θ uniform, variance π²/3).
+// c is the marginal of a node's variable blocks (position 2, heading 1); a constant block (the
+// gauge node of a walk with neither a known start nor radio) is exact and drops out of c.
+Eigen::Matrix3d PoseCovariance(const Eigen::MatrixXd& c) {
+  if (c.rows() == 3) return Eigen::Matrix3d(c);
+  Eigen::Matrix3d out = Eigen::Matrix3d::Zero();
+  if (c.rows() == 0) return out;  // both blocks constant
+  if (c.rows() == 1) {            // position constant, heading free
+    out(2, 2) = c(0, 0);
+    return out;
+  }
+  out.topLeftCorner<2, 2>() = c.topLeftCorner<2, 2>();
+  out(2, 2) = kPi * kPi / 3.0;
+  return out;
+}
+
+// The graph's own motion model between nodes: a step moves the walker only during its last
+// max_step_duration_s, so across a longer gap (a stop) the walker stays at the previous node
+// until then. An extra output point there keeps interpolated positions on that model. A
+// bridged step (across an IMU gap) moves over its whole interval: no stop.
+void InsertStops(const Walk& walk, double max_step_duration_s, Trajectory* trajectory) {
+  std::vector<double> t;
+  for (const TrajectoryPoint& p : trajectory->points) t.push_back(p.t_s);
+  const std::vector<bool> bridged = BridgedNodes(walk, walk.has_imu() && !walk.has_odometry(), t);
+  std::vector<TrajectoryPoint> out;
+  out.reserve(trajectory->points.size());
+  for (size_t k = 0; k < trajectory->points.size(); ++k) {
+    const TrajectoryPoint& p = trajectory->points[k];
+    if (k > 0 && !bridged[k]) {
+      const TrajectoryPoint& prev = trajectory->points[k - 1];
+      const double start = p.t_s - max_step_duration_s;
+      if (start > prev.t_s + 1e-6) {
+        TrajectoryPoint still = prev;
+        still.t_s = start;
+        out.push_back(still);
+      }
+    }
+    out.push_back(p);
+  }
+  trajectory->points = std::move(out);
+}
+
+// fg-batch's solver options.
+SolverOptions BatchSolverOptions(const StepGraphOptions& o) {
+  SolverOptions so;
+  so.max_iterations = o.max_iterations;
+  so.initial_trust_region_radius = o.initial_trust_region_radius;
+  so.function_tolerance = o.function_tolerance;
+  so.parameter_tolerance = o.parameter_tolerance;
+  so.num_threads = o.num_threads;
+  return so;
+}
+
+// The start hypotheses of StepGraphOptions::start_estimators (StepGraph::HypothesesFrom) over
+// the nodes with t <= until_s; causal: the filters only (an id ending in "-rts" gives its
+// filter's, the id without it). An estimator
+// that cannot run on the walk, or fails, gives none; an id the registry does not know is an
+// error.
+StatusOr<std::vector<NamedStart>> EstimatorStarts(const Walk& walk, const StepGraph& graph,
+                                                  const StepGraphOptions& o, bool causal,
+                                                  double until_s) {
+  std::vector<NamedStart> out;
+  if (walk.meta.initial_pose || !(walk.has_rss() || walk.has_ranges()) ||
+      !(walk.has_imu() || walk.has_odometry())) {
+    return out;
+  }
+  const std::vector<std::string> ids = StartEstimatorIds(o.start_estimators);
+  for (size_t i = 0; i < ids.size(); ++i) {
+    const std::string& id = ids[i];
+    const bool smoother = id.size() > 4 && id.compare(id.size() - 4, 4, "-rts") == 0;
+    const std::string run = causal && smoother ? id.substr(0, id.size() - 4) : id;
+    WG_ASSIGN_OR_RETURN(std::unique_ptr<Estimator> e, EstimatorRegistry::Builtin().Create(run));
+    if (!e->CheckApplicable(walk).ok()) continue;
+    StatusOr<EstimateResult> r = e->Run(walk);
+    if (!r.ok()) continue;  // the other hypotheses still stand
+    auto h = graph.HypothesesFrom(r->trajectory, until_s);
+    if (h.size() != 2) continue;
+    out.push_back({run + "/aligned", std::move(h[0]), static_cast<int>(i) + 1});
+    out.push_back({run, std::move(h[1]), static_cast<int>(i) + 1});
+  }
+  return out;
+}
+
+}  // namespace internal
+
+using internal::AddGraphDiagnostics;
+using internal::AddStaticDiagnostics;
+using internal::BatchSolverOptions;
+using internal::CheckStepWalk;
+using internal::EstimatorStarts;
+using internal::InsertStops;
+using internal::kGyroBiasKey;
+using internal::MakePoint;
+using internal::NamedStart;
+using internal::PoseCovariance;
+using internal::ResolvePathLoss;
+using internal::RunWindowNodes;
+using internal::SetHeight;
+
+namespace {
+
+// fg-batch's start hypotheses on a walk with no start: StartHypotheses' turns (named 1..n),
+// then EstimatorStarts.
+StatusOr<std::vector<NamedStart>> BatchStarts(const Walk& walk, const StepGraph& graph,
+                                              const StepGraphOptions& o) {
+  std::vector<NamedStart> starts;
+  for (auto& h : graph.StartHypotheses(walk, o.start_hypotheses)) {
+    starts.push_back({std::to_string(starts.size() + 1), std::move(h), 0});
+  }
+  WG_ASSIGN_OR_RETURN(
+      std::vector<NamedStart> more,
+      EstimatorStarts(walk, graph, o, /*causal=*/false, std::numeric_limits<double>::infinity()));
+  for (NamedStart& h : more) starts.push_back(std::move(h));
+  return starts;
+}
+
+// fg-batch's start hypotheses (BatchStarts): each solved from its own initial nodes; returns
+// the graph of the lowest final cost when one beats `*best` (whose summary it then takes),
+// else null. Diagnostics: start_hypothesis (0: fg-batch's own initialization, k: the k-th
+// hypothesis), start_hypothesis_cost.<name> per hypothesis (.0 its own) and
+// start_hypothesis_estimator (NamedStart::estimator of the winner).
+StatusOr<std::unique_ptr<FactorGraph>> SolveStartHypotheses(const StepGraph& graph,
+                                                            const std::vector<NamedStart>& starts,
+                                                            const SolverOptions& so,
+                                                            SolveSummary* best,
+                                                            std::map<std::string, double>* d) {
+  std::unique_ptr<FactorGraph> winner;
+  if (starts.empty()) return winner;
+  (*d)["start_hypothesis"] = 0;
+  (*d)["start_hypothesis_estimator"] = 0;
+  (*d)["start_hypothesis_cost.0"] = best->final_cost;
+  for (size_t h = 0; h < starts.size(); ++h) {
+    auto fg = std::make_unique<FactorGraph>();
+    WG_RETURN_IF_ERROR(graph.AddTo(fg.get()));
+    for (size_t k = 0; k < starts[h].nodes.size(); ++k) {
+      const Eigen::Vector3d& x = starts[h].nodes[k];
+      const int node = static_cast<int>(k);
+      WG_RETURN_IF_ERROR(fg->SetValue(StepGraph::PositionKey(node), {x[0], x[1]}));
+      WG_RETURN_IF_ERROR(fg->SetValue(StepGraph::HeadingKey(node), {x[2]}));
+    }
+    StatusOr<SolveSummary> summary = SolveBatch(fg.get(), so);
+    if (!summary.ok()) continue;  // a hypothesis that fails to solve is not taken
+    (*d)["start_hypothesis_cost." + starts[h].name] = summary->final_cost;
+    if (summary->final_cost < best->final_cost) {
+      *best = *summary;
+      (*d)["start_hypothesis"] = static_cast<double>(h + 1);
+      (*d)["start_hypothesis_estimator"] = starts[h].estimator;
+      winner = std::move(fg);
+    }
+  }
+  return winner;
+}
+
+}  // namespace
+
+Status StepGraphBatch::CheckApplicable(const Walk& walk) const { return CheckStepWalk(walk); }
+
+Status StepGraph::AddTo(FactorGraph* fg) const {
+  for (GraphState& s : StaticStates()) WG_RETURN_IF_ERROR(fg->AddState(std::move(s)));
+  for (int k = 0; k < num_nodes(); ++k) {
+    const Eigen::Vector3d& x = init_[k];
+    for (GraphState& s : NodeStates(k, x.head<2>(), x[2])) {
+      if (k > 0 && s.key == PositionKey(k)) s.value = {x[0], x[1]};
+      if (k > 0 && s.key == HeadingKey(k)) s.value = {x[2]};
+      WG_RETURN_IF_ERROR(fg->AddState(std::move(s)));
+    }
+  }
+  for (int k = 0; k < num_nodes(); ++k) {
+    for (GraphFactor& f : FactorsAt(k)) WG_RETURN_IF_ERROR(fg->AddFactor(std::move(f)));
+  }
+  return Status::Ok();
+}
+
+namespace {
+
+// The anchors that are states (StepGraph::AnchorIsState) at their solved positions, into `out`;
+// returns their indices.
+std::vector<int> AnchorEstimates(const Walk& walk, const StepGraph& graph,
+                                 const std::function<std::vector<double>(Key)>& value,
+                                 std::vector<AnchorEstimate>* out) {
+  std::vector<int> states;
+  for (size_t a = 0; a < walk.anchors.size(); ++a) {
+    if (!graph.AnchorIsState(static_cast<int>(a))) continue;
+    states.push_back(static_cast<int>(a));
+    AnchorEstimate e;
+    e.id = walk.anchors[a].id;
+    const std::vector<double> v = value(StepGraph::AnchorKey(static_cast<int>(a)));
+    e.position_m = Eigen::Vector2d(v[0], v[1]);
+    for (const RssSample& r : walk.rss) e.readings += r.anchor_id == e.id ? 1 : 0;
+    for (const RangeSample& r : walk.ranges) e.readings += r.anchor_id == e.id ? 1 : 0;
+    out->push_back(e);
+  }
+  return states;
+}
+
+// One fg-batch solve of `walk`. `from` (not null): start every node there (a previous solve's
+// nodes) instead of fg-batch's own initialization, with no start hypotheses. `nodes` (not
+// null): the solution's (p, θ) per node. Anchors that are states (StepGraph::AnchorIsState)
+// come back in result.anchors with their covariance.
+StatusOr<EstimateResult> SolveBatchWalk(const Walk& walk, const StepGraphOptions& options_,
+                                        const std::vector<Eigen::Vector3d>* from,
+                                        std::vector<Eigen::Vector3d>* nodes) {
+  WG_ASSIGN_OR_RETURN(std::unique_ptr<StepGraph> graph, StepGraph::Build(walk, options_));
+  const int n = graph->num_nodes();
+
+  FactorGraph fg;
+  WG_RETURN_IF_ERROR(graph->AddTo(&fg));
+  const SolverOptions so = BatchSolverOptions(options_);
+  // auto: dead reckoning for odometry walks (wheel odometry barely drifts), the window for
+  // IMU steps (a gyro's heading drift over a long walk leaves dead reckoning in a wrong basin:
+  // measured on correa-classroom 0.85 → 0.23 m RMSE, gadeke-outage 18.8 → 0.71 m).
+  const bool window_init =
+      from == nullptr &&
+      (options_.initialization == StepGraphInit::kWindow ||
+       (options_.initialization == StepGraphInit::kAuto && !walk.has_odometry()));
+  if (from != nullptr) {
+    if (static_cast<int>(from->size()) != n) {
+      return InternalError("fg-batch: a previous solve has a different node count");
+    }
+    for (int k = 0; k < n; ++k) {
+      const Eigen::Vector3d& x = (*from)[k];
+      WG_RETURN_IF_ERROR(fg.SetValue(StepGraph::PositionKey(k), {x[0], x[1]}));
+      WG_RETURN_IF_ERROR(fg.SetValue(StepGraph::HeadingKey(k), {x[2]}));
+    }
+  }
+  if (window_init) {
+    // Start from the fixed-lag smoother's lagged estimates (it grows the solution
+    // incrementally, so it does not get lost).
+    StepGraphOptions wo = options_;
+    wo.covariance = false;
+    wo.window_output = WindowOutput::kLagged;
+    wo.lag_s = options_.init_lag_s;
+    wo.window_update_s = options_.init_update_s;
+    wo.window_max_iterations = options_.init_max_iterations;
+    // fg-batch's own stop; fg-window's looser one moves fg-batch's local optimum on robust
+    // walks (BLE straight_03 1.231 → 1.254 m).
+    wo.window_function_tolerance = options_.function_tolerance;
+    WG_ASSIGN_OR_RETURN(EstimateResult w, RunWindowNodes(walk, wo));
+    if (static_cast<int>(w.trajectory.size()) != n) {
+      return InternalError("fg-batch: window initialization returned a different node count");
+    }
+    for (int k = 0; k < n; ++k) {
+      const TrajectoryPoint& pt = w.trajectory.points[k];
+      WG_RETURN_IF_ERROR(
+          fg.SetValue(StepGraph::PositionKey(k), {pt.position_m.x(), pt.position_m.y()}));
+      WG_RETURN_IF_ERROR(fg.SetValue(StepGraph::HeadingKey(k), {pt.heading_rad}));
+    }
+  }
+  StatusOr<SolveSummary> summary = SolveBatch(&fg, so);
+  if (!summary.ok()) return NumericalError("fg-batch: " + summary.status().message());
+  std::map<std::string, double> start_d;
+  std::vector<NamedStart> starts;
+  if (from == nullptr) {
+    WG_ASSIGN_OR_RETURN(starts, BatchStarts(walk, *graph, options_));
+  }
+  WG_ASSIGN_OR_RETURN(std::unique_ptr<FactorGraph> better,
+                      SolveStartHypotheses(*graph, starts, so, &*summary, &start_d));
+  FactorGraph& fg_best = better ? *better : fg;
+
+  EstimateResult result;
+  auto& d = result.diagnostics;
+  d.insert(start_d.begin(), start_d.end());
+  d["ceres_iterations"] = summary->iterations;
+  d["ceres_converged"] = summary->termination == Termination::kConverged ? 1.0 : 0.0;
+  d["final_cost"] = summary->final_cost;
+  d["normalized_cost"] = summary->normalized_cost();  // 2F/(m − n), ≈ 1 if consistent
+  d["initialized_from_window"] = window_init ? 1.0 : 0.0;
+  d["nodes"] = n;
+  d["residual_blocks"] = static_cast<double>(fg_best.num_factors());
+  auto value = [&](Key k) { return *fg_best.Value(k); };  // every key below is in the graph
+  AddStaticDiagnostics(*graph, value, walk, options_, &d);
+  AddGraphDiagnostics(*graph, walk, &d);
+  for (int k = 0; k < n; ++k) {
+    result.trajectory.points.push_back(MakePoint(graph->node_time(k),
+                                                 value(StepGraph::PositionKey(k)).data(),
+                                                 value(StepGraph::HeadingKey(k))[0]));
+    if (graph->has_floors())
+      SetHeight(*graph, value(StepGraph::HeightKey(k))[0], &result.trajectory.points.back());
+  }
+  if (nodes != nullptr) {
+    nodes->clear();
+    for (const TrajectoryPoint& p : result.trajectory.points) {
+      nodes->emplace_back(p.position_m.x(), p.position_m.y(), p.heading_rad);
+    }
+  }
+  const std::vector<int> anchor_states = AnchorEstimates(walk, *graph, value, &result.anchors);
+  if (!anchor_states.empty()) {
+    // The frame the anchors are in: 0 the known start's, 1 the anchors' of given position,
+    // 2 the walk's own (node 0 held where it started).
+    d["gauge"] = walk.meta.initial_pose ? 0.0 : graph->fix_first_node() ? 2.0 : 1.0;
+  }
+  if (options_.covariance) {
+    std::vector<std::vector<Key>> groups;
+    for (int k = 0; k < n; ++k) {
+      groups.push_back({StepGraph::PositionKey(k), StepGraph::HeadingKey(k)});
+    }
+    for (int a : anchor_states) groups.push_back({StepGraph::AnchorKey(a)});
+    auto cov = MarginalCovariances(&fg_best, groups);
+    if (!cov.ok()) {
+      d["covariance_failed"] = 1.0;  // e.g. rank-deficient: trajectory without covariances
+    } else {
+      for (int k = 0; k < n; ++k) {
+        result.trajectory.points[k].covariance = PoseCovariance((*cov)[k]);
+      }
+      for (size_t i = 0; i < anchor_states.size(); ++i) {
+        const Eigen::MatrixXd& c = (*cov)[n + i];
+        result.anchors[i].covariance = Eigen::Matrix2d(0.5 * (c + c.transpose()));
+      }
+    }
+  }
+  InsertStops(walk, options_.max_step_duration_s, &result.trajectory);
+  return result;
+}
+
+// Where the path was at time t: the nodes' positions, interpolated.
+Eigen::Vector2d PathAt(const std::vector<double>& t, const std::vector<Eigen::Vector3d>& x,
+                       double ts) {
+  const auto it = std::lower_bound(t.begin(), t.end(), ts);
+  if (it == t.begin()) return x.front().head<2>();
+  if (it == t.end()) return x.back().head<2>();
+  const size_t b = static_cast<size_t>(it - t.begin());
+  const double w = (ts - t[b - 1]) / (t[b] - t[b - 1]);
+  return (1.0 - w) * x[b - 1].head<2>() + w * x[b].head<2>();
+}
+
+// The grid search's options for a range anchor and for an RSS one (anchor_search.h), from the
+// graph's options and the first solve's estimates (diagnostics `fd`).
+struct SearchSetup {
+  internal::AnchorSearchOptions range, rss;
+};
+SearchSetup SearchOptions(const Walk& walk, const StepGraphOptions& o,
+                          const std::map<std::string, double>& fd) {
+  const PathLossParams& pl = walk.meta.radio.path_loss;
+  internal::AnchorSearchOptions so;
+  so.margin_m = o.anchor_search_margin_m;
+  so.step_m = o.anchor_search_step_m;
+  so.min_readings = o.anchor_min_readings;
+  so.min_spread_m = o.anchor_min_spread_m;
+  so.distinct_radius_m = o.anchor_distinct_radius_m;
+  so.min_cost_gap = o.anchor_min_cost_gap;
+  SearchSetup out{so, so};
+  internal::AnchorSearchOptions& r = out.range;
+  r.range = true;
+  r.sigma = o.range_sigma_m > 0 ? o.range_sigma_m : walk.meta.radio.range_sigma_m;
+  r.loss_scale = o.range_loss_scale;
+  r.range_scale = fd.count("range_scale") ? fd.at("range_scale") : 0.0;
+  // The anchor's bias: held where the graph holds it (at the walk's estimate when there is
+  // one bias for the walk), else free with its prior.
+  r.level_prior_sigma = o.range_bias == CalibrationScope::kNone ? 0.0 : o.range_bias_prior_sigma_m;
+  if (o.range_bias == CalibrationScope::kGlobal && fd.count("range_bias_m")) {
+    r.level_prior = fd.at("range_bias_m");
+    r.level_prior_sigma = 0.0;
+  }
+  // An RSS anchor's transmit level A: the walk's (held: σ 0), or the first solve's estimate with
+  // the spread one anchor may have around it, else the prior.
+  internal::AnchorSearchOptions& q = out.rss;
+  q.range = false;
+  q.sigma = o.sigma_db > 0 ? o.sigma_db : pl.sigma_db;
+  q.loss_scale = o.rss_loss_scale;
+  q.sign = walk.meta.radio.units == RssUnits::kDbm ? 1.0 : -1.0;
+  q.d0_m = pl.d0_m;
+  bool held_radio_only = false;
+  const PathLossMode mode = ResolvePathLoss(walk, o, &held_radio_only);
+  const bool A_estimated = fd.count("path_loss_A") > 0;
+  q.level_prior = A_estimated ? fd.at("path_loss_A") : std::isfinite(o.A_dbm) ? o.A_dbm : pl.A_dbm;
+  q.eta = fd.count("path_loss_eta") ? fd.at("path_loss_eta") : o.eta > 0 ? o.eta : pl.eta;
+  q.level_prior_sigma = o.A_prior_sigma_db;
+  if (mode == PathLossMode::kFixed || (mode == PathLossMode::kGlobal && A_estimated)) {
+    q.level_prior_sigma = 0.0;
+  } else if (mode == PathLossMode::kHierarchical) {
+    q.level_prior_sigma =
+        A_estimated ? o.A_spread_prior_db : std::hypot(o.A_prior_sigma_db, o.A_spread_prior_db);
+  }
+  return out;
+}
+
+// fg-batch on a walk with anchors of unknown position (step_graph.h, "Anchors of unknown
+// position"): the walk without them solved first; each placed on that path by a grid search
+// (anchor_search.h) or declared unobservable and left out; then every placed anchor a state
+// in one joint solve from the first solution.
+StatusOr<EstimateResult> SolveWithUnknownAnchors(const Walk& walk, const StepGraphOptions& o) {
+  UnknownAnchorsDropped dropped;
+  const Walk known = WithoutUnknownAnchors(walk, &dropped);
+  std::vector<Eigen::Vector3d> first_nodes;
+  WG_ASSIGN_OR_RETURN(EstimateResult first, SolveBatchWalk(known, o, nullptr, &first_nodes));
+  std::vector<double> node_t;
+  // The node times: the first solve's trajectory without the stops InsertStops added.
+  WG_ASSIGN_OR_RETURN(std::unique_ptr<StepGraph> first_graph, StepGraph::Build(known, o));
+  for (int k = 0; k < first_graph->num_nodes(); ++k) node_t.push_back(first_graph->node_time(k));
+
+  const bool radio_only = !walk.has_odometry() && !walk.has_imu();
+  const SearchSetup search = SearchOptions(walk, o, first.diagnostics);
+  Walk joint = walk;
+  std::vector<AnchorEstimate> unobservable;
+  std::map<std::string, double> verdicts;
+  std::set<int> left_out;
+  for (Anchor& a : joint.anchors) {
+    if (a.position_known) continue;
+    std::vector<Eigen::Vector2d> q;
+    std::vector<double> v;
+    // Its ranges (a ranging radio); an anchor without ranges, its RSS readings.
+    for (const RangeSample& r : walk.ranges) {
+      if (r.anchor_id != a.id) continue;
+      q.push_back(PathAt(node_t, first_nodes, r.t_s));
+      v.push_back(r.range_m);
+    }
+    const bool range = !v.empty();
+    for (const RssSample& r : walk.rss) {
+      if (range || r.anchor_id != a.id) continue;
+      q.push_back(PathAt(node_t, first_nodes, r.t_s));
+      v.push_back(r.rss);
+    }
+    internal::AnchorSearchOptions so = range ? search.range : search.rss;
+    so.dz_m = o.receiver_height_m - walk.AnchorHeightM(a);
+    // A radio-only walk has no path without its anchors to search along.
+    const internal::AnchorSearchResult found =
+        radio_only ? internal::AnchorSearchResult{} : internal::SearchAnchor(q, v, so);
+    if (!radio_only && found.verdict != internal::AnchorSearchResult::Verdict::kFewReadings &&
+        found.verdict != internal::AnchorSearchResult::Verdict::kNarrowGeometry) {
+      // How clearly the best place stood out (the other basin's cost above it; inf: none).
+      verdicts["anchor_search_gap." + std::to_string(a.id)] = found.second_cost - found.cost;
+    }
+    if (!radio_only && found.placed()) {
+      a.position_m.head<2>() = found.position_m;
+      continue;
+    }
+    AnchorEstimate e;
+    e.id = a.id;
+    e.observable = false;
+    e.readings = static_cast<int>(v.size());
+    unobservable.push_back(e);
+    left_out.insert(a.id);
+    verdicts[std::string("unknown_anchors_unobservable.") +
+             (radio_only ? "radio_only" : internal::ToString(found.verdict))] += 1.0;
+  }
+  // The unobservable anchors leave the walk with their readings.
+  UnknownAnchorsDropped left;
+  const Walk solved = WithoutAnchors(joint, left_out, &left);
+  EstimateResult result;
+  if (static_cast<int>(left_out.size()) == dropped.anchors) {
+    result = std::move(first);  // nothing placed: the first solve is the answer
+  } else {
+    WG_ASSIGN_OR_RETURN(result, SolveBatchWalk(solved, o, &first_nodes, nullptr));
+    result.diagnostics["unknown_anchors_first_pass_cost"] = first.diagnostics["final_cost"];
+  }
+  auto& d = result.diagnostics;
+  d.insert(verdicts.begin(), verdicts.end());
+  d["unknown_anchors"] = dropped.anchors;
+  d["unknown_anchors_estimated"] = dropped.anchors - static_cast<double>(left_out.size());
+  d["unknown_anchors_unobservable"] = static_cast<double>(left_out.size());
+  d["unknown_anchor_readings_ignored"] = left.rss_readings + left.range_readings;
+  if (!d.count("gauge")) {  // nothing placed: the first solve's frame
+    int placed = 0;
+    std::set<int> heard;
+    for (const RssSample& r : known.rss) heard.insert(r.anchor_id);
+    for (const RangeSample& r : known.ranges) heard.insert(r.anchor_id);
+    for (const Anchor& a : known.anchors) placed += heard.count(a.id) ? 1 : 0;
+    d["gauge"] = walk.meta.initial_pose ? 0.0 : placed >= 2 ? 1.0 : 2.0;
+  }
+  for (AnchorEstimate& e : unobservable) result.anchors.push_back(e);
+  return result;
+}
+
+}  // namespace
+
+StatusOr<EstimateResult> StepGraphBatch::Run(const Walk& walk) const {
+  WG_RETURN_IF_ERROR(CheckApplicable(walk));
+  if (walk.has_unknown_anchors()) return SolveWithUnknownAnchors(walk, options_);
+  return SolveBatchWalk(walk, options_, nullptr, nullptr);
+}
+
+namespace internal {
+
+Status RegisterStepGraphSmoothers(EstimatorRegistry* registry) {
+  auto parse = [](const char* id, StepGraphOptions defaults) {
+    return [id, defaults](const YAML::Node& config) {
+      return StepGraphOptionsFromYaml(config, id, defaults);
+    };
+  };
+  StepGraphOptions selfcal;
+  selfcal.path_loss = PathLossMode::kGlobal;
+  StepGraphOptions online;
+  online.window_output = WindowOutput::kOnline;
+  WG_RETURN_IF_ERROR(registry->Register(
+      {"fg-batch",
+       "factor graph, full batch: steps/odometry + RSS (dB) / ranges (bias, robust), Ceres "
+       "sparse Cholesky",
+       OptionsFactory<StepGraphBatch>(parse("fg-batch", StepGraphOptions())),
+       /*estimates_unknown_anchors=*/true}));
+  WG_RETURN_IF_ERROR(registry->Register(
+      {"fg-batch-selfcal", "fg-batch with path-loss self-calibration (A, η estimated; weak prior)",
+       OptionsFactory<StepGraphBatch>(parse("fg-batch-selfcal", selfcal)),
+       /*estimates_unknown_anchors=*/true}));
+  WG_RETURN_IF_ERROR(registry->Register(
+      {"fg-window",
+       "factor graph, fixed-lag smoother (10 s lag, marginalization prior): lagged estimates",
+       OptionsFactory<StepGraphWindow>(parse("fg-window", StepGraphOptions()))}));
+  return registry->Register({"fg-window-online",
+                             "fg-window's online output: each node right after its own update",
+                             OptionsFactory<StepGraphWindow>(parse("fg-window-online", online))});
+}
+
+}  // namespace internal
+}  // namespace walkgraph
