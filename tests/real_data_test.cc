@@ -257,9 +257,11 @@ TEST(PhoneWalkRealData, IpinKnownStartNeedsNoConfig) {
 // filters' trajectories included, ends in the same minimum (final costs equal to 1e-6
 // relative), so the error is the cost's global minimum, not the start (on 01 a waypoint at the
 // true first landmark gives 6.13 m at +7.1 in cost). There the test holds today's figure
-// (+5 %) and says the target is not met. fg-window and its online output, whose first window
-// takes the filters' hypotheses: <= 1.05x the figures measured with them (before: 13.61 /
-// 18.44 / 25.63 / 51.52 m and 13.29 / 18.25 / 27.91 / 51.52 m).
+// (+5 %) and says the target is not met. fg-window, whose first window takes the filters'
+// hypotheses: <= 1.05x the figures measured with them (before: 13.61 / 18.44 / 25.63 / 51.52
+// m). Its online output is causal and takes none (step_graph.h start_estimators): <= 1.05x
+// today's 13.29 / 18.25 / 27.91 / 51.52 m (with the look-ahead it had 13.27 / 16.32 / 6.03 /
+// 51.52 here, but 52 m outside the scene on 21 with the path loss fitted on 01).
 TEST(PhoneWalkRealData, IpinNoStartNeedsNoConfig) {
   const std::string dir = kShared + "/ipin2023_t3";
   if (!fs::exists(dir)) GTEST_SKIP() << dir << " not present";
@@ -269,9 +271,9 @@ TEST(PhoneWalkRealData, IpinNoStartNeedsNoConfig) {
     double held_m;  // > 0: the target is not met, fg-batch held at this (today's p75)
     double window_m, online_m;
   };
-  const std::vector<Case> cases = {{"01", 10.56, 13.59, 13.27},
-                                   {"05", 0.0, 16.15, 16.32},
-                                   {"21", 0.0, 6.07, 6.03},
+  const std::vector<Case> cases = {{"01", 10.56, 13.59, 13.29},
+                                   {"05", 0.0, 16.15, 18.25},
+                                   {"21", 0.0, 6.07, 27.91},
                                    {"52", 52.38, 51.52, 51.52}};
   const YAML::Node none(YAML::NodeType::Map);
   int within_10m = 0;

@@ -400,6 +400,11 @@ TEST(StepGraphTest, NoStartTakesTheEstimatorsTrajectoriesAsHypotheses) {
   auto with_start = RunId("fg-window", *sim, cfg);
   ASSERT_TRUE(with_start.ok());
   EXPECT_FALSE(with_start->diagnostics.count("first_window_estimator"));
+  // The online output is causal: no first-window look-ahead.
+  auto online = RunId("fg-window-online", none, cfg);
+  ASSERT_TRUE(online.ok()) << online.status().message();
+  EXPECT_FALSE(online->diagnostics.count("first_window_estimator"));
+  EXPECT_FALSE(online->diagnostics.count("first_window_cost.0"));
   auto none_listed = RunId("fg-window", none, YAML::Load("{start_estimators: ''}"));
   ASSERT_TRUE(none_listed.ok());
   EXPECT_FALSE(none_listed->diagnostics.count("first_window_estimator"));

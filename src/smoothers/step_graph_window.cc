@@ -151,8 +151,10 @@ StatusOr<EstimateResult> RunWindowNodes(const Walk& walk, const StepGraphOptions
   const int n = graph->num_nodes();
   const bool online = options_.window_output == WindowOutput::kOnline;
   std::map<std::string, double> first_d;
-  WG_ASSIGN_OR_RETURN(const std::vector<Eigen::Vector3d> first,
-                      FirstWindowStart(walk, *graph, options_, &first_d));
+  std::vector<Eigen::Vector3d> first;  // the online output is causal: no first-window look-ahead
+  if (!online) {
+    WG_ASSIGN_OR_RETURN(first, FirstWindowStart(walk, *graph, options_, &first_d));
+  }
   FixedLagSmoother smoother(WindowSmootherOptions(options_));
 
   std::vector<TrajectoryPoint> points(n);
