@@ -187,6 +187,123 @@ TEST(ConfigReader, ReadsOnlyFiniteDecimalNumbers) {
   EXPECT_THAT(big.Finish().message(), HasSubstr("... (38 bytes)"));  // not echoed whole
 }
 
+// A seed: any uint64_t, nothing negative, nothing larger.
+TEST(ConfigReader, ReadsUnsigned64BitIntegers) {
+  ConfigReader r(YAML::Load("a: 18446744073709551615\nb: +7\n"), "x");
+  uint64_t a = 0, b = 0, absent = 5;
+  r.Read("a", &a);
+  r.Read("b", &b);
+  r.Read("absent", &absent);
+  ASSERT_TRUE(r.Finish().ok()) << r.Finish().message();
+  EXPECT_EQ(a, 18446744073709551615u);
+  EXPECT_EQ(b, 7u);
+  EXPECT_EQ(absent, 5u);
+  for (const char* bad : {"-1", "18446744073709551616", "1.5", "0x10"}) {
+    ConfigReader rb(YAML::Load(std::string("seed: ") + bad), "x");
+    uint64_t seed = 0;
+    rb.Read("seed", &seed);
+    EXPECT_THAT(rb.Finish().message(),
+                HasSubstr("x (line 1): option 'seed' must be a decimal integer in [0, "
+                          "18446744073709551615], found '" +
+                          std::string(bad) + "'"));
+  }
+}
+
+// A list of plain values, each as written; anything else is a type error at its line.
+TEST(ConfigReader, ReadsListsOfPlainValues) {
+  ConfigReader r(YAML::Load("ids: [a, 1.50, 'b c']\nempty: []\n"), "x");
+  std::vector<std::string> ids, empty = {"default"}, absent = {"kept"};
+  r.Read("ids", &ids);
+  r.Read("empty", &empty);
+  r.Read("absent", &absent);
+  ASSERT_TRUE(r.Finish().ok()) << r.Finish().message();
+  EXPECT_EQ(ids, (std::vector<std::string>{"a", "1.50", "b c"}));
+  EXPECT_TRUE(empty.empty());
+  EXPECT_EQ(absent, std::vector<std::string>{"kept"});
+  for (const char* bad : {"ids: a", "ids: [a, [b]]", "ids: {a: 1}"}) {
+    ConfigReader rb(YAML::Load(std::string("x: 1\n") + bad), "x");
+    std::vector<std::string> v = {"kept"};
+    rb.Read("ids", &v);
+    EXPECT_THAT(rb.Finish().message(),
+                HasSubstr("x (line 2): option 'ids' must be a list of plain values"))
+        << bad;
+    EXPECT_EQ(v, std::vector<std::string>{"kept"}) << bad;
+  }
+  auto recorded = RecordOptionDefaults([] {
+    std::vector<std::string> v = {"a", "b"};
+    uint64_t seed = 9;
+    ConfigReader rr(YAML::Node(), "x");
+    rr.Read("v", &v);
+    rr.Read("seed", &seed);
+    return rr.Finish();
+  });
+  ASSERT_TRUE(recorded.ok());
+  ASSERT_EQ(recorded->size(), 2u);
+  EXPECT_EQ(std::get<std::string>((*recorded)[0].value), "a, b");
+  EXPECT_EQ(std::get<std::string>((*recorded)[1].value), "9");
+}
+
+// Checks beyond a value's type: Has (a null value is not given), the line of a value or of an
+// item of its list (the map's own line when absent), and errors there.
+TEST(ConfigReader, HasLineAndErrorsAtAValueOrListItem) {
+  ConfigReader r(YAML::Load("a: 1\nnothing:\nlist:\n  - x\n  - y\nmap: {k: v}\n"), "ctx");
+  int a = 0;
+  std::string nothing;
+  std::vector<std::string> list;
+  r.Read("a", &a);
+  r.Read("nothing", &nothing);
+  r.Read("list", &list);
+  const YAML::Node map = r.Child("map");
+  ASSERT_TRUE(r.Finish().ok()) << r.Finish().message();
+  EXPECT_TRUE(r.Has("a"));
+  EXPECT_FALSE(r.Has("nothing"));
+  EXPECT_FALSE(r.Has("absent"));
+  EXPECT_EQ(r.Line("a"), 1);
+  EXPECT_EQ(r.Line("list"), 4);
+  EXPECT_EQ(r.Line("list", 1), 5);
+  EXPECT_EQ(r.Line("list", 7), 4);  // beyond the list: the list's line
+  EXPECT_EQ(r.Line("absent"), 1);   // the map's own
+  EXPECT_EQ(r.Line(""), 1);
+  EXPECT_EQ(r.Error("list", "y is not allowed", 1).message(), "ctx (line 5): y is not allowed");
+  EXPECT_EQ(r.Error("a", "too small").code(), StatusCode::kInvalidArgument);
+  EXPECT_EQ(r.ErrorAt(map["k"], "bad entry").message(), "ctx (line 6): bad entry");
+}
+
+// ForFile: a file's own settings (the study manifest), messages as "PATH:LINE: ..." naming keys,
+// the known keys listed in reading order; an estimator's messages stay as they were.
+TEST(ConfigReader, ForFileNamesFileLineAndKeys) {
+  const YAML::Node node = YAML::Load("name: x\nruns: many\n");
+  ConfigReader r = ConfigReader::ForFile(node, "m.yaml", "the manifest");
+  std::string name;
+  int runs = 1;
+  r.Read("name", &name);
+  r.Read("runs", &runs);
+  EXPECT_EQ(r.Finish().message(),
+            "m.yaml:2: runs must be a decimal integer in [-2147483648, 2147483647], found 'many'");
+  EXPECT_EQ(r.Error("name", "taken").message(), "m.yaml:1: taken");
+
+  ConfigReader u = ConfigReader::ForFile(YAML::Load("zeta: 1\nnmae: x\n"), "m.yaml", "a sweep");
+  double zeta = 0.0;
+  u.Read("zeta", &zeta);
+  u.Read("name", &name);
+  u.Read("alpha", &zeta);
+  EXPECT_EQ(u.Finish().message(),
+            "m.yaml:2: unknown key 'nmae' in a sweep; known: zeta, name, alpha");
+
+  ConfigReader list = ConfigReader::ForFile(YAML::Load("ids: {a: 1}\n"), "m.yaml", "x");
+  std::vector<std::string> ids;
+  list.Read("ids", &ids);
+  EXPECT_EQ(list.Finish().message(),
+            "m.yaml:1: ids must be a list of plain values ([a, b, ...]), found a map");
+
+  EXPECT_EQ(
+      ConfigReader::ForFile(YAML::Load("[1, 2]"), "m.yaml", "the manifest").Finish().message(),
+      "m.yaml:1: the manifest must be a map");
+  EXPECT_EQ(
+      ConfigReader::ForFile(YAML::Load("{[1]: 2}"), "m.yaml", "the manifest").Finish().message(),
+      "m.yaml:1: keys must be plain words");
+}
+
 TEST(LoadYamlText, RefusesRepeatedKeysSecondDocumentsAndAliasBombs) {
   EXPECT_THAT(LoadYamlText("a: 1\nb:\n  c: 1\n  c: 2\n", "f.yaml").status().message(),
               HasSubstr("f.yaml:4: duplicate key 'c'"));

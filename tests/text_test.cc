@@ -46,6 +46,17 @@ TEST(Fixed, DecimalsAfterThePoint) {
   EXPECT_EQ(Fixed(1e6, 1), "1000000.0");
 }
 
+TEST(ExactNum, ShortestTextThatReadsBack) {
+  EXPECT_EQ(ExactNum(0.1), "0.1");
+  EXPECT_EQ(ExactNum(2.0), "2");
+  EXPECT_EQ(ExactNum(-1.5), "-1.5");
+  EXPECT_EQ(ExactNum(1e-7), "1e-07");
+  EXPECT_EQ(ExactNum(0.1 + 0.2), "0.30000000000000004");  // every digit the double needs
+  for (const double v : {1.0 / 3.0, 123456.789e10, -2.2250738585072014e-308}) {
+    EXPECT_EQ(std::stod(ExactNum(v)), v) << ExactNum(v);
+  }
+}
+
 TEST(Split, KeepsEveryFieldAsItIs) {
   using V = std::vector<std::string>;
   EXPECT_EQ(Split("a,b,c", ','), (V{"a", "b", "c"}));

@@ -5,6 +5,7 @@
 #include <charconv>
 #include <set>
 #include <sstream>
+#include <variant>
 #include <vector>
 
 #include <yaml-cpp/eventhandler.h>
@@ -102,21 +103,85 @@ ConfigReader::ConfigReader(YAML::Node node, std::string context)
   }
 }
 
+ConfigReader ConfigReader::ForFile(YAML::Node node, std::string path, std::string what) {
+  ConfigReader r(YAML::Node(), std::move(path));  // no map check yet: messages in file form
+  r.node_ = std::move(node);
+  r.file_what_ = std::move(what);
+  if (r.node_.IsDefined() && !r.node_.IsNull() && !r.node_.IsMap()) {
+    r.first_error_ = InvalidArgument(r.At(r.node_) + ": " + r.file_what_ + " must be a map");
+  }
+  return r;
+}
+
+std::string ConfigReader::At(int line) const {
+  if (file_what_.empty())
+    return context_ + (line > 0 ? " (line " + std::to_string(line) + ")" : "");
+  return context_ + ":" + std::to_string(line);
+}
+
+std::string ConfigReader::At(const YAML::Node& node) const {
+  const YAML::Mark mark = node.Mark();
+  return At(mark.line >= 0 ? mark.line + 1 : 0);
+}
+
+namespace {
+
+// What RecordOptionDefaults shows of a default (its variant has no uint64_t or list).
+std::variant<double, int, bool, std::string> Recorded(double v) { return v; }
+std::variant<double, int, bool, std::string> Recorded(int v) { return v; }
+std::variant<double, int, bool, std::string> Recorded(bool v) { return v; }
+std::variant<double, int, bool, std::string> Recorded(const std::string& v) { return v; }
+std::variant<double, int, bool, std::string> Recorded(uint64_t v) { return std::to_string(v); }
+std::variant<double, int, bool, std::string> Recorded(const std::vector<std::string>& v) {
+  return internal::Join(v, ", ");
+}
+
+// A list of plain values, each as written.
+bool ParseList(const YAML::Node& node, std::vector<std::string>* value) {
+  if (!node.IsSequence()) return false;
+  std::vector<std::string> items;
+  for (const YAML::Node& item : node) {
+    if (!item.IsScalar()) return false;
+    items.push_back(item.Scalar());
+  }
+  *value = std::move(items);
+  return true;
+}
+
+bool ParseNode(const YAML::Node& node, std::vector<std::string>* value) {
+  return ParseList(node, value);
+}
+template <typename T>
+bool ParseNode(const YAML::Node& node, T* value) {
+  return node.IsScalar() && ParseScalar(node.Scalar(), value);
+}
+
+std::string Found(const YAML::Node& node) {
+  if (node.IsScalar()) return internal::QuotedNumber(node.Scalar());
+  return node.IsSequence() ? "a list" : "a map";
+}
+
+}  // namespace
+
 template <typename T>
 void ConfigReader::ReadScalar(const std::string& key, T* value, const char* type_name,
                               const char* doc) {
-  known_.insert(key);
+  if (known_.insert(key).second) known_in_order_.push_back(key);
   if (g_recording != nullptr) {
-    g_recording->push_back({record_path_ + key, *value, {}, doc == nullptr ? "" : doc});
+    g_recording->push_back({record_path_ + key, Recorded(*value), {}, doc == nullptr ? "" : doc});
   }
   if (!first_error_.ok() || !node_.IsMap()) return;
   const YAML::Node child = node_[key];
   if (!child.IsDefined() || child.IsNull()) return;
-  if (!child.IsScalar() || !ParseScalar(child.Scalar(), value)) {
+  if (ParseNode(child, value)) return;
+  if (file_what_.empty()) {  // an estimator's option: the message as it always was
     first_error_ = InvalidArgument(
         context_ + LineOf(child) + ": option '" + key + "' must be a " + type_name + ", found " +
         (child.IsScalar() ? internal::QuotedNumber(child.Scalar()) : std::string("a list or map")));
+    return;
   }
+  first_error_ = InvalidArgument(At(child) + ": " + key + " must be a " + type_name + ", found " +
+                                 Found(child));
 }
 
 void ConfigReader::Read(const std::string& key, double* value, const char* doc) {
@@ -130,6 +195,38 @@ void ConfigReader::Read(const std::string& key, bool* value, const char* doc) {
 }
 void ConfigReader::Read(const std::string& key, std::string* value, const char* doc) {
   ReadScalar(key, value, "string", doc);
+}
+void ConfigReader::Read(const std::string& key, uint64_t* value, const char* doc) {
+  ReadScalar(key, value, "decimal integer in [0, 18446744073709551615]", doc);
+}
+void ConfigReader::Read(const std::string& key, std::vector<std::string>* value, const char* doc) {
+  ReadScalar(key, value, "list of plain values ([a, b, ...])", doc);
+}
+
+bool ConfigReader::Has(const std::string& key) const {
+  if (!node_.IsMap()) return false;
+  const YAML::Node& map = node_;  // const: a lookup must not add the key
+  const YAML::Node child = map[key];
+  return child.IsDefined() && !child.IsNull();
+}
+
+int ConfigReader::Line(const std::string& key, int index) const {
+  const auto line = [](const YAML::Node& n) { return n.Mark().line >= 0 ? n.Mark().line + 1 : 0; };
+  if (key.empty() || !Has(key)) return line(node_);
+  const YAML::Node& map = node_;
+  const YAML::Node child = map[key];
+  if (index >= 0 && child.IsSequence() && static_cast<size_t>(index) < child.size()) {
+    return line(child[index]);
+  }
+  return line(child);
+}
+
+Status ConfigReader::Error(const std::string& key, const std::string& message, int index) const {
+  return InvalidArgument(At(Line(key, index)) + ": " + message);
+}
+
+Status ConfigReader::ErrorAt(const YAML::Node& node, const std::string& message) const {
+  return InvalidArgument(At(node) + ": " + message);
 }
 
 void ConfigReader::Read(const std::string& key, std::string* value,
@@ -177,7 +274,7 @@ std::string OptionUnit(const std::string& key) {
 }
 
 YAML::Node ConfigReader::Child(const std::string& key) {
-  known_.insert(key);
+  if (known_.insert(key).second) known_in_order_.push_back(key);
   if (g_recording != nullptr && (!node_.IsMap() || !node_[key])) {
     YAML::Node child(YAML::NodeType::Map);  // tells the nested reader its prefix
     child[kRecordPathKey] = record_path_ + key + ".";
@@ -192,12 +289,18 @@ Status ConfigReader::Finish() const {
   if (!node_.IsMap()) return Status::Ok();
   for (const auto& kv : node_) {
     if (!kv.first.IsScalar()) {
+      if (!file_what_.empty()) return InvalidArgument(At(kv.first) + ": keys must be plain words");
       return InvalidArgument(context_ + LineOf(kv.first) + ": option names must be plain words");
     }
     const std::string key = kv.first.Scalar();
     if (known_.count(key) == 0) {
       std::string list;
       for (const auto& k : known_) list += (list.empty() ? "" : ", ") + k;
+      if (!file_what_.empty()) {  // a file's keys in the order they are read (and documented)
+        list = internal::Join(known_in_order_, ", ");
+        return InvalidArgument(At(kv.first) + ": unknown key " + internal::Quoted(key) + " in " +
+                               file_what_ + "; known: " + list);
+      }
       return InvalidArgument(context_ + LineOf(kv.first) + ": unknown option " +
                              internal::Quoted(key) + "; known options: " + list);
     }

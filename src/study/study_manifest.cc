@@ -23,8 +23,6 @@ using internal::CellConfig;
 using internal::CellOverrides;
 using internal::FieldOf;
 
-namespace {}  // namespace
-
 namespace internal {
 
 // The figure of `m` (ErrorStatFields), or null.
@@ -43,112 +41,62 @@ bool KnownMetric(const std::string& m) { return FieldOf(m) != nullptr || m == "r
 
 std::string Join(const std::vector<std::string>& names) { return internal::Join(names, ", "); }
 
-// ------------------------------------------------------------------ manifest parsing
+// ------------------------------------------------------------------ manifest checks
+// The manifest is read by ConfigReader (ForFile: "MANIFEST:LINE: ..."): every key known, every
+// value well typed. What a type cannot say is checked here, at the value's line.
 
-class Parser {
- public:
-  explicit Parser(std::string path) : path_(std::move(path)) {}
+int LineOf(const YAML::Node& n) { return n.Mark().line >= 0 ? n.Mark().line + 1 : 0; }
 
-  int Line(const YAML::Node& n) const { return n.Mark().line >= 0 ? n.Mark().line + 1 : 0; }
-  std::string At(const YAML::Node& n) const { return path_ + ":" + std::to_string(Line(n)); }
-  Status Error(const YAML::Node& n, const std::string& message) const {
-    return InvalidArgument(At(n) + ": " + message);
+// A Monte Carlo run count: in [1, kMaxMonteCarloRuns].
+Status CheckRuns(const ConfigReader& r, int runs) {
+  if (runs < 1) return r.Error("runs", "runs must be >= 1");
+  if (runs > kMaxMonteCarloRuns) {
+    return r.Error("runs", "runs " + std::to_string(runs) + " over the cap of " +
+                               std::to_string(kMaxMonteCarloRuns) +
+                               " (10^6 runs take days; split a larger study into seeds)");
   }
+  return Status::Ok();
+}
 
-  // Every key of `map` must be in `known`; keys must be plain scalars.
-  Status CheckKeys(const YAML::Node& map, const std::vector<std::string>& known,
-                   const std::string& what) const {
-    for (const auto& kv : map) {
-      if (!kv.first.IsScalar()) return Error(kv.first, what + ": keys must be plain words");
-      const std::string key = kv.first.Scalar();
-      if (std::find(known.begin(), known.end(), key) == known.end()) {
-        return Error(kv.first, "unknown key " + internal::Quoted(key) + " in " + what +
-                                   "; known: " + Join(known));
-      }
+Status CheckScoreFrom(const ConfigReader& r, double score_from_s) {
+  if (std::isfinite(score_from_s) && score_from_s >= 0.0) return Status::Ok();
+  return r.Error("score_from_s", "score_from_s must be a number >= 0");
+}
+
+Status CheckMetric(const ConfigReader& r, const std::string& m) {
+  if (KnownMetric(m)) return Status::Ok();
+  std::vector<std::string> all;
+  for (const ErrorStatField& f : ErrorStatFields()) all.push_back(f.name);
+  all.push_back("rmse_over_pcrb");
+  return r.Error("metric", "unknown metric " + internal::Quoted(m) + "; known: " + Join(all));
+}
+
+// `estimators`: a non-empty list of registered ids, each once.
+Status CheckEstimators(const ConfigReader& r, const std::vector<std::string>& ids,
+                       const EstimatorRegistry& registry) {
+  if (ids.empty()) {
+    return r.Error("estimators", "estimators must be a non-empty list of estimator ids");
+  }
+  for (size_t i = 0; i < ids.size(); ++i) {
+    const int at = static_cast<int>(i);
+    if (registry.Find(ids[i]) == nullptr) {
+      return r.Error(
+          "estimators",
+          "unknown estimator " + internal::Quoted(ids[i]) + "; known: " + Join(registry.Ids()), at);
     }
-    return Status::Ok();
-  }
-
-  template <typename T>
-  StatusOr<T> Scalar(const YAML::Node& n, const std::string& what, const char* type) const {
-    if (!n.IsScalar()) return Error(n, what + " must be a " + type);
-    T value{};
-    if (!ParseScalar(n.Scalar(), &value)) {
-      return Error(n, what + " must be a " + type + ", got " + internal::QuotedNumber(n.Scalar()));
+    if (std::find(ids.begin(), ids.begin() + at, ids[i]) != ids.begin() + at) {
+      return r.Error("estimators", "estimator '" + ids[i] + "' listed twice", at);
     }
-    return value;
   }
+  return Status::Ok();
+}
 
-  StatusOr<std::string> String(const YAML::Node& n, const std::string& what) const {
-    return Scalar<std::string>(n, what, "string");
-  }
-
-  StatusOr<int> PositiveInt(const YAML::Node& n, const std::string& what) const {
-    WG_ASSIGN_OR_RETURN(int v, Scalar<int>(n, what, "positive integer"));
-    if (v < 1) return Error(n, what + " must be >= 1");
-    return v;
-  }
-
-  // A Monte Carlo run count: in [1, kMaxMonteCarloRuns].
-  StatusOr<int> Runs(const YAML::Node& n) const {
-    WG_ASSIGN_OR_RETURN(int v, PositiveInt(n, "runs"));
-    if (v > kMaxMonteCarloRuns) {
-      return Error(n, "runs " + std::to_string(v) + " over the cap of " +
-                          std::to_string(kMaxMonteCarloRuns) +
-                          " (10^6 runs take days; split a larger study into seeds)");
-    }
-    return v;
-  }
-
-  StatusOr<double> NonNegative(const YAML::Node& n, const std::string& what) const {
-    WG_ASSIGN_OR_RETURN(double v, Scalar<double>(n, what, "number >= 0"));
-    if (!(std::isfinite(v) && v >= 0.0)) return Error(n, what + " must be a number >= 0");
-    return v;
-  }
-
-  StatusOr<uint64_t> Seed(const YAML::Node& n, const std::string& what) const {
-    if (n.IsScalar() && !n.Scalar().empty() && n.Scalar()[0] == '-') {
-      return Error(n, what + " must be a non-negative integer");
-    }
-    return Scalar<uint64_t>(n, what, "non-negative integer");
-  }
-
-  StatusOr<std::string> Metric(const YAML::Node& n) const {
-    WG_ASSIGN_OR_RETURN(std::string m, String(n, "metric"));
-    if (!KnownMetric(m)) {
-      std::vector<std::string> all;
-      for (const ErrorStatField& f : ErrorStatFields()) all.push_back(f.name);
-      all.push_back("rmse_over_pcrb");
-      return Error(n, "unknown metric " + internal::Quoted(m) + "; known: " + Join(all));
-    }
-    return m;
-  }
-
-  StatusOr<std::vector<std::string>> EstimatorList(const YAML::Node& n,
-                                                   const EstimatorRegistry& registry) const {
-    if (!n.IsSequence() || n.size() == 0) {
-      return Error(n, "estimators must be a non-empty list of estimator ids");
-    }
-    std::vector<std::string> ids;
-    for (const YAML::Node& item : n) {
-      WG_ASSIGN_OR_RETURN(std::string id, String(item, "estimator id"));
-      if (registry.Find(id) == nullptr) {
-        return Error(
-            item, "unknown estimator " + internal::Quoted(id) + "; known: " + Join(registry.Ids()));
-      }
-      if (std::find(ids.begin(), ids.end(), id) != ids.end()) {
-        return Error(item, "estimator '" + id + "' listed twice");
-      }
-      ids.push_back(id);
-    }
-    return ids;
-  }
-
-  const std::string& path() const { return path_; }
-
- private:
-  std::string path_;
-};
+// A scalar entry of a Child() map (an estimator id, an option key) as a string.
+StatusOr<std::string> EntryText(const ConfigReader& r, const YAML::Node& n,
+                                const std::string& what) {
+  if (!n.IsScalar()) return r.ErrorAt(n, what + " must be a string");
+  return n.Scalar();
+}
 
 // A new map with the entries of `n` (a map or nothing). The values are the manifest's own nodes,
 // so option errors keep their manifest line; the new map is private to one cell.
@@ -212,26 +160,29 @@ bool ValidSweepName(const std::string& s) {
 }
 
 // A sweep's values: a non-empty list of distinct finite numbers, at most kMaxSweepValues.
-Status ParseValues(const Parser& p, const YAML::Node& node, const std::string& what,
-                   StudySweep* s) {
-  const YAML::Node values = node["values"];
-  if (!values || !values.IsSequence() || values.size() == 0) {
-    return p.Error(values ? values : node, what + ": values must be a non-empty list of numbers");
-  }
+Status ParseValues(const ConfigReader& r, const std::vector<std::string>& values,
+                   const std::string& what, StudySweep* s) {
+  if (values.empty())
+    return r.Error("values", what + ": values must be a non-empty list of numbers");
   if (values.size() > kMaxSweepValues) {
-    return p.Error(values, what + ": " + std::to_string(values.size()) +
-                               " values, over the cap of " + std::to_string(kMaxSweepValues) +
-                               " per sweep (a study that cannot finish); split the sweep");
+    return r.Error("values", what + ": " + std::to_string(values.size()) +
+                                 " values, over the cap of " + std::to_string(kMaxSweepValues) +
+                                 " per sweep (a study that cannot finish); split the sweep");
   }
-  for (const YAML::Node& v : values) {
-    WG_ASSIGN_OR_RETURN(double x, p.Scalar<double>(v, "a swept value", "number"));
-    if (!std::isfinite(x)) return p.Error(v, what + ": values must be finite numbers");
-    if (std::find(s->x.begin(), s->x.end(), x) != s->x.end()) {
-      return p.Error(v, what + ": value " + v.Scalar() + " given twice");
+  for (size_t i = 0; i < values.size(); ++i) {
+    const int at = static_cast<int>(i);
+    double x = 0.0;
+    if (!ParseScalar(values[i], &x)) {
+      return r.Error(
+          "values", "a swept value must be a number, got " + internal::QuotedNumber(values[i]), at);
     }
-    s->values.push_back(v.Scalar());
+    if (!std::isfinite(x)) return r.Error("values", what + ": values must be finite numbers", at);
+    if (std::find(s->x.begin(), s->x.end(), x) != s->x.end()) {
+      return r.Error("values", what + ": value " + values[i] + " given twice", at);
+    }
+    s->values.push_back(values[i]);
     s->x.push_back(x);
-    s->value_lines.push_back(p.Line(v));
+    s->value_lines.push_back(r.Line("values", at));
   }
   return Status::Ok();
 }
@@ -245,156 +196,160 @@ struct SweepDefaults {
   double score_from_s = 0.0;
 };
 
+// A sweep's keys as read (ReadSweepKeys), before the checks that need several of them.
+struct SweepKeys {
+  std::string walk;
+  YAML::Node overrides, estimator_option;
+  std::vector<std::string> values, estimators;
+};
+
+// Every key of a sweep, typed; the top level's settings where one is not given.
+Status ReadSweepKeys(ConfigReader& r, const SweepDefaults& top, StudySweep* s, SweepKeys* k) {
+  r.Read("name", &s->name);
+  r.Read("title", &s->title);
+  r.Read("label", &s->label);
+  r.Read("scenario", &s->scenario);
+  r.Read("walk", &k->walk);
+  k->overrides = r.Child("overrides");
+  r.Read("scenario_override", &s->scenario_override);
+  k->estimator_option = r.Child("estimator_option");
+  r.Read("values", &k->values);
+  r.Read("estimators", &k->estimators);
+  s->runs = top.runs;
+  r.Read("runs", &s->runs);
+  s->seed = top.seed;
+  r.Read("seed", &s->seed);
+  s->metric = top.metric;
+  r.Read("metric", &s->metric);
+  s->score_from_s = top.score_from_s;
+  r.Read("score_from_s", &s->score_from_s);
+  return r.Finish();
+}
+
 // A sweep's data: a simulated scenario (with its overrides) or a recorded walk.
-Status ParseSweepData(const Parser& p, const YAML::Node& node, const std::string& what,
-                      StudySweep* s) {
-  if (!node["scenario"] == !node["walk"]) {
-    return p.Error(node, what + ": give exactly one of 'scenario' or 'walk'");
+Status CheckSweepData(const ConfigReader& r, const SweepKeys& k, const std::string& path,
+                      const std::string& what, StudySweep* s) {
+  if (r.Has("scenario") == r.Has("walk")) {
+    return r.Error("", what + ": give exactly one of 'scenario' or 'walk'");
   }
-  if (node["scenario"]) {
-    WG_ASSIGN_OR_RETURN(s->scenario, p.String(node["scenario"], "scenario"));
+  if (r.Has("scenario")) {
     std::vector<std::string> names;
     for (const ScenarioInfo& info : Scenarios()) names.push_back(info.name);
     if (std::find(names.begin(), names.end(), s->scenario) == names.end()) {
-      return p.Error(node["scenario"], "unknown scenario " + internal::Quoted(s->scenario) +
-                                           "; known: " + Join(names));
+      return r.Error("scenario", "unknown scenario " + internal::Quoted(s->scenario) +
+                                     "; known: " + Join(names));
     }
-    if (node["overrides"]) {
-      if (!node["overrides"].IsMap()) {
-        return p.Error(node["overrides"], what + ": overrides must be a map of simulator options");
+    if (r.Has("overrides")) {
+      if (!k.overrides.IsMap()) {
+        return r.Error("overrides", what + ": overrides must be a map of simulator options");
       }
-      s->overrides = node["overrides"];
+      s->overrides = k.overrides;
     }
     return Status::Ok();
   }
-  WG_ASSIGN_OR_RETURN(std::string walk, p.String(node["walk"], "walk"));
-  fs::path dir(walk);
-  if (dir.is_relative()) dir = fs::path(p.path()).parent_path() / dir;
+  fs::path dir(k.walk);
+  if (dir.is_relative()) dir = fs::path(path).parent_path() / dir;
   std::error_code ec;
   if (!fs::is_directory(dir, ec)) {
-    return p.Error(node["walk"], what + ": walk folder " + dir.string() + " does not exist");
+    return r.Error("walk", what + ": walk folder " + dir.string() + " does not exist");
   }
   s->walk_dir = dir.string();
-  if (node["overrides"] || node["scenario_override"]) {
-    return p.Error(node["overrides"] ? node["overrides"] : node["scenario_override"],
+  if (r.Has("overrides") || r.Has("scenario_override")) {
+    return r.Error(r.Has("overrides") ? "overrides" : "scenario_override",
                    what + ": a recorded walk has no simulator overrides");
   }
-  if (node["runs"]) {
-    WG_ASSIGN_OR_RETURN(int runs, p.Runs(node["runs"]));
-    if (runs != 1) return p.Error(node["runs"], what + ": a recorded walk is one run");
-  }
+  if (r.Has("runs") && s->runs != 1) return r.Error("runs", what + ": a recorded walk is one run");
   return Status::Ok();
 }
 
-// A sweep's estimators, runs, seed, metric and score_from_s (the top level's where not given).
-Status ParseSweepSettings(const Parser& p, const YAML::Node& node, const std::string& what,
+// A sweep's estimators (the top level's where not given) and settings.
+Status CheckSweepSettings(const ConfigReader& r, const SweepKeys& k, const std::string& what,
                           const SweepDefaults& top, const EstimatorRegistry& registry,
                           StudySweep* s) {
-  if (node["estimators"]) {
-    WG_ASSIGN_OR_RETURN(s->estimators, p.EstimatorList(node["estimators"], registry));
+  if (r.Has("estimators")) {
+    WG_RETURN_IF_ERROR(CheckEstimators(r, k.estimators, registry));
+    s->estimators = k.estimators;
   } else if (!top.ids.empty()) {
     s->estimators = top.ids;
   } else {
-    return p.Error(node, what + ": no estimators (give 'estimators' here or at the top)");
+    return r.Error("", what + ": no estimators (give 'estimators' here or at the top)");
   }
-  s->runs = top.runs;
-  if (node["runs"]) {
-    WG_ASSIGN_OR_RETURN(s->runs, p.Runs(node["runs"]));
-  }
+  WG_RETURN_IF_ERROR(CheckRuns(r, s->runs));
   if (!s->walk_dir.empty()) s->runs = 1;
-  s->seed = top.seed;
-  if (node["seed"]) {
-    WG_ASSIGN_OR_RETURN(s->seed, p.Seed(node["seed"], "seed"));
-  }
-  s->metric = top.metric;
-  if (node["metric"]) {
-    WG_ASSIGN_OR_RETURN(s->metric, p.Metric(node["metric"]));
-  }
-  s->score_from_s = top.score_from_s;
-  if (node["score_from_s"]) {
-    WG_ASSIGN_OR_RETURN(s->score_from_s, p.NonNegative(node["score_from_s"], "score_from_s"));
-  }
-  return Status::Ok();
+  WG_RETURN_IF_ERROR(CheckMetric(r, s->metric));
+  return CheckScoreFrom(r, s->score_from_s);
 }
 
 // estimator_option as {estimator id: option key}: the keys by estimator; the default label
 // joins the distinct keys.
-Status ParseOptionKeyMap(const Parser& p, const YAML::Node& opt, const std::string& what,
+Status ParseOptionKeyMap(const ConfigReader& r, const YAML::Node& opt, const std::string& what,
                          StudySweep* s, std::string* default_label) {
   std::vector<std::string> keys;
   for (const auto& kv : opt) {
-    WG_ASSIGN_OR_RETURN(std::string id, p.String(kv.first, "estimator id"));
+    WG_ASSIGN_OR_RETURN(std::string id, EntryText(r, kv.first, "estimator id"));
     if (std::find(s->estimators.begin(), s->estimators.end(), id) == s->estimators.end()) {
-      return p.Error(kv.first, what + ": estimator '" + id + "' is not in the sweep's list (" +
-                                   Join(s->estimators) + ")");
+      return r.ErrorAt(kv.first, what + ": estimator '" + id + "' is not in the sweep's list (" +
+                                     Join(s->estimators) + ")");
     }
-    WG_ASSIGN_OR_RETURN(std::string key, p.String(kv.second, "option key of " + id));
+    WG_ASSIGN_OR_RETURN(std::string key, EntryText(r, kv.second, "option key of " + id));
     s->option_keys[id] = key;
     if (std::find(keys.begin(), keys.end(), key) == keys.end()) keys.push_back(key);
   }
-  for (const std::string& k : keys) *default_label += (default_label->empty() ? "" : " / ") + k;
+  for (const std::string& key : keys) {
+    *default_label += (default_label->empty() ? "" : " / ") + key;
+  }
   return Status::Ok();
 }
 
 // What a sweep varies: a simulator override or an estimator option (one key for every
 // estimator, or one per estimator); the label defaults to it.
-Status ParseSweptParameter(const Parser& p, const YAML::Node& node, const std::string& what,
+Status CheckSweptParameter(const ConfigReader& r, const SweepKeys& k, const std::string& what,
                            StudySweep* s) {
-  if (!node["scenario_override"] == !node["estimator_option"]) {
-    return p.Error(node, what + ": give exactly one of 'scenario_override' or 'estimator_option'");
+  if (r.Has("scenario_override") == r.Has("estimator_option")) {
+    return r.Error("", what + ": give exactly one of 'scenario_override' or 'estimator_option'");
   }
   std::string default_label;
-  if (node["scenario_override"]) {
-    WG_ASSIGN_OR_RETURN(s->scenario_override,
-                        p.String(node["scenario_override"], "scenario_override"));
+  if (r.Has("scenario_override")) {
     const YAML::Node& base = s->overrides.node();  // const: a lookup must not add the key
     if (base.IsDefined() && base[s->scenario_override]) {
-      return p.Error(node["scenario_override"],
+      return r.Error("scenario_override",
                      what + ": '" + s->scenario_override + "' is both swept and in overrides");
     }
     default_label = s->scenario_override;
+  } else if (k.estimator_option.IsScalar()) {
+    const std::string key = k.estimator_option.Scalar();
+    for (const std::string& id : s->estimators) s->option_keys[id] = key;
+    default_label = key;
+  } else if (k.estimator_option.IsMap() && k.estimator_option.size() > 0) {
+    WG_RETURN_IF_ERROR(ParseOptionKeyMap(r, k.estimator_option, what, s, &default_label));
   } else {
-    const YAML::Node opt = node["estimator_option"];
-    if (opt.IsScalar()) {
-      WG_ASSIGN_OR_RETURN(std::string key, p.String(opt, "estimator_option"));
-      for (const std::string& id : s->estimators) s->option_keys[id] = key;
-      default_label = key;
-    } else if (opt.IsMap() && opt.size() > 0) {
-      WG_RETURN_IF_ERROR(ParseOptionKeyMap(p, opt, what, s, &default_label));
-    } else {
-      return p.Error(opt, what + ": estimator_option must be an option key or {estimator: key}");
-    }
+    return r.Error("estimator_option",
+                   what + ": estimator_option must be an option key or {estimator: key}");
   }
   if (s->label.empty()) s->label = default_label;
   return Status::Ok();
 }
 
-StatusOr<StudySweep> ParseSweep(const Parser& p, const YAML::Node& node, const StudyManifest& m,
-                                const SweepDefaults& top, const EstimatorRegistry& registry) {
+StatusOr<StudySweep> ParseSweep(const std::string& path, const YAML::Node& node,
+                                const StudyManifest& m, const SweepDefaults& top,
+                                const EstimatorRegistry& registry) {
   StudySweep s;
-  s.line = p.Line(node);
-  if (!node.IsMap()) return p.Error(node, "each sweep must be a map");
-  WG_RETURN_IF_ERROR(p.CheckKeys(
-      node,
-      {"name", "title", "label", "scenario", "walk", "overrides", "scenario_override",
-       "estimator_option", "values", "estimators", "runs", "seed", "metric", "score_from_s"},
-      "a sweep"));
-  if (!node["name"]) return p.Error(node, "a sweep needs a name");
-  WG_ASSIGN_OR_RETURN(s.name, p.String(node["name"], "sweep name"));
+  s.line = LineOf(node);
+  if (!node.IsMap()) {
+    return InvalidArgument(path + ":" + std::to_string(s.line) + ": each sweep must be a map");
+  }
+  ConfigReader r = ConfigReader::ForFile(node, path, "a sweep");
+  SweepKeys k;
+  WG_RETURN_IF_ERROR(ReadSweepKeys(r, top, &s, &k));
+  if (!r.Has("name")) return r.Error("", "a sweep needs a name");
   if (!ValidSweepName(s.name)) {
-    return p.Error(node["name"], "sweep name '" + s.name + "' may use letters, digits, . _ -");
+    return r.Error("name", "sweep name '" + s.name + "' may use letters, digits, . _ -");
   }
   const std::string what = "sweep '" + s.name + "'";
-  if (node["title"]) {
-    WG_ASSIGN_OR_RETURN(s.title, p.String(node["title"], "title"));
-  }
-  if (node["label"]) {
-    WG_ASSIGN_OR_RETURN(s.label, p.String(node["label"], "label"));
-  }
-  WG_RETURN_IF_ERROR(ParseSweepData(p, node, what, &s));
-  WG_RETURN_IF_ERROR(ParseSweepSettings(p, node, what, top, registry, &s));
-  WG_RETURN_IF_ERROR(ParseSweptParameter(p, node, what, &s));
-  WG_RETURN_IF_ERROR(ParseValues(p, node, what, &s));
+  WG_RETURN_IF_ERROR(CheckSweepData(r, k, path, what, &s));
+  WG_RETURN_IF_ERROR(CheckSweepSettings(r, k, what, top, registry, &s));
+  WG_RETURN_IF_ERROR(CheckSweptParameter(r, k, what, &s));
+  WG_RETURN_IF_ERROR(ParseValues(r, k.values, what, &s));
   // Every cell's estimator configuration must be accepted by its estimator.
   for (size_t i = 0; i < s.values.size(); ++i) {
     for (const std::string& id : s.estimators) {
@@ -412,74 +367,67 @@ StatusOr<StudySweep> ParseSweep(const Parser& p, const YAML::Node& node, const S
 
 namespace {
 
+// configs: {estimator id: options}, each id registered, each options a map (or nothing).
+Status ParseConfigs(const ConfigReader& r, const YAML::Node& configs,
+                    const EstimatorRegistry& registry, StudyManifest* m) {
+  if (!configs.IsMap()) return r.Error("configs", "configs must be a map {estimator id: options}");
+  for (const auto& kv : configs) {
+    WG_ASSIGN_OR_RETURN(std::string id, EntryText(r, kv.first, "estimator id"));
+    if (registry.Find(id) == nullptr) {
+      return r.ErrorAt(kv.first, "configs: unknown estimator " + internal::Quoted(id) +
+                                     "; known: " + Join(registry.Ids()));
+    }
+    if (!kv.second.IsMap() && !kv.second.IsNull()) {
+      return r.ErrorAt(kv.second, "configs: the options of " + id + " must be a map");
+    }
+    m->configs[id] = kv.second;
+  }
+  return Status::Ok();
+}
+
 StatusOr<StudyManifest> ParseManifestRoot(const YAML::Node& root, const std::string& path,
                                           const EstimatorRegistry& registry) {
-  const Parser p(path);
-  if (!root.IsMap()) return p.Error(root, "a study manifest must be a map (see study.h)");
-  WG_RETURN_IF_ERROR(p.CheckKeys(root,
-                                 {"name", "description", "estimators", "configs", "metric", "runs",
-                                  "seed", "score_from_s", "pcrb", "pcrb_options", "sweeps"},
-                                 "the manifest"));
+  if (!root.IsMap()) {
+    return InvalidArgument(path + ":" + std::to_string(LineOf(root)) +
+                           ": a study manifest must be a map (see study.h)");
+  }
+  ConfigReader r = ConfigReader::ForFile(root, path, "the manifest");
   StudyManifest m;
   m.path = path;
-  if (!root["name"]) return p.Error(root, "the manifest needs a name");
-  WG_ASSIGN_OR_RETURN(m.name, p.String(root["name"], "name"));
-  if (root["description"]) {
-    WG_ASSIGN_OR_RETURN(m.description, p.String(root["description"], "description"));
-  }
-  std::vector<std::string> ids;
-  if (root["estimators"]) {
-    WG_ASSIGN_OR_RETURN(ids, p.EstimatorList(root["estimators"], registry));
-  }
-  if (root["configs"]) {
-    const YAML::Node configs = root["configs"];
-    if (!configs.IsMap()) return p.Error(configs, "configs must be a map {estimator id: options}");
-    for (const auto& kv : configs) {
-      WG_ASSIGN_OR_RETURN(std::string id, p.String(kv.first, "estimator id"));
-      if (registry.Find(id) == nullptr) {
-        return p.Error(kv.first, "configs: unknown estimator " + internal::Quoted(id) +
-                                     "; known: " + Join(registry.Ids()));
-      }
-      if (!kv.second.IsMap() && !kv.second.IsNull()) {
-        return p.Error(kv.second, "configs: the options of " + id + " must be a map");
-      }
-      m.configs[id] = kv.second;
-    }
-  }
-  std::string metric = "rmse_m";
-  if (root["metric"]) {
-    WG_ASSIGN_OR_RETURN(metric, p.Metric(root["metric"]));
-  }
-  int runs = 1;
-  if (root["runs"]) {
-    WG_ASSIGN_OR_RETURN(runs, p.Runs(root["runs"]));
-  }
-  uint64_t seed = 1;
-  if (root["seed"]) {
-    WG_ASSIGN_OR_RETURN(seed, p.Seed(root["seed"], "seed"));
-  }
-  double score_from_s = 0.0;
-  if (root["score_from_s"]) {
-    WG_ASSIGN_OR_RETURN(score_from_s, p.NonNegative(root["score_from_s"], "score_from_s"));
-  }
-  if (root["pcrb"]) {
-    WG_ASSIGN_OR_RETURN(m.pcrb, p.Scalar<bool>(root["pcrb"], "pcrb", "boolean (true/false)"));
-  }
-  if (root["pcrb_options"]) {
+  SweepDefaults top{{}, 1, 1, "rmse_m", 0.0};
+  r.Read("name", &m.name);
+  r.Read("description", &m.description);
+  r.Read("estimators", &top.ids);
+  const YAML::Node configs = r.Child("configs");
+  r.Read("metric", &top.metric);
+  r.Read("runs", &top.runs);
+  r.Read("seed", &top.seed);
+  r.Read("score_from_s", &top.score_from_s);
+  r.Read("pcrb", &m.pcrb);
+  const YAML::Node pcrb_options = r.Child("pcrb_options");
+  const YAML::Node sweeps = r.Child("sweeps");
+  WG_RETURN_IF_ERROR(r.Finish());
+  if (!r.Has("name")) return r.Error("", "the manifest needs a name");
+  if (r.Has("estimators")) WG_RETURN_IF_ERROR(CheckEstimators(r, top.ids, registry));
+  if (r.Has("configs")) WG_RETURN_IF_ERROR(ParseConfigs(r, configs, registry, &m));
+  WG_RETURN_IF_ERROR(CheckMetric(r, top.metric));
+  WG_RETURN_IF_ERROR(CheckRuns(r, top.runs));
+  WG_RETURN_IF_ERROR(CheckScoreFrom(r, top.score_from_s));
+  if (r.Has("pcrb_options")) {
     WG_ASSIGN_OR_RETURN(
         m.pcrb_options,
-        PcrbOptionsFromYaml(root["pcrb_options"], p.At(root["pcrb_options"]) + ": pcrb_options"));
+        PcrbOptionsFromYaml(
+            pcrb_options, path + ":" + std::to_string(r.Line("pcrb_options")) + ": pcrb_options"));
   }
-  const YAML::Node sweeps = root["sweeps"];
-  if (!sweeps || !sweeps.IsSequence() || sweeps.size() == 0) {
-    return p.Error(sweeps ? sweeps : root, "the manifest needs a non-empty list of sweeps");
+  if (!r.Has("sweeps") || !sweeps.IsSequence() || sweeps.size() == 0) {
+    return r.Error("sweeps", "the manifest needs a non-empty list of sweeps");
   }
   std::set<std::string> names;
   for (const YAML::Node& node : sweeps) {
-    WG_ASSIGN_OR_RETURN(StudySweep s,
-                        ParseSweep(p, node, m, {ids, runs, seed, metric, score_from_s}, registry));
+    WG_ASSIGN_OR_RETURN(StudySweep s, ParseSweep(path, node, m, top, registry));
     if (!names.insert(s.name).second) {
-      return p.Error(node["name"], "sweep name '" + s.name + "' used twice");
+      return InvalidArgument(path + ":" + std::to_string(LineOf(node["name"])) + ": sweep name '" +
+                             s.name + "' used twice");
     }
     m.sweeps.push_back(std::move(s));
   }

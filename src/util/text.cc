@@ -1,5 +1,6 @@
 #include "util/text.h"
 
+#include <charconv>
 #include <cstdio>
 #include <iomanip>
 #include <sstream>
@@ -84,6 +85,12 @@ std::string Num(double value, int significant_digits) {
   char buf[48];
   std::snprintf(buf, sizeof(buf), "%.*g", significant_digits, value);
   return buf;
+}
+
+std::string ExactNum(double value) {
+  char buf[64];
+  const auto res = std::to_chars(buf, buf + sizeof(buf), value);
+  return std::string(buf, res.ptr);
 }
 
 std::string Fixed(double value, int decimals) {

@@ -21,6 +21,9 @@ inline std::string QuotedNumber(std::string_view text) { return Quoted(text, 24)
 // A number for a message or a table: %g with `significant_digits` (six: plain %g), never
 // hundreds of digits.
 std::string Num(double value, int significant_digits = 6);
+// The shortest decimal text that reads back to the same double (the walk and trajectory files'
+// numbers: no digit lost, none added; 0.1 is "0.1", 1e-7 is "1e-07").
+std::string ExactNum(double value);
 // `value` with `decimals` digits after the point (std::fixed: 0.5 at 2 is "0.50").
 std::string Fixed(double value, int decimals);
 
