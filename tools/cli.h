@@ -53,6 +53,7 @@
 #include "walkgraph/simulate.h"
 #include "walkgraph/stance.h"
 #include "walkgraph/study.h"
+#include "walkgraph/survey.h"
 
 #include "mpi_job.h"
 
@@ -73,6 +74,9 @@ extern const walkgraph_cli::MpiJob* g_job;
 // than one rank. Other commands run on rank 0 alone.
 extern bool g_ranks_share;
 
+// --radio-map MAP (compare, smooth): the folder `walkgraph survey` wrote; "" none. ReadWalk
+// applies its anchors.csv to the walk (survey.h ApplyRadioMap).
+extern std::string g_radio_map;
 int Fail(const Status& s);
 
 // Reads a walk and prints what it holds that is unusual but accepted (io.h
@@ -147,6 +151,11 @@ int RunFitPathLoss(const std::string& walk_dir, bool floors);
 int RunSmooth(const std::string& walk_dir, const std::string& id, const std::string& config_path,
               const std::string& out, const std::string& ipin_out);
 
+// walkgraph survey: a radio map from walks with truth (survey.h SurveyRadioMap), written as the
+// folder `out`: anchors.csv (the map) and survey.csv (per mapped anchor: covariance, walks,
+// readings, disagreement).
+int RunSurvey(const std::vector<std::string>& walk_dirs, const walkgraph::SurveyOptions& options,
+              const std::string& out);
 int RunSimulate(const std::string& scenario, uint64_t seed, const std::string& config_path,
                 const std::string& out);
 

@@ -4,6 +4,7 @@
 namespace walkgraph_cli {
 
 walkgraph::OutputOptions g_output;
+std::string g_radio_map;
 
 const MpiJob* g_job = nullptr;
 
@@ -24,6 +25,13 @@ walkgraph::StatusOr<walkgraph::Walk> ReadWalk(const std::string& dir) {
   for (const std::string& w : walkgraph::PlausibilityWarnings(*walk)) {
     std::cerr << "walkgraph: warning: " << dir << "/" << w << "\n";
   }
+  if (g_radio_map.empty()) return walk;
+  const std::string path = g_radio_map + "/anchors.csv";
+  auto map = walkgraph::ReadAnchorsFile(path);
+  if (!map.ok()) return map.status();
+  const int applied = walkgraph::ApplyRadioMap(*map, &*walk);
+  std::cerr << "walkgraph: " << path << ": " << applied << " of the walk's unsurveyed anchors "
+            << "placed by the radio map\n";
   return walk;
 }
 

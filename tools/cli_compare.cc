@@ -24,9 +24,13 @@ Status PrepareCompare(const CompareArgs& args, bool preflight, PreparedCompare* 
   if (!args.scenario_config_path.empty() && args.scenario.empty()) {
     return walkgraph::InvalidArgument("compare: --scenario-config needs --scenario");
   }
+  if (!g_radio_map.empty() && args.walk_dir.empty()) {
+    return walkgraph::InvalidArgument("compare: --radio-map needs WALK (not --scenario)");
+  }
   if (preflight) {
-    WG_RETURN_IF_ERROR(Preflight(args.out, walkgraph::OutputKind::kFolder,
-                                 {args.walk_dir, args.config_path, args.scenario_config_path}));
+    WG_RETURN_IF_ERROR(
+        Preflight(args.out, walkgraph::OutputKind::kFolder,
+                  {args.walk_dir, args.config_path, args.scenario_config_path, g_radio_map}));
   }
   walkgraph::CompareOptions& options = p->options;
   auto ids = SplitIds(args.ids);

@@ -125,7 +125,8 @@ walkgraph::StatusOr<YAML::Node> SmoothOptions(const YAML::Node& config, const st
 
 int RunSmooth(const std::string& walk_dir, const std::string& id, const std::string& config_path,
               const std::string& out, const std::string& ipin_out) {
-  if (Status s = Preflight(out, walkgraph::OutputKind::kFile, {walk_dir, config_path}); !s.ok()) {
+  if (Status s = Preflight(out, walkgraph::OutputKind::kFile, {walk_dir, config_path, g_radio_map});
+      !s.ok()) {
     return Fail(s);
   }
   auto walk = ReadWalk(walk_dir);
@@ -148,6 +149,50 @@ int RunSmooth(const std::string& walk_dir, const std::string& id, const std::str
     if (!si.ok()) return Fail(si);
     std::cout << "wrote " << ipin_out << " (IPIN submission, 2 Hz from t = 0)\n";
   }
+  return 0;
+}
+
+namespace {
+
+// survey.csv: what the map's anchors.csv cannot hold, per mapped anchor.
+bool WriteSurveyDetails(const walkgraph::RadioMap& map, std::ostream& o) {
+  using walkgraph::internal::Num;
+  o << "id,x_m,y_m,cov_xx,cov_xy,cov_yy,walks,readings,disagreement\n";
+  for (const walkgraph::SurveyedAnchor& a : map.details) {
+    o << a.id << ',' << Num(a.position_m.x(), 10) << ',' << Num(a.position_m.y(), 10) << ','
+      << Num(a.covariance(0, 0)) << ',' << Num(a.covariance(0, 1)) << ',' << Num(a.covariance(1, 1))
+      << ',' << a.walks << ',' << a.readings << ',' << Num(a.disagreement) << '\n';
+  }
+  return static_cast<bool>(o);
+}
+
+}  // namespace
+
+int RunSurvey(const std::vector<std::string>& walk_dirs, const walkgraph::SurveyOptions& options,
+              const std::string& out) {
+  if (Status s = Preflight(out, walkgraph::OutputKind::kFolder, walk_dirs); !s.ok()) {
+    return Fail(s);
+  }
+  std::vector<walkgraph::Walk> walks;
+  for (const std::string& dir : walk_dirs) {
+    auto walk = ReadWalk(dir);
+    if (!walk.ok()) return Fail(walk.status());
+    walks.push_back(std::move(*walk));
+  }
+  auto map = walkgraph::SurveyRadioMap(walks, options);
+  if (!map.ok()) return Fail(map.status());
+  const Status s = walkgraph::WriteOutputFolder(out, g_output, [&](const std::string& tmp) {
+    WG_RETURN_IF_ERROR(walkgraph::WriteFileInOutput(tmp + "/anchors.csv", [&](std::ostream& o) {
+      walkgraph::FormatAnchorsCsv(map->anchors, o);
+      return static_cast<bool>(o);
+    }));
+    return walkgraph::WriteFileInOutput(
+        tmp + "/survey.csv", [&](std::ostream& o) { return WriteSurveyDetails(*map, o); });
+  });
+  if (!s.ok()) return Fail(s);
+  std::cout << "wrote " << out << ": " << map->details.size() << " anchors placed from "
+            << walks.size() << " walks (" << map->anchors.size() - map->details.size()
+            << " surveyed kept; " << map->unobservable << " walk estimates unobservable)\n";
   return 0;
 }
 

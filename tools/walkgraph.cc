@@ -75,6 +75,7 @@ struct CliArgs {
   std::string walk_dir, out, id, config_path, format, ipin_out, scenario, list_id;
   std::vector<std::string> sources;
   walkgraph::ConvertOptions convert_options;
+  walkgraph::SurveyOptions survey;
   bool fit_floors = false;
   CompareArgs compare;
   PcrbArgs pcrb;
@@ -132,8 +133,22 @@ void AddWalkCommands(CLI::App* app, CliArgs* a) {
   smooth->add_option("--ipin-out", a->ipin_out,
                      "also write IPIN's submission (lon,lat,floor at 2 Hz from t = 0; walks from "
                      "convert ipin)");
+  smooth->add_option("--radio-map", g_radio_map,
+                     "a radio map from walkgraph survey: the walk's unsurveyed anchors it places "
+                     "get its positions as priors");
   smooth->callback(
       [a] { a->rc = RunSmooth(a->walk_dir, a->id, a->config_path, a->out, a->ipin_out); });
+
+  CLI::App* survey = app->add_subcommand(
+      "survey", "a radio map from walks with truth: their unsurveyed anchors placed (fg-batch)");
+  survey->add_option("WALK", a->sources, "walk directories (one building, with truth.csv)")
+      ->required();
+  survey->add_option("--out", a->out, "radio map folder to write (anchors.csv, survey.csv)")
+      ->required();
+  survey->add_option("--checkpoint-sigma", a->survey.checkpoint_sigma_m,
+                     "1-sigma of a truth sample used as a position factor, m (default 0.5)");
+  AddForce(survey);
+  survey->callback([a] { a->rc = RunSurvey(a->sources, a->survey, a->out); });
 }
 
 void AddCompareCommand(CLI::App* app, CliArgs* a) {
@@ -153,6 +168,9 @@ void AddCompareCommand(CLI::App* app, CliArgs* a) {
       "--estimators", c.ids,
       "comma-separated ids, e.g. \"fg-batch, tarrio-kf\" (default: all applicable)");
   compare->add_option("--config", c.config_path, "YAML file: {estimator id: {option: value}}");
+  compare->add_option("--radio-map", g_radio_map,
+                      "a radio map from walkgraph survey: the walk's unsurveyed anchors it "
+                      "places get its positions as priors (the filters use them as positions)");
   compare->add_flag("--align-se2", c.align_se2,
                     "align each estimate to the truth by a best-fit rotation + translation "
                     "(for dead-reckoning-only walks)");

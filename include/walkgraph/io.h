@@ -54,6 +54,14 @@ Status ValidateWalk(const Walk& walk, const ValidationLimits& limits = {});
 // 10 s of it uncovered).
 std::vector<std::string> PlausibilityWarnings(const Walk& walk);
 
+// An anchors.csv file on its own (walk-format.md), e.g. a radio map (`walkgraph survey`):
+// the rules of a walk's anchors.csv, and at least one anchor.
+StatusOr<std::vector<Anchor>> ReadAnchorsFile(const std::string& path,
+                                              const ValidationLimits& limits = {});
+// `anchors` as anchors.csv: the optional columns (floor, sigma_m, group) only when some anchor
+// needs them; an unknown position's x_m and y_m empty.
+void FormatAnchorsCsv(const std::vector<Anchor>& anchors, std::ostream& out);
+
 // Writes `walk` as the walk folder `dir`, through the output writer (output.h): the folder
 // carries walkgraph's marker, appears whole or not at all, and replaces only a folder walkgraph
 // wrote (or any folder with options.force). Validates the walk first.

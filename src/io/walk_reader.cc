@@ -509,4 +509,12 @@ StatusOr<Walk> ReadWalk(const std::string& dir, const ValidationLimits& limits) 
   return walk;
 }
 
+StatusOr<std::vector<Anchor>> ReadAnchorsFile(const std::string& path,
+                                              const ValidationLimits& limits) {
+  std::vector<Anchor> anchors;
+  WG_RETURN_IF_ERROR(ReadAnchors(path, limits, &anchors));
+  if (anchors.empty()) return InvalidArgument(path + ": no anchor");
+  return anchors;
+}
+
 }  // namespace walkgraph

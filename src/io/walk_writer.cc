@@ -16,30 +16,11 @@ using internal::ExactNum;
 
 namespace {
 
-// anchors.csv: the optional columns only when some anchor needs them; an unknown position's
-// x_m, y_m empty.
+// anchors.csv of a walk (FormatAnchorsCsv).
 bool WriteAnchors(const Walk& walk, std::ostream& o) {
-  const bool floor = walk.anchors[0].floor.has_value();
-  bool sigma = false, group = false;
-  for (const Anchor& a : walk.anchors) {
-    sigma = sigma || a.sigma_m > 0.0;
-    group = group || !a.group.empty();
-  }
-  o << "id,x_m,y_m,z_m" << (floor ? ",floor" : "") << (sigma ? ",sigma_m" : "")
-    << (group ? ",group" : "") << '\n';
-  for (const Anchor& a : walk.anchors) {
-    o << a.id << ',';
-    if (a.position_known) o << ExactNum(a.position_m.x()) << ',' << ExactNum(a.position_m.y());
-    if (!a.position_known) o << ',';  // unknown: x_m and y_m empty
-    o << ',' << ExactNum(a.position_m.z());
-    if (floor) o << ',' << *a.floor;
-    if (sigma) o << ',' << ExactNum(a.sigma_m);
-    if (group) o << ',' << a.group;
-    o << '\n';
-  }
+  FormatAnchorsCsv(walk.anchors, o);
   return true;
 }
-
 // walk.yaml of `walk` (walk-format.md).
 bool WriteWalkYaml(const Walk& walk, std::ostream& o) {
   const WalkMeta& m = walk.meta;
@@ -192,6 +173,27 @@ Status WriteWalk(const Walk& walk, const std::string& dir, const OutputOptions& 
   WG_RETURN_IF_ERROR(ValidateWalk(walk));
   return WriteOutputFolder(dir, options,
                            [&](const std::string& tmp) { return WriteWalkFiles(walk, tmp); });
+}
+
+void FormatAnchorsCsv(const std::vector<Anchor>& anchors, std::ostream& o) {
+  const bool floor = !anchors.empty() && anchors[0].floor.has_value();
+  bool sigma = false, group = false;
+  for (const Anchor& a : anchors) {
+    sigma = sigma || a.sigma_m > 0.0;
+    group = group || !a.group.empty();
+  }
+  o << "id,x_m,y_m,z_m" << (floor ? ",floor" : "") << (sigma ? ",sigma_m" : "")
+    << (group ? ",group" : "") << '\n';
+  for (const Anchor& a : anchors) {
+    o << a.id << ',';
+    if (a.position_known) o << ExactNum(a.position_m.x()) << ',' << ExactNum(a.position_m.y());
+    if (!a.position_known) o << ',';  // unknown: x_m and y_m empty
+    o << ',' << ExactNum(a.position_m.z());
+    if (floor) o << ',' << *a.floor;
+    if (sigma) o << ',' << ExactNum(a.sigma_m);
+    if (group) o << ',' << a.group;
+    o << '\n';
+  }
 }
 
 }  // namespace walkgraph

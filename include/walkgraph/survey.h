@@ -1,0 +1,65 @@
+// Radio maps learnt from walks (issue 44): `walkgraph survey WALK... --out MAP` and
+// `--radio-map MAP`.
+//
+//   std::vector<walkgraph::Walk> walks = ...;  // walks of one building, with truth
+//   auto map = walkgraph::SurveyRadioMap(walks, walkgraph::SurveyOptions());
+//   walkgraph::ApplyRadioMap(map->anchors, &other_walk);  // its unsurveyed anchors get priors
+//
+// Each walk is solved by fg-batch with its truth as position factors (waypoints), its anchors of
+// unknown or uncertain position states of the graph (smoothers/step_graph.h); an anchor heard
+// in several walks gets the information-weighted mean of their estimates. The map is an
+// anchors.csv (io.h ReadAnchorsFile): position and a 1σ that is the fused covariance's largest
+// axis, inflated by the walks' disagreement where they disagree beyond their covariances.
+#ifndef WALKGRAPH_SURVEY_H_
+#define WALKGRAPH_SURVEY_H_
+
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "walkgraph/status.h"
+#include "walkgraph/walk.h"
+
+namespace walkgraph {
+
+struct SurveyOptions {
+  // 1σ of a truth sample used as a waypoint (m). Our choice: IPIN's landmarks are marked on a
+  // plan to about this (not documented by IPIN); a simulated truth is exact.
+  double checkpoint_sigma_m = 0.5;
+  // At most one waypoint per this span (s) of truth: a continuous truth (simulator, Vicon) would
+  // otherwise add hundreds of factors per minute that fix the path no better.
+  double checkpoint_spacing_s = 1.0;
+  Status Validate() const;
+};
+
+// One mapped anchor, with what the map's anchors.csv cannot hold.
+struct SurveyedAnchor {
+  int id = 0;
+  Eigen::Vector2d position_m = Eigen::Vector2d::Zero();
+  Eigen::Matrix2d covariance = Eigen::Matrix2d::Zero();  // fused (and inflated), m²
+  int walks = 0;                                         // walks whose estimate entered
+  int readings = 0;                                      // their readings of it
+  // Disagreement of the walks' estimates: Σ (p_w − p)ᵀ C_w⁻¹ (p_w − p) / (2 (walks − 1)); 1 when
+  // they agree as their covariances say (0 for one walk). The covariance is scaled by it when > 1.
+  double disagreement = 0.0;
+};
+
+struct RadioMap {
+  std::vector<Anchor> anchors;          // the map (anchors.csv)
+  std::vector<SurveyedAnchor> details;  // per estimated anchor, in the order of `anchors`
+  int unobservable = 0;                 // (walk, anchor) estimates declared unobservable
+};
+
+// Errors: no walk, a walk without truth, or fg-batch failing on a walk. Surveyed anchors of the
+// walks enter the map unchanged (the first walk's, when walks disagree); anchors no walk could
+// place are left out.
+StatusOr<RadioMap> SurveyRadioMap(const std::vector<Walk>& walks, const SurveyOptions& options);
+
+// The walk's anchors that are not surveyed (unknown or uncertain) and that `map` places: their
+// position (x, y) and σ from the map when the map's σ is smaller (a prior, not a constant: the
+// graphs keep them states; the filters use the mean). Returns how many changed.
+int ApplyRadioMap(const std::vector<Anchor>& map, Walk* walk);
+
+}  // namespace walkgraph
+
+#endif  // WALKGRAPH_SURVEY_H_

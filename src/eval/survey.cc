@@ -1,0 +1,163 @@
+#include "walkgraph/survey.h"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <string>
+
+#include <Eigen/Eigenvalues>
+
+#include "util/text.h"
+#include "walkgraph/estimator.h"
+
+namespace walkgraph {
+
+namespace {
+
+constexpr double kMaxMapSigmaM = 1000.0;  // anchors.csv's largest sigma_m (walk-format.md)
+
+// `walk` with its truth as waypoints (SurveyOptions), at most one per checkpoint_spacing_s.
+Walk WithTruthWaypoints(const Walk& walk, const SurveyOptions& o) {
+  Walk out = walk;
+  double last = -std::numeric_limits<double>::infinity();
+  for (const TruthSample& t : walk.truth) {
+    if (t.t_s - last < o.checkpoint_spacing_s) continue;
+    last = t.t_s;
+    out.waypoints.push_back({t.t_s, t.position_m.head<2>(), o.checkpoint_sigma_m});
+  }
+  std::sort(out.waypoints.begin(), out.waypoints.end(),
+            [](const Waypoint& a, const Waypoint& b) { return a.t_s < b.t_s; });
+  return out;
+}
+
+// One walk's estimate of an anchor.
+struct WalkEstimate {
+  Eigen::Vector2d p;
+  Eigen::Matrix2d c;
+  int readings = 0;
+};
+
+// The information-weighted mean of `e` and its covariance, scaled by the disagreement when > 1.
+SurveyedAnchor Fuse(int id, const std::vector<WalkEstimate>& e) {
+  SurveyedAnchor out;
+  out.id = id;
+  out.walks = static_cast<int>(e.size());
+  Eigen::Matrix2d info = Eigen::Matrix2d::Zero();
+  Eigen::Vector2d v = Eigen::Vector2d::Zero();
+  for (const WalkEstimate& w : e) {
+    const Eigen::Matrix2d inv = w.c.inverse();
+    info += inv;
+    v += inv * w.p;
+    out.readings += w.readings;
+  }
+  out.covariance = info.inverse();
+  out.position_m = out.covariance * v;
+  if (e.size() > 1) {
+    double chi2 = 0.0;
+    for (const WalkEstimate& w : e) {
+      const Eigen::Vector2d d = w.p - out.position_m;
+      chi2 += d.dot(w.c.inverse() * d);
+    }
+    out.disagreement = chi2 / (2.0 * static_cast<double>(e.size() - 1));
+    if (out.disagreement > 1.0) out.covariance *= out.disagreement;
+  }
+  out.covariance = 0.5 * (out.covariance + out.covariance.transpose());
+  return out;
+}
+
+// A covariance usable for fusion: finite and positive definite.
+bool Usable(const Eigen::Matrix2d& c) {
+  if (!c.allFinite()) return false;
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> es(c);
+  return es.eigenvalues().minCoeff() > 0.0;
+}
+
+}  // namespace
+
+Status SurveyOptions::Validate() const {
+  if (!(checkpoint_sigma_m > 0.0 && checkpoint_sigma_m <= kMaxMapSigmaM)) {
+    return InvalidArgument("survey: checkpoint_sigma_m must be in (0, 1000] m, not " +
+                           internal::Num(checkpoint_sigma_m));
+  }
+  if (!(checkpoint_spacing_s >= 0.0 && checkpoint_spacing_s <= 3600.0)) {
+    return InvalidArgument("survey: checkpoint_spacing_s must be in [0, 3600] s, not " +
+                           internal::Num(checkpoint_spacing_s));
+  }
+  return Status::Ok();
+}
+
+StatusOr<RadioMap> SurveyRadioMap(const std::vector<Walk>& walks, const SurveyOptions& o) {
+  WG_RETURN_IF_ERROR(o.Validate());
+  if (walks.empty()) return InvalidArgument("survey: no walk");
+  WG_ASSIGN_OR_RETURN(std::unique_ptr<Estimator> fg,
+                      EstimatorRegistry::Builtin().Create("fg-batch"));
+  RadioMap map;
+  std::map<int, std::vector<WalkEstimate>> estimates;
+  std::map<int, Anchor> anchor_of;  // the first walk's anchor record of each id
+  for (const Walk& walk : walks) {
+    if (!walk.has_truth()) {
+      return FailedPrecondition("survey: walk '" + walk.meta.name + "' has no truth.csv");
+    }
+    for (const Anchor& a : walk.anchors) anchor_of.emplace(a.id, a);
+    if (!std::any_of(walk.anchors.begin(), walk.anchors.end(),
+                     [](const Anchor& a) { return !a.surveyed(); })) {
+      continue;  // nothing to place
+    }
+    const Walk w = WithTruthWaypoints(walk, o);
+    WG_RETURN_IF_ERROR(fg->CheckApplicable(w));
+    StatusOr<EstimateResult> r = fg->Run(w);
+    if (!r.ok())
+      return Status(r.status().code(),
+                    "survey: walk '" + walk.meta.name + "': " + r.status().message());
+    for (const AnchorEstimate& e : r->anchors) {
+      if (!e.observable || !e.covariance || !Usable(*e.covariance) || !e.position_m.allFinite()) {
+        ++map.unobservable;
+        continue;
+      }
+      estimates[e.id].push_back({e.position_m, *e.covariance, e.readings});
+    }
+  }
+  for (const auto& [id, a] : anchor_of) {
+    if (a.surveyed()) {
+      map.anchors.push_back(a);
+      continue;
+    }
+    const auto it = estimates.find(id);
+    if (it == estimates.end()) continue;
+    SurveyedAnchor s = Fuse(id, it->second);
+    const double sigma =
+        std::sqrt(Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(s.covariance).eigenvalues()(1));
+    if (!(sigma > 0.0 && sigma <= kMaxMapSigmaM)) continue;
+    Anchor m = a;
+    m.position_known = true;
+    m.position_m.head<2>() = s.position_m;
+    if (!std::isfinite(m.position_m.z())) m.position_m.z() = 0.0;
+    m.sigma_m = sigma;
+    map.anchors.push_back(m);
+    map.details.push_back(s);
+  }
+  return map;
+}
+
+int ApplyRadioMap(const std::vector<Anchor>& map, Walk* walk) {
+  std::map<int, const Anchor*> by_id;
+  for (const Anchor& a : map) {
+    if (a.position_known) by_id[a.id] = &a;
+  }
+  int changed = 0;
+  for (Anchor& a : walk->anchors) {
+    if (a.surveyed()) continue;
+    const auto it = by_id.find(a.id);
+    if (it == by_id.end()) continue;
+    const Anchor& m = *it->second;
+    if (a.position_known && m.sigma_m >= a.sigma_m && !m.surveyed()) continue;  // no better
+    a.position_known = true;
+    a.position_m.x() = m.position_m.x();
+    a.position_m.y() = m.position_m.y();
+    a.sigma_m = m.sigma_m;
+    ++changed;
+  }
+  return changed;
+}
+
+}  // namespace walkgraph
