@@ -287,12 +287,13 @@ void SetWalkStream(Walk* w, const std::string& s, const py::handle& v) {
     }
   } else if (s == "anchors") {
     w->anchors.clear();
-    const auto rows = Rows(v, s, {4}, "id, x_m, y_m, z_m");
+    const auto rows = Rows(v, s, {4, 5}, "id, x_m, y_m, z_m[, sigma_m]");
     for (size_t i = 0; i < rows.size(); ++i) {
       w->anchors.push_back({AnchorId(rows[i][0], s, i), {rows[i][1], rows[i][2], rows[i][3]}});
       // NaN x and y: an anchor of unknown position (anchors.csv's empty x_m, y_m).
       if (std::isnan(rows[i][1]) && std::isnan(rows[i][2]))
         w->anchors.back().position_known = false;
+      if (rows[i].size() == 5) w->anchors.back().sigma_m = rows[i][4];  // 0: surveyed
     }
   } else if (s == "waypoints") {
     w->waypoints.clear();
@@ -344,10 +345,12 @@ py::object WalkStream(const Walk& w, const std::string& s) {
       return j == 0 ? x.t_s : x.position_m[j - 1];
     });
   }
-  if (s == "anchors") {
-    return Matrix(w.anchors.size(), 4, [&](size_t i, size_t j) {
+  if (s == "anchors") {  // sigma_m as a fifth column when some anchor has one (anchors.csv)
+    bool sigma = false;
+    for (const Anchor& a : w.anchors) sigma = sigma || a.sigma_m > 0.0;
+    return Matrix(w.anchors.size(), sigma ? 5 : 4, [&](size_t i, size_t j) {
       const Anchor& x = w.anchors[i];
-      return j == 0 ? double(x.id) : x.position_m[j - 1];
+      return j == 0 ? double(x.id) : j == 4 ? x.sigma_m : x.position_m[j - 1];
     });
   }
   if (s == "waypoints") {

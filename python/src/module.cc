@@ -19,6 +19,7 @@
 #include "walkgraph/metrics.h"
 #include "walkgraph/pcrb.h"
 #include "walkgraph/simulate.h"
+#include "walkgraph/survey.h"
 
 namespace walkgraph::python {
 
@@ -430,6 +431,61 @@ py::array_t<double> Stack2x2(const std::vector<Eigen::Matrix2d>& v) {
   return a;
 }
 
+// survey, apply_radio_map (survey.h).
+void BindSurvey(py::module_& m) {
+  m.def(
+      "survey",
+      [](const std::vector<Walk>& walks, double checkpoint_sigma_m, double checkpoint_spacing_s) {
+        SurveyOptions o;
+        o.checkpoint_sigma_m = checkpoint_sigma_m;
+        o.checkpoint_spacing_s = checkpoint_spacing_s;
+        for (const Walk& w : walks) Check(ValidateWalk(w));
+        std::optional<RadioMap> map;
+        Check(RunInterruptible([&]() -> Status {
+          WG_ASSIGN_OR_RETURN(map, SurveyRadioMap(walks, o));
+          return Status::Ok();
+        }));
+        py::dict d;
+        d["anchors"] = Matrix(map->anchors.size(), 5, [&](size_t i, size_t j) {
+          const Anchor& a = map->anchors[i];
+          return j == 0 ? double(a.id) : j == 4 ? a.sigma_m : a.position_m[j - 1];
+        });
+        std::vector<int> ids, used, readings;
+        std::vector<double> disagreement;
+        std::vector<Eigen::Matrix2d> covariance;
+        for (const SurveyedAnchor& a : map->details) {
+          ids.push_back(a.id);
+          used.push_back(a.walks);
+          readings.push_back(a.readings);
+          disagreement.push_back(a.disagreement);
+          covariance.push_back(a.covariance);
+        }
+        d["placed_ids"] = ids;
+        d["covariance"] = Stack2x2(covariance);
+        d["walks"] = used;
+        d["readings"] = readings;
+        d["disagreement"] = disagreement;
+        d["unobservable"] = map->unobservable;
+        return d;
+      },
+      py::arg("walks"), py::arg("checkpoint_sigma_m") = 0.5, py::arg("checkpoint_spacing_s") = 1.0,
+      "A radio map from walks with truth (walkgraph survey): a dict with 'anchors' (an (N, 5) "
+      "array id, x_m, y_m, z_m, sigma_m, as walk.anchors takes it) and, per placed anchor, "
+      "'placed_ids', 'covariance' (n, 2, 2), 'walks', 'readings', 'disagreement'.");
+  m.def(
+      "apply_radio_map",
+      [](Walk& walk, const py::handle& anchors) {
+        Walk map;
+        SetWalkStream(&map, "anchors", anchors);
+        const int changed = ApplyRadioMap(map.anchors, &walk);
+        Check(ValidateWalk(walk));
+        return changed;
+      },
+      py::arg("walk"), py::arg("anchors"),
+      "Gives the walk's unsurveyed anchors that the map (survey()['anchors']) places its position "
+      "and sigma as a prior; returns how many changed.");
+}
+
 // simulate, scenarios, pcrb.
 void BindSimulation(py::module_& m) {
   m.def(
@@ -505,6 +561,7 @@ PYBIND11_MODULE(_walkgraph, m) {
   BindEstimators(m);
   BindCompare(m);
   BindSimulation(m);
+  BindSurvey(m);
   BindErrors(m);
   BindGraph(m);
 }

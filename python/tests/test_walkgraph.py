@@ -169,6 +169,34 @@ def test_simulate_pcrb_and_monte_carlo_compare():
         walkgraph.simulate("no-such-scenario", 1)
 
 
+def test_survey_places_unknown_anchors_and_the_map_applies():
+    walks = []
+    for seed in (1, 2):
+        w = walkgraph.simulate("tarrio-circle", seed, {"laps": 1})
+        a = w.anchors.copy()
+        a[::2, 1:3] = np.nan  # every other anchor of unknown position
+        w.anchors = a
+        walks.append(w)
+    m = walkgraph.survey(walks)
+    truth = walkgraph.simulate("tarrio-circle", 1, {"laps": 1}).anchors
+    assert m["anchors"].shape == (truth.shape[0], 5)
+    placed = np.isin(m["anchors"][:, 0], m["placed_ids"])
+    assert placed.sum() >= 4 and m["covariance"].shape == (placed.sum(), 2, 2)
+    err = np.linalg.norm(m["anchors"][placed, 1:3] - truth[placed, 1:3], axis=1)
+    assert err.mean() < 3.0  # the C++ test's figure (tests/survey_test.cc)
+    assert np.all(m["anchors"][placed, 4] > 0) and np.all(m["anchors"][~placed, 4] == 0)
+    third = walkgraph.simulate("tarrio-circle", 3, {"laps": 1})
+    a = third.anchors.copy()
+    a[::2, 1:3] = np.nan
+    third.anchors = a
+    assert walkgraph.apply_radio_map(third, m["anchors"]) == placed.sum()
+    assert third.anchors.shape[1] == 5 and not np.isnan(third.anchors[:, 1]).any()
+    with pytest.raises(ValueError, match="checkpoint_sigma_m"):
+        walkgraph.survey(walks, checkpoint_sigma_m=0)
+    with pytest.raises(ValueError, match="no truth"):
+        walkgraph.survey([walkgraph.Walk(anchors=truth)])
+
+
 def test_graph_core_batch_and_fixed_lag():
     # A point walking east at 1 m/s past three anchors, as examples/ and the C++ docs do.
     anchors = [np.array([0.0, 5.0, 0.0]), np.array([10.0, -5.0, 0.0]),

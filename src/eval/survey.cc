@@ -96,7 +96,7 @@ StatusOr<RadioMap> SurveyRadioMap(const std::vector<Walk>& walks, const SurveyOp
   std::map<int, Anchor> anchor_of;  // the first walk's anchor record of each id
   for (const Walk& walk : walks) {
     if (!walk.has_truth()) {
-      return FailedPrecondition("survey: walk '" + walk.meta.name + "' has no truth.csv");
+      return InvalidArgument("survey: walk '" + walk.meta.name + "' has no truth.csv");
     }
     for (const Anchor& a : walk.anchors) anchor_of.emplace(a.id, a);
     if (!std::any_of(walk.anchors.begin(), walk.anchors.end(),
