@@ -173,5 +173,62 @@ TEST(SurveyRadioMapTest, PlacesTheUnknownAnchorsOfTwoSimulatedWalks) {
   EXPECT_FALSE(SurveyRadioMap({no_truth}, SurveyOptions()).ok());
 }
 
+// IPIN 2023 Track 3, leave one out (issue 44's target): the four shared trials converted with
+// --known-start --wifi (walk.yaml's path loss); a map surveyed from three, the fourth run by
+// fg-batch with it, against BLE alone. Target: p75 better than BLE alone on each trial. Met on
+// 01 and 52 (5.69 against 6.39 m, 2.24 against 3.05 m), not on 05 (2.43 against 2.22 m) and 21
+// (2.63 against 2.50 m); the test holds each trial to its figure (+5 %) and the mean of the four
+// below BLE's (3.25 against 3.54 m).
+TEST(SurveyRealData, IpinLeaveOneOutMapAgainstBleAlone) {
+  const std::string dir = std::string(WALKGRAPH_SHARED_DATASETS) + "/ipin2023_t3";
+  if (!fs::exists(dir)) GTEST_SKIP() << dir << " not present";
+  const std::string ble = dir + "/BLE_Locations.csv";
+  const std::vector<std::string> trials = {"01", "05", "21", "52"};
+  const std::map<std::string, double> held = {
+      {"01", 5.69}, {"05", 2.43}, {"21", 2.63}, {"52", 2.24}};
+  std::map<std::string, Walk> wifi, ble_only;
+  for (const std::string& n : trials) {
+    ConvertOptions o;
+    o.known_start = true;
+    const std::vector<std::string> src = {
+        dir + "/IPIN2023_T3_TrainingTrial" + n + "_repetition01.txt", ble};
+    auto b = Convert("ipin", src, o);
+    o.ipin_wifi = true;
+    auto w = Convert("ipin", src, o);
+    ASSERT_TRUE(b.ok() && w.ok()) << n;
+    ble_only[n] = *b;
+    wifi[n] = *w;
+  }
+  auto fg = EstimatorRegistry::Builtin().Create("fg-batch");
+  ASSERT_TRUE(fg.ok());
+  auto p75 = [&](const Walk& w) {
+    auto r = (*fg)->Run(w);
+    EXPECT_TRUE(r.ok()) << r.status().message();
+    auto e = ComputeErrors(w, r->trajectory);
+    return SummarizeErrors(e->error_m, w.TruthDistance()).p75_m;
+  };
+  double sum_map = 0.0, sum_ble = 0.0;
+  for (const std::string& n : trials) {
+    std::vector<Walk> others;
+    for (const std::string& m : trials) {
+      if (m != n) others.push_back(wifi[m]);
+    }
+    auto map = SurveyRadioMap(others, SurveyOptions());
+    ASSERT_TRUE(map.ok()) << map.status().message();
+    Walk w = wifi[n];
+    const int placed = ApplyRadioMap(map->anchors, &w);
+    const double with_map = p75(w), alone = p75(ble_only[n]);
+    std::printf(
+        "trial %s: fg-batch p75 %.2f m BLE alone, %.2f m BLE + WiFi + map (%d access "
+        "points placed by the map)%s\n",
+        n.c_str(), alone, with_map, placed, with_map < alone ? "" : " -- target not met");
+    EXPECT_GE(placed, 5) << n;
+    EXPECT_LE(with_map, 1.05 * held.at(n)) << n;
+    sum_map += with_map;
+    sum_ble += alone;
+  }
+  EXPECT_LT(sum_map, sum_ble);
+}
+
 }  // namespace
 }  // namespace walkgraph
