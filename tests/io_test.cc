@@ -128,7 +128,7 @@ const MalformedCase kCases[] = {
     {"wrong_header", "imu.csv:1:", "expected 't_s,ax,ay,az,gx,gy,gz'"},
     {"bad_yaml", "walk.yaml:", ""},
     {"unknown_yaml_key", "walk.yaml (line 5)", "unknown option 'colour'"},
-    {"bad_enum", "walk.yaml: imu_placement", "'wrist' is not one of"},
+    {"bad_enum", "walk.yaml (line 5)", "option 'imu_placement' must be one of"},
     {"truth_missing", "walk.yaml", "truth.csv is missing"},
     {"walk_yaml_missing", "walk.yaml", "missing"},
     {"blank_line_inside", "imu.csv:4:", "empty line inside the data"},

@@ -96,6 +96,12 @@ TEST(RadioMapFile, RoundTripsThroughAnchorsCsvAndRefusesAnEmptyMap) {
   EXPECT_EQ((*read)[0].sigma_m, 0.75);
   EXPECT_EQ((*read)[0].group, "wifi");
   EXPECT_TRUE((*read)[1].surveyed());
+  // A map merged from walks with and without floors: no floor column (none dereferenced).
+  Anchor with_floor = b;
+  with_floor.floor = -2;
+  std::ostringstream mixed;
+  FormatAnchorsCsv({with_floor, a}, mixed);
+  EXPECT_EQ(mixed.str().substr(0, mixed.str().find('\n')), "id,x_m,y_m,z_m,sigma_m,group");
   std::ofstream(dir / "empty.csv") << "id,x_m,y_m,z_m\n";
   auto empty = ReadAnchorsFile((dir / "empty.csv").string());
   ASSERT_FALSE(empty.ok());

@@ -30,6 +30,9 @@ walkgraph::StatusOr<walkgraph::Walk> ReadWalk(const std::string& dir) {
   auto map = walkgraph::ReadAnchorsFile(path);
   if (!map.ok()) return map.status();
   const int applied = walkgraph::ApplyRadioMap(*map, &*walk);
+  if (const Status v = walkgraph::ValidateWalk(*walk); !v.ok()) {  // e.g. a map in another frame
+    return Status(v.code(), path + " on " + dir + ": " + v.message());
+  }
   std::cerr << "walkgraph: " << path << ": " << applied << " of the walk's unsurveyed anchors "
             << "placed by the radio map\n";
   return walk;

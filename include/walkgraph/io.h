@@ -58,8 +58,8 @@ std::vector<std::string> PlausibilityWarnings(const Walk& walk);
 // the rules of a walk's anchors.csv, and at least one anchor.
 StatusOr<std::vector<Anchor>> ReadAnchorsFile(const std::string& path,
                                               const ValidationLimits& limits = {});
-// `anchors` as anchors.csv: the optional columns (floor, sigma_m, group) only when some anchor
-// needs them; an unknown position's x_m and y_m empty.
+// `anchors` as anchors.csv: sigma_m and group only when some anchor needs them, floor when every
+// anchor has one; an unknown position's x_m and y_m empty.
 void FormatAnchorsCsv(const std::vector<Anchor>& anchors, std::ostream& out);
 
 // Writes `walk` as the walk folder `dir`, through the output writer (output.h): the folder

@@ -104,7 +104,9 @@ StatusOr<RadioMap> SurveyRadioMap(const std::vector<Walk>& walks, const SurveyOp
       continue;  // nothing to place
     }
     const Walk w = WithTruthWaypoints(walk, o);
-    WG_RETURN_IF_ERROR(fg->CheckApplicable(w));
+    if (const Status s = fg->CheckApplicable(w); !s.ok()) {
+      return Status(s.code(), "survey: walk '" + walk.meta.name + "': " + s.message());
+    }
     StatusOr<EstimateResult> r = fg->Run(w);
     if (!r.ok())
       return Status(r.status().code(),

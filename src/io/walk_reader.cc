@@ -41,26 +41,11 @@ namespace {
 
 // ----------------------------------------------------------------- walk.yaml
 
-template <typename E>
-Status ParseEnum(const std::string& text, const EnumNames<E>& table, const std::string& where,
-                 E* out) {
-  std::string options;
-  for (const auto& [name, value] : table) {
-    if (text == name) {
-      *out = value;
-      return Status::Ok();
-    }
-    options += (options.empty() ? "" : "|") + name;
-  }
-  return InvalidArgument(where + ": " + internal::Quoted(text) + " is not one of " + options);
-}
-
 // walk.yaml's radio block.
 Status ReadRadio(const YAML::Node& radio, const std::string& path, RadioDefaults* radio_out) {
   ConfigReader rr(radio, path + ": radio");
-  std::string kind = "none", units = "dbm";
-  rr.Read("kind", &kind);
-  rr.Read("units", &units);
+  rr.ReadEnum("kind", &radio_out->kind, RadioKindNames());
+  rr.ReadEnum("units", &radio_out->units, RssUnitsNames());
   rr.Read("A_dbm", &radio_out->path_loss.A_dbm);
   rr.Read("eta", &radio_out->path_loss.eta);
   rr.Read("d0_m", &radio_out->path_loss.d0_m);
@@ -69,8 +54,6 @@ Status ReadRadio(const YAML::Node& radio, const std::string& path, RadioDefaults
   rr.Read("range_sigma_m", &radio_out->range_sigma_m);
   rr.Read("calibrated", &radio_out->calibrated);
   WG_RETURN_IF_ERROR(rr.Finish());
-  WG_RETURN_IF_ERROR(ParseEnum(kind, RadioKindNames(), path + ": radio.kind", &radio_out->kind));
-  WG_RETURN_IF_ERROR(ParseEnum(units, RssUnitsNames(), path + ": radio.units", &radio_out->units));
   const PathLossParams& pl = radio_out->path_loss;
   if (!(pl.eta > 0.0) || !(pl.d0_m > 0.0) || !(pl.sigma_db > 0.0) ||
       !(radio_out->range_sigma_m > 0.0) || !std::isfinite(pl.A_dbm)) {
@@ -95,9 +78,9 @@ Status ReadMeta(const std::string& path, WalkMeta* meta) {
   r.Read("source", &meta->source);
   r.Read("licence", &meta->licence);
   r.Read("storey_height_m", &meta->storey_height_m);
-  std::string placement = "none", truth = "none", frame = "enu";
-  r.Read("imu_placement", &placement);
-  r.Read("truth", &truth);
+  std::string frame = "enu";
+  r.ReadEnum("imu_placement", &meta->imu_placement, ImuPlacementNames());
+  r.ReadEnum("truth", &meta->truth_kind, TruthKindNames());
   r.Read("frame", &frame);
   YAML::Node radio = r.Child("radio");
   YAML::Node initial = r.Child("initial_pose");
@@ -113,9 +96,6 @@ Status ReadMeta(const std::string& path, WalkMeta* meta) {
   if (frame != "enu") {
     return InvalidArgument(path + ": frame '" + frame + "'; expected 'enu' (x east, y north, m)");
   }
-  WG_RETURN_IF_ERROR(
-      ParseEnum(placement, ImuPlacementNames(), path + ": imu_placement", &meta->imu_placement));
-  WG_RETURN_IF_ERROR(ParseEnum(truth, TruthKindNames(), path + ": truth", &meta->truth_kind));
   if (radio.IsDefined() && !radio.IsNull()) {
     WG_RETURN_IF_ERROR(ReadRadio(radio, path, &meta->radio));
   }

@@ -1,5 +1,6 @@
 // Writing a walk folder (io.h WriteWalk): walk.yaml and one CSV per stream, numbers in the
 // shortest text that reads back to the same double.
+#include <algorithm>
 #include <filesystem>
 #include <ostream>
 
@@ -176,7 +177,10 @@ Status WriteWalk(const Walk& walk, const std::string& dir, const OutputOptions& 
 }
 
 void FormatAnchorsCsv(const std::vector<Anchor>& anchors, std::ostream& o) {
-  const bool floor = !anchors.empty() && anchors[0].floor.has_value();
+  // A floor column when every anchor has a floor (a walk's have all or none; a radio map merged
+  // from walks with and without floors gets none).
+  const bool floor = !anchors.empty() && std::all_of(anchors.begin(), anchors.end(),
+                                                     [](const Anchor& a) { return a.floor; });
   bool sigma = false, group = false;
   for (const Anchor& a : anchors) {
     sigma = sigma || a.sigma_m > 0.0;
