@@ -29,7 +29,12 @@ walkgraph::StatusOr<walkgraph::Walk> ReadWalk(const std::string& dir) {
   const std::string path = g_radio_map + "/anchors.csv";
   auto map = walkgraph::ReadAnchorsFile(path);
   if (!map.ok()) return map.status();
-  const int applied = walkgraph::ApplyRadioMap(*map, &*walk);
+  auto applied_or = walkgraph::ApplyRadioMap(*map, &*walk);
+  if (!applied_or.ok()) {
+    return walkgraph::Status(applied_or.status().code(),
+                             path + " on " + dir + ": " + applied_or.status().message());
+  }
+  const int applied = *applied_or;
   if (const Status v = walkgraph::ValidateWalk(*walk); !v.ok()) {  // e.g. a map in another frame
     return Status(v.code(), path + " on " + dir + ": " + v.message());
   }

@@ -50,15 +50,22 @@ struct RadioMap {
   int unobservable = 0;                 // (walk, anchor) estimates declared unobservable
 };
 
-// Errors: no walk, a walk without truth, or fg-batch failing on a walk. Surveyed anchors of the
-// walks enter the map unchanged (the first walk's, when walks disagree); anchors no walk could
-// place are left out.
+// The map is in the frame of the first walk with surveyed anchors. A walk in a frame of its own
+// (a converter's origin per walk: IPIN's) is moved into it by the rigid motion its surveyed
+// anchors give (Umeyama; one shared anchor: a shift); surveyed anchors that still disagree by
+// more than 0.5 m rms are an error (not one building), and so is a walk with surveyed anchors
+// of which none is in that first walk. Walks without surveyed anchors are taken as in the map's
+// frame. Errors also: no walk, a walk without truth, fg-batch failing on a walk. Surveyed anchors
+// enter the map as the first walk has them; anchors no walk could place are left out.
 StatusOr<RadioMap> SurveyRadioMap(const std::vector<Walk>& walks, const SurveyOptions& options);
 
 // The walk's anchors that are not surveyed (unknown or uncertain) and that `map` places: their
 // position (x, y) and σ from the map when the map's σ is smaller (a prior, not a constant: the
-// graphs keep them states; the filters use the mean). Returns how many changed.
-int ApplyRadioMap(const std::vector<Anchor>& map, Walk* walk);
+// graphs keep them states; the filters use the mean), moved into the walk's frame by the rigid
+// motion that the anchors surveyed in both give (as SurveyRadioMap; none shared: the same
+// frame). Returns how many changed; an error (and the walk unchanged) when those anchors
+// disagree by more than 0.5 m rms.
+StatusOr<int> ApplyRadioMap(const std::vector<Anchor>& map, Walk* walk);
 
 }  // namespace walkgraph
 

@@ -477,7 +477,7 @@ void BindSurvey(py::module_& m) {
       [](Walk& walk, const py::handle& anchors) {
         Walk map;
         SetWalkStream(&map, "anchors", anchors);
-        const int changed = ApplyRadioMap(map.anchors, &walk);
+        const int changed = Value(ApplyRadioMap(map.anchors, &walk));
         Check(ValidateWalk(walk));
         return changed;
       },

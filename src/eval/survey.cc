@@ -6,6 +6,7 @@
 #include <string>
 
 #include <Eigen/Eigenvalues>
+#include <Eigen/Geometry>
 
 #include "util/text.h"
 #include "walkgraph/estimator.h"
@@ -28,6 +29,71 @@ Walk WithTruthWaypoints(const Walk& walk, const SurveyOptions& o) {
   std::sort(out.waypoints.begin(), out.waypoints.end(),
             [](const Waypoint& a, const Waypoint& b) { return a.t_s < b.t_s; });
   return out;
+}
+
+// The planar rigid motion p_to = R p_from + t that maps one anchor frame onto another, from the
+// anchors surveyed in both (by id): Umeyama's least squares for two or more, a translation for
+// one, the identity for none; rms: the surveyed anchors' residual after it.
+struct FrameMap {
+  Eigen::Matrix2d R = Eigen::Matrix2d::Identity();
+  Eigen::Vector2d t = Eigen::Vector2d::Zero();
+  int shared = 0;
+  double rms_m = 0.0;
+  Eigen::Vector2d operator()(const Eigen::Vector2d& p) const { return R * p + t; }
+};
+
+FrameMap FrameBetween(const std::vector<Anchor>& from, const std::vector<Anchor>& to) {
+  std::map<int, Eigen::Vector2d> target;
+  for (const Anchor& a : to) {
+    if (a.surveyed()) target[a.id] = a.position_m.head<2>();
+  }
+  std::vector<std::pair<Eigen::Vector2d, Eigen::Vector2d>> pairs;
+  for (const Anchor& a : from) {
+    const auto it = target.find(a.id);
+    if (a.surveyed() && it != target.end()) pairs.emplace_back(a.position_m.head<2>(), it->second);
+  }
+  FrameMap f;
+  f.shared = static_cast<int>(pairs.size());
+  if (pairs.size() == 1) f.t = pairs[0].second - pairs[0].first;
+  if (pairs.size() >= 2) {
+    Eigen::Matrix2Xd src(2, pairs.size()), dst(2, pairs.size());
+    for (size_t i = 0; i < pairs.size(); ++i) {
+      src.col(static_cast<Eigen::Index>(i)) = pairs[i].first;
+      dst.col(static_cast<Eigen::Index>(i)) = pairs[i].second;
+    }
+    const Eigen::Matrix3d T = Eigen::umeyama(src, dst, /*with_scaling=*/false);
+    f.R = T.topLeftCorner<2, 2>();
+    f.t = T.topRightCorner<2, 1>();
+  }
+  double ss = 0.0;
+  for (const auto& [p, q] : pairs) ss += (f(p) - q).squaredNorm();
+  f.rms_m = pairs.empty() ? 0.0 : std::sqrt(ss / static_cast<double>(pairs.size()));
+  return f;
+}
+
+// Surveyed anchors that disagree by more than this after the best rigid motion are not one
+// building's: the walks (or the map and the walk) are refused. Our choice: a survey's own error
+// is centimetres; converters' frames differ by a shift of metres to kilometres.
+constexpr double kMaxFrameRmsM = 0.5;
+
+// The frame map of `walk` onto the survey's reference anchors, or an error naming the walk.
+StatusOr<FrameMap> ToReference(const Walk& walk, const std::vector<Anchor>& reference) {
+  const FrameMap f = FrameBetween(walk.anchors, reference);
+  const bool any_surveyed = std::any_of(walk.anchors.begin(), walk.anchors.end(),
+                                        [](const Anchor& a) { return a.surveyed(); });
+  if (f.shared == 0 && any_surveyed && !reference.empty()) {
+    return InvalidArgument("survey: walk '" + walk.meta.name +
+                           "' shares no surveyed anchor with the first walk: their frames cannot "
+                           "be related");
+  }
+  if (f.rms_m > kMaxFrameRmsM) {
+    return InvalidArgument("survey: walk '" + walk.meta.name +
+                           "': its surveyed anchors differ "
+                           "from the first walk's by " +
+                           internal::Num(f.rms_m) +
+                           " m rms after the best rigid motion (not the same building?)");
+  }
+  return f;
 }
 
 // One walk's estimate of an anchor.
@@ -94,11 +160,25 @@ StatusOr<RadioMap> SurveyRadioMap(const std::vector<Walk>& walks, const SurveyOp
   RadioMap map;
   std::map<int, std::vector<WalkEstimate>> estimates;
   std::map<int, Anchor> anchor_of;  // the first walk's anchor record of each id
+  // The map's frame: the first walk with surveyed anchors (walks of one building may come in
+  // frames of their own: a converter's origin per walk). Each walk's estimates are moved into it
+  // by the rigid motion that its surveyed anchors give.
+  std::vector<Anchor> reference;
   for (const Walk& walk : walks) {
+    for (const Anchor& a : walk.anchors) {
+      if (a.surveyed()) reference.push_back(a);
+    }
+    if (!reference.empty()) break;
+  }
+  for (const Walk& walk : walks) {
+    WG_ASSIGN_OR_RETURN(const FrameMap to_map, ToReference(walk, reference));
     if (!walk.has_truth()) {
       return InvalidArgument("survey: walk '" + walk.meta.name + "' has no truth.csv");
     }
-    for (const Anchor& a : walk.anchors) anchor_of.emplace(a.id, a);
+    for (Anchor a : walk.anchors) {
+      if (a.position_known) a.position_m.head<2>() = to_map(a.position_m.head<2>());
+      anchor_of.emplace(a.id, a);
+    }
     if (!std::any_of(walk.anchors.begin(), walk.anchors.end(),
                      [](const Anchor& a) { return !a.surveyed(); })) {
       continue;  // nothing to place
@@ -116,7 +196,8 @@ StatusOr<RadioMap> SurveyRadioMap(const std::vector<Walk>& walks, const SurveyOp
         ++map.unobservable;
         continue;
       }
-      estimates[e.id].push_back({e.position_m, *e.covariance, e.readings});
+      estimates[e.id].push_back(
+          {to_map(e.position_m), to_map.R * *e.covariance * to_map.R.transpose(), e.readings});
     }
   }
   for (const auto& [id, a] : anchor_of) {
@@ -141,7 +222,13 @@ StatusOr<RadioMap> SurveyRadioMap(const std::vector<Walk>& walks, const SurveyOp
   return map;
 }
 
-int ApplyRadioMap(const std::vector<Anchor>& map, Walk* walk) {
+StatusOr<int> ApplyRadioMap(const std::vector<Anchor>& map, Walk* walk) {
+  const FrameMap to_walk = FrameBetween(map, walk->anchors);
+  if (to_walk.rms_m > kMaxFrameRmsM) {
+    return InvalidArgument("radio map: its surveyed anchors differ from the walk's by " +
+                           internal::Num(to_walk.rms_m) +
+                           " m rms after the best rigid motion (not the same building?)");
+  }
   std::map<int, const Anchor*> by_id;
   for (const Anchor& a : map) {
     if (a.position_known) by_id[a.id] = &a;
@@ -154,9 +241,8 @@ int ApplyRadioMap(const std::vector<Anchor>& map, Walk* walk) {
     const Anchor& m = *it->second;
     if (a.position_known && m.sigma_m >= a.sigma_m && !m.surveyed()) continue;  // no better
     a.position_known = true;
-    a.position_m.x() = m.position_m.x();
-    a.position_m.y() = m.position_m.y();
-    a.sigma_m = m.sigma_m;
+    a.position_m.head<2>() = to_walk(m.position_m.head<2>());
+    a.sigma_m = m.sigma_m;  // isotropic: a rotation keeps it
     ++changed;
   }
   return changed;
