@@ -8,6 +8,8 @@
 #include <Eigen/Cholesky>
 #include <Eigen/Geometry>
 
+#include "util/rigid2d.h"
+
 namespace walkgraph {
 
 double Percentile(std::vector<double> values, double q) {
@@ -112,14 +114,9 @@ StatusOr<ErrorSeries> ComputeErrors(const Walk& walk, const Trajectory& trajecto
   }
   Eigen::Matrix2d rotation = Eigen::Matrix2d::Identity();
   if (alignment == Alignment::kSE2 && t.size() >= 2) {
-    Eigen::Matrix2Xd src(2, est.size()), dst(2, ref.size());
-    for (size_t i = 0; i < est.size(); ++i) {
-      src.col(static_cast<Eigen::Index>(i)) = est[i];
-      dst.col(static_cast<Eigen::Index>(i)) = ref[i];
-    }
-    const Eigen::Matrix3d T = Eigen::umeyama(src, dst, /*with_scaling=*/false);
-    rotation = T.topLeftCorner<2, 2>();
-    for (Eigen::Vector2d& e : est) e = rotation * e + T.topRightCorner<2, 1>();
+    const internal::Rigid2d f = internal::FitRigid2d(est, ref, est.size());
+    rotation = f.R;
+    for (Eigen::Vector2d& e : est) e = f(e);
   }
   ErrorSeries out;
   out.t_s = std::move(t);

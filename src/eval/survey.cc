@@ -6,8 +6,8 @@
 #include <string>
 
 #include <Eigen/Eigenvalues>
-#include <Eigen/Geometry>
 
+#include "util/rigid2d.h"
 #include "util/text.h"
 #include "walkgraph/estimator.h"
 
@@ -56,14 +56,11 @@ FrameMap FrameBetween(const std::vector<Anchor>& from, const std::vector<Anchor>
   f.shared = static_cast<int>(pairs.size());
   if (pairs.size() == 1) f.t = pairs[0].second - pairs[0].first;
   if (pairs.size() >= 2) {
-    Eigen::Matrix2Xd src(2, pairs.size()), dst(2, pairs.size());
-    for (size_t i = 0; i < pairs.size(); ++i) {
-      src.col(static_cast<Eigen::Index>(i)) = pairs[i].first;
-      dst.col(static_cast<Eigen::Index>(i)) = pairs[i].second;
-    }
-    const Eigen::Matrix3d T = Eigen::umeyama(src, dst, /*with_scaling=*/false);
-    f.R = T.topLeftCorner<2, 2>();
-    f.t = T.topRightCorner<2, 1>();
+    std::vector<Eigen::Vector2d> src, dst;
+    for (const auto& [p, q] : pairs) src.push_back(p), dst.push_back(q);
+    const internal::Rigid2d fit = internal::FitRigid2d(src, dst, pairs.size());
+    f.R = fit.R;
+    f.t = fit.t;
   }
   double ss = 0.0;
   for (const auto& [p, q] : pairs) ss += (f(p) - q).squaredNorm();

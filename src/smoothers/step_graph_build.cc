@@ -11,6 +11,7 @@
 #include "factors/barometric_height_factor.h"
 #include "smoothers/graph_internal.h"
 #include "smoothers/step_graph_impl.h"
+#include "util/rigid2d.h"
 #include "util/text.h"
 #include "walkgraph/kalman.h"
 #include "walkgraph/radio.h"
@@ -52,20 +53,22 @@ struct Alignment {
 
 Alignment Align(const std::vector<Eigen::Vector2d>& src, const std::vector<Eigen::Vector2d>& dst,
                 size_t count) {
-  Eigen::Matrix2Xd S(2, count), D(2, count);
-  for (size_t i = 0; i < count; ++i) {
-    S.col(static_cast<Eigen::Index>(i)) = src[i];
-    D.col(static_cast<Eigen::Index>(i)) = dst[i];
-  }
-  const Eigen::Matrix3d T = Eigen::umeyama(S, D, /*with_scaling=*/false);
+  const internal::Rigid2d f = internal::FitRigid2d(src, dst, count);
   Alignment a;
-  a.R = T.topLeftCorner<2, 2>();
-  a.t = T.topRightCorner<2, 1>();
-  a.rotation_rad = std::atan2(T(1, 0), T(0, 0));
-  const Eigen::Matrix2Xd aligned = (a.R * S).colwise() + a.t;
+  a.R = f.R;
+  a.t = f.t;
+  a.rotation_rad = std::atan2(f.R(1, 0), f.R(0, 0));
+  Eigen::Vector2d mean = Eigen::Vector2d::Zero();
+  for (size_t i = 0; i < count; ++i) mean += src[i];
+  mean /= static_cast<double>(count);
+  double residual = 0.0, spread = 0.0;
+  for (size_t i = 0; i < count; ++i) {
+    residual += (dst[i] - f(src[i])).squaredNorm();
+    spread += (src[i] - mean).squaredNorm();
+  }
   const double n = static_cast<double>(count);
-  a.residual_m = std::sqrt((D - aligned).colwise().squaredNorm().sum() / n);
-  a.spread_m = std::sqrt((S.colwise() - S.rowwise().mean()).colwise().squaredNorm().sum() / n);
+  a.residual_m = std::sqrt(residual / n);
+  a.spread_m = std::sqrt(spread / n);
   return a;
 }
 
