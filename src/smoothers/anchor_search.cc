@@ -122,6 +122,22 @@ AnchorSearchResult SearchAnchor(const std::vector<Eigen::Vector2d>& receivers,
       stack.push_back(k);
     }
   }
+  // The region's spread: a uniform density over the ellipse {Δ ≤ gap} of a Gaussian cost
+  // Δ = eᵀΣ⁻¹e has covariance Σ·gap/4, so Σ = 4/gap · the region's second moment (+ a cell's).
+  Eigen::Vector2d sum = Eigen::Vector2d::Zero();
+  Eigen::Matrix2d sum2 = Eigen::Matrix2d::Zero();
+  double cells = 0.0;
+  for (size_t c = 0; c < cost.size(); ++c) {
+    if (!seen[c]) continue;
+    const Eigen::Vector2d p = cell(static_cast<int>(c) % nx, static_cast<int>(c) / nx);
+    sum += p;
+    sum2 += p * p.transpose();
+    cells += 1.0;
+  }
+  const Eigen::Vector2d mean_region = sum / cells;
+  const Eigen::Matrix2d spread = sum2 / cells - mean_region * mean_region.transpose();
+  out.covariance = (o.min_cost_gap > 0.0 ? 4.0 / o.min_cost_gap : 0.0) * spread +
+                   Eigen::Matrix2d::Identity() * (o.step_m * o.step_m / 12.0);
   for (size_t c = 0; c < cost.size(); ++c) {
     if (seen[c] || !(cost[c] < out.second_cost)) continue;
     const int i = static_cast<int>(c) % nx, j = static_cast<int>(c) / nx;

@@ -54,6 +54,10 @@ struct AnchorSearchResult {
   double cost = 0.0;
   double second_cost = 0.0;  // the least cost of the grid's other places (infinity: none)
   double spread_m = 0.0;     // the receiver positions' narrowest spread (1σ)
+  // The position's covariance from the region within min_cost_gap of the best (a cost of
+  // whitened residuals, near its minimum Δ = eᵀΣ⁻¹e: the region is Σ's χ²(2) ellipse), plus a
+  // grid cell's own spread (m²); zero unless the search reached the grid.
+  Eigen::Matrix2d covariance = Eigen::Matrix2d::Zero();
   bool placed() const { return verdict == Verdict::kPlaced; }
 };
 

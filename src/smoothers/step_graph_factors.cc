@@ -198,6 +198,31 @@ void StepGraph::Impl::AddReadingFactors(int k, std::vector<GraphFactor>* out) co
   }
 }
 
+std::vector<StepGraph::AnchorReading> StepGraph::AnchorReadingsAt(int k) const {
+  std::vector<AnchorReading> out;
+  for (const Impl::Reading& r : impl_->readings_at[k]) {
+    if (r.kind == Impl::Reading::Kind::kWaypoint) continue;
+    out.push_back(
+        {r.index, r.kind == Impl::Reading::Kind::kRange, r.value, r.node_a, r.node_b, r.alpha});
+  }
+  return out;
+}
+
+std::vector<Key> StepGraph::AnchorOwnKeys(int a) const {
+  const Impl& m = *impl_;
+  std::vector<Key> out;
+  if (!m.AnchorIsState(a)) return out;
+  out.push_back(internal::AnchorPositionKey(a));
+  if (m.anchor_has_rss[a] && m.PathLossPerAnchor()) out.push_back(PathLossKey(a));
+  if (m.anchor_has_range[a] && m.o.range_bias == CalibrationScope::kPerAnchor) {
+    out.push_back(RangeBiasKey(a));
+  }
+  if (m.anchor_has_range[a] && m.o.range_scale == CalibrationScope::kPerAnchor) {
+    out.push_back(RangeScaleKey(a));
+  }
+  return out;
+}
+
 std::vector<GraphFactor> StepGraph::FactorsAt(int k) const {
   const Impl& m = *impl_;
   const StepGraphOptions& o = m.o;

@@ -145,6 +145,8 @@ void ReadRadioKeys(ConfigReader& r, StepGraphOptions* o) {
          "fg-batch, unknown anchors: another grid minimum farther than this is another place");
   r.Read("anchor_min_cost_gap", &o->anchor_min_cost_gap,
          "fg-batch, unknown anchors: least cost by which the best place beats any other");
+  r.Read("window_anchor_max_sigma_m", &o->window_anchor_max_sigma_m,
+         "fg-window, unknown anchors: largest position sigma at which the window places one");
   r.Read("align_window_s", &o->align_window_s,
          "span of dead reckoning aligned to the radio fixes for the start check");
   r.Read("start_check", &o->start_check, "drop a known start heading that the radio contradicts");
@@ -259,6 +261,7 @@ Status CheckStepGraphOptions(const StepGraphOptions& o, const std::string& conte
   WG_RETURN_IF_ERROR(positive(o.anchor_search_margin_m, "anchor_search_margin_m"));
   WG_RETURN_IF_ERROR(positive(o.anchor_search_step_m, "anchor_search_step_m"));
   WG_RETURN_IF_ERROR(positive(o.anchor_distinct_radius_m, "anchor_distinct_radius_m"));
+  WG_RETURN_IF_ERROR(positive(o.window_anchor_max_sigma_m, "window_anchor_max_sigma_m"));
   if (o.anchor_min_readings < 3 || o.anchor_min_spread_m < 0 || !(o.anchor_min_cost_gap >= 0)) {
     return InvalidArgument(context +
                            ": anchor_min_readings must be >= 3, anchor_min_spread_m and "

@@ -18,6 +18,52 @@
 namespace walkgraph {
 namespace internal {
 
+SearchSetup SearchOptions(const Walk& walk, const StepGraphOptions& o,
+                          const std::map<std::string, double>& fd) {
+  const PathLossParams& pl = walk.meta.radio.path_loss;
+  internal::AnchorSearchOptions so;
+  so.margin_m = o.anchor_search_margin_m;
+  so.step_m = o.anchor_search_step_m;
+  so.min_readings = o.anchor_min_readings;
+  so.min_spread_m = o.anchor_min_spread_m;
+  so.distinct_radius_m = o.anchor_distinct_radius_m;
+  so.min_cost_gap = o.anchor_min_cost_gap;
+  SearchSetup out{so, so};
+  internal::AnchorSearchOptions& r = out.range;
+  r.range = true;
+  r.sigma = o.range_sigma_m > 0 ? o.range_sigma_m : walk.meta.radio.range_sigma_m;
+  r.loss_scale = o.range_loss_scale;
+  r.range_scale = fd.count("range_scale") ? fd.at("range_scale") : 0.0;
+  // The anchor's bias: held where the graph holds it (at the walk's estimate when there is
+  // one bias for the walk), else free with its prior.
+  r.level_prior_sigma = o.range_bias == CalibrationScope::kNone ? 0.0 : o.range_bias_prior_sigma_m;
+  if (o.range_bias == CalibrationScope::kGlobal && fd.count("range_bias_m")) {
+    r.level_prior = fd.at("range_bias_m");
+    r.level_prior_sigma = 0.0;
+  }
+  // An RSS anchor's transmit level A: the walk's (held: σ 0), or the first solve's estimate with
+  // the spread one anchor may have around it, else the prior.
+  internal::AnchorSearchOptions& q = out.rss;
+  q.range = false;
+  q.sigma = o.sigma_db > 0 ? o.sigma_db : pl.sigma_db;
+  q.loss_scale = o.rss_loss_scale;
+  q.sign = walk.meta.radio.units == RssUnits::kDbm ? 1.0 : -1.0;
+  q.d0_m = pl.d0_m;
+  bool held_radio_only = false;
+  const PathLossMode mode = ResolvePathLoss(walk, o, &held_radio_only);
+  const bool A_estimated = fd.count("path_loss_A") > 0;
+  q.level_prior = A_estimated ? fd.at("path_loss_A") : std::isfinite(o.A_dbm) ? o.A_dbm : pl.A_dbm;
+  q.eta = fd.count("path_loss_eta") ? fd.at("path_loss_eta") : o.eta > 0 ? o.eta : pl.eta;
+  q.level_prior_sigma = o.A_prior_sigma_db;
+  if (mode == PathLossMode::kFixed || (mode == PathLossMode::kGlobal && A_estimated)) {
+    q.level_prior_sigma = 0.0;
+  } else if (mode == PathLossMode::kHierarchical) {
+    q.level_prior_sigma =
+        A_estimated ? o.A_spread_prior_db : std::hypot(o.A_prior_sigma_db, o.A_spread_prior_db);
+  }
+  return out;
+}
+
 Status CheckStepWalk(const Walk& walk) {
   if (!walk.has_odometry() && !walk.has_imu() &&
       (!(walk.has_rss() || walk.has_ranges()) || walk.anchors.size() < 3)) {
@@ -37,6 +83,7 @@ void AddStaticDiagnostics(const StepGraph& graph,
   for (const GraphState& s : graph.StaticStates()) {
     if (s.constant) continue;
     const std::vector<double> v = value_of(s.key);
+    if (v.empty()) continue;  // not in the graph (fg-window: an anchor never placed)
     const char letter = SymbolLetter(s.key);
     const int g = static_cast<int>(SymbolIndex(s.key));
     if (s.key == kGyroBiasKey) {
@@ -409,57 +456,6 @@ Eigen::Vector2d PathAt(const std::vector<double>& t, const std::vector<Eigen::Ve
   return (1.0 - w) * x[b - 1].head<2>() + w * x[b].head<2>();
 }
 
-// The grid search's options for a range anchor and for an RSS one (anchor_search.h), from the
-// graph's options and the first solve's estimates (diagnostics `fd`).
-struct SearchSetup {
-  internal::AnchorSearchOptions range, rss;
-};
-SearchSetup SearchOptions(const Walk& walk, const StepGraphOptions& o,
-                          const std::map<std::string, double>& fd) {
-  const PathLossParams& pl = walk.meta.radio.path_loss;
-  internal::AnchorSearchOptions so;
-  so.margin_m = o.anchor_search_margin_m;
-  so.step_m = o.anchor_search_step_m;
-  so.min_readings = o.anchor_min_readings;
-  so.min_spread_m = o.anchor_min_spread_m;
-  so.distinct_radius_m = o.anchor_distinct_radius_m;
-  so.min_cost_gap = o.anchor_min_cost_gap;
-  SearchSetup out{so, so};
-  internal::AnchorSearchOptions& r = out.range;
-  r.range = true;
-  r.sigma = o.range_sigma_m > 0 ? o.range_sigma_m : walk.meta.radio.range_sigma_m;
-  r.loss_scale = o.range_loss_scale;
-  r.range_scale = fd.count("range_scale") ? fd.at("range_scale") : 0.0;
-  // The anchor's bias: held where the graph holds it (at the walk's estimate when there is
-  // one bias for the walk), else free with its prior.
-  r.level_prior_sigma = o.range_bias == CalibrationScope::kNone ? 0.0 : o.range_bias_prior_sigma_m;
-  if (o.range_bias == CalibrationScope::kGlobal && fd.count("range_bias_m")) {
-    r.level_prior = fd.at("range_bias_m");
-    r.level_prior_sigma = 0.0;
-  }
-  // An RSS anchor's transmit level A: the walk's (held: σ 0), or the first solve's estimate with
-  // the spread one anchor may have around it, else the prior.
-  internal::AnchorSearchOptions& q = out.rss;
-  q.range = false;
-  q.sigma = o.sigma_db > 0 ? o.sigma_db : pl.sigma_db;
-  q.loss_scale = o.rss_loss_scale;
-  q.sign = walk.meta.radio.units == RssUnits::kDbm ? 1.0 : -1.0;
-  q.d0_m = pl.d0_m;
-  bool held_radio_only = false;
-  const PathLossMode mode = ResolvePathLoss(walk, o, &held_radio_only);
-  const bool A_estimated = fd.count("path_loss_A") > 0;
-  q.level_prior = A_estimated ? fd.at("path_loss_A") : std::isfinite(o.A_dbm) ? o.A_dbm : pl.A_dbm;
-  q.eta = fd.count("path_loss_eta") ? fd.at("path_loss_eta") : o.eta > 0 ? o.eta : pl.eta;
-  q.level_prior_sigma = o.A_prior_sigma_db;
-  if (mode == PathLossMode::kFixed || (mode == PathLossMode::kGlobal && A_estimated)) {
-    q.level_prior_sigma = 0.0;
-  } else if (mode == PathLossMode::kHierarchical) {
-    q.level_prior_sigma =
-        A_estimated ? o.A_spread_prior_db : std::hypot(o.A_prior_sigma_db, o.A_spread_prior_db);
-  }
-  return out;
-}
-
 // fg-batch on a walk with anchors of unknown position (step_graph.h, "Anchors of unknown
 // position"): the walk without them solved first; each placed on that path by a grid search
 // (anchor_search.h) or declared unobservable and left out; then every placed anchor a state
@@ -475,7 +471,7 @@ StatusOr<EstimateResult> SolveWithUnknownAnchors(const Walk& walk, const StepGra
   for (int k = 0; k < first_graph->num_nodes(); ++k) node_t.push_back(first_graph->node_time(k));
 
   const bool radio_only = !walk.has_odometry() && !walk.has_imu();
-  const SearchSetup search = SearchOptions(walk, o, first.diagnostics);
+  const internal::SearchSetup search = internal::SearchOptions(walk, o, first.diagnostics);
   Walk joint = walk;
   std::vector<AnchorEstimate> unobservable;
   std::map<std::string, double> verdicts;
@@ -580,10 +576,12 @@ Status RegisterStepGraphSmoothers(EstimatorRegistry* registry) {
   WG_RETURN_IF_ERROR(registry->Register(
       {"fg-window",
        "factor graph, fixed-lag smoother (10 s lag, marginalization prior): lagged estimates",
-       OptionsFactory<StepGraphWindow>(parse("fg-window", StepGraphOptions()))}));
+       OptionsFactory<StepGraphWindow>(parse("fg-window", StepGraphOptions())),
+       /*estimates_unknown_anchors=*/true}));
   return registry->Register({"fg-window-online",
                              "fg-window's online output: each node right after its own update",
-                             OptionsFactory<StepGraphWindow>(parse("fg-window-online", online))});
+                             OptionsFactory<StepGraphWindow>(parse("fg-window-online", online)),
+                             /*estimates_unknown_anchors=*/true});
 }
 
 }  // namespace internal

@@ -10,6 +10,7 @@
 
 #include <Eigen/Core>
 
+#include "smoothers/anchor_search.h"
 #include "walkgraph/estimator.h"
 #include "walkgraph/graph.h"
 #include "walkgraph/smoothers/step_graph.h"
@@ -43,6 +44,15 @@ TrajectoryPoint MakePoint(double t, const double* p, double theta);
 Eigen::Matrix3d PoseCovariance(const Eigen::MatrixXd& c);
 // The output points the graph's motion model puts at the start of each step after a stop.
 void InsertStops(const Walk& walk, double max_step_duration_s, Trajectory* trajectory);
+
+// The grid search's options for a range anchor and for an RSS one (anchor_search.h), from the
+// graph's options and the estimates so far (diagnostics `fd`: range_scale, range_bias_m,
+// path_loss_A, path_loss_eta where the graph estimates them).
+struct SearchSetup {
+  AnchorSearchOptions range, rss;
+};
+SearchSetup SearchOptions(const Walk& walk, const StepGraphOptions& o,
+                          const std::map<std::string, double>& fd);
 
 // fg-batch's solver options (the window's first-window solve uses them too).
 SolverOptions BatchSolverOptions(const StepGraphOptions& o);

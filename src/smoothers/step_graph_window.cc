@@ -6,6 +6,7 @@
 #include <string>
 
 #include "smoothers/step_graph_impl.h"
+#include "smoothers/step_graph_pending.h"
 #include "smoothers/step_graph_run.h"
 #include "walkgraph/smoothers/step_graph.h"
 
@@ -19,6 +20,7 @@ using internal::EstimatorStarts;
 using internal::InsertStops;
 using internal::MakePoint;
 using internal::NamedStart;
+using internal::PendingAnchors;
 using internal::PoseCovariance;
 using internal::RunWindowNodes;
 using internal::SetHeight;
@@ -27,6 +29,17 @@ Status StepGraphWindow::CheckApplicable(const Walk& walk) const { return CheckSt
 
 StatusOr<EstimateResult> StepGraphWindow::Run(const Walk& walk) const {
   WG_RETURN_IF_ERROR(CheckApplicable(walk));
+  if (walk.has_unknown_anchors()) {
+    // Anchors of unknown position: the window places them itself (step_graph_pending.h); until
+    // then they sit at a placeholder the graph never uses (it holds them out).
+    Walk w = walk;
+    for (Anchor& a : w.anchors) {
+      if (!a.position_known) a.position_m.head<2>().setZero();
+    }
+    WG_ASSIGN_OR_RETURN(EstimateResult result, RunWindowNodes(w, options_));
+    InsertStops(walk, options_.max_step_duration_s, &result.trajectory);
+    return result;
+  }
   WG_ASSIGN_OR_RETURN(EstimateResult result, RunWindowNodes(walk, options_));
   InsertStops(walk, options_.max_step_duration_s, &result.trajectory);
   return result;
@@ -43,7 +56,7 @@ void AddWindowGraphDiagnostics(const StepGraph& graph, const FixedLagSmoother& s
       graph,
       [&](Key k) {
         auto v = smoother.Estimate(k);
-        return v.ok() ? *v : std::vector<double>{0.0, 0.0};
+        return v.ok() ? *v : std::vector<double>{};
       },
       walk, o, d);
   AddGraphDiagnostics(graph, walk, d);
@@ -69,8 +82,10 @@ FixedLagSmoother::Options WindowSmootherOptions(const StepGraphOptions& o) {
 // The graph of nodes 0..last (states and every factor whose newest node is among them), the
 // nodes at `start` (every node's (p, θ) up to last) or else at their dead-reckoning values.
 Status AddFirstNodes(const StepGraph& graph, int last, const std::vector<Eigen::Vector3d>& start,
-                     FactorGraph* fg) {
-  for (GraphState& s : graph.StaticStates()) WG_RETURN_IF_ERROR(fg->AddState(std::move(s)));
+                     const PendingAnchors& unknown, FactorGraph* fg) {
+  for (GraphState& s : graph.StaticStates()) {
+    if (!unknown.Holds(s.key)) WG_RETURN_IF_ERROR(fg->AddState(std::move(s)));
+  }
   const std::vector<Eigen::Vector3d>& x = start.empty() ? graph.initial_nodes() : start;
   for (int k = 0; k <= last; ++k) {
     for (GraphState& s : graph.NodeStates(k, x[k].head<2>(), x[k][2])) {
@@ -80,7 +95,9 @@ Status AddFirstNodes(const StepGraph& graph, int last, const std::vector<Eigen::
     }
   }
   for (int k = 0; k <= last; ++k) {
-    for (GraphFactor& f : graph.FactorsAt(k)) WG_RETURN_IF_ERROR(fg->AddFactor(std::move(f)));
+    for (GraphFactor& f : graph.FactorsAt(k)) {
+      if (!unknown.HoldsAny(f.keys)) WG_RETURN_IF_ERROR(fg->AddFactor(std::move(f)));
+    }
   }
   return Status::Ok();
 }
@@ -93,6 +110,7 @@ Status AddFirstNodes(const StepGraph& graph, int last, const std::vector<Eigen::
 // own, k: the k-th), first_window_estimator (NamedStart::estimator), first_window_cost.<name>.
 StatusOr<std::vector<Eigen::Vector3d>> FirstWindowStart(const Walk& walk, const StepGraph& graph,
                                                         const StepGraphOptions& o,
+                                                        const PendingAnchors& unknown,
                                                         std::map<std::string, double>* d) {
   std::vector<Eigen::Vector3d> out;
   const double until = graph.node_time(0) + o.align_window_s;
@@ -108,7 +126,7 @@ StatusOr<std::vector<Eigen::Vector3d>> FirstWindowStart(const Walk& walk, const 
   double best = std::numeric_limits<double>::infinity();
   for (size_t h = 0; h < starts.size(); ++h) {
     FactorGraph fg;
-    WG_RETURN_IF_ERROR(AddFirstNodes(graph, last, starts[h].nodes, &fg));
+    WG_RETURN_IF_ERROR(AddFirstNodes(graph, last, starts[h].nodes, unknown, &fg));
     StatusOr<SolveSummary> s = SolveBatch(&fg, BatchSolverOptions(o));
     if (!s.ok()) continue;  // a hypothesis that fails to solve is not taken
     (*d)["first_window_cost." + starts[h].name] = s->final_cost;
@@ -142,6 +160,22 @@ Status OnlinePoints(const StepGraph& graph, const FixedLagSmoother& smoother,
   return Status::Ok();
 }
 
+// fg-window's lagged output: a node's state (x, h or z) as it leaves the window.
+void SetLagged(const StepGraph& graph, Key key, double t, const std::vector<double>& v,
+               std::vector<TrajectoryPoint>* points, std::vector<bool>* have) {
+  const int k = static_cast<int>(SymbolIndex(key));
+  TrajectoryPoint& p = (*points)[k];
+  p.t_s = t;
+  if (SymbolLetter(key) == 'x') {
+    p.position_m.head<2>() = Eigen::Vector2d(v[0], v[1]);
+    (*have)[k] = true;
+  } else if (SymbolLetter(key) == 'z') {
+    SetHeight(graph, v[0], &p);
+  } else {
+    p.heading_rad = NormalizeAngle(v[0]);
+  }
+}
+
 }  // namespace
 
 namespace internal {
@@ -151,9 +185,10 @@ StatusOr<EstimateResult> RunWindowNodes(const Walk& walk, const StepGraphOptions
   const int n = graph->num_nodes();
   const bool online = options_.window_output == WindowOutput::kOnline;
   std::map<std::string, double> first_d;
+  PendingAnchors unknown(walk, *graph, options_);
   std::vector<Eigen::Vector3d> first;  // the online output is causal: no first-window look-ahead
   if (!online) {
-    WG_ASSIGN_OR_RETURN(first, FirstWindowStart(walk, *graph, options_, &first_d));
+    WG_ASSIGN_OR_RETURN(first, FirstWindowStart(walk, *graph, options_, unknown, &first_d));
   }
   FixedLagSmoother smoother(WindowSmootherOptions(options_));
 
@@ -180,17 +215,7 @@ StatusOr<EstimateResult> RunWindowNodes(const Walk& walk, const StepGraphOptions
     store_covariances(nodes);
   });
   smoother.set_on_marginalize([&](Key key, double t, const std::vector<double>& v) {
-    if (online) return;
-    const int k = node_of(key);
-    points[k].t_s = t;
-    if (SymbolLetter(key) == 'x') {
-      points[k].position_m.head<2>() = Eigen::Vector2d(v[0], v[1]);
-      have[k] = true;
-    } else if (SymbolLetter(key) == 'z') {
-      SetHeight(*graph, v[0], &points[k]);
-    } else {
-      points[k].heading_rad = NormalizeAngle(v[0]);
-    }
+    if (!online) SetLagged(*graph, key, t, v, &points, &have);
   });
 
   std::vector<double> latency;
@@ -206,7 +231,7 @@ StatusOr<EstimateResult> RunWindowNodes(const Walk& walk, const StepGraphOptions
   std::vector<int> pending;
   double last_update_t = graph->node_time(0);
   for (int k = 0; k < n; ++k) {
-    if (k == 0) states = graph->StaticStates();
+    if (k == 0) states = unknown.Filter(graph->StaticStates());
     std::vector<GraphState> node = graph->NodeStates(k, prev_p, prev_theta);
     if (k < static_cast<int>(first.size())) {  // the first window's chosen start
       node[0].value = {first[k][0], first[k][1]};
@@ -215,7 +240,7 @@ StatusOr<EstimateResult> RunWindowNodes(const Walk& walk, const StepGraphOptions
     prev_p = Eigen::Vector2d(node[0].value[0], node[0].value[1]);
     prev_theta = node[1].value[0];
     for (GraphState& st : node) states.push_back(std::move(st));
-    for (GraphFactor& f : graph->FactorsAt(k)) factors.push_back(std::move(f));
+    for (GraphFactor& f : unknown.Filter(k, graph->FactorsAt(k))) factors.push_back(std::move(f));
     pending.push_back(k);
     if (k + 1 < n && graph->node_time(k) - last_update_t < options_.window_update_s) continue;
     last_update_t = graph->node_time(k);
@@ -224,6 +249,8 @@ StatusOr<EstimateResult> RunWindowNodes(const Walk& walk, const StepGraphOptions
                         smoother.Update(std::move(states), std::move(factors)));
     states.clear();
     factors.clear();
+    WG_RETURN_IF_ERROR(
+        unknown.AfterUpdate(pending, graph->node_time(k), &smoother, &states, &factors));
     latency.push_back(
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
     iterations += u.ceres_iterations;
@@ -240,6 +267,8 @@ StatusOr<EstimateResult> RunWindowNodes(const Walk& walk, const StepGraphOptions
     }
     pending.clear();
   }
+  EstimateResult result;
+  unknown.Report(&smoother, &result);
   if (!online) {
     // The nodes still in the window at the end: their final (smoothed) estimates.
     std::vector<int> nodes;
@@ -250,16 +279,15 @@ StatusOr<EstimateResult> RunWindowNodes(const Walk& walk, const StepGraphOptions
     smoother.Flush();
   }
 
-  EstimateResult result;
   for (int k = 0; k < n; ++k) {
     if (have[k]) result.trajectory.points.push_back(points[k]);
   }
   auto& d = result.diagnostics;
-  d = {{"ceres_iterations", iterations},
-       {"window_solves", solves},
-       {"window_max_states", static_cast<double>(max_states)},
-       {"window_max_factors", static_cast<double>(max_factors)},
-       {"nodes", n}};
+  d.insert({{"ceres_iterations", iterations},
+            {"window_solves", solves},
+            {"window_max_states", static_cast<double>(max_states)},
+            {"window_max_factors", static_cast<double>(max_factors)},
+            {"nodes", n}});
   d.insert(first_d.begin(), first_d.end());
   AddUpdateLatencyTimings(latency, &result.timings);
   AddWindowGraphDiagnostics(*graph, smoother, walk, options_, &d);

@@ -36,9 +36,12 @@
 // unknown_anchors_unobservable (+ .few_readings / .narrow_geometry / .ambiguous),
 // unknown_anchor_readings_ignored, anchor_x_m.<id> / anchor_y_m.<id>, gauge (0 the known
 // start's frame, 1 the anchors' of given position, 2 the walk's own: node 0 held); each
-// anchor's estimate and covariance in EstimateResult::anchors. fg-window and the other
-// estimators run without the unknown anchors (the registry's wrapper, estimator.h) and keep
-// the uncertain ones as states (fg-window) or at their mean (the filters).
+// anchor's estimate and covariance in EstimateResult::anchors. fg-window (both outputs) places
+// them causally by delayed initialization (src/smoothers/step_graph_pending.h: the same search
+// over the readings so far, the anchor joining the window once placed with σ ≤
+// window_anchor_max_sigma_m) and keeps uncertain ones as states; the other estimators run
+// without the unknown anchors (the registry's wrapper, estimator.h) and use uncertain ones at
+// their mean (the filters).
 // Gauge: with a known start (initial_pose) its prior fixes position and heading softly; with
 // no start but radio anchors the anchors fix the frame; with neither, node 0 is held constant
 // (the only gauge freedom of a dead-reckoning graph is its start pose).
@@ -213,6 +216,13 @@ struct StepGraphOptions {
   double anchor_min_spread_m = 1.0;
   double anchor_distinct_radius_m = 5.0;
   double anchor_min_cost_gap = 9.21;
+  // fg-window places an unknown anchor once its readings so far place it (the search above,
+  // over the receivers where the window put them) with a position σ (the search region's
+  // largest axis) of at most this; earlier, a place that the window cannot revise later (its
+  // past receivers are marginalized) pulled the path: tarrio-circle, half the anchors unknown,
+  // 12 seeds, fg-window 1.09× the surveyed RMSE placing at once, 1.01× with 3 m
+  // (step_graph_pending.h; docs/results.md). Our choice, measured on the simulator only.
+  double window_anchor_max_sigma_m = 3.0;
 
   // Initialization and solver. fg-batch starts from dead reckoning ("dead-reckoning"), from
   // the lagged estimates of a fast fixed-lag pass ("window": lag init_lag_s, one update per
@@ -366,6 +376,21 @@ class StepGraph {
   // Whether there is one path-loss block per anchor (path_loss per-anchor or hierarchical,
   // auto's choice included).
   bool path_loss_per_anchor() const;
+
+  // A radio reading of an anchor as the graph receives it: at (1 − alpha)·p(node_a) +
+  // alpha·p(node_b) (node_b < 0: at node_a).
+  struct AnchorReading {
+    int anchor_index = 0;  // into walk.anchors
+    bool range = false;    // a range (m), else RSS
+    double value = 0.0;
+    int node_a = 0, node_b = -1;
+    double alpha = 0.0;
+  };
+  // The radio readings whose newest node is k (those of FactorsAt(k)).
+  std::vector<AnchorReading> AnchorReadingsAt(int k) const;
+  // The static states of anchor index a alone: p(a) when it is a state, and its path-loss,
+  // range-bias and range-scale blocks where those are per anchor.
+  std::vector<Key> AnchorOwnKeys(int anchor_index) const;
 
  private:
   StepGraph() = default;
