@@ -421,6 +421,17 @@ TEST(AnchorStates, UncertainAnchorsAreStatesWithTheirPrior) {
   ASSERT_TRUE(r->anchors[0].covariance.has_value());
   EXPECT_LT(r->anchors[0].covariance->trace(), 2.0 * 4.0);  // tighter than the prior
   EXPECT_EQ(r->diagnostics.count("unknown_anchors"), 0u);
+  // fg-window keeps it a state as well and reports it.
+  auto win = RunId("fg-window", walk);
+  ASSERT_TRUE(win.ok()) << win.status().message();
+  ASSERT_EQ(win->anchors.size(), 1u);
+  EXPECT_TRUE(win->anchors[0].observable);
+  std::printf("uncertain anchor, fg-window: %.3f m from the truth\n",
+              (win->anchors[0].position_m - truth).norm());
+  EXPECT_LT((win->anchors[0].position_m - truth).norm(), 1.0);
+  ASSERT_TRUE(win->anchors[0].covariance.has_value());
+  EXPECT_LT(win->anchors[0].covariance->trace(), 2.0 * 4.0);
+  EXPECT_EQ(win->diagnostics.count("unknown_anchors"), 0u);
 }
 
 // Issue 44's Plaza1 target: every anchor's position removed, with the known start.

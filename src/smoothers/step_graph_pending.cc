@@ -164,26 +164,38 @@ Status PendingAnchors::Place(int a, const AnchorSearchResult& found, FixedLagSmo
 
 void PendingAnchors::Report(FixedLagSmoother* window, EstimateResult* r) const {
   auto& d = r->diagnostics;
-  d["unknown_anchors"] = static_cast<double>(pending_.size());
-  d["unknown_anchors_estimated"] = 0.0;
-  d["unknown_anchors_unobservable"] = 0.0;
-  for (const auto& [a, p] : pending_) {
+  if (!pending_.empty()) {
+    d["unknown_anchors"] = static_cast<double>(pending_.size());
+    d["unknown_anchors_estimated"] = 0.0;
+    d["unknown_anchors_unobservable"] = 0.0;
+  }
+  // Every anchor that is a state (uncertain, or unknown), in the walk's order.
+  for (size_t i = 0; i < walk_.anchors.size(); ++i) {
+    const int a = static_cast<int>(i);
+    if (!graph_.AnchorIsState(a)) continue;
+    const auto it = pending_.find(a);
     AnchorEstimate e;
-    e.id = walk_.anchors[a].id;
+    e.id = walk_.anchors[i].id;
     for (const RssSample& s : walk_.rss) e.readings += s.anchor_id == e.id ? 1 : 0;
     for (const RangeSample& s : walk_.ranges) e.readings += s.anchor_id == e.id ? 1 : 0;
     const Key key = StepGraph::AnchorKey(a);
     StatusOr<std::vector<double>> v = window->Estimate(key);
-    if (p.placed && v.ok()) {
+    const bool placed = it == pending_.end() || it->second.placed;
+    if (placed && v.ok()) {
       e.position_m = Eigen::Vector2d((*v)[0], (*v)[1]);
       if (StatusOr<Eigen::MatrixXd> c = window->MarginalCovariance(key); c.ok()) {
         e.covariance = Eigen::Matrix2d(0.5 * (*c + c->transpose()));
       }
-      d["unknown_anchors_estimated"] += 1.0;
-      d["anchor_placed_t_s." + std::to_string(e.id)] = p.placed_t_s;
+      if (it != pending_.end()) {
+        d["unknown_anchors_estimated"] += 1.0;
+        d["anchor_placed_t_s." + std::to_string(e.id)] = it->second.placed_t_s;
+      }
+    } else if (it == pending_.end()) {
+      e.observable = false;  // an uncertain anchor the window does not hold (not expected)
     } else {
       e.observable = false;
       d["unknown_anchors_unobservable"] += 1.0;
+      const Pending& p = it->second;
       const std::string why = p.too_uncertain ? "uncertain" : ToString(p.last.verdict);
       d["unknown_anchors_unobservable." + why] += 1.0;
     }

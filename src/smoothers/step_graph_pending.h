@@ -48,8 +48,9 @@ class PendingAnchors {
   // the search; each anchor placed now adds its states and factors to *states / *factors.
   Status AfterUpdate(const std::vector<int>& nodes, double t_s, FixedLagSmoother* window,
                      std::vector<GraphState>* states, std::vector<GraphFactor>* factors);
-  // The unknown anchors (placed: estimate and covariance from the window) into r->anchors,
-  // and the diagnostics unknown_anchors, unknown_anchors_estimated,
+  // Every anchor that is a state (uncertain, unknown placed: estimate and covariance from the
+  // window; unknown never placed: unobservable) into r->anchors; with unknown anchors the
+  // diagnostics unknown_anchors, unknown_anchors_estimated,
   // unknown_anchors_unobservable(.<verdict>), anchor_placed_t_s.<id>.
   void Report(FixedLagSmoother* window, EstimateResult* r) const;
 
