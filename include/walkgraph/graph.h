@@ -23,7 +23,9 @@
 //   foot-INS graph (fg-ins-batch, fg-ins-window):  x(i) position (x, y, z) of state
 //     i, v(i) velocity, q(i) attitude (NavQuaternionManifold), g(i) gyro bias, a(i) accelerometer
 //     bias; l(0) path loss (A, η) (hierarchical: m(0) the mean, l(a) anchor index a's), b(a)
-//     range bias of anchor index a, f(0) the magnetic field's direction (stance magnetometer).
+//     range bias of anchor index a, f(0) the magnetic field's direction (stance magnetometer),
+//     p(a) horizontal position of anchor index a when it is not surveyed, s(0) the range scale
+//     its range factor takes (held at 0).
 #ifndef WALKGRAPH_GRAPH_H_
 #define WALKGRAPH_GRAPH_H_
 

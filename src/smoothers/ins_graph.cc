@@ -27,6 +27,7 @@
 #include "factors/rss_factor.h"
 #include "factors/zaru_factor.h"
 #include "factors/zupt_factor.h"
+#include "smoothers/anchor_search.h"
 #include "smoothers/graph_internal.h"
 #include "smoothers/ins_graph_internal.h"
 #include "util/enum_define.h"
@@ -147,6 +148,18 @@ StatusOr<GraphState> InsKeyMap::SharedState(const double* block) {
     if (pl.data() != block) continue;
     WG_ASSIGN_OR_RETURN(st.key, anchor_key('l', id));
     st.value.assign(pl.begin(), pl.end());
+    return st;
+  }
+  for (auto& [id, p] : sh.anchor_position) {
+    if (p.data() != block) continue;
+    WG_ASSIGN_OR_RETURN(st.key, anchor_key('p', id));
+    st.value.assign(p.begin(), p.end());
+    return st;
+  }
+  if (block == &sh.zero_range_scale) {
+    st.key = Symbol('s', 0);
+    st.value = {0.0};
+    st.constant = true;
     return st;
   }
   return InternalError("foot-INS graph: a factor on a block that is no state's");
@@ -297,6 +310,7 @@ StatusOr<InsBatchGraph> BuildInsBatch(const InsGraphContext& context, std::vecto
   radio->bias_prior_added.clear();  // a new graph: priors again, bias values kept
   radio->path_loss_prior_added = false;
   radio->anchor_path_loss_prior_added.clear();
+  radio->anchor_position_prior_added.clear();
   WG_ASSIGN_OR_RETURN(std::vector<InsFactor> radio_factors,
                       InsRadioFactors(context, states, 0, last, radio));
   std::vector<InsFactor> magnetic = InsStanceMagneticFactors(context, states, 0, last, radio);
@@ -423,11 +437,30 @@ std::optional<internal::AnchorOffsetTest> TestInsAnchors(const InsGraphOptions& 
   return internal::TestAnchorOffsets(residuals, o.path_loss_anchor_test_z);
 }
 
-}  // namespace
+// The anchors that are states (not surveyed) at their solved positions, with their marginal
+// covariance when the graph gives it.
+void AddInsAnchorEstimates(const Walk& walk, const InsSharedBlocks& radio, FactorGraph* graph,
+                           std::vector<AnchorEstimate>* out) {
+  for (const auto& [id, p] : radio.anchor_position) {
+    const int ai = walk.AnchorIndex(id);
+    if (ai < 0) continue;
+    AnchorEstimate e;
+    e.id = id;
+    e.position_m = Eigen::Vector2d(p[0], p[1]);
+    for (const RssSample& r : walk.rss) e.readings += r.anchor_id == id ? 1 : 0;
+    for (const RangeSample& r : walk.ranges) e.readings += r.anchor_id == id ? 1 : 0;
+    if (graph != nullptr) {
+      auto c = MarginalCovariances(graph, {{Symbol('p', static_cast<uint64_t>(ai))}});
+      if (c.ok() && (*c)[0].rows() == 2)
+        e.covariance = Eigen::Matrix2d(0.5 * ((*c)[0] + (*c)[0].transpose()));
+    }
+    out->push_back(e);
+  }
+}
 
-StatusOr<EstimateResult> InsGraphBatch::Run(const Walk& walk) const {
-  WG_RETURN_IF_ERROR(CheckApplicable(walk));
-  const InsGraphOptions& o = options_;
+// fg-ins-batch on a walk whose anchors all have a position (surveyed, uncertain, or unknown and
+// placed: the last two states of the graph).
+StatusOr<EstimateResult> SolveInsWalk(const Walk& walk, const InsGraphOptions& o) {
   WG_ASSIGN_OR_RETURN(ZuptInsSolution front, RunZuptIns(walk, o.front_end));
   WG_ASSIGN_OR_RETURN(std::vector<InsState> states, InitialInsStates(walk, front, o));
   if (o.initialization == InsInitialization::kWindow) {
@@ -497,7 +530,106 @@ StatusOr<EstimateResult> InsGraphBatch::Run(const Walk& walk) const {
   d["ceres_converged"] = solve.converged ? 1.0 : 0.0;
   d["relinearizations"] = solve.relinearizations;
   d["covariance_ok"] = cov_ok ? 1.0 : 0.0;
+  AddInsAnchorEstimates(walk, radio, solve.built.graph.get(), &result.anchors);
   return result;
+}
+
+// fg-batch's grid search (anchor_search.h, its default options) for one anchor of `walk` over
+// the path `first` (fg-ins-batch without the unknown anchors), with the radio model that solve
+// estimated.
+internal::AnchorSearchResult SearchInsAnchor(const Walk& walk, const Anchor& a,
+                                             const EstimateResult& first,
+                                             const InsGraphOptions& o) {
+  std::vector<Eigen::Vector2d> q;
+  std::vector<double> v, dz;
+  for (const RangeSample& r : walk.ranges) {
+    if (r.anchor_id != a.id || !o.use_ranges) continue;
+    const Eigen::Vector3d p = first.trajectory.PositionAt(r.t_s);
+    q.push_back(p.head<2>());
+    v.push_back(r.range_m);
+    dz.push_back(p.z() - a.position_m.z());
+  }
+  const bool range = !v.empty();
+  for (const RssSample& r : walk.rss) {
+    if (range || r.anchor_id != a.id || !o.use_rss) continue;
+    const Eigen::Vector3d p = first.trajectory.PositionAt(r.t_s);
+    q.push_back(p.head<2>());
+    v.push_back(r.rss);
+    dz.push_back(p.z() - a.position_m.z());
+  }
+  internal::AnchorSearchOptions so;
+  so.range = range;
+  so.dz_m = dz.empty() ? 0.0 : internal::Median(dz);
+  const auto& fd = first.diagnostics;
+  if (range) {
+    so.sigma = walk.meta.radio.range_sigma_m;
+    so.loss_scale = o.range_loss_scale;
+    so.level_prior_sigma = o.estimate_range_bias ? o.range_bias_sigma_m : 0.0;
+  } else {
+    const PathLossParams& pl = walk.meta.radio.path_loss;
+    so.sigma = pl.sigma_db;
+    so.loss_scale = o.rss_loss_scale;
+    so.sign = walk.meta.radio.units == RssUnits::kRfcode ? -1.0 : 1.0;
+    so.d0_m = pl.d0_m;
+    const bool estimated = fd.count("path_loss_A") > 0;
+    so.eta = estimated ? fd.at("path_loss_eta") : pl.eta;
+    so.level_prior = estimated ? fd.at("path_loss_A") : pl.A_dbm;
+    so.level_prior_sigma = estimated ? o.A_spread_prior_db : 0.0;  // calibrated: held
+  }
+  return internal::SearchAnchor(q, v, so);
+}
+
+// As fg-batch (step_graph.h, "Anchors of unknown position"): the walk without its unknown
+// anchors solved first; each placed on that path by the grid search or declared unobservable
+// and left out with its readings; then one solve with the placed ones as states.
+StatusOr<EstimateResult> SolveInsWithUnknownAnchors(const Walk& walk, const InsGraphOptions& o) {
+  UnknownAnchorsDropped dropped;
+  WG_ASSIGN_OR_RETURN(EstimateResult first, SolveInsWalk(WithoutUnknownAnchors(walk, &dropped), o));
+  Walk joint = walk;
+  std::set<int> left_out;
+  std::map<std::string, double> verdicts;
+  std::vector<AnchorEstimate> unobservable;
+  for (Anchor& a : joint.anchors) {
+    if (a.position_known) continue;
+    if (!a.position_m.allFinite()) a.position_m.z() = 0.0;
+    const internal::AnchorSearchResult found = SearchInsAnchor(walk, a, first, o);
+    if (found.placed()) {
+      a.position_m.head<2>() = found.position_m;
+      continue;
+    }
+    left_out.insert(a.id);
+    verdicts[std::string("unknown_anchors_unobservable.") + internal::ToString(found.verdict)] += 1;
+    AnchorEstimate e;
+    e.id = a.id;
+    e.observable = false;
+    for (const RssSample& r : walk.rss) e.readings += r.anchor_id == a.id ? 1 : 0;
+    for (const RangeSample& r : walk.ranges) e.readings += r.anchor_id == a.id ? 1 : 0;
+    unobservable.push_back(e);
+  }
+  UnknownAnchorsDropped left;
+  EstimateResult result = std::move(first);
+  if (static_cast<int>(left_out.size()) < dropped.anchors) {
+    WG_ASSIGN_OR_RETURN(result, SolveInsWalk(WithoutAnchors(joint, left_out, &left), o));
+  } else {
+    left.rss_readings = dropped.rss_readings;
+    left.range_readings = dropped.range_readings;
+  }
+  auto& d = result.diagnostics;
+  d.insert(verdicts.begin(), verdicts.end());
+  d["unknown_anchors"] = dropped.anchors;
+  d["unknown_anchors_estimated"] = dropped.anchors - static_cast<double>(left_out.size());
+  d["unknown_anchors_unobservable"] = static_cast<double>(left_out.size());
+  d["unknown_anchor_readings_ignored"] = left.rss_readings + left.range_readings;
+  for (AnchorEstimate& e : unobservable) result.anchors.push_back(e);
+  return result;
+}
+
+}  // namespace
+
+StatusOr<EstimateResult> InsGraphBatch::Run(const Walk& walk) const {
+  WG_RETURN_IF_ERROR(CheckApplicable(walk));
+  if (walk.has_unknown_anchors()) return SolveInsWithUnknownAnchors(walk, options_);
+  return SolveInsWalk(walk, options_);
 }
 
 namespace internal {
@@ -508,7 +640,8 @@ Status RegisterInsGraphBatch(EstimatorRegistry* registry) {
        "foot-INS factor graph: Forster preintegration between stance states, ZUPT, ZARU, bias "
        "random walks; one Ceres problem (foot IMU)",
        OptionsFactory<InsGraphBatch>(
-           [](const YAML::Node& config) { return InsGraphOptionsFromYaml(config); })});
+           [](const YAML::Node& config) { return InsGraphOptionsFromYaml(config); }),
+       /*estimates_unknown_anchors=*/true});
 }
 
 }  // namespace internal

@@ -9,6 +9,7 @@
 
 #include <ceres/normal_prior.h>
 
+#include "factors/anchor_state_factors.h"
 #include "factors/bias_random_walk_factor.h"
 #include "factors/difference_prior_factor.h"
 #include "factors/gap_reach_factor.h"
@@ -37,7 +38,8 @@ WALKGRAPH_DEFINE_ENUM_NAMES(
     {"path_loss_spread", InsFactorKind::kPathLossSpread},
     {"path_loss_prior", InsFactorKind::kPathLossPrior}, {"rss", InsFactorKind::kRss},
     {"range", InsFactorKind::kRange}, {"range_bias_prior", InsFactorKind::kRangeBiasPrior},
-    {"waypoint", InsFactorKind::kWaypoint}, {"gap_reach", InsFactorKind::kGapReach},
+    {"anchor_prior", InsFactorKind::kAnchorPrior}, {"waypoint", InsFactorKind::kWaypoint},
+    {"gap_reach", InsFactorKind::kGapReach},
     {"gap_magnetic_heading", InsFactorKind::kGapMagneticHeading},
     {"stance_magnetic_heading", InsFactorKind::kStanceMagneticHeading})
 
@@ -546,6 +548,23 @@ double* PathLossBlock(const InsGraphOptions& o, int id, InsSharedBlocks* blocks,
   return it->second.data();
 }
 
+// The position block of a not-surveyed anchor (walk.h Anchor), created at its position in the
+// walk (an unknown one: where fg-ins-batch's search placed it) on first use; an uncertain one's
+// prior N(position, sigma_m²) per axis once per problem.
+double* AnchorPositionBlock(const Anchor& a, InsSharedBlocks* blocks, std::vector<InsFactor>* out) {
+  auto [it, created] = blocks->anchor_position.emplace(
+      a.id, std::array<double, 2>{a.position_m.x(), a.position_m.y()});
+  (void)created;
+  if (a.position_known && a.sigma_m > 0.0 &&
+      blocks->anchor_position_prior_added.insert(a.id).second) {
+    out->push_back(MakeFactor(
+        InsFactorKind::kAnchorPrior,
+        new ceres::NormalPrior(Eigen::Matrix2d::Identity() / a.sigma_m, a.position_m.head<2>()),
+        {it->second.data()}));
+  }
+  return it->second.data();
+}
+
 }  // namespace
 
 StatusOr<std::vector<InsFactor>> InsRadioFactors(const InsGraphContext& c,
@@ -589,8 +608,16 @@ StatusOr<std::vector<InsFactor>> InsRadioFactors(const InsGraphContext& c,
       reading.d0_m = radio.path_loss.d0_m;
       double* path_loss = PathLossBlock(o, r.anchor_id, blocks, &out);
       const Where at = where(r.t_s);
+      const Anchor& anchor = w.anchors[static_cast<size_t>(ai)];
       InsFactor f;
-      if (at.b == nullptr) {
+      if (!anchor.surveyed()) {  // its position a state (AnchorRssFactor: x, y unused here)
+        double* position = AnchorPositionBlock(anchor, blocks, &out);
+        f = at.b == nullptr ? MakeFactor(InsFactorKind::kRss, AnchorRssFactor<3>::Create(reading),
+                                         {at.a->p.data(), position, path_loss})
+                            : MakeFactor(InsFactorKind::kRss,
+                                         AnchorRssFactor<3>::CreateInterpolated(reading, at.alpha),
+                                         {at.a->p.data(), at.b->p.data(), position, path_loss});
+      } else if (at.b == nullptr) {
         f = MakeFactor(InsFactorKind::kRss, RssFactor<3>::Create(reading),
                        {at.a->p.data(), path_loss});
       } else {
@@ -618,8 +645,20 @@ StatusOr<std::vector<InsFactor>> InsRadioFactors(const InsGraphContext& c,
       }
       const double sigma = w.meta.radio.range_sigma_m;
       const Where at = where(r.t_s);
+      const Anchor& record = w.anchors[static_cast<size_t>(ai)];
       InsFactor f;
-      if (at.b == nullptr) {
+      if (!record.surveyed()) {  // its position a state, the range scale held at 0
+        double* position = AnchorPositionBlock(record, blocks, &out);
+        double* scale = &blocks->zero_range_scale;
+        f = at.b == nullptr
+                ? MakeFactor(InsFactorKind::kRange,
+                             AnchorRangeFactor<3>::Create(r.range_m, anchor.z(), sigma, 0.0),
+                             {at.a->p.data(), position, bias, scale})
+                : MakeFactor(InsFactorKind::kRange,
+                             AnchorRangeFactor<3>::CreateInterpolated(r.range_m, anchor.z(), sigma,
+                                                                      at.alpha, 0.0),
+                             {at.a->p.data(), at.b->p.data(), position, bias, scale});
+      } else if (at.b == nullptr) {
         f = MakeFactor(InsFactorKind::kRange, RangeFactor<3>::Create(r.range_m, anchor, sigma),
                        {at.a->p.data(), bias});
       } else {

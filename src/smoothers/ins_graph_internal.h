@@ -64,6 +64,7 @@ enum class InsFactorKind {
   kRss,
   kRange,
   kRangeBiasPrior,
+  kAnchorPrior,
   kWaypoint,
   kGapReach,
   kGapMagneticHeading,
@@ -113,8 +114,14 @@ struct InsSharedBlocks {
   std::set<int> anchor_path_loss_prior_added;             // their ties to the mean in the problem
   std::map<int, double> range_bias_m;  // per anchor id (0 and constant unless estimated)
   std::set<int> bias_prior_added;      // anchors whose bias prior is in the current problem
-  double field_yaw_rad = 0.0;          // ψ_f of the stance magnetic heading factors
-  bool field_yaw_set = false;          // initialised (from the first factor's state)
+  // Anchors not surveyed (walk.h Anchor: unknown, placed by fg-ins-batch's search, or uncertain):
+  // their horizontal position, a state (per anchor id), and whether an uncertain one's prior is
+  // in the current problem; AnchorRangeFactor's scale block, held at 0 (the INS graph has none).
+  std::map<int, std::array<double, 2>> anchor_position;
+  std::set<int> anchor_position_prior_added;
+  double zero_range_scale = 0.0;
+  double field_yaw_rad = 0.0;  // ψ_f of the stance magnetic heading factors
+  bool field_yaw_set = false;  // initialised (from the first factor's state)
 };
 
 // The graph's states initialised from the front end's INS solution (placement per options).
