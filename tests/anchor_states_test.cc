@@ -374,8 +374,8 @@ TEST(AnchorStates, WindowHoldsAnAnchorOutUntilItPlacesIt) {
 
 // fg-ins-batch places unknown anchors as fg-batch does (search on the path without them, then
 // one solve): half of jimenez-building's anchors unknown (foot IMU + RSS). Measured on seeds
-// 1-3: 0.231 / 0.265 / 0.258 m against 0.224 / 0.268 / 0.264 m leaving them out, 12-14 of 36
-// placed (median error 1.1-1.7 m; the rest heard < 10 times or ambiguous).
+// 1-3: 0.230 / 0.265 / 0.258 m against 0.224 / 0.268 / 0.264 m leaving them out, 13-14 of 36
+// placed (median error 1.1-1.9 m; the rest heard < 10 times or ambiguous).
 TEST(AnchorStates, FootInsGraphPlacesUnknownAnchors) {
   for (uint64_t seed : {2u, 3u}) {
     auto w = SimulateScenario("jimenez-building", seed, YAML::Load("{laps: 1}"));

@@ -30,6 +30,7 @@
 #include "smoothers/anchor_search.h"
 #include "smoothers/graph_internal.h"
 #include "smoothers/ins_graph_internal.h"
+#include "smoothers/unknown_anchors.h"
 #include "util/enum_define.h"
 #include "util/median.h"
 #include "walkgraph/angle.h"
@@ -538,8 +539,8 @@ StatusOr<EstimateResult> SolveInsWalk(const Walk& walk, const InsGraphOptions& o
 // the path `first` (fg-ins-batch without the unknown anchors), with the radio model that solve
 // estimated.
 internal::AnchorSearchResult SearchInsAnchor(const Walk& walk, const Anchor& a,
-                                             const EstimateResult& first,
-                                             const InsGraphOptions& o) {
+                                             const EstimateResult& first, const InsGraphOptions& o,
+                                             int* readings) {
   std::vector<Eigen::Vector2d> q;
   std::vector<double> v, dz;
   for (const RangeSample& r : walk.ranges) {
@@ -547,7 +548,7 @@ internal::AnchorSearchResult SearchInsAnchor(const Walk& walk, const Anchor& a,
     const Eigen::Vector3d p = first.trajectory.PositionAt(r.t_s);
     q.push_back(p.head<2>());
     v.push_back(r.range_m);
-    dz.push_back(p.z() - a.position_m.z());
+    dz.push_back(p.z());
   }
   const bool range = !v.empty();
   for (const RssSample& r : walk.rss) {
@@ -555,8 +556,12 @@ internal::AnchorSearchResult SearchInsAnchor(const Walk& walk, const Anchor& a,
     const Eigen::Vector3d p = first.trajectory.PositionAt(r.t_s);
     q.push_back(p.head<2>());
     v.push_back(r.rss);
-    dz.push_back(p.z() - a.position_m.z());
+    dz.push_back(p.z());
   }
+  *readings = static_cast<int>(v.size());
+  // An unknown anchor's height: anchors.csv z_m (0 when empty).
+  const double z = std::isfinite(a.position_m.z()) ? a.position_m.z() : 0.0;
+  for (double& h : dz) h -= z;
   internal::AnchorSearchOptions so;
   so.range = range;
   so.dz_m = dz.empty() ? 0.0 : internal::Median(dz);
@@ -579,49 +584,17 @@ internal::AnchorSearchResult SearchInsAnchor(const Walk& walk, const Anchor& a,
   return internal::SearchAnchor(q, v, so);
 }
 
-// As fg-batch (step_graph.h, "Anchors of unknown position"): the walk without its unknown
-// anchors solved first; each placed on that path by the grid search or declared unobservable
-// and left out with its readings; then one solve with the placed ones as states.
+// As fg-batch (unknown_anchors.h): each solve from the front end, the search along the first
+// solve's foot path.
 StatusOr<EstimateResult> SolveInsWithUnknownAnchors(const Walk& walk, const InsGraphOptions& o) {
-  UnknownAnchorsDropped dropped;
-  WG_ASSIGN_OR_RETURN(EstimateResult first, SolveInsWalk(WithoutUnknownAnchors(walk, &dropped), o));
-  Walk joint = walk;
-  std::set<int> left_out;
-  std::map<std::string, double> verdicts;
-  std::vector<AnchorEstimate> unobservable;
-  for (Anchor& a : joint.anchors) {
-    if (a.position_known) continue;
-    if (!a.position_m.allFinite()) a.position_m.z() = 0.0;
-    const internal::AnchorSearchResult found = SearchInsAnchor(walk, a, first, o);
-    if (found.placed()) {
-      a.position_m.head<2>() = found.position_m;
-      continue;
-    }
-    left_out.insert(a.id);
-    verdicts[std::string("unknown_anchors_unobservable.") + internal::ToString(found.verdict)] += 1;
-    AnchorEstimate e;
-    e.id = a.id;
-    e.observable = false;
-    for (const RssSample& r : walk.rss) e.readings += r.anchor_id == a.id ? 1 : 0;
-    for (const RangeSample& r : walk.ranges) e.readings += r.anchor_id == a.id ? 1 : 0;
-    unobservable.push_back(e);
-  }
-  UnknownAnchorsDropped left;
-  EstimateResult result = std::move(first);
-  if (static_cast<int>(left_out.size()) < dropped.anchors) {
-    WG_ASSIGN_OR_RETURN(result, SolveInsWalk(WithoutAnchors(joint, left_out, &left), o));
-  } else {
-    left.rss_readings = dropped.rss_readings;
-    left.range_readings = dropped.range_readings;
-  }
-  auto& d = result.diagnostics;
-  d.insert(verdicts.begin(), verdicts.end());
-  d["unknown_anchors"] = dropped.anchors;
-  d["unknown_anchors_estimated"] = dropped.anchors - static_cast<double>(left_out.size());
-  d["unknown_anchors_unobservable"] = static_cast<double>(left_out.size());
-  d["unknown_anchor_readings_ignored"] = left.rss_readings + left.range_readings;
-  for (AnchorEstimate& e : unobservable) result.anchors.push_back(e);
-  return result;
+  internal::UnknownAnchorPass pass;
+  pass.solve = [&](const Walk& w, const EstimateResult*) { return SolveInsWalk(w, o); };
+  pass.place = [&](const Anchor& a, const EstimateResult& first) {
+    internal::AnchorPlacement out;
+    out.found = SearchInsAnchor(walk, a, first, o, &out.readings);
+    return out;
+  };
+  return internal::SolveWithUnknownAnchors(walk, pass);
 }
 
 }  // namespace

@@ -13,6 +13,7 @@
 #include "smoothers/anchor_search.h"
 #include "smoothers/step_graph_impl.h"
 #include "smoothers/step_graph_run.h"
+#include "smoothers/unknown_anchors.h"
 #include "walkgraph/smoothers/step_graph.h"
 
 namespace walkgraph {
@@ -457,27 +458,27 @@ Eigen::Vector2d PathAt(const std::vector<double>& t, const std::vector<Eigen::Ve
 }
 
 // fg-batch on a walk with anchors of unknown position (step_graph.h, "Anchors of unknown
-// position"): the walk without them solved first; each placed on that path by a grid search
-// (anchor_search.h) or declared unobservable and left out; then every placed anchor a state
-// in one joint solve from the first solution.
+// position"; unknown_anchors.h): the joint solve starts from the first solve's nodes, and each
+// anchor is searched along those nodes (the first solve's trajectory carries the stops
+// InsertStops added).
 StatusOr<EstimateResult> SolveWithUnknownAnchors(const Walk& walk, const StepGraphOptions& o) {
-  UnknownAnchorsDropped dropped;
-  const Walk known = WithoutUnknownAnchors(walk, &dropped);
   std::vector<Eigen::Vector3d> first_nodes;
-  WG_ASSIGN_OR_RETURN(EstimateResult first, SolveBatchWalk(known, o, nullptr, &first_nodes));
   std::vector<double> node_t;
-  // The node times: the first solve's trajectory without the stops InsertStops added.
-  WG_ASSIGN_OR_RETURN(std::unique_ptr<StepGraph> first_graph, StepGraph::Build(known, o));
-  for (int k = 0; k < first_graph->num_nodes(); ++k) node_t.push_back(first_graph->node_time(k));
-
+  internal::UnknownAnchorPass pass;
+  pass.solve = [&](const Walk& w, const EstimateResult* first) -> StatusOr<EstimateResult> {
+    if (first == nullptr) {
+      WG_ASSIGN_OR_RETURN(std::unique_ptr<StepGraph> graph, StepGraph::Build(w, o));
+      for (int k = 0; k < graph->num_nodes(); ++k) node_t.push_back(graph->node_time(k));
+      return SolveBatchWalk(w, o, nullptr, &first_nodes);
+    }
+    WG_ASSIGN_OR_RETURN(EstimateResult r, SolveBatchWalk(w, o, &first_nodes, nullptr));
+    r.diagnostics["unknown_anchors_first_pass_cost"] =
+        first->diagnostics.count("final_cost") ? first->diagnostics.at("final_cost") : 0.0;
+    return r;
+  };
   const bool radio_only = !walk.has_odometry() && !walk.has_imu();
-  const internal::SearchSetup search = internal::SearchOptions(walk, o, first.diagnostics);
-  Walk joint = walk;
-  std::vector<AnchorEstimate> unobservable;
-  std::map<std::string, double> verdicts;
-  std::set<int> left_out;
-  for (Anchor& a : joint.anchors) {
-    if (a.position_known) continue;
+  pass.place = [&](const Anchor& a, const EstimateResult& first) {
+    internal::AnchorPlacement out;
     std::vector<Eigen::Vector2d> q;
     std::vector<double> v;
     // Its ranges (a ranging radio); an anchor without ranges, its RSS readings.
@@ -492,54 +493,27 @@ StatusOr<EstimateResult> SolveWithUnknownAnchors(const Walk& walk, const StepGra
       q.push_back(PathAt(node_t, first_nodes, r.t_s));
       v.push_back(r.rss);
     }
+    out.readings = static_cast<int>(v.size());
+    if (radio_only) {  // no path without its anchors to search along
+      out.verdict = "radio_only";
+      return out;
+    }
+    const internal::SearchSetup search = internal::SearchOptions(walk, o, first.diagnostics);
     internal::AnchorSearchOptions so = range ? search.range : search.rss;
     so.dz_m = o.receiver_height_m - walk.AnchorHeightM(a);
-    // A radio-only walk has no path without its anchors to search along.
-    const internal::AnchorSearchResult found =
-        radio_only ? internal::AnchorSearchResult{} : internal::SearchAnchor(q, v, so);
-    if (!radio_only && found.verdict != internal::AnchorSearchResult::Verdict::kFewReadings &&
-        found.verdict != internal::AnchorSearchResult::Verdict::kNarrowGeometry) {
-      // How clearly the best place stood out (the other basin's cost above it; inf: none).
-      verdicts["anchor_search_gap." + std::to_string(a.id)] = found.second_cost - found.cost;
-    }
-    if (!radio_only && found.placed()) {
-      a.position_m.head<2>() = found.position_m;
-      continue;
-    }
-    AnchorEstimate e;
-    e.id = a.id;
-    e.observable = false;
-    e.readings = static_cast<int>(v.size());
-    unobservable.push_back(e);
-    left_out.insert(a.id);
-    verdicts[std::string("unknown_anchors_unobservable.") +
-             (radio_only ? "radio_only" : internal::ToString(found.verdict))] += 1.0;
-  }
-  // The unobservable anchors leave the walk with their readings.
-  UnknownAnchorsDropped left;
-  const Walk solved = WithoutAnchors(joint, left_out, &left);
-  EstimateResult result;
-  if (static_cast<int>(left_out.size()) == dropped.anchors) {
-    result = std::move(first);  // nothing placed: the first solve is the answer
-  } else {
-    WG_ASSIGN_OR_RETURN(result, SolveBatchWalk(solved, o, &first_nodes, nullptr));
-    result.diagnostics["unknown_anchors_first_pass_cost"] = first.diagnostics["final_cost"];
-  }
+    out.found = internal::SearchAnchor(q, v, so);
+    return out;
+  };
+  WG_ASSIGN_OR_RETURN(EstimateResult result, internal::SolveWithUnknownAnchors(walk, pass));
   auto& d = result.diagnostics;
-  d.insert(verdicts.begin(), verdicts.end());
-  d["unknown_anchors"] = dropped.anchors;
-  d["unknown_anchors_estimated"] = dropped.anchors - static_cast<double>(left_out.size());
-  d["unknown_anchors_unobservable"] = static_cast<double>(left_out.size());
-  d["unknown_anchor_readings_ignored"] = left.rss_readings + left.range_readings;
   if (!d.count("gauge")) {  // nothing placed: the first solve's frame
     int placed = 0;
     std::set<int> heard;
-    for (const RssSample& r : known.rss) heard.insert(r.anchor_id);
-    for (const RangeSample& r : known.ranges) heard.insert(r.anchor_id);
-    for (const Anchor& a : known.anchors) placed += heard.count(a.id) ? 1 : 0;
+    for (const RssSample& r : walk.rss) heard.insert(r.anchor_id);
+    for (const RangeSample& r : walk.ranges) heard.insert(r.anchor_id);
+    for (const Anchor& a : walk.anchors) placed += a.position_known && heard.count(a.id) ? 1 : 0;
     d["gauge"] = walk.meta.initial_pose ? 0.0 : placed >= 2 ? 1.0 : 2.0;
   }
-  for (AnchorEstimate& e : unobservable) result.anchors.push_back(e);
   return result;
 }
 

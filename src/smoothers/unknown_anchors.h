@@ -1,0 +1,41 @@
+// The pass both batch graphs run on a walk with anchors of unknown position (internal;
+// step_graph.h "Anchors of unknown position"; fg-batch and fg-ins-batch): the walk without them
+// solved first; each placed on that path by the grid search (anchor_search.h) or declared
+// unobservable and left out with its readings; then one solve with the placed ones as states.
+#ifndef WALKGRAPH_SRC_SMOOTHERS_UNKNOWN_ANCHORS_H_
+#define WALKGRAPH_SRC_SMOOTHERS_UNKNOWN_ANCHORS_H_
+
+#include <functional>
+#include <string>
+
+#include "smoothers/anchor_search.h"
+#include "walkgraph/estimate_result.h"
+#include "walkgraph/status.h"
+#include "walkgraph/walk.h"
+
+namespace walkgraph::internal {
+
+// Where the search put one anchor, or why it could not.
+struct AnchorPlacement {
+  AnchorSearchResult found;
+  int readings = 0;     // the readings it searched
+  std::string verdict;  // the unobservable verdict's name when not found's (e.g. "radio_only")
+};
+
+struct UnknownAnchorPass {
+  // Solves a walk whose anchors all have a position; `first`: null on the first pass (the walk
+  // without its unknown anchors), else the first pass's result (the joint solve may start there).
+  std::function<StatusOr<EstimateResult>(const Walk& walk, const EstimateResult* first)> solve;
+  // Places an unknown anchor of the walk on the first pass's path.
+  std::function<AnchorPlacement(const Anchor& anchor, const EstimateResult& first)> place;
+};
+
+// The pass on `walk`. Diagnostics: unknown_anchors, unknown_anchors_estimated,
+// unknown_anchors_unobservable(.<verdict>), unknown_anchor_readings_ignored,
+// anchor_search_gap.<id> (how far the best place's cost stood below any other's; inf: none);
+// unobservable anchors in result.anchors with observable false.
+StatusOr<EstimateResult> SolveWithUnknownAnchors(const Walk& walk, const UnknownAnchorPass& pass);
+
+}  // namespace walkgraph::internal
+
+#endif  // WALKGRAPH_SRC_SMOOTHERS_UNKNOWN_ANCHORS_H_
