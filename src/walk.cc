@@ -55,6 +55,13 @@ double Walk::AnchorHeightM(const Anchor& a) const {
   return a.floor ? *a.floor * meta.storey_height_m + a.position_m.z() : a.position_m.z();
 }
 
+int Walk::AnchorReadings(int id) const {
+  int n = 0;
+  for (const RssSample& s : rss) n += s.anchor_id == id ? 1 : 0;
+  for (const RangeSample& s : ranges) n += s.anchor_id == id ? 1 : 0;
+  return n;
+}
+
 int Walk::AnchorIndex(int id) const {
   for (size_t i = 0; i < anchors.size(); ++i) {
     if (anchors[i].id == id) return static_cast<int>(i);

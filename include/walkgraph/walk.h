@@ -216,6 +216,8 @@ struct Walk {
   double AnchorHeightM(const Anchor& a) const;
   // Index into `anchors` of the anchor with this id, or -1.
   int AnchorIndex(int id) const;
+  // How many RSS and range readings the anchor with this id has.
+  int AnchorReadings(int id) const;
   // Whether an anchor's position is unknown (Anchor::position_known false).
   bool has_unknown_anchors() const;
   // First and last timestamp over every stream (0, 0 for an empty walk).

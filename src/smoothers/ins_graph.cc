@@ -448,8 +448,7 @@ void AddInsAnchorEstimates(const Walk& walk, const InsSharedBlocks& radio, Facto
     AnchorEstimate e;
     e.id = id;
     e.position_m = Eigen::Vector2d(p[0], p[1]);
-    for (const RssSample& r : walk.rss) e.readings += r.anchor_id == id ? 1 : 0;
-    for (const RangeSample& r : walk.ranges) e.readings += r.anchor_id == id ? 1 : 0;
+    e.readings = walk.AnchorReadings(id);
     if (graph != nullptr) {
       auto c = MarginalCovariances(graph, {{Symbol('p', static_cast<uint64_t>(ai))}});
       if (c.ok() && (*c)[0].rows() == 2)

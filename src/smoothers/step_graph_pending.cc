@@ -19,7 +19,10 @@ PendingAnchors::PendingAnchors(const Walk& walk, const StepGraph& graph, const S
     if (walk.anchors[a].position_known) continue;  // surveyed, or uncertain: a state from the start
     const std::vector<Key> keys = graph.AnchorOwnKeys(static_cast<int>(a));
     if (keys.empty()) continue;  // not heard
-    pending_[static_cast<int>(a)].last.verdict = AnchorSearchResult::Verdict::kFewReadings;
+    Pending& p = pending_[static_cast<int>(a)];
+    p.last.verdict = AnchorSearchResult::Verdict::kFewReadings;
+    p.range = std::any_of(walk.ranges.begin(), walk.ranges.end(),
+                          [&](const RangeSample& r) { return r.anchor_id == walk.anchors[a].id; });
     for (Key k : keys) owner_[k] = static_cast<int>(a);
   }
 }
@@ -81,10 +84,7 @@ AnchorSearchOptions PendingAnchors::SearchFor(int a, const FixedLagSmoother& win
     }
   }
   const SearchSetup setup = SearchOptions(walk_, o_, fd);
-  const bool range =
-      std::any_of(walk_.ranges.begin(), walk_.ranges.end(),
-                  [&](const RangeSample& r) { return r.anchor_id == walk_.anchors[a].id; });
-  AnchorSearchOptions so = range ? setup.range : setup.rss;
+  AnchorSearchOptions so = pending_.at(a).range ? setup.range : setup.rss;
   so.dz_m = o_.receiver_height_m - walk_.AnchorHeightM(walk_.anchors[a]);
   return so;
 }
@@ -100,10 +100,8 @@ Status PendingAnchors::AfterUpdate(const std::vector<int>& nodes, double t_s,
   };
   for (auto& [a, p] : pending_) {
     if (p.placed) continue;
-    // An anchor heard by ranges is searched over its ranges only (as fg-batch does).
-    const AnchorSearchOptions so = SearchFor(a, *window);
     for (const StepGraph::AnchorReading& r : p.waiting) {
-      if (r.range != so.range) continue;
+      if (r.range != p.range) continue;
       const std::optional<Eigen::Vector2d> qa = position(r.node_a);
       const std::optional<Eigen::Vector2d> qb = r.node_b >= 0 ? position(r.node_b) : qa;
       if (!qa || !qb) continue;
@@ -112,9 +110,11 @@ Status PendingAnchors::AfterUpdate(const std::vector<int>& nodes, double t_s,
     }
     p.waiting.clear();
     const size_t n = p.at.size();
-    if (static_cast<int>(n) < so.min_readings || n < p.tried + std::max<size_t>(5, p.tried / 4)) {
+    if (static_cast<int>(n) < o_.anchor_min_readings ||
+        n < p.tried + std::max<size_t>(5, p.tried / 4)) {
       continue;
     }
+    const AnchorSearchOptions so = SearchFor(a, *window);
     p.tried = n;
     p.last = SearchAnchor(p.at, p.value, so);
     if (!p.last.placed()) continue;
@@ -176,8 +176,7 @@ void PendingAnchors::Report(FixedLagSmoother* window, EstimateResult* r) const {
     const auto it = pending_.find(a);
     AnchorEstimate e;
     e.id = walk_.anchors[i].id;
-    for (const RssSample& s : walk_.rss) e.readings += s.anchor_id == e.id ? 1 : 0;
-    for (const RangeSample& s : walk_.ranges) e.readings += s.anchor_id == e.id ? 1 : 0;
+    e.readings = walk_.AnchorReadings(e.id);
     const Key key = StepGraph::AnchorKey(a);
     StatusOr<std::vector<double>> v = window->Estimate(key);
     const bool placed = it == pending_.end() || it->second.placed;

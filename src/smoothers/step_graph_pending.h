@@ -61,7 +61,8 @@ class PendingAnchors {
     std::vector<StepGraph::AnchorReading> waiting;  // no receiver yet
     std::vector<Eigen::Vector2d> at;
     std::vector<double> value;
-    size_t tried = 0;  // readings at the last search
+    bool range = false;  // heard by ranges: searched over its ranges only (as fg-batch)
+    size_t tried = 0;    // readings at the last search
     AnchorSearchResult last;
     bool too_uncertain = false;  // placed by the search, σ above window_anchor_max_sigma_m
     bool placed = false;

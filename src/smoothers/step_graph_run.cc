@@ -320,8 +320,7 @@ std::vector<int> AnchorEstimates(const Walk& walk, const StepGraph& graph,
     e.id = walk.anchors[a].id;
     const std::vector<double> v = value(StepGraph::AnchorKey(static_cast<int>(a)));
     e.position_m = Eigen::Vector2d(v[0], v[1]);
-    for (const RssSample& r : walk.rss) e.readings += r.anchor_id == e.id ? 1 : 0;
-    for (const RangeSample& r : walk.ranges) e.readings += r.anchor_id == e.id ? 1 : 0;
+    e.readings = walk.AnchorReadings(e.id);
     out->push_back(e);
   }
   return states;

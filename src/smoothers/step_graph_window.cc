@@ -29,18 +29,17 @@ Status StepGraphWindow::CheckApplicable(const Walk& walk) const { return CheckSt
 
 StatusOr<EstimateResult> StepGraphWindow::Run(const Walk& walk) const {
   WG_RETURN_IF_ERROR(CheckApplicable(walk));
+  // Anchors of unknown position: the window places them itself (step_graph_pending.h); until
+  // then they sit at a placeholder the graph never uses (it holds them out).
+  Walk placeholders;
   if (walk.has_unknown_anchors()) {
-    // Anchors of unknown position: the window places them itself (step_graph_pending.h); until
-    // then they sit at a placeholder the graph never uses (it holds them out).
-    Walk w = walk;
-    for (Anchor& a : w.anchors) {
+    placeholders = walk;
+    for (Anchor& a : placeholders.anchors) {
       if (!a.position_known) a.position_m.head<2>().setZero();
     }
-    WG_ASSIGN_OR_RETURN(EstimateResult result, RunWindowNodes(w, options_));
-    InsertStops(walk, options_.max_step_duration_s, &result.trajectory);
-    return result;
   }
-  WG_ASSIGN_OR_RETURN(EstimateResult result, RunWindowNodes(walk, options_));
+  const Walk& w = walk.has_unknown_anchors() ? placeholders : walk;
+  WG_ASSIGN_OR_RETURN(EstimateResult result, RunWindowNodes(w, options_));
   InsertStops(walk, options_.max_step_duration_s, &result.trajectory);
   return result;
 }
