@@ -10,6 +10,7 @@
 #include <utility>
 
 #include <ceres/ceres.h>
+#include <Eigen/SparseCholesky>
 
 #include "smoothers/graph_internal.h"
 #include "walkgraph/cancel.h"
@@ -146,50 +147,113 @@ Status CheckDistinctKeys(const std::vector<Key>& keys, const char* who) {
                          " named twice in one covariance request; expected distinct keys");
 }
 
+namespace {
+
+// The problem's variable blocks in an order that does not depend on where they live in memory:
+// the keyed ones by key, then any others in the order the problem holds them (ceres::Covariance
+// orders its columns by address, so its round-off — and a window's bytes — would depend on what
+// else the process allocated before).
+std::vector<double*> VariableBlocksByKey(ceres::Problem* problem, const KeyedBlocks& keyed) {
+  std::vector<double*> all;
+  problem->GetParameterBlocks(&all);
+  std::vector<double*> keyed_values;
+  keyed_values.reserve(keyed.size());
+  for (const KeyedBlock& kb : keyed) keyed_values.push_back(kb.value);
+  std::vector<double*> sorted_keyed = keyed_values;
+  std::sort(sorted_keyed.begin(), sorted_keyed.end());
+  for (double* b : all) {
+    if (!std::binary_search(sorted_keyed.begin(), sorted_keyed.end(), b)) {
+      keyed_values.push_back(b);
+    }
+  }
+  std::vector<double*> order;
+  order.reserve(keyed_values.size());
+  for (double* b : keyed_values) {
+    if (problem->HasParameterBlock(b) && !problem->IsParameterBlockConstant(b) &&
+        problem->ParameterBlockTangentSize(b) > 0) {
+      order.push_back(b);
+    }
+  }
+  return order;
+}
+
+}  // namespace
+
+// The information H = JᵀJ (Jacobian in the tangent spaces, losses applied as the solver applies
+// them: what ceres::Covariance uses) in VariableBlocksByKey's order, factored by a sparse LDLᵀ
+// (AMD ordering, from the pattern alone), and solved for the requested blocks' columns.
+// Rank-deficient as ceres::Covariance's DENSE_SVD judges it: the smallest pivot below 1e-14 of
+// the largest (its default min_reciprocal_condition_number).
 StatusOr<Eigen::MatrixXd> CeresMarginalCovariance(ceres::Problem* problem,
                                                   const KeyedBlocks& blocks_by_key,
                                                   const std::vector<Key>& keys, const char* who) {
   WG_RETURN_IF_ERROR(CheckDistinctKeys(keys, who));
-  std::vector<const double*> blocks;
-  std::vector<int> offsets;
+  ceres::Problem::EvaluateOptions eo;
+  eo.parameter_blocks = VariableBlocksByKey(problem, blocks_by_key);
+  std::map<const double*, int> column;  // each variable block's first column in H
+  int total = 0;
+  for (double* b : eo.parameter_blocks) {
+    column[b] = total;
+    total += problem->ParameterBlockTangentSize(b);
+  }
+  std::vector<int> cols, sizes;  // per requested key
   int n = 0;
   for (Key key : keys) {
     const KeyedBlock* kb = FindKeyedBlock(blocks_by_key, key);
     if (kb == nullptr) {
       return NotFound(std::string(who) + ": " + KeyToString(key) + " not in the graph");
     }
-    const double* block = kb->value;
-    if (problem->IsParameterBlockConstant(block)) {
+    if (problem->IsParameterBlockConstant(kb->value)) {
       return FailedPrecondition(std::string(who) + ": " + KeyToString(key) + " is held constant");
     }
-    blocks.push_back(block);
-    offsets.push_back(n);
-    n += problem->ParameterBlockTangentSize(block);
+    const auto it = column.find(kb->value);
+    if (it == column.end()) {
+      return NumericalError(std::string(who) + ": " + KeyToString(key) + " has no tangent space");
+    }
+    cols.push_back(it->second);
+    sizes.push_back(problem->ParameterBlockTangentSize(kb->value));
+    n += sizes.back();
   }
-  std::vector<std::pair<const double*, const double*>> pairs;
-  for (size_t i = 0; i < blocks.size(); ++i) {
-    for (size_t j = i; j < blocks.size(); ++j) pairs.emplace_back(blocks[i], blocks[j]);
+  ceres::CRSMatrix crs;
+  if (!problem->Evaluate(eo, nullptr, nullptr, nullptr, &crs)) {
+    return NumericalError(std::string(who) + ": the Jacobian could not be evaluated");
   }
-  ceres::Covariance::Options co;
-  co.algorithm_type = ceres::SPARSE_QR;
-  ceres::Covariance cov(co);
-  if (!cov.Compute(pairs, problem)) {
-    return NumericalError(std::string(who) + ": covariance not computable (rank-deficient)");
-  }
-  Eigen::MatrixXd out(n, n);
-  for (size_t i = 0; i < blocks.size(); ++i) {
-    for (size_t j = i; j < blocks.size(); ++j) {
-      const int ni = problem->ParameterBlockTangentSize(blocks[i]);
-      const int nj = problem->ParameterBlockTangentSize(blocks[j]);
-      Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> c(ni, nj);
-      if (!cov.GetCovarianceBlockInTangentSpace(blocks[i], blocks[j], c.data())) {
-        return NumericalError(std::string(who) + ": covariance block missing");
-      }
-      out.block(offsets[i], offsets[j], ni, nj) = c;
-      out.block(offsets[j], offsets[i], nj, ni) = c.transpose();
+  // A block no factor touches has empty columns: it is left out of H (as ceres::Covariance
+  // leaves it), and if requested its rows come back zero (CheckDefinedCovariances names it).
+  std::vector<int> keep(total, -1);  // column of the Jacobian -> column of H, or -1
+  for (int c : crs.cols) keep[c] = 0;
+  int kept = 0;
+  for (int& k : keep) k = k == 0 ? kept++ : -1;
+  std::vector<Eigen::Triplet<double>> entries;
+  entries.reserve(crs.values.size());
+  for (int r = 0; r < crs.num_rows; ++r) {
+    for (int i = crs.rows[r]; i < crs.rows[r + 1]; ++i) {
+      entries.emplace_back(r, keep[crs.cols[i]], crs.values[i]);
     }
   }
-  return out;
+  if (kept == 0) return Eigen::MatrixXd(Eigen::MatrixXd::Zero(n, n));
+  Eigen::SparseMatrix<double> jac(crs.num_rows, kept);
+  jac.setFromTriplets(entries.begin(), entries.end());
+  const Eigen::SparseMatrix<double> info = jac.transpose() * jac;
+  const Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt(info);
+  const Eigen::VectorXd d = ldlt.info() == Eigen::Success ? ldlt.vectorD() : Eigen::VectorXd();
+  if (d.size() != kept || !d.allFinite() || !(d.minCoeff() > 1e-14 * d.maxCoeff())) {
+    return NumericalError(std::string(who) + ": covariance not computable (rank-deficient)");
+  }
+  Eigen::MatrixXd unit = Eigen::MatrixXd::Zero(kept, n);
+  for (size_t i = 0, c = 0; i < cols.size(); c += sizes[i], ++i) {
+    for (int j = 0; j < sizes[i]; ++j) {
+      if (keep[cols[i] + j] >= 0) unit(keep[cols[i] + j], c + j) = 1.0;
+    }
+  }
+  const Eigen::MatrixXd x = ldlt.solve(unit);
+  Eigen::MatrixXd out = Eigen::MatrixXd::Zero(n, n);
+  for (size_t i = 0, r = 0; i < cols.size(); r += sizes[i], ++i) {
+    for (int j = 0; j < sizes[i]; ++j) {
+      if (keep[cols[i] + j] >= 0) out.row(r + j) = x.row(keep[cols[i] + j]);
+    }
+  }
+  return Eigen::MatrixXd(0.5 * (out + out.transpose()));
 }
 
 namespace {

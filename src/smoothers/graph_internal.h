@@ -91,7 +91,9 @@ Status CheckDefinedCovariances(const std::vector<Eigen::MatrixXd>& covariances,
 // InvalidArgument when a key appears twice in `keys` (Ceres aborts on a repeated block pair).
 Status CheckDistinctKeys(const std::vector<Key>& keys, const char* who);
 
-// ceres::Covariance (sparse QR) for one group of keys: the fallback, and small queries.
+// One group of keys' joint marginal covariance from the Ceres-evaluated Jacobian (losses applied
+// as ceres::Covariance applies them), columns in key order, so the result does not depend on
+// where the blocks live in memory: the fallback, and small queries.
 StatusOr<Eigen::MatrixXd> CeresMarginalCovariance(ceres::Problem* problem,
                                                   const KeyedBlocks& blocks,
                                                   const std::vector<Key>& keys, const char* who);
