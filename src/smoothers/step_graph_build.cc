@@ -472,6 +472,32 @@ std::vector<std::vector<Eigen::Vector3d>> StepGraph::StartHypotheses(const Walk&
   return out;
 }
 
+std::vector<std::vector<Eigen::Vector3d>> StepGraph::StartHeadingTurns(int n,
+                                                                       double until_s) const {
+  const Impl& m = *impl_;
+  std::vector<std::vector<Eigen::Vector3d>> out;
+  const bool relative =
+      m.odometry || (!m.steps.empty() && m.front_end.heading_source == HeadingSource::kRelative);
+  if (n <= 1 || !m.start || m.start->heading_known || !relative || m.radio_only ||
+      !(m.any_rss || m.any_range)) {
+    return out;
+  }
+  size_t last = 0;  // nodes [0, last): t <= until_s
+  while (last < node_t_.size() && node_t_[last] <= until_s) ++last;
+  const Eigen::Vector2d s(m.start->x_m, m.start->y_m);
+  for (int k = 1; k < n; ++k) {
+    const double turn = 2.0 * kPi * k / n;
+    const Eigen::Rotation2Dd R(turn);
+    std::vector<Eigen::Vector3d> h(init_.begin(), init_.begin() + static_cast<long>(last));
+    for (Eigen::Vector3d& p : h) {
+      p.head<2>() = s + R * (p.head<2>() - s);
+      p[2] = NormalizeAngle(p[2] + turn);
+    }
+    out.push_back(std::move(h));
+  }
+  return out;
+}
+
 std::vector<std::vector<Eigen::Vector3d>> StepGraph::HypothesesFrom(const Trajectory& trajectory,
                                                                     double until_s) const {
   const Impl& m = *impl_;

@@ -184,7 +184,8 @@ void ReadSolverKeys(ConfigReader& r, StepGraphOptions* o) {
          "fg-window: Ceres relative cost-change stop per solve");
   r.Read("init_lag_s", &o->init_lag_s, "initialization window: lag of the fast fixed-lag pass");
   r.Read("start_hypotheses", &o->start_hypotheses,
-         "no start: dead reckoning aligned to every fix, turned n ways, each solved (0: off)");
+         "no start: dead reckoning aligned to every fix, turned n ways, each solved; a start "
+         "without heading (no magnetometer): turned n ways about it (0: off)");
   r.Read("start_estimators", &o->start_estimators,
          "no start: comma-separated estimator ids whose trajectories are more start hypotheses");
   r.Read("init_update_s", &o->init_update_s, "initialization window: one update per this period");

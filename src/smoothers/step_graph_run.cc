@@ -234,13 +234,18 @@ using internal::SetHeight;
 namespace {
 
 // fg-batch's start hypotheses on a walk with no start: StartHypotheses' turns (named 1..n),
-// then EstimatorStarts.
+// then EstimatorStarts; on a start of known position but unknown heading (issue 41: a phone
+// without a magnetometer), the dead reckoning and StartHeadingTurns (named 1..n): fg-batch
+// starts from the fast window pass, whose result is one basin; these are the others.
 StatusOr<std::vector<NamedStart>> BatchStarts(const Walk& walk, const StepGraph& graph,
                                               const StepGraphOptions& o) {
   std::vector<NamedStart> starts;
   for (auto& h : graph.StartHypotheses(walk, o.start_hypotheses)) {
     starts.push_back({std::to_string(starts.size() + 1), std::move(h), 0});
   }
+  std::vector<std::vector<Eigen::Vector3d>> turns = graph.StartHeadingTurns(o.start_hypotheses);
+  if (!turns.empty()) turns.insert(turns.begin(), graph.initial_nodes());  // turn 0
+  for (auto& h : turns) starts.push_back({std::to_string(starts.size() + 1), std::move(h), 0});
   WG_ASSIGN_OR_RETURN(
       std::vector<NamedStart> more,
       EstimatorStarts(walk, graph, o, /*causal=*/false, std::numeric_limits<double>::infinity()));

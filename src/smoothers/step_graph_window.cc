@@ -104,9 +104,14 @@ Status AddFirstNodes(const StepGraph& graph, int last, const std::vector<Eigen::
 // fg-window's first window on a walk with no start (issue 41): the nodes of the first
 // align_window_s, when it holds at least 3 radio readings, solved as one batch (fg-batch's solver
 // options) from the window's own initialization and from each causal start estimator's hypotheses
-// (EstimatorStarts), the least final cost kept: the window starts its nodes there. Empty when the
-// walk has a start or no estimator gives a hypothesis. Diagnostics first_window_hypothesis (0: its
-// own, k: the k-th), first_window_estimator (NamedStart::estimator), first_window_cost.<name>.
+// (EstimatorStarts), the least final cost kept: the window starts its nodes there. On a start of
+// known position whose heading nothing gives, the same from the dead reckoning turned about the
+// start (StepGraph::StartHeadingTurns; named turn<k>): a window commits to the heading of its
+// first nodes before the radio has seen the walker move, and its marginalization prior then
+// holds it (simulated phone without magnetometer, seed 1: 9.60 m RMSE, 2.29 m with the turns).
+// Empty when the walk has a start with a heading or no estimator gives a hypothesis. Diagnostics
+// first_window_hypothesis (0: its own, k: the k-th), first_window_estimator
+// (NamedStart::estimator), first_window_cost.<name>.
 StatusOr<std::vector<Eigen::Vector3d>> FirstWindowStart(const Walk& walk, const StepGraph& graph,
                                                         const StepGraphOptions& o,
                                                         const PendingAnchors& unknown,
@@ -119,6 +124,9 @@ StatusOr<std::vector<Eigen::Vector3d>> FirstWindowStart(const Walk& walk, const 
   if (readings < 3) return out;
   WG_ASSIGN_OR_RETURN(std::vector<NamedStart> starts,
                       EstimatorStarts(walk, graph, o, /*causal=*/true, until));
+  for (auto& h : graph.StartHeadingTurns(o.start_hypotheses, until)) {
+    starts.push_back({"turn" + std::to_string(starts.size() + 1), std::move(h), 0});
+  }
   if (starts.empty()) return out;
   const int last = static_cast<int>(starts.front().nodes.size()) - 1;
   starts.insert(starts.begin(), NamedStart{"0", {}, 0});  // its own initialization

@@ -245,7 +245,10 @@ struct StepGraphOptions {
   // every radio fix of the walk, turned by k·360°/start_hypotheses (k = 0..n−1) about its
   // centroid, each solved; the lowest final cost wins (diagnostics start_hypothesis: 0 its own
   // initialization, k + 1 the k-th turn; start_hypothesis_cost.k). 0: its own only. Our choice
-  // (issue 41: a short first window of fixes leaves the start heading ambiguous).
+  // (issue 41: a short first window of fixes leaves the start heading ambiguous). On a start of
+  // known position but no heading, with steps of relative heading (no magnetometer): the dead
+  // reckoning turned by k·360°/start_hypotheses about the start, for fg-batch (k = 0..n−1)
+  // and fg-window's first window (k = 1..n−1 besides its own; StartHeadingTurns).
   int start_hypotheses = 4;
   // More start hypotheses on a walk with no start (issue 41: an unknown start costs little):
   // the trajectories of these estimators (comma-separated registry ids, each run with its
@@ -357,6 +360,12 @@ class StepGraph {
   // to every radio fix, turned by k·2π/n about its centroid; empty when the walk has a start,
   // no radio fix, or no steps.
   std::vector<std::vector<Eigen::Vector3d>> StartHypotheses(const Walk& walk, int n) const;
+  // A start of known position whose heading nothing gives (no heading in walk.yaml's
+  // initial_pose, and steps whose heading is relative: the gyro alone, no magnetometer): the
+  // dead reckoning turned about the start by k·2π/n, k = 1..n−1 (k = 0 is the initialization
+  // itself), each over the nodes with t <= until_s. Empty for any other walk or without radio.
+  std::vector<std::vector<Eigen::Vector3d>> StartHeadingTurns(
+      int n, double until_s = std::numeric_limits<double>::infinity()) const;
   // Start hypotheses from a trajectory (StepGraphOptions::start_estimators), over the nodes
   // with t <= until_s: [0] the dead reckoning aligned by Procrustes to the trajectory's
   // positions at the node times within its span, [1] those positions (clamped to its span)
