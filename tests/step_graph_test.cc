@@ -308,7 +308,12 @@ TEST(StepGraphTest, NoStartSolvesEveryStartHypothesisAndKeepsTheLeastCost) {
                    YAML::Load("{covariance: false, start_hypotheses: 0, start_estimators: ''}"));
   ASSERT_TRUE(off.ok());
   EXPECT_FALSE(off->diagnostics.count("start_hypothesis"));
-  EXPECT_LE(d.at("final_cost"), off->diagnostics.at("final_cost"));
+  // Not below to the last bit: the two start from different window passes (the window's
+  // first window takes the estimators' hypotheses too) and stop at the solver's relative
+  // cost-change tolerance (function_tolerance, 1e-6).
+  EXPECT_LE(d.at("final_cost"), off->diagnostics.at("final_cost") * (1.0 + 1e-6));
+  std::printf("no start: final cost %.9g with the hypotheses, %.9g without\n", d.at("final_cost"),
+              off->diagnostics.at("final_cost"));
   EXPECT_FALSE(RunId("fg-batch", none, YAML::Load("{start_hypotheses: -1}")).ok());
 }
 
@@ -416,12 +421,13 @@ TEST(StepGraphTest, NoStartTakesTheEstimatorsTrajectoriesAsHypotheses) {
 // Issue 41: a phone without a magnetometer, its start position known but not its heading (the
 // gyro gives the heading relative to a frame nobody knows). fg-window's first window and
 // fg-batch solve from the dead reckoning turned about the start by k·90° and keep the least
-// cost (start_hypotheses: 4). Measured RMSE on the simulated handheld phone, seeds 1-4, before
-// -> with the turns: fg-window 9.60 3.64 2.11 2.90 -> 2.29 3.23 2.09 2.70 m, fg-batch 4.66 1.66
-// 1.32 2.26 -> 2.21 2.38 1.32 2.26 m (seed 2: its window start and the turns end in a higher
-// cost than the old window start's 159.6: 160.5, so 1.43x there).
+// cost (start_hypotheses: 4), and the window holds the gyro bias (no heading reference:
+// window_gyro_bias_without_heading). Measured RMSE on the simulated handheld phone, seeds 1-4,
+// before -> now: fg-window 9.60 3.64 2.11 2.90 -> 2.59 3.17 2.13 2.88 m, fg-batch 4.66 1.66
+// 1.32 2.26 -> 2.21 2.35 1.32 1.62 m (seed 2: its window start and the turns end in a higher
+// cost than the old window start's, 1.42x there).
 TEST(StepGraphTest, StartWithoutHeadingTriesTurnsAboutTheStart) {
-  const double window_bound[] = {3.0, 3.5, 2.5, 3.0}, batch_bound[] = {2.6, 2.8, 1.6, 2.6};
+  const double window_bound[] = {3.0, 3.6, 2.5, 3.3}, batch_bound[] = {2.6, 2.7, 1.6, 2.0};
   for (int seed = 1; seed <= 4; ++seed) {
     auto sim = SimulateScenario("handheld-phone", seed, YAML::Node());
     ASSERT_TRUE(sim.ok()) << sim.status().message();
@@ -438,6 +444,7 @@ TEST(StepGraphTest, StartWithoutHeadingTriesTurnsAboutTheStart) {
                   seed, id, rmse);
       const bool window = std::string(id) == "fg-window";
       EXPECT_LE(rmse, window ? window_bound[seed - 1] : batch_bound[seed - 1]) << id << seed;
+      EXPECT_EQ(r->diagnostics.count("gyro_bias_held_no_heading_reference"), window ? 1u : 0u);
       const auto& d = r->diagnostics;
       for (int k = 1; k <= 4; ++k) {  // the window's own start is turn 0
         const std::string key = window ? "first_window_cost.turn" + std::to_string(k)
@@ -446,12 +453,21 @@ TEST(StepGraphTest, StartWithoutHeadingTriesTurnsAboutTheStart) {
       }
     }
   }
-  // A start heading given (or a magnetometer): no turns.
+  // A start heading given and a magnetometer: no turns, the bias estimated; asked for, the
+  // window estimates it without a heading reference too.
   auto sim = SimulateScenario("handheld-phone", 1, YAML::Node());
   ASSERT_TRUE(sim.ok());
   auto r = RunId("fg-window", *sim, YAML::Node());
   ASSERT_TRUE(r.ok());
   EXPECT_FALSE(r->diagnostics.count("first_window_cost.turn1"));
+  EXPECT_FALSE(r->diagnostics.count("gyro_bias_held_no_heading_reference"));
+  EXPECT_TRUE(r->diagnostics.count("gyro_bias_radps"));
+  Walk w = *sim;
+  for (ImuSample& s : w.imu) s.has_mag = false;
+  auto asked = RunId("fg-window", w, YAML::Load("{window_gyro_bias_without_heading: true}"));
+  ASSERT_TRUE(asked.ok());
+  EXPECT_FALSE(asked->diagnostics.count("gyro_bias_held_no_heading_reference"));
+  EXPECT_TRUE(asked->diagnostics.count("gyro_bias_radps"));
 }
 
 // Waypoints (known positions at known times) pull the estimate onto them. Five points taken

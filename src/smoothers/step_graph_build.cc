@@ -472,6 +472,13 @@ std::vector<std::vector<Eigen::Vector3d>> StepGraph::StartHypotheses(const Walk&
   return out;
 }
 
+bool StepGraph::has_heading_reference() const {
+  const Impl& m = *impl_;
+  if (!m.o.use_mag_heading) return false;
+  return std::any_of(m.steps.begin(), m.steps.end(),
+                     [](const Step& s) { return s.has_mag_heading; });
+}
+
 std::vector<std::vector<Eigen::Vector3d>> StepGraph::StartHeadingTurns(int n,
                                                                        double until_s) const {
   const Impl& m = *impl_;

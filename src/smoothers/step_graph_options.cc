@@ -76,6 +76,8 @@ void ReadMotionKeys(ConfigReader& r, StepGraphOptions* o) {
          "across an IMU gap: displacement sigma per axis = this x gap duration");
   r.Read("estimate_gyro_bias", &o->estimate_gyro_bias,
          "estimate a constant vertical gyro bias in the heading increments");
+  r.Read("window_gyro_bias_without_heading", &o->window_gyro_bias_without_heading,
+         "fg-window: estimate the gyro bias even when no step carries a magnetometer heading");
   r.Read("gyro_bias_prior_sigma_radps", &o->gyro_bias_prior_sigma_radps,
          "prior sigma of the vertical gyro bias");
   r.Read("use_mag_heading", &o->use_mag_heading,

@@ -150,6 +150,22 @@ StatusOr<std::vector<Eigen::Vector3d>> FirstWindowStart(const Walk& walk, const 
   return out;
 }
 
+// The window's step graph. PDR steps without a heading reference (no step with a magnetometer
+// heading): rebuilt with the gyro bias held (StepGraphOptions::window_gyro_bias_without_heading),
+// `*o` changed to say so and `*held` set.
+StatusOr<std::unique_ptr<StepGraph>> BuildWindowGraph(const Walk& walk, StepGraphOptions* o,
+                                                      bool* held) {
+  WG_ASSIGN_OR_RETURN(std::unique_ptr<StepGraph> graph, StepGraph::Build(walk, *o));
+  const std::vector<GraphState> statics = graph->StaticStates();
+  *held = !o->window_gyro_bias_without_heading && !graph->has_heading_reference() &&
+          walk.meta.imu_placement != ImuPlacement::kFoot &&
+          std::any_of(statics.begin(), statics.end(),
+                      [](const GraphState& s) { return s.key == internal::kGyroBiasKey; });
+  if (!*held) return graph;
+  o->estimate_gyro_bias = false;
+  return StepGraph::Build(walk, *o);
+}
+
 // fg-window-online's output of the nodes just updated: each one's estimate right after its update.
 Status OnlinePoints(const StepGraph& graph, const FixedLagSmoother& smoother,
                     const std::vector<int>& nodes, std::vector<TrajectoryPoint>* points,
@@ -187,8 +203,11 @@ void SetLagged(const StepGraph& graph, Key key, double t, const std::vector<doub
 
 namespace internal {
 
-StatusOr<EstimateResult> RunWindowNodes(const Walk& walk, const StepGraphOptions& options_) {
-  WG_ASSIGN_OR_RETURN(std::unique_ptr<StepGraph> graph, StepGraph::Build(walk, options_));
+StatusOr<EstimateResult> RunWindowNodes(const Walk& walk, const StepGraphOptions& given) {
+  StepGraphOptions options_ = given;
+  bool hold_bias = false;
+  WG_ASSIGN_OR_RETURN(std::unique_ptr<StepGraph> graph,
+                      BuildWindowGraph(walk, &options_, &hold_bias));
   const int n = graph->num_nodes();
   const bool online = options_.window_output == WindowOutput::kOnline;
   std::map<std::string, double> first_d;
@@ -296,6 +315,7 @@ StatusOr<EstimateResult> RunWindowNodes(const Walk& walk, const StepGraphOptions
             {"window_max_factors", static_cast<double>(max_factors)},
             {"nodes", n}});
   d.insert(first_d.begin(), first_d.end());
+  if (hold_bias) d["gyro_bias_held_no_heading_reference"] = 1.0;
   AddUpdateLatencyTimings(latency, &result.timings);
   AddWindowGraphDiagnostics(*graph, smoother, walk, options_, &d);
   return result;

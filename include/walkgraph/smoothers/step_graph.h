@@ -88,6 +88,16 @@ struct StepGraphOptions {
   double bridge_speed_mps = kImuGapSpeedMps;
   bool estimate_gyro_bias = true;  // constant vertical gyro bias in heading increments
   double gyro_bias_prior_sigma_radps = 0.02;
+  // fg-window (and fg-batch's window initialization) on PDR steps without an absolute heading
+  // (no step with a magnetometer heading): the gyro bias held at 0 unless this is set. Without
+  // a heading reference a window cannot tell a bias from the few radio readings it holds
+  // bending the path, and its marginalization prior keeps what it took (issue 41: IPIN trial
+  // 01, magnetometer dropped, the window's bias went to +0.0125 rad/s against fg-batch's
+  // −0.0037 and its p75 to 27.2 m; held: 13.3 m; presets without magnetometer, 5 seeds:
+  // tarrio-circle 0.89x, prieto-laps 0.96x, two-floor-building 0.92x). Not foot strides: the
+  // foot INS tracks its gyro bias at every stance, and the window's residual bias helps there
+  // (jimenez-building-8tags held: 1.07x). fg-batch sees the whole walk and keeps estimating it.
+  bool window_gyro_bias_without_heading = false;
   bool use_mag_heading = true;  // HeadingFactor per step when the steps carry it
   double mag_heading_sigma_rad = 0.35;
   LossKind mag_heading_loss = LossKind::kCauchy;
@@ -380,6 +390,8 @@ class StepGraph {
   // > 0: the known start's heading was contradicted by the radio by this much (radians) and
   // left out (StepGraphOptions::start_check).
   double start_heading_contradicted_rad() const { return start_heading_contradicted_; }
+  // Whether a step carries an absolute (magnetometer) heading the graph uses (HeadingFactor).
+  bool has_heading_reference() const;
   // Whether the walk's RSS readings enter the graph with a free (A, η) block.
   bool path_loss_estimated() const;
   // Whether there is one path-loss block per anchor (path_loss per-anchor or hierarchical,
