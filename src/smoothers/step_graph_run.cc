@@ -333,11 +333,12 @@ std::vector<int> AnchorEstimates(const Walk& walk, const StepGraph& graph,
 
 // One fg-batch solve of `walk`. `from` (not null): start every node there (a previous solve's
 // nodes) instead of fg-batch's own initialization, with no start hypotheses. `nodes` (not
-// null): the solution's (p, θ) per node. Anchors that are states (StepGraph::AnchorIsState)
-// come back in result.anchors with their covariance.
+// null): the solution's (p, θ) per node, and their times in `node_t` (not null). Anchors that
+// are states (StepGraph::AnchorIsState) come back in result.anchors with their covariance.
 StatusOr<EstimateResult> SolveBatchWalk(const Walk& walk, const StepGraphOptions& options_,
                                         const std::vector<Eigen::Vector3d>* from,
-                                        std::vector<Eigen::Vector3d>* nodes) {
+                                        std::vector<Eigen::Vector3d>* nodes,
+                                        std::vector<double>* node_t = nullptr) {
   WG_ASSIGN_OR_RETURN(std::unique_ptr<StepGraph> graph, StepGraph::Build(walk, options_));
   const int n = graph->num_nodes();
 
@@ -419,6 +420,7 @@ StatusOr<EstimateResult> SolveBatchWalk(const Walk& walk, const StepGraphOptions
     nodes->clear();
     for (const TrajectoryPoint& p : result.trajectory.points) {
       nodes->emplace_back(p.position_m.x(), p.position_m.y(), p.heading_rad);
+      if (node_t != nullptr) node_t->push_back(p.t_s);
     }
   }
   const std::vector<int> anchor_states = AnchorEstimates(walk, *graph, value, &result.anchors);
@@ -470,11 +472,7 @@ StatusOr<EstimateResult> SolveWithUnknownAnchors(const Walk& walk, const StepGra
   std::vector<double> node_t;
   internal::UnknownAnchorPass pass;
   pass.solve = [&](const Walk& w, const EstimateResult* first) -> StatusOr<EstimateResult> {
-    if (first == nullptr) {
-      WG_ASSIGN_OR_RETURN(std::unique_ptr<StepGraph> graph, StepGraph::Build(w, o));
-      for (int k = 0; k < graph->num_nodes(); ++k) node_t.push_back(graph->node_time(k));
-      return SolveBatchWalk(w, o, nullptr, &first_nodes);
-    }
+    if (first == nullptr) return SolveBatchWalk(w, o, nullptr, &first_nodes, &node_t);
     WG_ASSIGN_OR_RETURN(EstimateResult r, SolveBatchWalk(w, o, &first_nodes, nullptr));
     r.diagnostics["unknown_anchors_first_pass_cost"] =
         first->diagnostics.count("final_cost") ? first->diagnostics.at("final_cost") : 0.0;
