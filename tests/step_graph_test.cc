@@ -468,6 +468,14 @@ TEST(StepGraphTest, StartWithoutHeadingTriesTurnsAboutTheStart) {
   ASSERT_TRUE(asked.ok());
   EXPECT_FALSE(asked->diagnostics.count("gyro_bias_held_no_heading_reference"));
   EXPECT_TRUE(asked->diagnostics.count("gyro_bias_radps"));
+  // An odometry walk whose start heading the radio fixes settle (start_check): no turns. Plaza1
+  // without its start heading took 2.25 s in fg-batch with them, 0.21 s without, same result.
+  auto plaza = ReadWalk(std::string(WALKGRAPH_SOURCE_DIR) + "/datasets/plaza1");
+  ASSERT_TRUE(plaza.ok());
+  plaza->meta.initial_pose->heading_known = false;
+  auto graph = StepGraph::Build(*plaza, StepGraphOptions());
+  ASSERT_TRUE(graph.ok());
+  EXPECT_TRUE((*graph)->StartHeadingTurns(4).empty());
 }
 
 // Waypoints (known positions at known times) pull the estimate onto them. Five points taken

@@ -181,6 +181,7 @@ void StepGraph::Impl::CheckStartHeading(const Walk& walk, StepGraph* g) {
     m->start->heading_known = false;
     g->start_heading_contradicted_ = off;
   }
+  m->start_heading_from_fixes = no_heading;
   const Eigen::Vector2d s(m->start->x_m, m->start->y_m);
   const Eigen::Rotation2Dd R(a->rotation_rad);
   for (Eigen::Vector3d& p : g->init_) {
@@ -486,7 +487,7 @@ std::vector<std::vector<Eigen::Vector3d>> StepGraph::StartHeadingTurns(int n,
   const bool relative =
       m.odometry || (!m.steps.empty() && m.front_end.heading_source == HeadingSource::kRelative);
   if (n <= 1 || !m.start || m.start->heading_known || !relative || m.radio_only ||
-      !(m.any_rss || m.any_range)) {
+      m.start_heading_from_fixes || !(m.any_rss || m.any_range)) {
     return out;
   }
   size_t last = 0;  // nodes [0, last): t <= until_s

@@ -74,6 +74,9 @@ struct StepGraph::Impl {
   std::optional<InitialPose> start;
   std::vector<std::vector<Reading>> readings_at;  // by newest node
   bool any_rss = false, any_range = false;
+  // CheckStartHeading turned the dead reckoning onto the radio fixes (a start without heading):
+  // the start heading is settled, StartHeadingTurns gives none.
+  bool start_heading_from_fixes = false;
   // Floors: the barometric height of each node above node 0's, the start height, the storey.
   bool floors = false;
   std::vector<double> baro_z;

@@ -373,7 +373,8 @@ class StepGraph {
   // A start of known position whose heading nothing gives (no heading in walk.yaml's
   // initial_pose, and steps whose heading is relative: the gyro alone, no magnetometer): the
   // dead reckoning turned about the start by k·2π/n, k = 1..n−1 (k = 0 is the initialization
-  // itself), each over the nodes with t <= until_s. Empty for any other walk or without radio.
+  // itself), each over the nodes with t <= until_s. Empty for any other walk, without radio, or
+  // when the radio fixes already turned the dead reckoning (odometry walks: see start_check).
   std::vector<std::vector<Eigen::Vector3d>> StartHeadingTurns(
       int n, double until_s = std::numeric_limits<double>::infinity()) const;
   // Start hypotheses from a trajectory (StepGraphOptions::start_estimators), over the nodes
