@@ -93,8 +93,8 @@ struct StepGraphOptions {
   // a heading reference a window cannot tell a bias from the few radio readings it holds
   // bending the path, and its marginalization prior keeps what it took (issue 41: IPIN trial
   // 01, magnetometer dropped, the window's bias went to +0.0125 rad/s against fg-batch's
-  // −0.0037 and its p75 to 27.2 m; held: 13.3 m; presets without magnetometer, 5 seeds:
-  // tarrio-circle 0.89x, prieto-laps 0.96x, two-floor-building 0.92x). Not foot strides: the
+  // −0.0037 and its p75 to 27.2 m; held: 13.3 m; hip presets without magnetometer, 5 seeds:
+  // tarrio-circle 0.89x, two-floor-building 0.92x). Not foot strides: the
   // foot INS tracks its gyro bias at every stance, and the window's residual bias helps there
   // (jimenez-building-8tags held: 1.07x). fg-batch sees the whole walk and keeps estimating it.
   bool window_gyro_bias_without_heading = false;
