@@ -197,10 +197,12 @@ TEST(WriteComparison, WritesEveryFileWithTheDocumentedSchema) {
   EXPECT_EQ(j["runs"], 1);
   EXPECT_EQ(j["truth_kind"], "continuous");
   const auto& e = j["estimators"]["odometry-dr"];
-  for (const char* key : {"rmse_m", "mean_m", "median_m", "p75_m", "p90_m", "max_m", "final_m",
-                          "pct_distance", "mean_pct_distance", "anees", "runtime_s", "n_points"}) {
+  for (const char* key :
+       {"rmse_m", "mean_m", "median_m", "p75_m", "p90_m", "max_m", "final_m", "pct_distance",
+        "mean_pct_distance", "anees", "runtime_s", "n_points", "scored_on_every_point"}) {
     EXPECT_TRUE(e.contains(key)) << key;
   }
+  EXPECT_EQ(e["scored_on_every_point"], true);
   EXPECT_TRUE(j.contains("pcrb_rmse_m"));
   std::ifstream html(out / "report.html");
   const std::string page((std::istreambuf_iterator<char>(html)), {});
@@ -349,6 +351,46 @@ TEST(FormatComparisonTable, MarksTheBestValuePerColumn) {
   EXPECT_THAT(t, HasSubstr("1.500*"));
   EXPECT_THAT(t, HasSubstr("1.000*"));
   EXPECT_THAT(t, HasSubstr("2.000 "));
+}
+
+// An estimate that does not span the walk is scored on the truth inside its span: its figures
+// are shown with its points ("7/13") and never marked best, however low (IPIN trial 01 without
+// a known start: the EKFs that start at their first radio fix are scored on 7 of 13 landmarks).
+TEST(FormatComparisonTable, NeverMarksBestAnEstimatorScoredOnPartOfTheWalk) {
+  Comparison c;
+  c.walk_name = "w";
+  EstimatorOutcome full, part, failed;
+  full.id = "full";
+  full.stats.rmse_m = 2.0;
+  full.stats.n_points = 13;
+  part.id = "part";
+  part.stats.rmse_m = 1.25;
+  part.stats.n_points = 7;
+  failed.id = "failed";
+  failed.status = FailedPrecondition("no fix");
+  c.outcomes = {full, part, failed};
+  EXPECT_TRUE(ScoredOnEveryPoint(c, c.outcomes[0]));
+  EXPECT_FALSE(ScoredOnEveryPoint(c, c.outcomes[1]));
+  EXPECT_FALSE(ScoredOnEveryPoint(c, c.outcomes[2]));  // not ranked
+  EXPECT_EQ(ScoredPointsLabel(c, c.outcomes[0]), "13");
+  EXPECT_EQ(ScoredPointsLabel(c, c.outcomes[1]), "7/13");
+  const std::string t = FormatComparisonTable(c);
+  EXPECT_THAT(t, HasSubstr("2.000*"));
+  EXPECT_THAT(t, HasSubstr("1.250 "));
+  EXPECT_THAT(t, HasSubstr("7/13"));
+  EXPECT_THAT(t, HasSubstr("not marked best"));
+
+  // Monte Carlo: points per run that counts (a failed run is not a missed point).
+  c.runs = 10;
+  c.outcomes = {full, full};
+  c.outcomes[0].stats.n_points = 130;
+  c.outcomes[0].run_rmse_m.assign(10, 2.0);
+  c.outcomes[1].stats.n_points = 104;
+  c.outcomes[1].run_rmse_m.assign(8, 2.0);  // failed on two runs of 13 points
+  EXPECT_TRUE(ScoredOnEveryPoint(c, c.outcomes[1]));
+  c.outcomes[1].stats.n_points = 80;  // 10 points a run: it starts late
+  EXPECT_FALSE(ScoredOnEveryPoint(c, c.outcomes[1]));
+  EXPECT_EQ(ScoredPointsLabel(c, c.outcomes[1]), "80/104");
 }
 
 // rmse/pcrb below 1 from fewer than 30 runs is flagged with the ratio's 95 % interval:

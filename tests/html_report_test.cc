@@ -141,6 +141,26 @@ int CountSubstr(const std::string& s, const std::string& needle) {
   return n;
 }
 
+// An estimator scored on part of the truth (its estimate does not span the walk) keeps its
+// row and figures, shows its points as "a/b", and is never marked best nor named lowest RMSE.
+TEST(ReportPage, NeverMarksBestAnEstimatorScoredOnPartOfTheWalk) {
+  Report r = MakeReport();
+  int most = 0;
+  for (const EstimatorOutcome& o : r.comparison.outcomes) most = std::max(most, o.stats.n_points);
+  for (EstimatorOutcome& o : r.comparison.outcomes) {
+    if (o.id == "fg-0") o.stats.n_points = most - 5;
+  }
+  const std::string html = RenderHtmlReport(r.comparison);
+  const std::string table = Between(html, "<table id=\"results\">", "</table>");
+  const std::string fg0 = Between(table, "data-id=\"fg-0\"", "</tr>");
+  ASSERT_FALSE(fg0.empty());
+  EXPECT_THAT(fg0, Not(HasSubstr("class=\"best\"")));
+  EXPECT_THAT(fg0, HasSubstr(std::to_string(most - 5) + "/" + std::to_string(most)));
+  EXPECT_THAT(html, Not(HasSubstr("Lowest RMSE: <b>fg-0</b>")));
+  EXPECT_THAT(html, HasSubstr("never marked best"));
+  EXPECT_THAT(r.html, Not(HasSubstr("never marked best")));  // every estimator spans the walk
+}
+
 TEST(ReportPage, TableGroupsByFamilyMarksBestAndSetsUnrankedApart) {
   const Report r = MakeReport();
   const std::string table = Between(r.html, "<table id=\"results\">", "</table>");

@@ -75,11 +75,15 @@ fit_line() { # "A -71.0 dBm, eta 1.98, sigma 4.8 dB (n = 80)"
 }
 
 # cell RESULTS ID FIELD: a number with 3 decimals, "diverged" (flagged by compare: see
-# include/walkgraph/divergence.h) or "fail" (could not run).
+# include/walkgraph/divergence.h) or "fail" (could not run); a number followed by "(a/b)"
+# when the estimate does not span the walk: scored on a of the b truth points the others are
+# scored on (results.json scored_on_every_point; docs/outputs.md).
 cell() {
   jq -r --arg id "$2" --arg f "$3" \
-    '.estimators[$id] as $e | if $e == null then "n/a" elif $e.diverged != null then "diverged"
-     elif ($e[$f] | type) == "number" then ($e[$f] * 1000 | round / 1000 | tostring)
+    '[.estimators[] | .n_points? // 0] as $n | ($n | max) as $most |
+     .estimators[$id] as $e | if $e == null then "n/a" elif $e.diverged != null then "diverged"
+     elif ($e[$f] | type) == "number" then ($e[$f] * 1000 | round / 1000 | tostring) +
+       (if $e.scored_on_every_point == false then " (\($e.n_points)/\($most))" else "" end)
      else "fail" end' "$1"
 }
 ids() { jq -r '.estimators | keys_unsorted[]' "$1"; }
@@ -90,6 +94,9 @@ echo
 # ---------------------------------------------------------------- Plaza1
 compare "$ROOT/datasets/plaza1" "$TMP/r_plaza"
 echo "## Plaza1 (bundled datasets/plaza1; error vs GPS-RTK, m)"
+echo
+echo "(a/b) = scored on a of the b truth samples the others are scored on: the estimate does not"
+echo "span the walk (the radio filters start at their first fix)."
 echo
 echo "| estimator | RMSE | mean | p90 |"
 echo "|---|---|---|---|"
@@ -181,7 +188,8 @@ echo "path loss fitted on trial 01: $(fit_line "$TMP/fit01.txt");"
 echo "on trial 05: $(fit_line "$TMP/fit05.txt");"
 echo "on trial 21: $(fit_line "$TMP/fit21.txt")."
 echo "fail = the estimator could not run (e.g. no radio epoch gave a position fix: 05 and 21 hear"
-echo "too few beacons at once for a trilateration fix)."
+echo "too few beacons at once for a trilateration fix). (a/b) = scored on a of the b landmarks the"
+echo "others are scored on: the estimate does not span the walk (it starts at its first fix)."
 echo
 echo "### Known start (convert --known-start; path loss 05 -> 01, 01 -> 05, 01 -> 21)"
 echo

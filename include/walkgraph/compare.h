@@ -267,7 +267,24 @@ class ScenarioRunMerger {
   std::unique_ptr<State> state_;
 };
 
-// An aligned text table, one row per estimator; '*' marks the best value of each column.
+// Truth points per counted run that `o` was scored on (Monte Carlo: its pooled points over the
+// runs in its figures); 0 when it is not ranked.
+double ScoredPointsPerRun(const Comparison& comparison, const EstimatorOutcome& o);
+
+// Whether `o` was scored on as many truth points as any ranked estimator of the comparison. An
+// estimate is scored on the truth inside its own time span (metrics.h), so one that does not
+// span the walk (a filter that starts at its first radio fix: 7 of 13 landmarks on IPIN trial
+// 01 without a known start) has figures over less of the walk than the others'. The tables
+// show it with its points ("7/13") and never mark it best; results.json says
+// "scored_on_every_point". False when `o` is not ranked.
+bool ScoredOnEveryPoint(const Comparison& comparison, const EstimatorOutcome& o);
+
+// The points `o` was scored on, as the tables show them: "13", or "7/13" when another ranked
+// estimator was scored on more (Monte Carlo: pooled over the runs in its figures).
+std::string ScoredPointsLabel(const Comparison& comparison, const EstimatorOutcome& o);
+
+// An aligned text table, one row per estimator; '*' marks the best value of each column among
+// the ranked estimators scored on every point (ScoredOnEveryPoint).
 std::string FormatComparisonTable(const Comparison& comparison);
 
 // Writes results.json, errors.csv, trajectories/<id>.tum, trajectories/<id>.csv (io.h

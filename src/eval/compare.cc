@@ -299,6 +299,61 @@ void WarnAboutFewRunsBelowTheBound(const Comparison& c, std::ostream& out) {
   }
 }
 
+double ScoredPointsPerRun(const Comparison& c, const EstimatorOutcome& o) {
+  if (!o.Ranked()) return 0.0;
+  const size_t runs = c.runs > 1 ? std::max<size_t>(o.run_rmse_m.size(), 1) : 1;
+  return static_cast<double>(o.stats.n_points) / static_cast<double>(runs);
+}
+
+namespace {
+
+double MostScoredPointsPerRun(const Comparison& c) {
+  double most = 0.0;
+  for (const EstimatorOutcome& o : c.outcomes) most = std::max(most, ScoredPointsPerRun(c, o));
+  return most;
+}
+
+}  // namespace
+
+bool ScoredOnEveryPoint(const Comparison& c, const EstimatorOutcome& o) {
+  // Monte Carlo: per counted run, so that failed runs (shown apart) do not count as missed
+  // points; with runs of different lengths, failing on a long one lowers the mean and marks the
+  // estimator partial too. 1e-9 is round-off.
+  return o.Ranked() && ScoredPointsPerRun(c, o) >= MostScoredPointsPerRun(c) * (1.0 - 1e-9);
+}
+
+std::string ScoredPointsLabel(const Comparison& c, const EstimatorOutcome& o) {
+  const std::string n = std::to_string(o.stats.n_points);
+  if (!o.Ranked() || ScoredOnEveryPoint(c, o)) return n;
+  const double per_run = ScoredPointsPerRun(c, o);
+  const double runs = per_run > 0.0 ? static_cast<double>(o.stats.n_points) / per_run : 1.0;
+  return n + "/" + std::to_string(std::lround(MostScoredPointsPerRun(c) * runs));
+}
+
+namespace {
+
+// The best value of each table column, and of the runtime last, among the ranked estimators
+// scored on every point.
+std::vector<double> TableBestValues(const Comparison& c, const std::vector<const Column*>& cols) {
+  const size_t ncol = cols.size();
+  std::vector<double> best(ncol + 1, std::numeric_limits<double>::infinity());
+  for (size_t j = 0; j < ncol; ++j) {
+    if (cols[j]->larger_is_better) best[j] = -std::numeric_limits<double>::infinity();
+  }
+  for (const EstimatorOutcome& o : c.outcomes) {
+    if (!ScoredOnEveryPoint(c, o)) continue;  // not ranked, or over part of the walk
+    best[ncol] = std::min(best[ncol], o.runtime_s);
+    for (size_t j = 0; j < ncol; ++j) {
+      const double v = o.stats.*(cols[j]->field);
+      if (std::isnan(v)) continue;
+      best[j] = cols[j]->larger_is_better ? std::max(best[j], v) : std::min(best[j], v);
+    }
+  }
+  return best;
+}
+
+}  // namespace
+
 std::string FormatComparisonTable(const Comparison& c) {
   const std::vector<const Column*> cols = TableColumns(c);
   const size_t ncol = cols.size();
@@ -310,20 +365,11 @@ std::string FormatComparisonTable(const Comparison& c) {
   header.push_back("runtime_s");
   header.push_back("n");
   if (with_pcrb) header.push_back("rmse/pcrb");
-  // Best (smallest, or largest where larger is better) per column among successful outcomes.
-  std::vector<double> best(ncol + 1, std::numeric_limits<double>::infinity());
-  for (size_t j = 0; j < ncol; ++j) {
-    if (cols[j]->larger_is_better) best[j] = -std::numeric_limits<double>::infinity();
-  }
-  for (const EstimatorOutcome& o : c.outcomes) {
-    if (!o.Ranked()) continue;
-    for (size_t j = 0; j < ncol; ++j) {
-      const double v = o.stats.*(cols[j]->field);
-      if (std::isnan(v)) continue;
-      best[j] = cols[j]->larger_is_better ? std::max(best[j], v) : std::min(best[j], v);
-    }
-    best[ncol] = std::min(best[ncol], o.runtime_s);
-  }
+  // Best (smallest, or largest where larger is better) per column, then the runtime's.
+  const std::vector<double> best = TableBestValues(c, cols);
+  bool partial = false;
+  for (const EstimatorOutcome& o : c.outcomes)
+    partial = partial || (o.Ranked() && !ScoredOnEveryPoint(c, o));
   for (const EstimatorOutcome& o : c.outcomes) {
     std::vector<std::string> row = {o.id};
     if (!o.status.ok() || !o.Ranked()) {
@@ -339,7 +385,7 @@ std::string FormatComparisonTable(const Comparison& c) {
       }
       std::string cell = Fixed(v, cols[j]->precision);
       if (o.stats_std) cell += "+-" + Fixed((*o.stats_std).*(cols[j]->field), cols[j]->precision);
-      row.push_back(cell + (v == best[j] ? "*" : " "));
+      row.push_back(cell + (v == best[j] && ScoredOnEveryPoint(c, o) ? "*" : " "));
     }
     if (std::isfinite(o.stats.anees)) {
       std::string cell = Fixed(o.stats.anees, 2);
@@ -350,8 +396,9 @@ std::string FormatComparisonTable(const Comparison& c) {
     } else {
       row.push_back("- ");
     }
-    row.push_back(Fixed(o.runtime_s, 3) + (o.runtime_s == best[ncol] ? "*" : " "));
-    row.push_back(std::to_string(o.stats.n_points));
+    row.push_back(Fixed(o.runtime_s, 3) +
+                  (o.runtime_s == best[ncol] && ScoredOnEveryPoint(c, o) ? "*" : " "));
+    row.push_back(ScoredPointsLabel(c, o));
     if (with_pcrb) {
       const std::optional<double> ratio = RmseOverPcrb(c, o);
       row.push_back(ratio ? Fixed(*ratio, 2) + " " : "- ");
@@ -410,7 +457,12 @@ std::string FormatComparisonTable(const Comparison& c) {
       out << o.id << ": " << ToString(*o.divergence) << " (kept in the figures)\n";
     }
   }
-  out << "* best in column\n";
+  out << "* best in column";
+  if (partial) {
+    out << " among the estimators scored on every truth point; n = a/b: scored on a of b points "
+           "(its estimate does not span the walk), not marked best";
+  }
+  out << "\n";
   return out.str();
 }
 
@@ -430,6 +482,7 @@ nlohmann::ordered_json FiguresJson(const Comparison& c, const EstimatorOutcome& 
     if (o.stats_std && std::isfinite(o.stats_std->anees)) e["anees_std"] = o.stats_std->anees;
   }
   e["n_points"] = o.stats.n_points;
+  e["scored_on_every_point"] = ScoredOnEveryPoint(c, o);
   const std::optional<double> ratio = RmseOverPcrb(c, o);
   e["rmse_over_pcrb"] = ratio ? nlohmann::ordered_json(*ratio) : nullptr;
   return e;

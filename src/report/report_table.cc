@@ -21,6 +21,7 @@ struct Column {
   double ErrorStats::*spread;  // nullptr: none
   int precision;
   Best best;
+  bool points = false;  // the n column: ScoredPointsLabel's "a/b" text
 };
 
 std::vector<Column> Columns(const Comparison& c) {
@@ -53,7 +54,7 @@ std::vector<Column> Columns(const Comparison& c) {
        Best::kSmallest},
       {"n", "scored points",
        [](const Comparison&, const EstimatorOutcome& o) { return double(o.stats.n_points); },
-       nullptr, 0, Best::kNone},
+       nullptr, 0, Best::kNone, true},
   };
   bool floors = false;  // a multi-floor walk: IPIN's score and the floor hit rate
   for (const EstimatorOutcome& o : c.outcomes) floors = floors || !std::isnan(o.stats.ipin_score_m);
@@ -87,7 +88,7 @@ using internal::Fixed;
 std::vector<double> BestValues(const Comparison& c, const std::vector<Column>& cols) {
   std::vector<double> best(cols.size(), std::numeric_limits<double>::infinity());
   for (const EstimatorOutcome& o : c.outcomes) {
-    if (!o.Ranked()) continue;
+    if (!ScoredOnEveryPoint(c, o)) continue;  // not ranked, or over part of the walk
     for (size_t j = 0; j < cols.size(); ++j) {
       const double v = cols[j].value(c, o);
       if (std::isfinite(v)) best[j] = std::min(best[j], Badness(cols[j].best, v));
@@ -110,10 +111,11 @@ std::string Row(const Comparison& c, size_t k, const LineStyle& style,
       s << "<td data-v=\"\"></td>";
       continue;
     }
-    const bool is_best = cols[j].best != Best::kNone && Badness(cols[j].best, v) == best[j];
+    const bool is_best = cols[j].best != Best::kNone && Badness(cols[j].best, v) == best[j] &&
+                         ScoredOnEveryPoint(c, o);
     s << "<td data-v=\"" << Fixed(v, cols[j].precision + 3) << "\""
       << (is_best ? " class=\"best\" title=\"best in column\"" : "") << ">"
-      << Fixed(v, cols[j].precision);
+      << (cols[j].points ? ScoredPointsLabel(c, o) : Fixed(v, cols[j].precision));
     if (o.stats_std && cols[j].spread != nullptr && std::isfinite((*o.stats_std).*cols[j].spread)) {
       s << " &plusmn; " << Fixed((*o.stats_std).*cols[j].spread, cols[j].precision);
     }
@@ -133,7 +135,7 @@ std::string Summary(const Comparison& c, const std::vector<double>& best) {
       continue;
     }
     ++ranked;
-    if (top == nullptr && o.stats.rmse_m == best[0]) top = &o;
+    if (top == nullptr && ScoredOnEveryPoint(c, o) && o.stats.rmse_m == best[0]) top = &o;
   }
   s << "<p class=\"summary\">truth: " << ToString(c.truth_kind) << " &middot; runs: " << c.runs;
   if (c.seed) s << " &middot; seed: " << *c.seed;
@@ -209,8 +211,15 @@ std::string ResultsTableHtml(const Comparison& c, const std::vector<LineStyle>& 
     }
     s << "</tfoot>";
   }
-  s << "</table>\n<p class=\"note\">&#9733; best in column among the ranked estimators (ANEES: "
-       "closest to 2, the consistent value).";
+  s << "</table>\n<p class=\"note\">&#9733; best in column among the ranked estimators scored on "
+       "every truth point (ANEES: closest to 2, the consistent value).";
+  bool partial = false;
+  for (const EstimatorOutcome& o : c.outcomes)
+    partial = partial || (o.Ranked() && !ScoredOnEveryPoint(c, o));
+  if (partial) {
+    s << " n = a/b: scored on a of the b truth points the others are scored on (its estimate does "
+         "not span the walk, e.g. a filter that starts at its first radio fix), never marked best.";
+  }
   if (c.pcrb_rmse_m) {
     s << " PCRB: posterior Cram&eacute;r&ndash;Rao bound of the position RMSE over the same runs "
          "(smoother: full-walk Fisher information; filter: Tichavsk&yacute; recursion); RMSE / "
