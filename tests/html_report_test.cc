@@ -15,6 +15,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <regex>
 #include <set>
 #include <sstream>
@@ -159,6 +160,24 @@ TEST(ReportPage, NeverMarksBestAnEstimatorScoredOnPartOfTheWalk) {
   EXPECT_THAT(html, Not(HasSubstr("Lowest RMSE: <b>fg-0</b>")));
   EXPECT_THAT(html, HasSubstr("never marked best"));
   EXPECT_THAT(r.html, Not(HasSubstr("never marked best")));  // every estimator spans the walk
+}
+
+// ANEES is best closest to 2 in ratio: 1.5 (1.33x too cautious) beats 2.8 (1.4x too
+// confident), and 0.01 (a covariance that says nothing) beats nobody at 9.
+TEST(ReportPage, AneesIsBestClosestToTwoInRatio) {
+  Report r = MakeReport();
+  const std::map<std::string, double> anees = {{"fg-0", 2.8}, {"fg-1", 1.5}, {"fg-2", 0.01}};
+  for (EstimatorOutcome& o : r.comparison.outcomes) {
+    o.stats.anees = anees.count(o.id) ? anees.at(o.id) : 9.0;
+  }
+  const std::string html = RenderHtmlReport(r.comparison);
+  const std::string table = Between(html, "<table id=\"results\">", "</table>");
+  EXPECT_THAT(Between(table, "data-id=\"fg-1\"", "</tr>"),
+              HasSubstr("data-v=\"1.50000\" class=\"best\""));
+  EXPECT_THAT(Between(table, "data-id=\"fg-0\"", "</tr>"),
+              Not(HasSubstr("data-v=\"2.80000\" class=\"best\"")));
+  EXPECT_THAT(Between(table, "data-id=\"fg-2\"", "</tr>"),
+              Not(HasSubstr("data-v=\"0.01000\" class=\"best\"")));
 }
 
 TEST(ReportPage, TableGroupsByFamilyMarksBestAndSetsUnrankedApart) {

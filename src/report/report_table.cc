@@ -47,8 +47,8 @@ std::vector<Column> Columns(const Comparison& c) {
        &ErrorStats::pct_distance, 2, Best::kSmallest},
       {"mean % dist", "mean of error / distance walked so far",
        stat(&ErrorStats::mean_pct_distance), &ErrorStats::mean_pct_distance, 2, Best::kSmallest},
-      {"ANEES", "mean position NEES; 2 = consistent (best: closest to 2)", stat(&ErrorStats::anees),
-       &ErrorStats::anees, 2, Best::kClosestToTwo},
+      {"ANEES", "mean position NEES; 2 = consistent (best: closest to 2 in ratio)",
+       stat(&ErrorStats::anees), &ErrorStats::anees, 2, Best::kClosestToTwo},
       {"runtime [s]", "wall-clock time of the run (machine-dependent)",
        [](const Comparison&, const EstimatorOutcome& o) { return o.runtime_s; }, nullptr, 3,
        Best::kSmallest},
@@ -79,7 +79,12 @@ std::vector<Column> Columns(const Comparison& c) {
 
 double Badness(Best best, double v) {
   if (best == Best::kLargest) return -v;
-  return best == Best::kClosestToTwo ? std::abs(v - 2.0) : v;
+  // ANEES: a factor k too confident is as bad as a factor k too cautious, so the distance to 2
+  // is taken on a log scale; 0 (a covariance that says nothing) is never the best.
+  if (best == Best::kClosestToTwo) {
+    return v > 0.0 ? std::abs(std::log(v / 2.0)) : std::numeric_limits<double>::infinity();
+  }
+  return v;
 }
 
 using internal::Fixed;
@@ -212,7 +217,8 @@ std::string ResultsTableHtml(const Comparison& c, const std::vector<LineStyle>& 
     s << "</tfoot>";
   }
   s << "</table>\n<p class=\"note\">&#9733; best in column among the ranked estimators scored on "
-       "every truth point (ANEES: closest to 2, the consistent value).";
+       "every truth point (ANEES: closest to 2, the consistent value, in ratio: 1 and 4 are as far "
+       "from it).";
   bool partial = false;
   for (const EstimatorOutcome& o : c.outcomes)
     partial = partial || (o.Ranked() && !ScoredOnEveryPoint(c, o));
