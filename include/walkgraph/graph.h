@@ -80,6 +80,8 @@ struct GraphFactor {
   std::shared_ptr<ceres::CostFunction> cost;
   std::shared_ptr<const ceres::LossFunction> loss;  // nullptr = squared loss
   std::vector<Key> keys;                            // in the cost function's block order
+  // >= 0: the factors whose noise model one scale multiplies (EstimateNoiseScales); -1: none.
+  int noise_group = -1;
 };
 
 // The extension hook of every factor-graph estimator (StepGraphOptions::user_factors for fg-batch
@@ -123,6 +125,13 @@ struct SolveSummary {
   double normalized_cost() const;
 };
 
+// How far a group of factors' noise model is from its residuals at the current values.
+struct NoiseScale {
+  double scale = 1.0;       // σ the residuals show / σ the factors assume
+  int rows = 0;             // residual rows the scale was taken from
+  double redundancy = 0.0;  // Σ (1 − h_i) over the group's rows
+};
+
 class FactorGraph {
  public:
   FactorGraph();
@@ -154,6 +163,7 @@ class FactorGraph {
   friend StatusOr<SolveSummary> SolveBatch(FactorGraph* graph, const SolverOptions& options);
   friend StatusOr<std::vector<Eigen::MatrixXd>> MarginalCovariances(
       FactorGraph* graph, const std::vector<std::vector<Key>>& groups);
+  friend StatusOr<std::map<int, NoiseScale>> EstimateNoiseScales(FactorGraph* graph, int min_rows);
   struct State {
     GraphState spec;          // spec.value is the solver's parameter block (stable address)
     std::uint64_t order = 0;  // states added before it
@@ -175,6 +185,21 @@ StatusOr<SolveSummary> SolveBatch(FactorGraph* graph, const SolverOptions& optio
 // when the information is not positive definite (an unobservable direction).
 StatusOr<std::vector<Eigen::MatrixXd>> MarginalCovariances(
     FactorGraph* graph, const std::vector<std::vector<Key>>& groups);
+
+// Variance-component estimation (Förstner 1979; Koch & Kusche, J. Geodesy 76, 2002): for each
+// noise group (GraphFactor::noise_group), the scale by which its factors' σ should be multiplied
+// for their whitened residuals to be as large as they assume, at the current values. A row's
+// redundancy is 1 − h_i, h_i = j_iᵀ H⁻¹ j_i its leverage under the information H the solver
+// sees (losses applied); r_i is its residual without the robust loss.
+//   - A group without a robust loss: scale² = Σ r_i² / Σ (1 − h_i) (Förstner's estimate), when
+//     Σ (1 − h_i) >= 2: a group the other factors barely check (a heading-increment chain with
+//     radio alone to hold it) has little redundancy, and its scale is then left out.
+//   - A group with a robust loss on some factor: scale = 1.4826 · median |r_i| / √(1 − h_i)
+//     over the rows with 1 − h_i >= 0.05, when there are at least `min_rows` (MAD: NLOS-like
+//     outliers do not inflate it).
+// At most 2000 rows per group are read, evenly spread (deterministic). Groups left out are not
+// in the map. Fails when H is singular or the Jacobian cannot be evaluated.
+StatusOr<std::map<int, NoiseScale>> EstimateNoiseScales(FactorGraph* graph, int min_rows = 30);
 
 }  // namespace walkgraph
 

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <map>
 #include <numeric>
+#include <set>
 #include <string>
 #include <tuple>
 #include <utility>
@@ -177,6 +178,41 @@ std::vector<double*> VariableBlocksByKey(ceres::Problem* problem, const KeyedBlo
   return order;
 }
 
+// H = JᵀJ of a Jacobian (CRS, `total` columns) and its sparse LDLᵀ. A column no row touches is
+// left out of H (as ceres::Covariance leaves it): keep maps a Jacobian column to its column of
+// H, or -1. jac is empty (no column) when no row touches any.
+struct Information {
+  Eigen::SparseMatrix<double, Eigen::RowMajor> jac;
+  std::vector<int> keep;
+  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt;
+};
+
+Status FactorInformation(const ceres::CRSMatrix& crs, int total, const char* who,
+                         Information* out) {
+  out->keep.assign(total, -1);
+  for (int c : crs.cols) out->keep[c] = 0;
+  int kept = 0;
+  for (int& k : out->keep) k = k == 0 ? kept++ : -1;
+  std::vector<Eigen::Triplet<double>> entries;
+  entries.reserve(crs.values.size());
+  for (int r = 0; r < crs.num_rows; ++r) {
+    for (int i = crs.rows[r]; i < crs.rows[r + 1]; ++i) {
+      entries.emplace_back(r, out->keep[crs.cols[i]], crs.values[i]);
+    }
+  }
+  out->jac.resize(crs.num_rows, kept);
+  if (kept == 0) return Status::Ok();
+  out->jac.setFromTriplets(entries.begin(), entries.end());
+  const Eigen::SparseMatrix<double> info = out->jac.transpose() * out->jac;
+  out->ldlt.compute(info);
+  const Eigen::VectorXd d =
+      out->ldlt.info() == Eigen::Success ? out->ldlt.vectorD() : Eigen::VectorXd();
+  if (d.size() != kept || !d.allFinite() || !(d.minCoeff() > 1e-14 * d.maxCoeff())) {
+    return NumericalError(std::string(who) + ": covariance not computable (rank-deficient)");
+  }
+  return Status::Ok();
+}
+
 }  // namespace
 
 // The information H = JᵀJ (Jacobian in the tangent spaces, losses applied as the solver applies
@@ -218,35 +254,19 @@ StatusOr<Eigen::MatrixXd> CeresMarginalCovariance(ceres::Problem* problem,
   if (!problem->Evaluate(eo, nullptr, nullptr, nullptr, &crs)) {
     return NumericalError(std::string(who) + ": the Jacobian could not be evaluated");
   }
-  // A block no factor touches has empty columns: it is left out of H (as ceres::Covariance
-  // leaves it), and if requested its rows come back zero (CheckDefinedCovariances names it).
-  std::vector<int> keep(total, -1);  // column of the Jacobian -> column of H, or -1
-  for (int c : crs.cols) keep[c] = 0;
-  int kept = 0;
-  for (int& k : keep) k = k == 0 ? kept++ : -1;
-  std::vector<Eigen::Triplet<double>> entries;
-  entries.reserve(crs.values.size());
-  for (int r = 0; r < crs.num_rows; ++r) {
-    for (int i = crs.rows[r]; i < crs.rows[r + 1]; ++i) {
-      entries.emplace_back(r, keep[crs.cols[i]], crs.values[i]);
-    }
-  }
+  // A requested block no factor touches comes back zero (CheckDefinedCovariances names it).
+  Information info;
+  WG_RETURN_IF_ERROR(FactorInformation(crs, total, who, &info));
+  const std::vector<int>& keep = info.keep;
+  const int kept = static_cast<int>(info.jac.cols());
   if (kept == 0) return Eigen::MatrixXd(Eigen::MatrixXd::Zero(n, n));
-  Eigen::SparseMatrix<double> jac(crs.num_rows, kept);
-  jac.setFromTriplets(entries.begin(), entries.end());
-  const Eigen::SparseMatrix<double> info = jac.transpose() * jac;
-  const Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt(info);
-  const Eigen::VectorXd d = ldlt.info() == Eigen::Success ? ldlt.vectorD() : Eigen::VectorXd();
-  if (d.size() != kept || !d.allFinite() || !(d.minCoeff() > 1e-14 * d.maxCoeff())) {
-    return NumericalError(std::string(who) + ": covariance not computable (rank-deficient)");
-  }
   Eigen::MatrixXd unit = Eigen::MatrixXd::Zero(kept, n);
   for (size_t i = 0, c = 0; i < cols.size(); c += sizes[i], ++i) {
     for (int j = 0; j < sizes[i]; ++j) {
       if (keep[cols[i] + j] >= 0) unit(keep[cols[i] + j], c + j) = 1.0;
     }
   }
-  const Eigen::MatrixXd x = ldlt.solve(unit);
+  const Eigen::MatrixXd x = info.ldlt.solve(unit);
   Eigen::MatrixXd out = Eigen::MatrixXd::Zero(n, n);
   for (size_t i = 0, r = 0; i < cols.size(); r += sizes[i], ++i) {
     for (int j = 0; j < sizes[i]; ++j) {
@@ -615,6 +635,113 @@ StatusOr<std::vector<Eigen::MatrixXd>> MarginalCovariances(
       std::vector<Eigen::MatrixXd> out,
       internal::KeyedMarginalCovariances(graph->problem_.get(), blocks, groups, "factor graph"));
   WG_RETURN_IF_ERROR(internal::CheckDefinedCovariances(out, groups, "factor graph"));
+  return out;
+}
+
+namespace {
+
+constexpr int kNoiseScaleMaxRows = 2000;  // per group, evenly spread
+constexpr double kNoiseScaleMinRedundancy = 0.05;
+constexpr double kNoiseScaleMinGaussianRedundancy = 2.0;
+constexpr int kLeverageBatch = 32;
+
+// Leverage h = jᵀH⁻¹j of each listed Jacobian row: ‖D^-½ L⁻¹ P jᵀ‖² with P H Pᵀ = L D Lᵀ.
+std::vector<double> Leverages(const internal::Information& info, const std::vector<int>& rows) {
+  const Eigen::Index kept = info.jac.cols();
+  const Eigen::VectorXd inv_d = info.ldlt.vectorD().cwiseInverse();
+  std::vector<double> h(rows.size(), 0.0);
+  for (size_t b = 0; b < rows.size(); b += kLeverageBatch) {
+    const size_t m = std::min<size_t>(kLeverageBatch, rows.size() - b);
+    Eigen::MatrixXd x = Eigen::MatrixXd::Zero(kept, static_cast<Eigen::Index>(m));
+    for (size_t j = 0; j < m; ++j) {
+      for (decltype(info.jac)::InnerIterator it(info.jac, rows[b + j]); it; ++it) {
+        x(it.col(), static_cast<Eigen::Index>(j)) = it.value();
+      }
+    }
+    x = info.ldlt.permutationP() * x;
+    info.ldlt.matrixL().solveInPlace(x);
+    for (size_t j = 0; j < m; ++j) {
+      h[b + j] = x.col(static_cast<Eigen::Index>(j)).cwiseAbs2().dot(inv_d);
+    }
+  }
+  return h;
+}
+
+// Up to kNoiseScaleMaxRows of `rows`, evenly spread.
+std::vector<int> SpreadRows(const std::vector<int>& rows) {
+  if (rows.size() <= kNoiseScaleMaxRows) return rows;
+  std::vector<int> out;
+  for (size_t k = 0; k < kNoiseScaleMaxRows; ++k) {
+    out.push_back(rows[k * rows.size() / kNoiseScaleMaxRows]);
+  }
+  return out;
+}
+
+}  // namespace
+
+StatusOr<std::map<int, NoiseScale>> EstimateNoiseScales(FactorGraph* graph, int min_rows) {
+  std::map<int, NoiseScale> out;
+  ceres::Problem* problem = graph->problem_.get();
+  std::vector<ceres::ResidualBlockId> ids;
+  problem->GetResidualBlocks(&ids);  // in the order added: FactorGraph never removes one
+  if (ids.size() != graph->factors_.size()) {
+    return InternalError("noise scales: residual blocks and factors differ in number");
+  }
+  std::map<int, std::vector<int>> rows;  // group → its Jacobian rows
+  std::set<int> robust;                  // groups with a robust loss on some factor
+  for (size_t i = 0, row = 0; i < ids.size(); ++i) {
+    const int m = graph->factors_[i].cost->num_residuals();
+    const int g = graph->factors_[i].noise_group;
+    for (int j = 0; g >= 0 && j < m; ++j) rows[g].push_back(static_cast<int>(row) + j);
+    if (g >= 0 && graph->factors_[i].loss) robust.insert(g);
+    row += static_cast<size_t>(m);
+  }
+  if (rows.empty()) return out;
+  internal::KeyedBlocks blocks;
+  for (auto& [key, st] : graph->states_)
+    blocks.push_back({key, st.spec.value.data(), st.spec.t_s, st.order});
+  ceres::Problem::EvaluateOptions eo;
+  eo.parameter_blocks = internal::VariableBlocksByKey(problem, blocks);
+  eo.residual_blocks = ids;
+  int total = 0;
+  for (double* b : eo.parameter_blocks) total += problem->ParameterBlockTangentSize(b);
+  std::vector<double> raw;
+  ceres::CRSMatrix crs;
+  eo.apply_loss_function = false;
+  const bool evaluated = problem->Evaluate(eo, nullptr, &raw, nullptr, nullptr);
+  eo.apply_loss_function = true;
+  if (!evaluated || !problem->Evaluate(eo, nullptr, nullptr, nullptr, &crs)) {
+    return NumericalError("noise scales: the residuals could not be evaluated");
+  }
+  internal::Information info;
+  WG_RETURN_IF_ERROR(internal::FactorInformation(crs, total, "noise scales", &info));
+  if (info.jac.cols() == 0) return out;
+  for (const auto& [g, all] : rows) {
+    const std::vector<int> chosen = SpreadRows(all);
+    const std::vector<double> h = Leverages(info, chosen);
+    const double spread = static_cast<double>(all.size()) / static_cast<double>(chosen.size());
+    double squares = 0.0, redundancy = 0.0;
+    std::vector<double> t;
+    for (size_t i = 0; i < chosen.size(); ++i) {
+      const double r = raw[static_cast<size_t>(chosen[i])], free = std::max(1.0 - h[i], 0.0);
+      squares += r * r;
+      redundancy += free;
+      if (free >= kNoiseScaleMinRedundancy) t.push_back(std::fabs(r) / std::sqrt(free));
+    }
+    NoiseScale ns;
+    ns.redundancy = redundancy * spread;
+    if (robust.count(g) > 0) {
+      if (static_cast<int>(t.size()) < std::max(min_rows, 1)) continue;
+      std::nth_element(t.begin(), t.begin() + t.size() / 2, t.end());
+      ns.scale = 1.4826 * t[t.size() / 2];
+      ns.rows = static_cast<int>(t.size());
+    } else {
+      if (!(ns.redundancy >= kNoiseScaleMinGaussianRedundancy)) continue;
+      ns.scale = std::sqrt(squares / redundancy);
+      ns.rows = static_cast<int>(chosen.size());
+    }
+    out[g] = ns;
+  }
   return out;
 }
 

@@ -120,6 +120,18 @@ void AppendFactor(ceres::CostFunction* cost, std::vector<Key> keys,
 
 // The factors of the readings whose newest node is k (radio, waypoints).
 void StepGraph::Impl::AddReadingFactors(int k, std::vector<GraphFactor>* out) const {
+  for (const Reading& r : readings_at[k]) {
+    const size_t before = out->size();
+    AddReading(r, out);
+    if (out->size() > before && r.kind != Reading::Kind::kWaypoint) {
+      out->back().noise_group =
+          r.kind == Reading::Kind::kRss ? internal::kRssNoise : internal::kRangeNoise;
+    }
+  }
+}
+
+// The factor of one reading (radio, waypoint).
+void StepGraph::Impl::AddReading(const Reading& r, std::vector<GraphFactor>* out) const {
   auto add = [&](ceres::CostFunction* cost, std::vector<Key> keys,
                  std::shared_ptr<const ceres::LossFunction> loss = nullptr) {
     AppendFactor(cost, std::move(keys), std::move(loss), out);
@@ -127,7 +139,7 @@ void StepGraph::Impl::AddReadingFactors(int k, std::vector<GraphFactor>* out) co
   const PathLossParams& pl = radio.path_loss;
   const double sign = radio.units == RssUnits::kDbm ? 1.0 : -1.0;
   const double range_sigma = o.range_sigma_m > 0 ? o.range_sigma_m : radio.range_sigma_m;
-  for (const Reading& r : readings_at[k]) {
+  {
     std::vector<Key> keys = {PositionKey(r.node_a)};
     if (r.node_b >= 0) keys.push_back(PositionKey(r.node_b));
     const bool two = r.node_b >= 0;
@@ -136,7 +148,7 @@ void StepGraph::Impl::AddReadingFactors(int k, std::vector<GraphFactor>* out) co
       add(two ? PositionPriorFactor<2>::CreateInterpolated(w.position_m, w.sigma_m, r.alpha)
               : PositionPriorFactor<2>::Create(w.position_m, w.sigma_m),
           keys);
-      continue;
+      return;
     }
     const Eigen::Vector3d& anchor = anchors[r.index].position_m;
     const bool anchor_state = AnchorIsState(r.index);
@@ -301,6 +313,7 @@ std::vector<GraphFactor> StepGraph::FactorsAt(int k) const {
     const double sl = std::max(o.step_sigma_scale * s.sigma_length_m, o.min_sigma_length_m);
     add(StepFactor::Create(s.length_m, sl, o.sigma_cross_m),
         {PositionKey(k - 1), PositionKey(k), HeadingKey(k)});
+    out.back().noise_group = internal::kStepNoise;
     const double sh =
         std::max(o.dheading_sigma_scale * s.sigma_dheading_rad, o.min_sigma_dheading_rad);
     if (o.estimate_gyro_bias) {
@@ -309,9 +322,11 @@ std::vector<GraphFactor> StepGraph::FactorsAt(int k) const {
     } else {
       add(HeadingIncrementFactor::Create(s.dheading_rad, sh), {HeadingKey(k - 1), HeadingKey(k)});
     }
+    out.back().noise_group = internal::kHeadingIncrementNoise;
     if (o.use_mag_heading && s.has_mag_heading) {
       add(HeadingFactor::Create(s.mag_heading_rad, o.mag_heading_sigma_rad), {HeadingKey(k)},
           m.mag_loss);
+      out.back().noise_group = internal::kMagHeadingNoise;
     }
   }
 

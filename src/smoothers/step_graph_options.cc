@@ -23,6 +23,20 @@ std::vector<std::string> StartEstimatorIds(const std::string& list) {
 }  // namespace internal
 
 namespace {
+
+// start_estimators: estimator ids, none of the step graph's own.
+Status CheckStartEstimators(const StepGraphOptions& o, const std::string& context) {
+  for (const std::string& id : internal::StartEstimatorIds(o.start_estimators)) {
+    if (id.empty() || id.rfind("fg-", 0) == 0) {
+      return InvalidArgument(context +
+                             ": start_estimators must list estimator ids (none of "
+                             "the step graph's own, fg-*), comma-separated: '" +
+                             o.start_estimators + "'");
+    }
+  }
+  return Status::Ok();
+}
+
 Status CheckStepGraphOptions(const StepGraphOptions& o, const std::string& context);
 }  // namespace
 
@@ -190,6 +204,10 @@ void ReadSolverKeys(ConfigReader& r, StepGraphOptions* o) {
          "without heading (no magnetometer): turned n ways about it (0: off)");
   r.Read("start_estimators", &o->start_estimators,
          "no start: comma-separated estimator ids whose trajectories are more start hypotheses");
+  r.Read("noise_scale_rounds", &o->noise_scale_rounds,
+         "fg-batch: rounds of noise scales from the residuals, each solved again (0: as given)");
+  r.Read("noise_scale_lower", &o->noise_scale_lower,
+         "fg-batch: noise scales may also lower the steps' and heading increments' sigma");
   r.Read("init_update_s", &o->init_update_s, "initialization window: one update per this period");
   r.Read("init_max_iterations", &o->init_max_iterations,
          "initialization window: LM iterations per update");
@@ -319,17 +337,13 @@ Status CheckStepGraphOptions(const StepGraphOptions& o, const std::string& conte
     return InvalidArgument(context + ": path-loss self-calibration needs rss_residual 'db'");
   }
   WG_RETURN_IF_ERROR(positive(o.init_lag_s, "init_lag_s"));
+  if (o.noise_scale_rounds < 0 || o.noise_scale_rounds > 10) {
+    return InvalidArgument(context + ": noise_scale_rounds must be in [0, 10]");
+  }
   if (o.start_hypotheses < 0 || o.start_hypotheses > 360) {
     return InvalidArgument(context + ": start_hypotheses must be in [0, 360]");
   }
-  for (const std::string& id : internal::StartEstimatorIds(o.start_estimators)) {
-    if (id.empty() || id.rfind("fg-", 0) == 0) {
-      return InvalidArgument(context +
-                             ": start_estimators must list estimator ids (none of "
-                             "the step graph's own, fg-*), comma-separated: '" +
-                             o.start_estimators + "'");
-    }
-  }
+  WG_RETURN_IF_ERROR(CheckStartEstimators(o, context));
   if (o.window_update_s < 0 || o.init_update_s < 0 || o.window_marginalize_batch_s < 0) {
     return InvalidArgument(context +
                            ": window_update_s, init_update_s, window_marginalize_batch_s must "

@@ -1,6 +1,7 @@
 // fg-batch (StepGraphBatch), what it shares with fg-window (step_graph_run.h) and the
 // registration of the step-graph smoothers.
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <functional>
 #include <limits>
@@ -331,6 +332,144 @@ std::vector<int> AnchorEstimates(const Walk& walk, const StepGraph& graph,
   return states;
 }
 
+// Multiplies the σ of step-graph noise group `g` (internal::StepNoiseGroup) in `o` by `s`.
+void ScaleNoise(int g, double s, const Walk& walk, StepGraphOptions* o) {
+  switch (g) {
+    case internal::kStepNoise:
+      o->step_sigma_scale *= s;
+      o->sigma_cross_m *= s;
+      break;
+    case internal::kHeadingIncrementNoise:
+      o->dheading_sigma_scale *= s;
+      break;
+    case internal::kMagHeadingNoise:
+      o->mag_heading_sigma_rad *= s;
+      break;
+    case internal::kRssNoise:
+      o->sigma_db = s * (o->sigma_db > 0 ? o->sigma_db : walk.meta.radio.path_loss.sigma_db);
+      break;
+    case internal::kRangeNoise:
+      o->range_sigma_m =
+          s * (o->range_sigma_m > 0 ? o->range_sigma_m : walk.meta.radio.range_sigma_m);
+      break;
+    default:
+      break;
+  }
+}
+
+constexpr const char* kNoiseGroupNames[internal::kStepNoiseGroups] = {
+    "step", "heading_increment", "mag_heading", "rss", "range"};
+constexpr double kNoiseScaleMin = 0.1, kNoiseScaleMax = 10.0, kNoiseScaleMove = 0.05;
+
+// StepGraphOptions::noise_scale_rounds: the solved graph's noise scales (EstimateNoiseScales),
+// the step graph rebuilt with them and solved again from the solution, round by round. Each
+// round that solves replaces *o, *graph, *fg and *summary; one whose scales cannot be estimated
+// or whose solve fails ends the rounds with the last solution kept.
+Status RefineNoiseScales(const Walk& walk, StepGraphOptions* o, std::unique_ptr<StepGraph>* graph,
+                         std::unique_ptr<FactorGraph>* fg, SolveSummary* summary,
+                         std::map<std::string, double>* d) {
+  std::array<double, internal::kStepNoiseGroups> total;
+  total.fill(1.0);
+  int rounds = 0;
+  for (; rounds < o->noise_scale_rounds; ++rounds) {
+    StatusOr<std::map<int, NoiseScale>> est = EstimateNoiseScales(fg->get());
+    if (!est.ok()) break;
+    StepGraphOptions next = *o;
+    std::array<double, internal::kStepNoiseGroups> moved = total;
+    for (const auto& [g, ns] : *est) {
+      if (g < 0 || g >= internal::kStepNoiseGroups) continue;
+      // Magnetic disturbances, shadowing and multipath persist along the walk: their residuals
+      // look tighter than the independent information they carry, so these σ are only raised
+      // (IPIN known start without it: the magnetometer's scale came out 0.40-0.49 and trial 05
+      // went 2.22 -> 2.60 m p75).
+      const bool persistent =
+          g == internal::kMagHeadingNoise || g == internal::kRssNoise || g == internal::kRangeNoise;
+      const double scale = persistent || !o->noise_scale_lower ? std::max(ns.scale, 1.0) : ns.scale;
+      moved[g] = std::clamp(total[g] * scale, kNoiseScaleMin, kNoiseScaleMax);
+      if (std::fabs(moved[g] / total[g] - 1.0) <= kNoiseScaleMove) moved[g] = total[g];
+      if (moved[g] != total[g]) ScaleNoise(g, moved[g] / total[g], walk, &next);
+    }
+    if (moved == total) break;
+    WG_ASSIGN_OR_RETURN(std::unique_ptr<StepGraph> rebuilt, StepGraph::Build(walk, next));
+    auto refit = std::make_unique<FactorGraph>();
+    WG_RETURN_IF_ERROR(rebuilt->AddTo(refit.get()));
+    std::vector<Key> keys = (*fg)->TimedKeys();
+    for (Key k : (*fg)->StaticKeys()) keys.push_back(k);
+    for (Key k : keys) {
+      if (refit->Contains(k)) WG_RETURN_IF_ERROR(refit->SetValue(k, *(*fg)->Value(k)));
+    }
+    StatusOr<SolveSummary> solved = SolveBatch(refit.get(), BatchSolverOptions(next));
+    if (!solved.ok()) break;
+    *o = next;
+    *graph = std::move(rebuilt);
+    *fg = std::move(refit);
+    *summary = *solved;
+    total = moved;
+  }
+  (*d)["noise_scale_rounds"] = rounds;
+  for (int g = 0; g < internal::kStepNoiseGroups && o->noise_scale_rounds > 0; ++g) {
+    (*d)[std::string("noise_scale.") + kNoiseGroupNames[g]] = total[g];
+  }
+  return Status::Ok();
+}
+
+// fg-batch's output from its solved graph: diagnostics, trajectory (and the nodes' (p, θ) and
+// times when asked), the anchors that are states and the covariances.
+StatusOr<EstimateResult> BatchResult(const Walk& walk, const StepGraphOptions& o,
+                                     const StepGraph& graph, FactorGraph* fg,
+                                     std::vector<Eigen::Vector3d>* nodes,
+                                     std::vector<double>* node_t) {
+  const int n = graph.num_nodes();
+  EstimateResult result;
+  auto& d = result.diagnostics;
+  d["nodes"] = n;
+  d["residual_blocks"] = static_cast<double>(fg->num_factors());
+  auto value = [&](Key k) { return *fg->Value(k); };  // every key below is in the graph
+  AddStaticDiagnostics(graph, value, walk, o, &d);
+  AddGraphDiagnostics(graph, walk, &d);
+  for (int k = 0; k < n; ++k) {
+    result.trajectory.points.push_back(MakePoint(graph.node_time(k),
+                                                 value(StepGraph::PositionKey(k)).data(),
+                                                 value(StepGraph::HeadingKey(k))[0]));
+    if (graph.has_floors())
+      SetHeight(graph, value(StepGraph::HeightKey(k))[0], &result.trajectory.points.back());
+  }
+  if (nodes != nullptr) {
+    nodes->clear();
+    for (const TrajectoryPoint& p : result.trajectory.points) {
+      nodes->emplace_back(p.position_m.x(), p.position_m.y(), p.heading_rad);
+      if (node_t != nullptr) node_t->push_back(p.t_s);
+    }
+  }
+  const std::vector<int> anchor_states = AnchorEstimates(walk, graph, value, &result.anchors);
+  if (!anchor_states.empty()) {
+    // The frame the anchors are in: 0 the known start's, 1 the anchors' of given position,
+    // 2 the walk's own (node 0 held where it started).
+    d["gauge"] = walk.meta.initial_pose ? 0.0 : graph.fix_first_node() ? 2.0 : 1.0;
+  }
+  if (o.covariance) {
+    std::vector<std::vector<Key>> groups;
+    for (int k = 0; k < n; ++k) {
+      groups.push_back({StepGraph::PositionKey(k), StepGraph::HeadingKey(k)});
+    }
+    for (int a : anchor_states) groups.push_back({StepGraph::AnchorKey(a)});
+    auto cov = MarginalCovariances(fg, groups);
+    if (!cov.ok()) {
+      d["covariance_failed"] = 1.0;  // e.g. rank-deficient: trajectory without covariances
+    } else {
+      for (int k = 0; k < n; ++k) {
+        result.trajectory.points[k].covariance = PoseCovariance((*cov)[k]);
+      }
+      for (size_t i = 0; i < anchor_states.size(); ++i) {
+        const Eigen::MatrixXd& c = (*cov)[n + i];
+        result.anchors[i].covariance = Eigen::Matrix2d(0.5 * (c + c.transpose()));
+      }
+    }
+  }
+  InsertStops(walk, o.max_step_duration_s, &result.trajectory);
+  return result;
+}
+
 // One fg-batch solve of `walk`. `from` (not null): start every node there (a previous solve's
 // nodes) instead of fg-batch's own initialization, with no start hypotheses. `nodes` (not
 // null): the solution's (p, θ) per node, and their times in `node_t` (not null). Anchors that
@@ -342,8 +481,8 @@ StatusOr<EstimateResult> SolveBatchWalk(const Walk& walk, const StepGraphOptions
   WG_ASSIGN_OR_RETURN(std::unique_ptr<StepGraph> graph, StepGraph::Build(walk, options_));
   const int n = graph->num_nodes();
 
-  FactorGraph fg;
-  WG_RETURN_IF_ERROR(graph->AddTo(&fg));
+  auto fg = std::make_unique<FactorGraph>();
+  WG_RETURN_IF_ERROR(graph->AddTo(fg.get()));
   const SolverOptions so = BatchSolverOptions(options_);
   // auto: dead reckoning for odometry walks (wheel odometry barely drifts), the window for
   // IMU steps (a gyro's heading drift over a long walk leaves dead reckoning in a wrong basin:
@@ -358,8 +497,8 @@ StatusOr<EstimateResult> SolveBatchWalk(const Walk& walk, const StepGraphOptions
     }
     for (int k = 0; k < n; ++k) {
       const Eigen::Vector3d& x = (*from)[k];
-      WG_RETURN_IF_ERROR(fg.SetValue(StepGraph::PositionKey(k), {x[0], x[1]}));
-      WG_RETURN_IF_ERROR(fg.SetValue(StepGraph::HeadingKey(k), {x[2]}));
+      WG_RETURN_IF_ERROR(fg->SetValue(StepGraph::PositionKey(k), {x[0], x[1]}));
+      WG_RETURN_IF_ERROR(fg->SetValue(StepGraph::HeadingKey(k), {x[2]}));
     }
   }
   if (window_init) {
@@ -381,74 +520,29 @@ StatusOr<EstimateResult> SolveBatchWalk(const Walk& walk, const StepGraphOptions
     for (int k = 0; k < n; ++k) {
       const TrajectoryPoint& pt = w.trajectory.points[k];
       WG_RETURN_IF_ERROR(
-          fg.SetValue(StepGraph::PositionKey(k), {pt.position_m.x(), pt.position_m.y()}));
-      WG_RETURN_IF_ERROR(fg.SetValue(StepGraph::HeadingKey(k), {pt.heading_rad}));
+          fg->SetValue(StepGraph::PositionKey(k), {pt.position_m.x(), pt.position_m.y()}));
+      WG_RETURN_IF_ERROR(fg->SetValue(StepGraph::HeadingKey(k), {pt.heading_rad}));
     }
   }
-  StatusOr<SolveSummary> summary = SolveBatch(&fg, so);
+  StatusOr<SolveSummary> summary = SolveBatch(fg.get(), so);
   if (!summary.ok()) return NumericalError("fg-batch: " + summary.status().message());
-  std::map<std::string, double> start_d;
+  std::map<std::string, double> d;
   std::vector<NamedStart> starts;
   if (from == nullptr) {
     WG_ASSIGN_OR_RETURN(starts, BatchStarts(walk, *graph, options_));
   }
   WG_ASSIGN_OR_RETURN(std::unique_ptr<FactorGraph> better,
-                      SolveStartHypotheses(*graph, starts, so, &*summary, &start_d));
-  FactorGraph& fg_best = better ? *better : fg;
-
-  EstimateResult result;
-  auto& d = result.diagnostics;
-  d.insert(start_d.begin(), start_d.end());
+                      SolveStartHypotheses(*graph, starts, so, &*summary, &d));
+  if (better) fg = std::move(better);
+  StepGraphOptions o = options_;
+  WG_RETURN_IF_ERROR(RefineNoiseScales(walk, &o, &graph, &fg, &*summary, &d));
+  WG_ASSIGN_OR_RETURN(EstimateResult result, BatchResult(walk, o, *graph, fg.get(), nodes, node_t));
   d["ceres_iterations"] = summary->iterations;
   d["ceres_converged"] = summary->termination == Termination::kConverged ? 1.0 : 0.0;
   d["final_cost"] = summary->final_cost;
   d["normalized_cost"] = summary->normalized_cost();  // 2F/(m − n), ≈ 1 if consistent
   d["initialized_from_window"] = window_init ? 1.0 : 0.0;
-  d["nodes"] = n;
-  d["residual_blocks"] = static_cast<double>(fg_best.num_factors());
-  auto value = [&](Key k) { return *fg_best.Value(k); };  // every key below is in the graph
-  AddStaticDiagnostics(*graph, value, walk, options_, &d);
-  AddGraphDiagnostics(*graph, walk, &d);
-  for (int k = 0; k < n; ++k) {
-    result.trajectory.points.push_back(MakePoint(graph->node_time(k),
-                                                 value(StepGraph::PositionKey(k)).data(),
-                                                 value(StepGraph::HeadingKey(k))[0]));
-    if (graph->has_floors())
-      SetHeight(*graph, value(StepGraph::HeightKey(k))[0], &result.trajectory.points.back());
-  }
-  if (nodes != nullptr) {
-    nodes->clear();
-    for (const TrajectoryPoint& p : result.trajectory.points) {
-      nodes->emplace_back(p.position_m.x(), p.position_m.y(), p.heading_rad);
-      if (node_t != nullptr) node_t->push_back(p.t_s);
-    }
-  }
-  const std::vector<int> anchor_states = AnchorEstimates(walk, *graph, value, &result.anchors);
-  if (!anchor_states.empty()) {
-    // The frame the anchors are in: 0 the known start's, 1 the anchors' of given position,
-    // 2 the walk's own (node 0 held where it started).
-    d["gauge"] = walk.meta.initial_pose ? 0.0 : graph->fix_first_node() ? 2.0 : 1.0;
-  }
-  if (options_.covariance) {
-    std::vector<std::vector<Key>> groups;
-    for (int k = 0; k < n; ++k) {
-      groups.push_back({StepGraph::PositionKey(k), StepGraph::HeadingKey(k)});
-    }
-    for (int a : anchor_states) groups.push_back({StepGraph::AnchorKey(a)});
-    auto cov = MarginalCovariances(&fg_best, groups);
-    if (!cov.ok()) {
-      d["covariance_failed"] = 1.0;  // e.g. rank-deficient: trajectory without covariances
-    } else {
-      for (int k = 0; k < n; ++k) {
-        result.trajectory.points[k].covariance = PoseCovariance((*cov)[k]);
-      }
-      for (size_t i = 0; i < anchor_states.size(); ++i) {
-        const Eigen::MatrixXd& c = (*cov)[n + i];
-        result.anchors[i].covariance = Eigen::Matrix2d(0.5 * (c + c.transpose()));
-      }
-    }
-  }
-  InsertStops(walk, options_.max_step_duration_s, &result.trajectory);
+  result.diagnostics.insert(d.begin(), d.end());
   return result;
 }
 
