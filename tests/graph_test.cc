@@ -310,7 +310,7 @@ TEST(EstimateNoiseScalesTest, IteratedItFindsEachGroupsTrueNoise) {
         ASSERT_TRUE(s.ok()) << s.status().ToString();
         ASSERT_EQ(s->size(), 2u);
         EXPECT_GT(s->at(0).redundancy, 2.0);
-        EXPECT_GT(s->at(1).rows, 1000);
+        EXPECT_EQ(s->at(1).rows, 500);  // of 1500: at most 500 read, evenly spread
         if (round == 0) EXPECT_GT(s->at(1).scale, 1.0);
         sigma0 *= s->at(0).scale;
         sigma1 *= s->at(1).scale;

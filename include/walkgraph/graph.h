@@ -197,7 +197,7 @@ StatusOr<std::vector<Eigen::MatrixXd>> MarginalCovariances(
 //   - A group with a robust loss on some factor: scale = 1.4826 · median |r_i| / √(1 − h_i)
 //     over the rows with 1 − h_i >= 0.05, when there are at least `min_rows` (MAD: NLOS-like
 //     outliers do not inflate it).
-// At most 2000 rows per group are read, evenly spread (deterministic). Groups left out are not
+// At most 500 rows per group are read, evenly spread (deterministic). Groups left out are not
 // in the map. Fails when H is singular or the Jacobian cannot be evaluated.
 StatusOr<std::map<int, NoiseScale>> EstimateNoiseScales(FactorGraph* graph, int min_rows = 30);
 

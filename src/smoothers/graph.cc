@@ -640,7 +640,7 @@ StatusOr<std::vector<Eigen::MatrixXd>> MarginalCovariances(
 
 namespace {
 
-constexpr int kNoiseScaleMaxRows = 2000;  // per group, evenly spread
+constexpr int kNoiseScaleMaxRows = 500;  // per group, evenly spread
 constexpr double kNoiseScaleMinRedundancy = 0.05;
 constexpr double kNoiseScaleMinGaussianRedundancy = 2.0;
 constexpr int kLeverageBatch = 32;
