@@ -6,7 +6,8 @@
 //   r = S^{-1/2} · R(θ_k)ᵀ (p_k − p_{k−1}) − S^{-1/2} · (l, 0)ᵀ,   S = diag(σ_l², σ_c²)
 // i.e. the displacement expressed along-track / cross-track in the step's own frame; σ_l is
 // the step-length σ (Weinberg model error), σ_c the lateral sway of one step (the heading's
-// own uncertainty lives in θ_k and its HeadingIncrementFactor / HeadingFactor).
+// own uncertainty lives in θ_k and its HeadingIncrementFactor / HeadingFactor). Optionally with
+// the walk's step-length scale c: the model length becomes (1 + c)·l.
 #ifndef WALKGRAPH_FACTORS_STEP_FACTOR_H_
 #define WALKGRAPH_FACTORS_STEP_FACTOR_H_
 
@@ -34,9 +35,29 @@ class StepFactor {
     return true;
   }
 
+  // With the walk's step-length scale c (one block for the walk): the step is (1 + c)·l long,
+  // the front end's step-length model off by the factor 1 + c (e.g. a Weinberg K that does not
+  // fit the walker).
+  template <typename T>
+  bool operator()(const T* p_prev, const T* p, const T* theta, const T* scale, T* residual) const {
+    using std::cos;
+    using std::sin;
+    const T dx = p[0] - p_prev[0], dy = p[1] - p_prev[1];
+    const T c = cos(theta[0]), s = sin(theta[0]);
+    residual[0] = (c * dx + s * dy - (T(1.0) + scale[0]) * T(length_m_)) * T(inv_sigma_l_);
+    residual[1] = (-s * dx + c * dy) * T(inv_sigma_c_);
+    return true;
+  }
+
   // Blocks: p_{k−1} (2), p_k (2), θ_k (1).
   static ceres::CostFunction* Create(double length_m, double sigma_length_m, double sigma_cross_m) {
     return new ceres::AutoDiffCostFunction<StepFactor, 2, 2, 2, 1>(
+        new StepFactor(length_m, sigma_length_m, sigma_cross_m));
+  }
+  // Blocks: p_{k−1} (2), p_k (2), θ_k (1), c (1).
+  static ceres::CostFunction* CreateWithScale(double length_m, double sigma_length_m,
+                                              double sigma_cross_m) {
+    return new ceres::AutoDiffCostFunction<StepFactor, 2, 2, 2, 1, 1>(
         new StepFactor(length_m, sigma_length_m, sigma_cross_m));
   }
 

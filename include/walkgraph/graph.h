@@ -18,8 +18,9 @@
 //   step graph (fg-batch, fg-window):  x(k) position (x, y) of node k,  h(k) heading θ_k,
 //     l(g) path loss (A, η) of group g (0, or the anchor index with path_loss: per-anchor or
 //     hierarchical), m(0) hierarchical's walk-wide mean path loss (A, η),
-//     b(g) range bias, s(g) range scale, g(0) gyro bias, p(a) horizontal position (x, y) of
-//     anchor index a when it is not surveyed (unknown or uncertain: walk.h Anchor).
+//     b(g) range bias, s(g) range scale, g(0) gyro bias, c(0) step-length scale, p(a)
+//     horizontal position (x, y) of anchor index a when it is not surveyed (unknown or
+//     uncertain: walk.h Anchor).
 //   foot-INS graph (fg-ins-batch, fg-ins-window):  x(i) position (x, y, z) of state
 //     i, v(i) velocity, q(i) attitude (NavQuaternionManifold), g(i) gyro bias, a(i) accelerometer
 //     bias; l(0) path loss (A, η) (hierarchical: m(0) the mean, l(a) anchor index a's), b(a)

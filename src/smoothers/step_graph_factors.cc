@@ -78,6 +78,12 @@ std::vector<GraphState> StepGraph::StaticStates() const {
     s.value = {0.0};
     out.push_back(std::move(s));
   }
+  if (m.EstimatesStepScale()) {
+    GraphState s;
+    s.key = internal::kStepScaleKey;
+    s.value = {0.0};
+    out.push_back(std::move(s));
+  }
   return out;
 }
 
@@ -235,6 +241,57 @@ std::vector<Key> StepGraph::AnchorOwnKeys(int a) const {
   return out;
 }
 
+// The priors of a step graph's static states (its first node's factors): gyro bias, step-length
+// scale, anchors of surveyed σ, range scale and bias, path loss.
+void StepGraph::Impl::AddStaticPriors(const std::vector<GraphState>& statics,
+                                      std::vector<GraphFactor>* out) const {
+  const Impl& m = *this;
+  auto add = [&](ceres::CostFunction* cost, std::vector<Key> keys) {
+    AppendFactor(cost, std::move(keys), nullptr, out);
+  };
+  auto add_owned = [&](std::unique_ptr<ceres::CostFunction> cost, std::vector<Key> keys) {
+    GraphFactor f;
+    f.cost = std::move(cost);
+    f.keys = std::move(keys);
+    out->push_back(std::move(f));
+  };
+  for (const GraphState& s : statics) {
+    if (s.constant) continue;
+    const char letter = SymbolLetter(s.key);
+    if (s.key == kGyroBiasKey) {
+      add_owned(DiagonalPrior(Eigen::VectorXd::Zero(1),
+                              Eigen::VectorXd::Constant(1, o.gyro_bias_prior_sigma_radps)),
+                {s.key});
+    } else if (s.key == internal::kStepScaleKey) {
+      add_owned(DiagonalPrior(Eigen::VectorXd::Zero(1),
+                              Eigen::VectorXd::Constant(1, o.step_scale_prior_sigma)),
+                {s.key});
+    } else if (letter == 'p') {  // an anchor's position: its survey's σ (none if unknown)
+      const Anchor& a = m.anchors[SymbolIndex(s.key)];
+      if (a.position_known && a.sigma_m > 0.0) {
+        add_owned(DiagonalPrior(a.position_m.head<2>(), Eigen::Vector2d::Constant(a.sigma_m)),
+                  {s.key});
+      }
+    } else if (letter == 's') {
+      add_owned(DiagonalPrior(Eigen::VectorXd::Zero(1),
+                              Eigen::VectorXd::Constant(1, o.range_scale_prior_sigma)),
+                {s.key});
+    } else if (letter == 'b') {
+      add_owned(DiagonalPrior(Eigen::VectorXd::Zero(1),
+                              Eigen::VectorXd::Constant(1, o.range_bias_prior_sigma_m)),
+                {s.key});
+    } else if (letter == 'l' && o.path_loss == PathLossMode::kHierarchical) {  // tied to the mean
+      add(DifferencePriorFactor<2>::Create(
+              Eigen::Vector2d(o.A_spread_prior_db, o.eta_spread_prior)),
+          {s.key, kPathLossMeanKey});
+    } else {  // path loss (a block, or hierarchical's mean): weak prior at the walk's model
+      add_owned(DiagonalPrior(Eigen::Vector2d(s.value[0], s.value[1]),
+                              Eigen::Vector2d(o.A_prior_sigma_db, o.eta_prior_sigma)),
+                {s.key});
+    }
+  }
+}
+
 std::vector<GraphFactor> StepGraph::FactorsAt(int k) const {
   const Impl& m = *impl_;
   const StepGraphOptions& o = m.o;
@@ -260,37 +317,7 @@ std::vector<GraphFactor> StepGraph::FactorsAt(int k) const {
             {HeadingKey(0)});
       }
     }
-    for (const GraphState& s : StaticStates()) {
-      if (s.constant) continue;
-      const char letter = SymbolLetter(s.key);
-      if (s.key == kGyroBiasKey) {
-        add_owned(DiagonalPrior(Eigen::VectorXd::Zero(1),
-                                Eigen::VectorXd::Constant(1, o.gyro_bias_prior_sigma_radps)),
-                  {s.key});
-      } else if (letter == 'p') {  // an anchor's position: its survey's σ (none if unknown)
-        const Anchor& a = m.anchors[SymbolIndex(s.key)];
-        if (a.position_known && a.sigma_m > 0.0) {
-          add_owned(DiagonalPrior(a.position_m.head<2>(), Eigen::Vector2d::Constant(a.sigma_m)),
-                    {s.key});
-        }
-      } else if (letter == 's') {
-        add_owned(DiagonalPrior(Eigen::VectorXd::Zero(1),
-                                Eigen::VectorXd::Constant(1, o.range_scale_prior_sigma)),
-                  {s.key});
-      } else if (letter == 'b') {
-        add_owned(DiagonalPrior(Eigen::VectorXd::Zero(1),
-                                Eigen::VectorXd::Constant(1, o.range_bias_prior_sigma_m)),
-                  {s.key});
-      } else if (letter == 'l' && o.path_loss == PathLossMode::kHierarchical) {  // tied to the mean
-        add(DifferencePriorFactor<2>::Create(
-                Eigen::Vector2d(o.A_spread_prior_db, o.eta_spread_prior)),
-            {s.key, kPathLossMeanKey});
-      } else {  // path loss (a block, or hierarchical's mean): weak prior at the walk's model
-        add_owned(DiagonalPrior(Eigen::Vector2d(s.value[0], s.value[1]),
-                                Eigen::Vector2d(o.A_prior_sigma_db, o.eta_prior_sigma)),
-                  {s.key});
-      }
-    }
+    m.AddStaticPriors(StaticStates(), &out);
   } else if (m.radio_only) {
     add(PositionRandomWalkFactor::Create(node_t_[k] - node_t_[k - 1], o.motion_sigma_mps),
         {PositionKey(k - 1), PositionKey(k)});
@@ -311,8 +338,13 @@ std::vector<GraphFactor> StepGraph::FactorsAt(int k) const {
   } else {
     const Step& s = m.steps[k - 1];
     const double sl = std::max(o.step_sigma_scale * s.sigma_length_m, o.min_sigma_length_m);
-    add(StepFactor::Create(s.length_m, sl, o.sigma_cross_m),
-        {PositionKey(k - 1), PositionKey(k), HeadingKey(k)});
+    if (m.EstimatesStepScale()) {
+      add(StepFactor::CreateWithScale(s.length_m, sl, o.sigma_cross_m),
+          {PositionKey(k - 1), PositionKey(k), HeadingKey(k), internal::kStepScaleKey});
+    } else {
+      add(StepFactor::Create(s.length_m, sl, o.sigma_cross_m),
+          {PositionKey(k - 1), PositionKey(k), HeadingKey(k)});
+    }
     out.back().noise_group = internal::kStepNoise;
     const double sh =
         std::max(o.dheading_sigma_scale * s.sigma_dheading_rad, o.min_sigma_dheading_rad);

@@ -34,6 +34,7 @@ inline std::unique_ptr<ceres::CostFunction> DiagonalPrior(const Eigen::VectorXd&
 
 // The static states' keys (graph.h lists the letters); group: the anchor index or 0.
 inline constexpr Key kGyroBiasKey = Symbol('g', 0);
+inline constexpr Key kStepScaleKey = Symbol('c', 0);  // the walk's step-length scale c
 inline Key PathLossKey(int group) { return Symbol('l', static_cast<uint64_t>(group)); }
 inline constexpr Key kPathLossMeanKey = Symbol('m', 0);  // hierarchical: the walk's mean (A, η)
 inline Key RangeBiasKey(int group) { return Symbol('b', static_cast<uint64_t>(group)); }
@@ -143,6 +144,9 @@ struct StepGraph::Impl {
   // anchor_state[a]: anchor index a's (x, y) is the state p(a) (an unknown or uncertain anchor:
   // walk.h Anchor), starting at its position_m; uncertain ones get a prior N(position_m, σ²).
   std::vector<bool> anchor_state;
+  // The walk's step-length scale is a state (StepGraphOptions::estimate_step_scale): steps from
+  // the IMU (not odometry, not radio alone).
+  bool EstimatesStepScale() const { return !odometry && !radio_only && o.estimate_step_scale; }
   bool AnchorIsState(int a) const {
     return anchor_state[a] && (anchor_has_rss[a] || anchor_has_range[a]);
   }
@@ -163,6 +167,9 @@ struct StepGraph::Impl {
   void PlaceStart(const Walk& walk, StepGraph* g);
   void AddReadingFactors(int k, std::vector<GraphFactor>* out) const;
   void AddReading(const Reading& r, std::vector<GraphFactor>* out) const;
+  // The priors of the static states (node 0's factors): gyro bias, step-length scale, anchors of
+  // surveyed σ, range scale and bias, path loss.
+  void AddStaticPriors(const std::vector<GraphState>& statics, std::vector<GraphFactor>* out) const;
   std::vector<std::vector<GraphFactor>> user_at;  // the user's factors, by newest node
 
   // Dead reckoning: node k's (p, θ) from node k − 1's by its increment (odometry: move along

@@ -206,6 +206,10 @@ void ReadSolverKeys(ConfigReader& r, StepGraphOptions* o) {
          "no start: comma-separated estimator ids whose trajectories are more start hypotheses");
   r.Read("noise_scale_rounds", &o->noise_scale_rounds,
          "fg-batch: rounds of noise scales from the residuals, each solved again (0: as given)");
+  r.Read("estimate_step_scale", &o->estimate_step_scale,
+         "one step-length scale for the walk, a state of the graph");
+  r.Read("step_scale_prior_sigma", &o->step_scale_prior_sigma,
+         "prior sigma of the step-length scale (1 + c)");
   r.Read("noise_scale_lower", &o->noise_scale_lower,
          "fg-batch: noise scales may also lower the steps' and heading increments' sigma");
   r.Read("init_update_s", &o->init_update_s, "initialization window: one update per this period");
@@ -258,6 +262,7 @@ Status CheckStepGraphOptions(const StepGraphOptions& o, const std::string& conte
   }
   if (!(o.baro_drift_m2ps >= 0)) return InvalidArgument(context + ": baro_drift_m2ps must be >= 0");
   WG_RETURN_IF_ERROR(positive(o.step_sigma_scale, "step_sigma_scale"));
+  WG_RETURN_IF_ERROR(positive(o.step_scale_prior_sigma, "step_scale_prior_sigma"));
   WG_RETURN_IF_ERROR(positive(o.dheading_sigma_scale, "dheading_sigma_scale"));
   WG_RETURN_IF_ERROR(positive(o.min_sigma_length_m, "min_sigma_length_m"));
   WG_RETURN_IF_ERROR(positive(o.min_sigma_dheading_rad, "min_sigma_dheading_rad"));

@@ -90,6 +90,8 @@ void AddStaticDiagnostics(const StepGraph& graph,
     const int g = static_cast<int>(SymbolIndex(s.key));
     if (s.key == kGyroBiasKey) {
       (*d)["gyro_bias_radps"] = v[0];
+    } else if (s.key == internal::kStepScaleKey) {
+      (*d)["step_length_scale"] = 1.0 + v[0];
     } else if (letter == 'p') {  // an anchor's position (fg-batch: anchors_estimated too)
       (*d)[name("anchor_x_m", true, g)] = v[0];
       (*d)[name("anchor_y_m", true, g)] = v[1];
@@ -363,8 +365,8 @@ constexpr double kNoiseScaleMin = 0.1, kNoiseScaleMax = 10.0, kNoiseScaleMove = 
 
 // StepGraphOptions::noise_scale_rounds: the solved graph's noise scales (EstimateNoiseScales),
 // the step graph rebuilt with them and solved again from the solution, round by round. Each
-// round that solves replaces *o, *graph, *fg and *summary; one whose scales cannot be estimated
-// or whose solve fails ends the rounds with the last solution kept.
+// round that solves replaces *o, *graph, *fg and *summary; one whose scales cannot be estimated,
+// whose graph cannot be built or whose solve fails ends the rounds with the last solution kept.
 Status RefineNoiseScales(const Walk& walk, StepGraphOptions* o, std::unique_ptr<StepGraph>* graph,
                          std::unique_ptr<FactorGraph>* fg, SolveSummary* summary,
                          std::map<std::string, double>* d) {
@@ -390,9 +392,10 @@ Status RefineNoiseScales(const Walk& walk, StepGraphOptions* o, std::unique_ptr<
       if (moved[g] != total[g]) ScaleNoise(g, moved[g] / total[g], walk, &next);
     }
     if (moved == total) break;
-    WG_ASSIGN_OR_RETURN(std::unique_ptr<StepGraph> rebuilt, StepGraph::Build(walk, next));
+    StatusOr<std::unique_ptr<StepGraph>> rebuilt = StepGraph::Build(walk, next);
+    if (!rebuilt.ok()) break;
     auto refit = std::make_unique<FactorGraph>();
-    WG_RETURN_IF_ERROR(rebuilt->AddTo(refit.get()));
+    WG_RETURN_IF_ERROR((*rebuilt)->AddTo(refit.get()));
     std::vector<Key> keys = (*fg)->TimedKeys();
     for (Key k : (*fg)->StaticKeys()) keys.push_back(k);
     for (Key k : keys) {
@@ -401,7 +404,7 @@ Status RefineNoiseScales(const Walk& walk, StepGraphOptions* o, std::unique_ptr<
     StatusOr<SolveSummary> solved = SolveBatch(refit.get(), BatchSolverOptions(next));
     if (!solved.ok()) break;
     *o = next;
-    *graph = std::move(rebuilt);
+    *graph = std::move(*rebuilt);
     *fg = std::move(refit);
     *summary = *solved;
     total = moved;
