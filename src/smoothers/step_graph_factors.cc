@@ -145,74 +145,71 @@ void StepGraph::Impl::AddReading(const Reading& r, std::vector<GraphFactor>* out
   const PathLossParams& pl = radio.path_loss;
   const double sign = radio.units == RssUnits::kDbm ? 1.0 : -1.0;
   const double range_sigma = o.range_sigma_m > 0 ? o.range_sigma_m : radio.range_sigma_m;
-  {
-    std::vector<Key> keys = {PositionKey(r.node_a)};
-    if (r.node_b >= 0) keys.push_back(PositionKey(r.node_b));
-    const bool two = r.node_b >= 0;
-    if (r.kind == Reading::Kind::kWaypoint) {
-      const Waypoint& w = waypoints[r.index];
-      add(two ? PositionPriorFactor<2>::CreateInterpolated(w.position_m, w.sigma_m, r.alpha)
-              : PositionPriorFactor<2>::Create(w.position_m, w.sigma_m),
-          keys);
-      return;
-    }
-    const Eigen::Vector3d& anchor = anchors[r.index].position_m;
-    const bool anchor_state = AnchorIsState(r.index);
-    // The dB-domain reading (RssFactor, AnchorRssFactor), floors taken into account.
-    auto rss_reading = [&] {
-      RssFactor<2>::Reading rd;
-      rd.rss = r.value;
-      rd.anchor_m = anchor;
-      rd.sigma_db = pl.sigma_db;
-      rd.sign = sign;
-      rd.d0_m = pl.d0_m;
-      rd.receiver_height_m = o.receiver_height_m;
-      FloorAware(r.index, r.node_a, r.node_b, r.alpha, sign, &rd.rss, &rd.anchor_m,
-                 &rd.receiver_height_m);
-      return rd;
-    };
-    if (anchor_state && r.kind == Reading::Kind::kRss) {  // Build: RSS in dB then
-      const RssFactor<2>::Reading rd = rss_reading();
-      keys.push_back(internal::AnchorPositionKey(r.index));
-      keys.push_back(PathLossKey(PathLossGroup(r.index)));
-      add(two ? AnchorRssFactor<2>::CreateInterpolated(rd, r.alpha)
-              : AnchorRssFactor<2>::Create(rd),
-          keys, rss_loss);
-    } else if (anchor_state) {
-      keys.push_back(internal::AnchorPositionKey(r.index));
-      keys.push_back(RangeBiasKey(RangeBiasGroup(r.index)));
-      keys.push_back(RangeScaleKey(RangeScaleGroup(r.index)));
-      add(two ? AnchorRangeFactor<2>::CreateInterpolated(r.value, anchor.z(), range_sigma, r.alpha,
-                                                         o.receiver_height_m)
-              : AnchorRangeFactor<2>::Create(r.value, anchor.z(), range_sigma, o.receiver_height_m),
-          keys, range_loss);
-    } else if (r.kind == Reading::Kind::kRss && o.rss_residual == RssResidual::kDb) {
-      const RssFactor<2>::Reading rd = rss_reading();
-      keys.push_back(PathLossKey(PathLossGroup(r.index)));
-      add(two ? RssFactor<2>::CreateInterpolated(rd, r.alpha) : RssFactor<2>::Create(rd), keys,
-          rss_loss);
-    } else if (r.kind == Reading::Kind::kRss) {
-      RssRangeFactor<2>::Reading rd;
-      rd.rss = r.value;
-      rd.anchor_m = anchor;
-      rd.A = pl.A_dbm;
-      rd.eta = pl.eta;
-      rd.d0_m = pl.d0_m;
-      rd.sigma_db = pl.sigma_db;
-      rd.sign = sign;
-      rd.receiver_height_m = o.receiver_height_m;
-      FloorAware(r.index, r.node_a, r.node_b, r.alpha, sign, &rd.rss, &rd.anchor_m,
-                 &rd.receiver_height_m);
-      add(two ? RssRangeFactor<2>::CreateInterpolated(rd, r.alpha) : RssRangeFactor<2>::Create(rd),
-          keys, rss_loss);
-    } else {
-      keys.push_back(RangeBiasKey(RangeBiasGroup(r.index)));
-      keys.push_back(RangeScaleKey(RangeScaleGroup(r.index)));
-      add(two ? ScaledRangeFactor<2>::CreateInterpolated(r.value, anchor, range_sigma, r.alpha,
-                                                         o.receiver_height_m)
-              : ScaledRangeFactor<2>::Create(r.value, anchor, range_sigma, o.receiver_height_m),
-          keys, range_loss);
-    }
+  std::vector<Key> keys = {PositionKey(r.node_a)};
+  if (r.node_b >= 0) keys.push_back(PositionKey(r.node_b));
+  const bool two = r.node_b >= 0;
+  if (r.kind == Reading::Kind::kWaypoint) {
+    const Waypoint& w = waypoints[r.index];
+    add(two ? PositionPriorFactor<2>::CreateInterpolated(w.position_m, w.sigma_m, r.alpha)
+            : PositionPriorFactor<2>::Create(w.position_m, w.sigma_m),
+        keys);
+    return;
+  }
+  const Eigen::Vector3d& anchor = anchors[r.index].position_m;
+  const bool anchor_state = AnchorIsState(r.index);
+  // The dB-domain reading (RssFactor, AnchorRssFactor), floors taken into account.
+  auto rss_reading = [&] {
+    RssFactor<2>::Reading rd;
+    rd.rss = r.value;
+    rd.anchor_m = anchor;
+    rd.sigma_db = pl.sigma_db;
+    rd.sign = sign;
+    rd.d0_m = pl.d0_m;
+    rd.receiver_height_m = o.receiver_height_m;
+    FloorAware(r.index, r.node_a, r.node_b, r.alpha, sign, &rd.rss, &rd.anchor_m,
+               &rd.receiver_height_m);
+    return rd;
+  };
+  if (anchor_state && r.kind == Reading::Kind::kRss) {  // Build: RSS in dB then
+    const RssFactor<2>::Reading rd = rss_reading();
+    keys.push_back(internal::AnchorPositionKey(r.index));
+    keys.push_back(PathLossKey(PathLossGroup(r.index)));
+    add(two ? AnchorRssFactor<2>::CreateInterpolated(rd, r.alpha) : AnchorRssFactor<2>::Create(rd),
+        keys, rss_loss);
+  } else if (anchor_state) {
+    keys.push_back(internal::AnchorPositionKey(r.index));
+    keys.push_back(RangeBiasKey(RangeBiasGroup(r.index)));
+    keys.push_back(RangeScaleKey(RangeScaleGroup(r.index)));
+    add(two ? AnchorRangeFactor<2>::CreateInterpolated(r.value, anchor.z(), range_sigma, r.alpha,
+                                                       o.receiver_height_m)
+            : AnchorRangeFactor<2>::Create(r.value, anchor.z(), range_sigma, o.receiver_height_m),
+        keys, range_loss);
+  } else if (r.kind == Reading::Kind::kRss && o.rss_residual == RssResidual::kDb) {
+    const RssFactor<2>::Reading rd = rss_reading();
+    keys.push_back(PathLossKey(PathLossGroup(r.index)));
+    add(two ? RssFactor<2>::CreateInterpolated(rd, r.alpha) : RssFactor<2>::Create(rd), keys,
+        rss_loss);
+  } else if (r.kind == Reading::Kind::kRss) {
+    RssRangeFactor<2>::Reading rd;
+    rd.rss = r.value;
+    rd.anchor_m = anchor;
+    rd.A = pl.A_dbm;
+    rd.eta = pl.eta;
+    rd.d0_m = pl.d0_m;
+    rd.sigma_db = pl.sigma_db;
+    rd.sign = sign;
+    rd.receiver_height_m = o.receiver_height_m;
+    FloorAware(r.index, r.node_a, r.node_b, r.alpha, sign, &rd.rss, &rd.anchor_m,
+               &rd.receiver_height_m);
+    add(two ? RssRangeFactor<2>::CreateInterpolated(rd, r.alpha) : RssRangeFactor<2>::Create(rd),
+        keys, rss_loss);
+  } else {
+    keys.push_back(RangeBiasKey(RangeBiasGroup(r.index)));
+    keys.push_back(RangeScaleKey(RangeScaleGroup(r.index)));
+    add(two ? ScaledRangeFactor<2>::CreateInterpolated(r.value, anchor, range_sigma, r.alpha,
+                                                       o.receiver_height_m)
+            : ScaledRangeFactor<2>::Create(r.value, anchor, range_sigma, o.receiver_height_m),
+        keys, range_loss);
   }
 }
 
