@@ -204,6 +204,32 @@ TEST(AnchorSearch, FindsAnAnchorFromACircleAndRefusesAStraightPass) {
       internal::SearchAnchor({q.begin(), q.begin() + 5}, {v.begin(), v.begin() + 5}, o).placed());
 }
 
+// A path spread over a wide region (a diverged window's: IPIN 21 with a radio map and no start
+// put its receivers 28 km away, and the 1 m grid over that took 3.7 GB and minutes per access
+// point) is searched on a coarser grid: at most about 262144 cells. Here a circle of 100 km
+// radius: 1 m cells would be 4·10^10; the search still finds the anchor to within its cells
+// (≈ 0.4 km), and its covariance carries the coarse cell. A path with a NaN is not searched.
+TEST(AnchorSearch, BoundsItsGridOnAPathSpreadOverKilometres) {
+  const Eigen::Vector2d anchor(30e3, -20e3);
+  std::vector<Eigen::Vector2d> q;
+  std::vector<double> v;
+  for (int i = 0; i < 200; ++i) {
+    const double t = 2.0 * M_PI * i / 200.0;
+    q.emplace_back(100e3 * std::cos(t), 100e3 * std::sin(t));
+    v.push_back((q.back() - anchor).norm());
+  }
+  internal::AnchorSearchOptions o;
+  o.sigma = 100.0;
+  const internal::AnchorSearchResult r = internal::SearchAnchor(q, v, o);
+  EXPECT_LT((r.position_m - anchor).norm(), 500.0);
+  const double cell = std::sqrt(12.0 * r.covariance.trace() / 2.0);  // ≥ the grid's step
+  std::printf("grid step about %.0f m, anchor found %.0f m off\n", cell,
+              (r.position_m - anchor).norm());
+  EXPECT_GT(cell, 300.0);
+  q[7].x() = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_FALSE(internal::SearchAnchor(q, v, o).placed());
+}
+
 // The search's covariance (its confidence region) is consistent: over seeded noisy range sets
 // from a circle, the mean NEES of the place is about 2 (two dimensions), not far above.
 TEST(AnchorSearch, ItsCovarianceMatchesItsScatter) {

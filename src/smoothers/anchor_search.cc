@@ -54,6 +54,19 @@ double CellCost(const Eigen::Vector2d& a, const std::vector<Eigen::Vector2d>& q,
   return cost;
 }
 
+// The grid's step: step_m, coarsened where the extent (m, both axes) would need more than
+// kMaxGridCells cells or more than kMaxGridWork cell-reading evaluations (a path spread over
+// kilometres, e.g. a diverged window, or a config's wide margin); our bounds: a few seconds
+// and a few MB per search at most.
+constexpr double kMaxGridCells = 262144.0, kMaxGridWork = 1e8;
+double GridStep(const Eigen::Vector2d& extent, size_t readings, double step_m) {
+  const double cells = std::min(kMaxGridCells, kMaxGridWork / static_cast<double>(readings));
+  const double area = (extent.x() + step_m) * (extent.y() + step_m);
+  // nx·ny ≤ area/step² + 2(w + h)/step + 4: the third bound keeps a long thin extent's edge
+  // term under cells/2.
+  return std::max({step_m, std::sqrt(area / cells), 4.0 * (extent.x() + extent.y()) / cells});
+}
+
 }  // namespace
 
 AnchorSearchResult SearchAnchor(const std::vector<Eigen::Vector2d>& receivers,
@@ -63,6 +76,13 @@ AnchorSearchResult SearchAnchor(const std::vector<Eigen::Vector2d>& receivers,
   const size_t n = receivers.size();
   if (static_cast<int>(n) < std::max(o.min_readings, 3) || values.size() != n) {
     out.verdict = AnchorSearchResult::Verdict::kFewReadings;
+    return out;
+  }
+  const auto finite = [](const Eigen::Vector2d& q) { return q.allFinite(); };
+  const auto finite_value = [](double v) { return std::isfinite(v); };
+  if (!std::all_of(receivers.begin(), receivers.end(), finite) ||
+      !std::all_of(values.begin(), values.end(), finite_value)) {  // a diverged path
+    out.verdict = AnchorSearchResult::Verdict::kAmbiguous;
     return out;
   }
   Eigen::Vector2d mean = Eigen::Vector2d::Zero();
@@ -84,13 +104,12 @@ AnchorSearchResult SearchAnchor(const std::vector<Eigen::Vector2d>& receivers,
   }
   lo.array() -= o.margin_m;
   hi.array() += o.margin_m;
-  const int nx = static_cast<int>(std::ceil((hi.x() - lo.x()) / o.step_m)) + 1;
-  const int ny = static_cast<int>(std::ceil((hi.y() - lo.y()) / o.step_m)) + 1;
+  const double step = GridStep(hi - lo, n, o.step_m);
+  const int nx = static_cast<int>(std::ceil((hi.x() - lo.x()) / step)) + 1;
+  const int ny = static_cast<int>(std::ceil((hi.y() - lo.y()) / step)) + 1;
   std::vector<double> cost(static_cast<size_t>(nx) * ny);
   std::vector<double> scratch[2];
-  auto cell = [&](int i, int j) {
-    return Eigen::Vector2d(lo.x() + i * o.step_m, lo.y() + j * o.step_m);
-  };
+  auto cell = [&](int i, int j) { return Eigen::Vector2d(lo.x() + i * step, lo.y() + j * step); };
   int best = 0;
   for (int j = 0; j < ny; ++j) {
     for (int i = 0; i < nx; ++i) {
@@ -137,7 +156,7 @@ AnchorSearchResult SearchAnchor(const std::vector<Eigen::Vector2d>& receivers,
   const Eigen::Vector2d mean_region = sum / cells;
   const Eigen::Matrix2d spread = sum2 / cells - mean_region * mean_region.transpose();
   out.covariance = (o.min_cost_gap > 0.0 ? 4.0 / o.min_cost_gap : 0.0) * spread +
-                   Eigen::Matrix2d::Identity() * (o.step_m * o.step_m / 12.0);
+                   Eigen::Matrix2d::Identity() * (step * step / 12.0);
   for (size_t c = 0; c < cost.size(); ++c) {
     if (seen[c] || !(cost[c] < out.second_cost)) continue;
     const int i = static_cast<int>(c) % nx, j = static_cast<int>(c) / nx;
@@ -146,7 +165,7 @@ AnchorSearchResult SearchAnchor(const std::vector<Eigen::Vector2d>& receivers,
   // Refine around the best cell.
   out.position_m = coarse;
   out.cost = cost[best];
-  const double fine = o.step_m / 10.0;
+  const double fine = step / 10.0;
   for (int dj = -10; dj <= 10; ++dj) {
     for (int di = -10; di <= 10; ++di) {
       const Eigen::Vector2d a = coarse + Eigen::Vector2d(di * fine, dj * fine);

@@ -10,7 +10,10 @@
 //           value; Â the anchor's transmit level with its prior N(A, σ_A²), held at A when
 //           σ_A = 0: a calibrated radio)
 // with d_i = ‖(q_i, z_r) − (a, z_a)‖, ρ(e) = c²·log(1 + e²/c²) the Cauchy loss of the residual
-// in σ — the best cell, refined on a grid of a tenth of the step around it. The median levels
+// in σ — the best cell, refined on a grid of a tenth of the step around it. The step is
+// step_m, coarser where the extent would need more than 262144 cells or 10^8 cell-reading
+// evaluations (a path spread over kilometres: a diverged estimate); a receiver or reading that
+// is not finite gives no place (ambiguous). The median levels
 // make the search robust to an unknown bias or transmit power without a good guess; their
 // prior keeps an RSS anchor from sliding outward with a rising Â (distance and level trade).
 // Verdict "unobservable" (left out of the graph) when the anchor has fewer than min_readings
