@@ -1,22 +1,75 @@
 #include "smoothers/unknown_anchors.h"
 
 #include <map>
+#include <optional>
 #include <set>
 #include <utility>
 #include <vector>
 
+#include <Eigen/Cholesky>
+
+#include "util/median.h"
+
 namespace walkgraph::internal {
+
+namespace {
+
+// χ²(2) at 99.9 %: a node's shift beyond it is not an update of the first pass's estimate.
+constexpr double kShiftNeesLimit = 13.82;
+
+// The median over the output points of the joint solve's shift from the first pass, in the
+// first pass's position covariance (d' P⁻¹ d); nullopt when the two outputs are not point by
+// point alike or the first has no usable covariance.
+std::optional<double> MedianShiftNees(const Trajectory& first, const Trajectory& joint) {
+  if (first.size() != joint.size() || first.empty()) return std::nullopt;
+  std::vector<double> nees;
+  for (size_t i = 0; i < first.size(); ++i) {
+    const TrajectoryPoint& a = first.points[i];
+    const TrajectoryPoint& b = joint.points[i];
+    if (a.t_s != b.t_s || !a.covariance) return std::nullopt;
+    const Eigen::Matrix2d P = a.covariance->topLeftCorner<2, 2>();
+    const Eigen::Vector2d d = (b.position_m - a.position_m).head<2>();
+    const Eigen::LDLT<Eigen::Matrix2d> ldlt(0.5 * (P + P.transpose()));
+    if (ldlt.info() != Eigen::Success || !(ldlt.vectorD().minCoeff() > 0.0)) continue;
+    nees.push_back(d.dot(ldlt.solve(d)));
+  }
+  if (nees.size() < first.size() / 2) return std::nullopt;
+  return Median(std::move(nees));
+}
+
+// Every anchor of `walk` not surveyed and not yet in *left_out joins it, as inconsistent.
+void LeaveOutInconsistent(const Walk& walk, std::set<int>* left_out,
+                          std::vector<AnchorEstimate>* unobservable,
+                          std::map<std::string, double>* verdicts) {
+  for (const Anchor& a : walk.anchors) {
+    if (a.surveyed() || left_out->count(a.id)) continue;
+    AnchorEstimate e;
+    e.id = a.id;
+    e.observable = false;
+    for (const RssSample& r : walk.rss) e.readings += r.anchor_id == a.id ? 1 : 0;
+    for (const RangeSample& r : walk.ranges) e.readings += r.anchor_id == a.id ? 1 : 0;
+    unobservable->push_back(e);
+    left_out->insert(a.id);
+    (*verdicts)["unknown_anchors_unobservable.inconsistent"] += 1.0;
+  }
+}
+
+}  // namespace
 
 StatusOr<EstimateResult> SolveWithUnknownAnchors(const Walk& walk, const UnknownAnchorPass& pass) {
   UnknownAnchorsDropped dropped;
+  std::set<int> not_surveyed;
+  for (const Anchor& a : walk.anchors) {
+    if (!a.surveyed()) not_surveyed.insert(a.id);
+  }
   WG_ASSIGN_OR_RETURN(EstimateResult first,
-                      pass.solve(WithoutUnknownAnchors(walk, &dropped), nullptr));
+                      pass.solve(WithoutAnchors(walk, not_surveyed, &dropped), nullptr));
   Walk joint = walk;
   std::vector<AnchorEstimate> unobservable;
   std::map<std::string, double> verdicts;
   std::set<int> left_out;
   for (Anchor& a : joint.anchors) {
-    if (a.position_known) continue;
+    if (a.position_known) continue;  // surveyed, or uncertain: its prior
     const AnchorPlacement p = pass.place(a, first);
     using Verdict = AnchorSearchResult::Verdict;
     if (p.verdict.empty() && p.found.verdict != Verdict::kFewReadings &&
@@ -44,6 +97,14 @@ StatusOr<EstimateResult> SolveWithUnknownAnchors(const Walk& walk, const Unknown
     result = std::move(first);  // nothing placed: the first solve is the answer
   } else {
     WG_ASSIGN_OR_RETURN(result, pass.solve(solved, &first));
+    const std::optional<double> shift = MedianShiftNees(first.trajectory, result.trajectory);
+    if (shift) verdicts["unknown_anchors_shift_nees"] = *shift;
+    if (shift && *shift > kShiftNeesLimit) {  // inconsistent: the first solve is the answer
+      LeaveOutInconsistent(joint, &left_out, &unobservable, &verdicts);
+      left = UnknownAnchorsDropped();
+      WithoutAnchors(joint, left_out, &left);
+      result = std::move(first);
+    }
   }
   auto& d = result.diagnostics;
   d.insert(verdicts.begin(), verdicts.end());

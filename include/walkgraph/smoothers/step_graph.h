@@ -27,13 +27,17 @@
 // Anchors of unknown position (anchors.csv x_m, y_m empty) and uncertain ones (sigma_m > 0):
 // their horizontal position is a state p(a), an uncertain one with the prior N(position,
 // sigma_m²) per axis (AnchorRssFactor / AnchorRangeFactor instead of the fixed-anchor factors).
-// fg-batch places the unknown ones without a guess: (1) the walk solved without them; (2) each
-// placed on that path by a coarse grid search over its extent plus a margin (anchor_search.h:
-// the robust range or RSS cost, the anchor's bias or transmit power at its median), or
-// declared unobservable (too few readings, a path too narrow around it, or two places that
-// explain its readings about as well) and left out with its readings; (3) one joint solve from
-// (1)'s nodes. Diagnostics: unknown_anchors, unknown_anchors_estimated,
-// unknown_anchors_unobservable (+ .few_readings / .narrow_geometry / .ambiguous),
+// fg-batch places the unknown ones without a guess: (1) the walk solved without them (and
+// without the uncertain ones); (2) each unknown one placed on that path by a coarse grid search
+// over its extent plus a margin (anchor_search.h: the robust range or RSS cost, the anchor's
+// bias or transmit power at its median), or declared unobservable (too few readings, a path too
+// narrow around it, or two places that explain its readings about as well) and left out with
+// its readings; (3) one joint solve from (1)'s nodes, kept only where it moves the walk within
+// (1)'s covariance (median shift NEES ≤ 13.82, χ²(2) at 99.9 %); beyond, the anchors that
+// are not surveyed contradict those that are, and (1) is the answer, all of them left out
+// ("inconsistent"; src/smoothers/unknown_anchors.h). Diagnostics: unknown_anchors (the anchors
+// not surveyed: unknown or uncertain), unknown_anchors_estimated, unknown_anchors_unobservable
+// (+ .few_readings / .narrow_geometry / .ambiguous / .inconsistent), unknown_anchors_shift_nees,
 // unknown_anchor_readings_ignored, anchor_x_m.<id> / anchor_y_m.<id>, gauge (0 the known
 // start's frame, 1 the anchors' of given position, 2 the walk's own: node 0 held); each
 // anchor's estimate and covariance in EstimateResult::anchors. fg-window (both outputs) places
