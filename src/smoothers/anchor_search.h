@@ -33,6 +33,11 @@
 
 namespace walkgraph::internal {
 
+// χ²(2) at 99.9 %: a 2-D shift beyond it, in its covariance, is a contradiction, not noise
+// (unknown_anchors.h: the joint solve against the first; step_graph_pending.h: an uncertain
+// anchor's search place against its prior).
+inline constexpr double kChiSquare2At999 = 13.82;
+
 struct AnchorSearchOptions {
   bool range = true;                         // ranges (else RSS)
   double sigma = 1.0;                        // σ of a reading (m or dB)

@@ -13,10 +13,25 @@
 
 namespace walkgraph::internal {
 
+namespace {
+
+// An uncertain anchor (a prior N(μ, σ_m² I)) whose search place x lies beyond χ²(2) at 99.9 %
+// of it: (x − μ)ᵀ(Σ_search + σ_m² I)⁻¹(x − μ) > 13.82. An unknown one never does.
+bool ContradictsItsPrior(const Anchor& anchor, const AnchorSearchResult& found) {
+  if (!anchor.position_known) return false;
+  const Eigen::Vector2d d = found.position_m - anchor.position_m.head<2>();
+  const Eigen::Matrix2d S =
+      found.covariance + anchor.sigma_m * anchor.sigma_m * Eigen::Matrix2d::Identity();
+  const Eigen::LDLT<Eigen::Matrix2d> ldlt(0.5 * (S + S.transpose()));
+  return ldlt.info() != Eigen::Success || !(d.dot(ldlt.solve(d)) <= kChiSquare2At999);
+}
+
+}  // namespace
+
 PendingAnchors::PendingAnchors(const Walk& walk, const StepGraph& graph, const StepGraphOptions& o)
     : walk_(walk), graph_(graph), o_(o) {
   for (size_t a = 0; a < walk.anchors.size(); ++a) {
-    if (walk.anchors[a].position_known) continue;  // surveyed, or uncertain: a state from the start
+    if (walk.anchors[a].surveyed()) continue;
     const std::vector<Key> keys = graph.AnchorOwnKeys(static_cast<int>(a));
     if (keys.empty()) continue;  // not heard
     Pending& p = pending_[static_cast<int>(a)];
@@ -120,8 +135,12 @@ Status PendingAnchors::AfterUpdate(const std::vector<int>& nodes, double t_s,
     if (!p.last.placed()) continue;
     const double sigma = std::sqrt(std::max(
         0.0, Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(p.last.covariance).eigenvalues()(1)));
-    p.too_uncertain = !(sigma <= o_.window_anchor_max_sigma_m);
+    // An uncertain anchor's prior places it where a wide search region does not.
+    const bool prior = walk_.anchors[a].position_known;
+    p.too_uncertain = !prior && !(sigma <= o_.window_anchor_max_sigma_m);
     if (p.too_uncertain) continue;
+    p.inconsistent = ContradictsItsPrior(walk_.anchors[a], p.last);
+    if (p.inconsistent) continue;
     p.placed = true;
     p.placed_t_s = t_s;
     WG_RETURN_IF_ERROR(Place(a, p.last, window, nodes.back(), states, factors));
@@ -195,7 +214,9 @@ void PendingAnchors::Report(FixedLagSmoother* window, EstimateResult* r) const {
       e.observable = false;
       d["unknown_anchors_unobservable"] += 1.0;
       const Pending& p = it->second;
-      const std::string why = p.too_uncertain ? "uncertain" : ToString(p.last.verdict);
+      const std::string why = p.inconsistent    ? "inconsistent"
+                              : p.too_uncertain ? "uncertain"
+                                                : ToString(p.last.verdict);
       d["unknown_anchors_unobservable." + why] += 1.0;
     }
     r->anchors.push_back(e);

@@ -14,9 +14,6 @@ namespace walkgraph::internal {
 
 namespace {
 
-// χ²(2) at 99.9 %: a node's shift beyond it is not an update of the first pass's estimate.
-constexpr double kShiftNeesLimit = 13.82;
-
 // The median over the output points of the joint solve's shift from the first pass, in the
 // first pass's position covariance (d' P⁻¹ d); nullopt when the two outputs are not point by
 // point alike or the first has no usable covariance.
@@ -99,7 +96,7 @@ StatusOr<EstimateResult> SolveWithUnknownAnchors(const Walk& walk, const Unknown
     WG_ASSIGN_OR_RETURN(result, pass.solve(solved, &first));
     const std::optional<double> shift = MedianShiftNees(first.trajectory, result.trajectory);
     if (shift) verdicts["unknown_anchors_shift_nees"] = *shift;
-    if (shift && *shift > kShiftNeesLimit) {  // inconsistent: the first solve is the answer
+    if (shift && *shift > kChiSquare2At999) {  // inconsistent: the first solve is the answer
       LeaveOutInconsistent(joint, &left_out, &unobservable, &verdicts);
       left = UnknownAnchorsDropped();
       WithoutAnchors(joint, left_out, &left);

@@ -43,7 +43,8 @@
 // anchor's estimate and covariance in EstimateResult::anchors. fg-window (both outputs) places
 // them causally by delayed initialization (src/smoothers/step_graph_pending.h: the same search
 // over the readings so far, the anchor joining the window once placed with σ ≤
-// window_anchor_max_sigma_m) and keeps uncertain ones as states; the other estimators run
+// window_anchor_max_sigma_m); an uncertain one waits the same way and joins with its prior
+// once the search places it where that prior allows (χ²(2) at 99.9 %); the other estimators run
 // without the unknown anchors (the registry's wrapper, estimator.h) and use uncertain ones at
 // their mean (the filters).
 // Gauge: with a known start (initial_pose) its prior fixes position and heading softly; with
