@@ -176,14 +176,22 @@ TEST(AnchorStateFactors, MatchTheFixedAnchorFactors) {
   }
 }
 
+// n receiver places evenly on a circle of radius r about the origin.
+std::vector<Eigen::Vector2d> Circle(int n, double r) {
+  std::vector<Eigen::Vector2d> q;
+  for (int i = 0; i < n; ++i) {
+    const double t = 2.0 * M_PI * i / n;
+    q.emplace_back(r * std::cos(t), r * std::sin(t));
+  }
+  return q;
+}
+
 TEST(AnchorSearch, FindsAnAnchorFromACircleAndRefusesAStraightPass) {
   const Eigen::Vector2d anchor(12.0, -4.0);
-  std::vector<Eigen::Vector2d> q;
+  const std::vector<Eigen::Vector2d> q = Circle(60, 8.0);
   std::vector<double> v;
-  for (int i = 0; i < 60; ++i) {
-    const double t = 2.0 * M_PI * i / 60.0;
-    q.emplace_back(8.0 * std::cos(t), 8.0 * std::sin(t));
-    v.push_back((q.back() - anchor).norm() * 1.05 + 2.0 + 0.3 * std::sin(7.0 * i));
+  for (size_t i = 0; i < q.size(); ++i) {
+    v.push_back((q[i] - anchor).norm() * 1.05 + 2.0 + 0.3 * std::sin(7.0 * i));
   }
   internal::AnchorSearchOptions o;
   o.range_scale = 0.05;
@@ -212,13 +220,9 @@ TEST(AnchorSearch, FindsAnAnchorFromACircleAndRefusesAStraightPass) {
 // (≈ 0.4 km), and its covariance carries the coarse cell. A path with a NaN is not searched.
 TEST(AnchorSearch, BoundsItsGridOnAPathSpreadOverKilometres) {
   const Eigen::Vector2d anchor(30e3, -20e3);
-  std::vector<Eigen::Vector2d> q;
+  std::vector<Eigen::Vector2d> q = Circle(200, 100e3);
   std::vector<double> v;
-  for (int i = 0; i < 200; ++i) {
-    const double t = 2.0 * M_PI * i / 200.0;
-    q.emplace_back(100e3 * std::cos(t), 100e3 * std::sin(t));
-    v.push_back((q.back() - anchor).norm());
-  }
+  for (const Eigen::Vector2d& p : q) v.push_back((p - anchor).norm());
   internal::AnchorSearchOptions o;
   o.sigma = 100.0;
   const internal::AnchorSearchResult r = internal::SearchAnchor(q, v, o);
