@@ -10,6 +10,7 @@
 
 #include "smoothers/step_graph_impl.h"
 #include "smoothers/step_graph_run.h"
+#include "smoothers/unknown_anchors.h"
 
 namespace walkgraph::internal {
 
@@ -30,8 +31,12 @@ bool ContradictsItsPrior(const Anchor& anchor, const AnchorSearchResult& found) 
 
 PendingAnchors::PendingAnchors(const Walk& walk, const StepGraph& graph, const StepGraphOptions& o)
     : walk_(walk), graph_(graph), o_(o) {
+  // Uncertain anchors wait only where the start and the surveyed anchors give the window a
+  // frame to test them in; else they are that frame, states from the start.
+  const bool test_uncertain = SurveyFixesTheFrame(walk);
   for (size_t a = 0; a < walk.anchors.size(); ++a) {
-    if (walk.anchors[a].surveyed()) continue;
+    const Anchor& anchor = walk.anchors[a];
+    if (anchor.surveyed() || (anchor.position_known && !test_uncertain)) continue;
     const std::vector<Key> keys = graph.AnchorOwnKeys(static_cast<int>(a));
     if (keys.empty()) continue;  // not heard
     Pending& p = pending_[static_cast<int>(a)];

@@ -13,7 +13,8 @@
 //     the receivers' own uncertainty); later readings enter as factors.
 // Placement waits for a search region of σ ≤ window_anchor_max_sigma_m (step_graph.h). An anchor
 // never placed is reported unobservable with its verdict (or "uncertain"), its readings unused.
-// An uncertain anchor (sigma_m > 0: e.g. from a radio map) waits the same way, and joins with its
+// Where the start or two heard surveyed anchors fix the walk's frame (SurveyFixesTheFrame), an
+// uncertain anchor (sigma_m > 0: e.g. from a radio map) waits the same way, and joins with its
 // own prior as well once the search places it where that prior allows (χ²(2) at 99.9 % of
 // Σ_search + σ_m² I); elsewhere it waits on ("inconsistent" if never): the window's path and
 // the prior disagree (IPIN 01 and 21 with a radio map and no start: with the map's access

@@ -620,9 +620,9 @@ StatusOr<EstimateResult> SolveWithUnknownAnchors(const Walk& walk, const StepGra
 
 StatusOr<EstimateResult> StepGraphBatch::Run(const Walk& walk) const {
   WG_RETURN_IF_ERROR(CheckApplicable(walk));
-  const bool uncertain = std::any_of(walk.anchors.begin(), walk.anchors.end(),
-                                     [](const Anchor& a) { return !a.surveyed(); });
-  if (uncertain) return SolveWithUnknownAnchors(walk, options_);
+  const bool not_surveyed = std::any_of(walk.anchors.begin(), walk.anchors.end(),
+                                        [](const Anchor& a) { return !a.surveyed(); });
+  if (not_surveyed) return SolveWithUnknownAnchors(walk, options_);
   return SolveBatchWalk(walk, options_, nullptr, nullptr);
 }
 

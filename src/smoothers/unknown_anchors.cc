@@ -53,14 +53,21 @@ void LeaveOutInconsistent(const Walk& walk, std::set<int>* left_out,
 
 }  // namespace
 
+bool SurveyFixesTheFrame(const Walk& walk) {
+  if (walk.meta.initial_pose) return true;
+  int heard = 0;
+  for (const Anchor& a : walk.anchors) heard += a.surveyed() && walk.AnchorReadings(a.id) > 0;
+  return heard >= 2;
+}
+
 StatusOr<EstimateResult> SolveWithUnknownAnchors(const Walk& walk, const UnknownAnchorPass& pass) {
   UnknownAnchorsDropped dropped;
   std::set<int> not_surveyed;
   for (const Anchor& a : walk.anchors) {
     if (!a.surveyed()) not_surveyed.insert(a.id);
   }
-  WG_ASSIGN_OR_RETURN(EstimateResult first,
-                      pass.solve(WithoutAnchors(walk, not_surveyed, &dropped), nullptr));
+  const Walk surveyed = WithoutAnchors(walk, not_surveyed, &dropped);
+  WG_ASSIGN_OR_RETURN(EstimateResult first, pass.solve(surveyed, nullptr));
   Walk joint = walk;
   std::vector<AnchorEstimate> unobservable;
   std::map<std::string, double> verdicts;
@@ -94,7 +101,9 @@ StatusOr<EstimateResult> SolveWithUnknownAnchors(const Walk& walk, const Unknown
     result = std::move(first);  // nothing placed: the first solve is the answer
   } else {
     WG_ASSIGN_OR_RETURN(result, pass.solve(solved, &first));
-    const std::optional<double> shift = MedianShiftNees(first.trajectory, result.trajectory);
+    const std::optional<double> shift = SurveyFixesTheFrame(walk)
+                                            ? MedianShiftNees(first.trajectory, result.trajectory)
+                                            : std::nullopt;
     if (shift) verdicts["unknown_anchors_shift_nees"] = *shift;
     if (shift && *shift > kChiSquare2At999) {  // inconsistent: the first solve is the answer
       LeaveOutInconsistent(joint, &left_out, &unobservable, &verdicts);

@@ -9,7 +9,8 @@
 // on a walk with no start, 13 WiFi access points of IPIN trial 05 carried the walk 45 m from
 // where its BLE beacons put it (median shift NEES 1268; with the start given, 0.0-0.9 on the
 // four trials) — and the first solve is the answer, those anchors left out as unobservable
-// ("inconsistent"). No test where the first solve has no covariance.
+// ("inconsistent"). No test where the first solve has no covariance, or no frame of the walk's
+// (no start and fewer than two heard surveyed anchors: its node 0 held where it started).
 #ifndef WALKGRAPH_SRC_SMOOTHERS_UNKNOWN_ANCHORS_H_
 #define WALKGRAPH_SRC_SMOOTHERS_UNKNOWN_ANCHORS_H_
 
@@ -37,6 +38,11 @@ struct UnknownAnchorPass {
   // Places an unknown anchor of the walk on the first pass's path.
   std::function<AnchorPlacement(const Anchor& anchor, const EstimateResult& first)> place;
 };
+
+// Whether the walk's start and surveyed anchors fix its frame without the others: a known start,
+// or two or more heard surveyed anchors (the step graph's gauge; else node 0 is held where it
+// started, and anchors that are not surveyed are what places the walk).
+bool SurveyFixesTheFrame(const Walk& walk);
 
 // The pass on `walk`. Diagnostics: unknown_anchors, unknown_anchors_estimated,
 // unknown_anchors_unobservable(.<verdict>), unknown_anchor_readings_ignored,
