@@ -26,13 +26,7 @@ class StepFactor {
 
   template <typename T>
   bool operator()(const T* p_prev, const T* p, const T* theta, T* residual) const {
-    using std::cos;
-    using std::sin;
-    const T dx = p[0] - p_prev[0], dy = p[1] - p_prev[1];
-    const T c = cos(theta[0]), s = sin(theta[0]);
-    residual[0] = (c * dx + s * dy - T(length_m_)) * T(inv_sigma_l_);
-    residual[1] = (-s * dx + c * dy) * T(inv_sigma_c_);
-    return true;
+    return Residual(p_prev, p, theta, T(length_m_), residual);
   }
 
   // With the walk's step-length scale c (one block for the walk): the step is (1 + c)·l long,
@@ -40,13 +34,7 @@ class StepFactor {
   // fit the walker).
   template <typename T>
   bool operator()(const T* p_prev, const T* p, const T* theta, const T* scale, T* residual) const {
-    using std::cos;
-    using std::sin;
-    const T dx = p[0] - p_prev[0], dy = p[1] - p_prev[1];
-    const T c = cos(theta[0]), s = sin(theta[0]);
-    residual[0] = (c * dx + s * dy - (T(1.0) + scale[0]) * T(length_m_)) * T(inv_sigma_l_);
-    residual[1] = (-s * dx + c * dy) * T(inv_sigma_c_);
-    return true;
+    return Residual(p_prev, p, theta, (T(1.0) + scale[0]) * T(length_m_), residual);
   }
 
   // Blocks: p_{k−1} (2), p_k (2), θ_k (1).
@@ -62,6 +50,18 @@ class StepFactor {
   }
 
  private:
+  // The residual of the top of this file for a model step length `length`.
+  template <typename T>
+  bool Residual(const T* p_prev, const T* p, const T* theta, const T& length, T* residual) const {
+    using std::cos;
+    using std::sin;
+    const T dx = p[0] - p_prev[0], dy = p[1] - p_prev[1];
+    const T c = cos(theta[0]), s = sin(theta[0]);
+    residual[0] = (c * dx + s * dy - length) * T(inv_sigma_l_);
+    residual[1] = (-s * dx + c * dy) * T(inv_sigma_c_);
+    return true;
+  }
+
   double length_m_, inv_sigma_l_, inv_sigma_c_;
 };
 

@@ -43,8 +43,7 @@ void LeaveOutInconsistent(const Walk& walk, std::set<int>* left_out,
     AnchorEstimate e;
     e.id = a.id;
     e.observable = false;
-    for (const RssSample& r : walk.rss) e.readings += r.anchor_id == a.id ? 1 : 0;
-    for (const RangeSample& r : walk.ranges) e.readings += r.anchor_id == a.id ? 1 : 0;
+    e.readings = walk.AnchorReadings(a.id);
     unobservable->push_back(e);
     left_out->insert(a.id);
     (*verdicts)["unknown_anchors_unobservable.inconsistent"] += 1.0;
@@ -107,8 +106,7 @@ StatusOr<EstimateResult> SolveWithUnknownAnchors(const Walk& walk, const Unknown
     if (shift) verdicts["unknown_anchors_shift_nees"] = *shift;
     if (shift && *shift > kChiSquare2At999) {  // inconsistent: the first solve is the answer
       LeaveOutInconsistent(joint, &left_out, &unobservable, &verdicts);
-      left = UnknownAnchorsDropped();
-      WithoutAnchors(joint, left_out, &left);
+      left = dropped;  // every anchor not surveyed is out now, as in the first solve
       result = std::move(first);
     }
   }
