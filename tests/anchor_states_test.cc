@@ -616,9 +616,11 @@ TEST(AnchorStatesRealData, Plaza1WithEveryAnchorUnknown) {
 // Without a known start, the joint solve with the placed access points carried trial 05 45 m
 // from where its beacons put it (p75 7.74 -> 46.53 m) and 01 15 m (10.56 -> 20.61 m); the pass
 // now tests the joint solve against the first solve's covariance (unknown_anchors.h) and keeps
-// the first where they contradict it. Measured, p75 BLE alone / with WiFi: no start 10.56 /
-// 10.56, 7.74 / 7.74, 4.08 / 4.31, 52.34 / 52.10 m; known start 6.39 / 6.42, 2.22 / 2.24,
-// 2.50 / 2.59, 3.08 / 2.08 m (01, 05, 21, 52).
+// the first where they contradict it. Measured, p75 BLE alone / with WiFi: no start 9.42 /
+// 9.42, 7.33 / 7.33, 4.09 / 4.32, 52.34 / 52.10 m; known start 6.12 / 6.01, 2.23 / 2.24,
+// 2.50 / 2.58, 3.08 / 2.08 m (01, 05, 21, 52; before the beacons stood at their floors'
+// heights: no start 10.56 / 10.56, 7.74 / 7.74, 4.08 / 4.31; known start 6.39 / 6.42, 2.22 /
+// 2.24, 2.50 / 2.59).
 TEST(AnchorStatesRealData, IpinWifiAccessPointsThatContradictTheBeaconsAreLeftOut) {
   const std::string dir = std::string(WALKGRAPH_SHARED_DATASETS) + "/ipin2023_t3";
   if (!std::filesystem::exists(dir)) GTEST_SKIP() << dir << " not present";

@@ -227,18 +227,20 @@ TEST(SurveyRadioMapTest, PlacesTheUnknownAnchorsOfTwoSimulatedWalks) {
 // IPIN 2023 Track 3, leave one out (issue 44's target): the four shared trials converted with
 // --known-start --wifi (walk.yaml's path loss; each walk in a frame of its own, related by the
 // BLE beacons); a map surveyed from three, the fourth run by fg-batch with it, against BLE
-// alone. Target: p75 better than BLE alone on each trial. Met on 52 only (2.45 against 3.08 m);
-// not on 01 (6.82 against 6.39), 05 (2.64 against 2.22) and 21 (2.57 against 2.50 m). The test
-// holds each trial to today's figure (+5 %) and says where the target is not met. (Before
-// fg-batch's noise scales, whose fg-batch runs start the survey: 6.85 / 2.45 / 2.57 / 2.70;
-// before fg-batch solved a walk without its map's anchors first: 6.79 / 2.67 / 2.57 / 2.67.)
+// alone. Target: p75 better than BLE alone on each trial. Met on 52 only (2.44 against 3.08 m);
+// not on 01 (7.27 against 6.12), 05 (2.36 against 2.23) and 21 (2.58 against 2.50 m). The test
+// holds each trial to today's figure (+5 %) and says where the target is not met. (Before the
+// beacons stood at their floors' heights, StepGraph::Impl::FloorAware: 6.82 / 2.64 / 2.57 / 2.45
+// against 6.39 / 2.22 / 2.50 / 3.08 alone; before fg-batch's noise scales, whose fg-batch runs
+// start the survey: 6.85 / 2.45 / 2.57 / 2.70; before fg-batch solved a walk without its map's
+// anchors first: 6.79 / 2.67 / 2.57 / 2.67.)
 TEST(SurveyRealData, IpinLeaveOneOutMapAgainstBleAlone) {
   const std::string dir = std::string(WALKGRAPH_SHARED_DATASETS) + "/ipin2023_t3";
   if (!fs::exists(dir)) GTEST_SKIP() << dir << " not present";
   const std::string ble = dir + "/BLE_Locations.csv";
   const std::vector<std::string> trials = {"01", "05", "21", "52"};
   const std::map<std::string, double> held = {
-      {"01", 6.82}, {"05", 2.64}, {"21", 2.57}, {"52", 2.45}};
+      {"01", 7.27}, {"05", 2.36}, {"21", 2.58}, {"52", 2.44}};
   std::map<std::string, Walk> wifi, ble_only;
   for (const std::string& n : trials) {
     ConvertOptions o;

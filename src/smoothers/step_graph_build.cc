@@ -4,7 +4,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <limits>
+#include <map>
 
 #include <Eigen/Geometry>
 
@@ -421,9 +423,19 @@ StatusOr<std::unique_ptr<StepGraph>> StepGraph::Build(const Walk& walk, const St
   m.stair_steps = m.MarkStairs(walk, g->node_t_);
   m.DeadReckon(walk, g.get());
   WG_RETURN_IF_ERROR(m.ChainHeights(g->node_t_));  // after DeadReckon: bridged
+  // Not for fg-window's online output: the vote takes readings it has not seen yet.
+  if (!(m.start && m.start->floor) && o.window_output != WindowOutput::kOnline) {
+    m.radio_start_floor = m.RadioStartFloor(walk, g->node_t_);
+    if (m.radio_start_floor && *m.radio_start_floor != 0) {  // the chain again, from that floor
+      m.start_z = *m.radio_start_floor * m.storey_m;
+      WG_RETURN_IF_ERROR(m.ChainHeights(g->node_t_));
+    }
+  }
   for (const Anchor& a : walk.anchors) {
     m.anchor_z.push_back(walk.AnchorHeightM(a));
     m.anchor_floor.push_back(a.floor);
+    m.anchor_at_floor.push_back(a.floor && (m.radio.path_loss.floor_loss_db > 0.0 ||
+                                            (!m.radio.calibrated && a.surveyed())));
   }
   WG_RETURN_IF_ERROR(m.AttachReadings(walk, g.get()));
   m.PlaceStart(walk, g.get());
@@ -436,6 +448,8 @@ bool StepGraph::path_loss_per_anchor() const { return impl_->PathLossPerAnchor()
 bool StepGraph::AnchorIsState(int anchor_index) const { return impl_->AnchorIsState(anchor_index); }
 
 bool StepGraph::has_floors() const { return impl_->floors; }
+
+std::optional<int> StepGraph::radio_start_floor() const { return impl_->radio_start_floor; }
 
 int StepGraph::FloorOfHeight(double z_m) const { return impl_->Floor(z_m); }
 
@@ -664,6 +678,38 @@ void StepGraph::Impl::MakeHeights(const Walk& walk, const std::vector<double>& n
   for (double t : node_t) hpa.push_back(PressureAt(walk.pressure, t, o.baro_window_s));
   baro_z.clear();
   for (double v : hpa) baro_z.push_back(BarometricHeightM(v, hpa.front()));
+}
+
+std::optional<int> StepGraph::Impl::RadioStartFloor(const Walk& walk,
+                                                    const std::vector<double>& node_t) const {
+  std::map<int, int> anchor_floor_of;
+  for (const Anchor& a : walk.anchors) {
+    if (a.floor && a.surveyed()) anchor_floor_of[a.id] = *a.floor;  // others' floors: guesses
+  }
+  if (anchor_floor_of.empty() || node_t.empty()) return std::nullopt;
+  const double sign = walk.meta.radio.units == RssUnits::kDbm ? 1.0 : -1.0;  // larger: stronger
+  std::map<int, std::vector<double>> votes;  // start floor -> sign · RSS of its readings
+  for (const RssSample& r : walk.rss) {
+    const auto f = anchor_floor_of.find(r.anchor_id);
+    if (f == anchor_floor_of.end() || !std::isfinite(r.rss)) continue;
+    const size_t k = std::min<size_t>(
+        std::lower_bound(node_t.begin(), node_t.end(), r.t_s) - node_t.begin(), node_t.size() - 1);
+    const int climbed = Floor(node_z[k]) - Floor(start_z);
+    votes[f->second - climbed].push_back(sign * r.rss);
+  }
+  std::optional<int> best;
+  double best_level = -std::numeric_limits<double>::infinity();
+  for (auto& [floor, v] : votes) {
+    const size_t top = std::min<size_t>(3, v.size());
+    std::partial_sort(v.begin(), v.begin() + top, v.end(), std::greater<double>());
+    double level = 0.0;
+    for (size_t i = 0; i < top; ++i) level += v[i] / static_cast<double>(top);
+    if (level > best_level) {
+      best_level = level;
+      best = floor;
+    }
+  }
+  return best;
 }
 
 bool StepGraph::path_loss_estimated() const {

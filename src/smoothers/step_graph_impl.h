@@ -96,6 +96,13 @@ struct StepGraph::Impl {
   std::vector<double> baro_z;
   double start_z = 0.0, storey_m = kDefaultStoreyHeightM;
   void MakeHeights(const Walk& walk, const std::vector<double>& node_t);
+  // The start floor where the walk does not give one: each RSS reading of a surveyed anchor
+  // with a floor votes for that floor less the floors the height chain has climbed by then
+  // (node_z), and the floor whose three strongest votes are strongest on average is the start's —
+  // the nearest beacons are on one's own floor, a floor slab costs several dB (IPIN trial 21 starts
+  // on level -2: 203 readings of a level -2 beacon, none of level 0). nullopt: no such reading.
+  std::optional<int> RadioStartFloor(const Walk& walk, const std::vector<double>& node_t) const;
+  std::optional<int> radio_start_floor;
   // Staircases: on_stairs[k] for node k's step; with StepGraphOptions::stairs their horizontal
   // length is a tread. Returns how many steps were given a tread.
   int MarkStairs(const Walk& walk, const std::vector<double>& node_t);
@@ -126,15 +133,20 @@ struct StepGraph::Impl {
     const double za = node_z[node_a];
     return node_b < 0 ? za : (1.0 - alpha) * za + alpha * node_z[node_b];
   }
-  // An RSS reading of anchor a from a multi-floor walk: the anchor at its height, the receiver
+  // An RSS reading of anchor a with a floor: the anchor at its height, the receiver
   // receiver_height_m above its nodes' estimated height, and the reading raised by the floor loss
   // of the floors in between (the expected RSS lowered by it). Leaves `rss`, `anchor_m`,
   // `receiver_m` as they are for an anchor without a floor, and for every anchor while the
-  // walk's radio has no floor loss (floor_loss_db 0: the planar model, which its A and η were
-  // fitted for: `fit-path-loss` without --floors).
+  // walk's radio has no floor loss (floor_loss_db 0), except a surveyed anchor of a walk whose
+  // path loss is not calibrated: a calibrated one is the planar model its A and η were fitted
+  // for (`fit-path-loss` without --floors), and an unsurveyed anchor's floor is a guess (the
+  // IPIN converter's for WiFi access points). Where the graph estimates the path loss a surveyed
+  // beacon two storeys down is that far away (IPIN, four of six beacons on level -2 heard from
+  // level 0: fg-batch p75 without a start 10.56 -> 9.42 m on trial 01).
+  std::vector<bool> anchor_at_floor;  // anchor index -> FloorAware applies
   void FloorAware(int a, int node_a, int node_b, double alpha, double sign, double* rss,
                   Eigen::Vector3d* anchor_m, double* receiver_m) const {
-    if (!anchor_floor[a] || !(radio.path_loss.floor_loss_db > 0.0)) return;
+    if (!anchor_at_floor[a]) return;
     const double z = ReceiverHeight(node_a, node_b, alpha);
     anchor_m->z() = anchor_z[a];
     *receiver_m += z;  // receiver_height_m above the floor

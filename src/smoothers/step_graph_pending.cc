@@ -105,7 +105,9 @@ AnchorSearchOptions PendingAnchors::SearchFor(int a, const FixedLagSmoother& win
   }
   const SearchSetup setup = SearchOptions(walk_, o_, fd);
   AnchorSearchOptions so = pending_.at(a).range ? setup.range : setup.rss;
-  so.dz_m = o_.receiver_height_m - walk_.AnchorHeightM(walk_.anchors[a]);
+  // The walker taken on the anchor's floor: an unsurveyed anchor's floor is a guess and the
+  // graph keeps it planar (StepGraph::Impl::FloorAware).
+  so.dz_m = o_.receiver_height_m - walk_.anchors[a].position_m.z();
   return so;
 }
 

@@ -117,6 +117,7 @@ void AddGraphDiagnostics(const StepGraph& graph, const Walk& walk,
     (*d)["start_heading_contradicted_rad"] = graph.start_heading_contradicted_rad();
   }
   if (graph.has_floors()) (*d)["stair_steps"] = graph.stair_steps();
+  if (graph.radio_start_floor()) (*d)["start_floor_from_radio"] = *graph.radio_start_floor();
   if (walk.has_imu() && !walk.has_odometry()) AddFrontEndDiagnostics(graph.front_end_report(), d);
 }
 
@@ -599,7 +600,7 @@ StatusOr<EstimateResult> SolveWithUnknownAnchors(const Walk& walk, const StepGra
     }
     const internal::SearchSetup search = internal::SearchOptions(walk, o, first.diagnostics);
     internal::AnchorSearchOptions so = range ? search.range : search.rss;
-    so.dz_m = o.receiver_height_m - walk.AnchorHeightM(a);
+    so.dz_m = o.receiver_height_m - a.position_m.z();  // on its floor (step_graph_pending.cc)
     out.found = internal::SearchAnchor(q, v, so);
     return out;
   };

@@ -65,6 +65,7 @@
 
 #include <limits>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -386,6 +387,11 @@ class StepGraph {
   int FloorOfHeight(double z_m) const;
   // How many steps were taken for stair steps (StepGraphOptions::stairs).
   int stair_steps() const;
+  // The start's floor when the walk does not give it (initial_pose.floor) and its anchors have
+  // floors: the floor of the surveyed anchors heard strongest (StepGraph::Impl::RadioStartFloor);
+  // else nullopt (the start is on the given floor, or on floor 0). Not for the online output
+  // (WindowOutput::kOnline), which would need readings it has not seen yet: floor 0 there.
+  std::optional<int> radio_start_floor() const;
   // What the step front end chose from the walk (pdr.h; defaults for odometry/radio-only).
   const StepFrontEndReport& front_end_report() const;
 
