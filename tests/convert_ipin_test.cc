@@ -415,6 +415,25 @@ TEST(ConvertIpin, WifiOfTheSharedTrials) {
                        [](const RssSample& a, const RssSample& b) { return a.t_s < b.t_s; }));
     std::printf("%s: %zu access points, %zu readings\n", log.filename().c_str(), wifi_anchors,
                 wifi_readings);
+    // Their floor, a guess: without --known-start not the truth's (not an input then) but the
+    // floor of the beacon heard strongest; with it, the start's.
+    const RssSample* strongest = nullptr;
+    for (const RssSample& r : ble->rss) {
+      if (strongest == nullptr || r.rss > strongest->rss) strongest = &r;
+    }
+    ASSERT_NE(strongest, nullptr);
+    const std::optional<int> beacon_floor =
+        ble->anchors[static_cast<size_t>(ble->AnchorIndex(strongest->anchor_id))].floor;
+    ConvertOptions known = o;
+    known.known_start = true;
+    auto started = Convert("ipin", {log.string()}, known);
+    ASSERT_TRUE(started.ok()) << started.status().message();
+    for (const Anchor& a : walk->anchors) {
+      if (a.group == "wifi") EXPECT_EQ(a.floor, beacon_floor);
+    }
+    for (const Anchor& a : started->anchors) {
+      if (a.group == "wifi") EXPECT_EQ(a.floor, started->meta.initial_pose->floor);
+    }
   }
 }
 

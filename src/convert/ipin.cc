@@ -504,16 +504,36 @@ void DescribeAndPlace(const std::string& log_path, const std::vector<Beacon>& be
 
 }  // namespace
 
+// The floor of the beacon whose reading is the walk's strongest (nullopt: none heard, or the
+// beacons have no floors).
+std::optional<int> StrongestBeaconFloor(const Walk& walk) {
+  std::optional<int> floor;
+  double best = -std::numeric_limits<double>::infinity();
+  for (const RssSample& r : walk.rss) {
+    const int a = walk.AnchorIndex(r.anchor_id);
+    if (a < 0 || !walk.anchors[a].floor || !(r.rss > best)) continue;
+    best = r.rss;
+    floor = walk.anchors[a].floor;
+  }
+  return floor;
+}
+
 // The access points heard at least `min_readings` times become anchors of unknown position
 // (group wifi), their readings join the BLE ones in time order (a scan's after the BLE readings
 // of the same time); the others are dropped, counted. Their floor is not known either: on a
-// walk whose beacons have floors they are given the start's (the first landmark's, which IPIN's
-// scoring trials give with the start), a guess that a multi-floor walk can get wrong.
-void AddWifi(IpinLog* log, int min_readings, Walk* walk) {
+// walk whose beacons have floors they are given the start's with --known-start (the first
+// landmark's, which IPIN's scoring trials give with the start), else the floor of the beacon
+// heard strongest (not the truth's: it is not an input then), else 0 — guesses that a
+// multi-floor walk can get wrong (the step graph keeps such an anchor planar unless the walk
+// has a floor loss: walk-format.md, Floors).
+void AddWifi(IpinLog* log, int min_readings, bool known_start, Walk* walk) {
   std::optional<int> floor;
   const bool floors = std::any_of(walk->anchors.begin(), walk->anchors.end(),
                                   [](const Anchor& a) { return a.floor.has_value(); });
-  if (floors && !log->posi.empty()) floor = log->posi.front().floor;
+  if (floors) {
+    floor = known_start && !log->posi.empty() ? log->posi.front().floor
+                                              : StrongestBeaconFloor(*walk).value_or(0);
+  }
   std::map<int, int> count;
   for (const RssSample& r : log->wifi) ++count[r.anchor_id];
   int kept = 0, few = 0, few_readings = 0;
@@ -577,7 +597,9 @@ StatusOr<Walk> ConvertIpin(const std::string& log_path, const std::string& ble_l
   walk.meta.extra["convert.ble_duplicates_dropped"] = log.rss_duplicates;
   walk.meta.extra["convert.ble_non_ibeacon_skipped"] = log.non_ibeacon;
   walk.rss = std::move(log.rss);
-  if (options.ipin_wifi) AddWifi(&log, options.ipin_wifi_min_readings, &walk);
+  if (options.ipin_wifi) {
+    AddWifi(&log, options.ipin_wifi_min_readings, options.known_start, &walk);
+  }
   walk.pressure = std::move(log.pressure);
   walk.meta.extra["convert.pres_repeated_timestamps_dropped"] = log.pressure_repeats;
   if (options.known_start) WG_RETURN_IF_ERROR(ApplyKnownStart(options, log_path, &walk));
