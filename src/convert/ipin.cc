@@ -502,8 +502,6 @@ void DescribeAndPlace(const std::string& log_path, const std::vector<Beacon>& be
   }
 }
 
-}  // namespace
-
 // The floor of the beacon whose reading is the walk's strongest (nullopt: none heard, or the
 // beacons have no floors).
 std::optional<int> StrongestBeaconFloor(const Walk& walk) {
@@ -572,6 +570,8 @@ void AddWifi(IpinLog* log, int min_readings, bool known_start, Walk* walk) {
   x["convert.wifi_duplicates_dropped"] = log->wifi_duplicates;
   x["convert.wifi_id_collisions_dropped"] = static_cast<double>(log->wifi_id_collisions.size());
 }
+
+}  // namespace
 
 StatusOr<Walk> ConvertIpin(const std::string& log_path, const std::string& ble_locations_csv,
                            const ConvertOptions& options, std::vector<std::string>* warnings) {
