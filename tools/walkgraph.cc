@@ -147,6 +147,9 @@ void AddWalkCommands(CLI::App* app, CliArgs* a) {
       ->required();
   survey->add_option("--checkpoint-sigma", a->survey.checkpoint_sigma_m,
                      "1-sigma of a truth sample used as a position factor, m (default 0.5)");
+  survey->add_flag("!--no-pool-disagreement", a->survey.pool_disagreement,
+                   "each anchor keeps its own walks' covariance, not scaled by the walks' median "
+                   "disagreement");
   AddForce(survey);
   survey->callback([a] { a->rc = RunSurvey(a->sources, a->survey, a->out); });
 }

@@ -10,6 +10,12 @@
 // in several walks gets the information-weighted mean of their estimates. The map is an
 // anchors.csv (io.h ReadAnchorsFile): position and a 1σ that is the fused covariance's largest
 // axis, inflated by the walks' disagreement where they disagree beyond their covariances.
+// One walk's covariance is that solve's, from a radio model that is not the truth: where
+// several walks place the same anchors, the median of their disagreements (the map's variance
+// factor, RadioMap::variance_factor, at least 1) measures how far the walks' covariances
+// understate their errors, and every anchor's covariance is scaled by it — an anchor that one
+// walk placed too, which has no disagreement of its own. On the four shared IPIN trials the
+// walks disagree by a factor of 29–1670 (σ 5–41× its solve's).
 #ifndef WALKGRAPH_SURVEY_H_
 #define WALKGRAPH_SURVEY_H_
 
@@ -29,6 +35,9 @@ struct SurveyOptions {
   // At most one waypoint per this span (s) of truth: a continuous truth (simulator, Vicon) would
   // otherwise add hundreds of factors per minute that fix the path no better.
   double checkpoint_spacing_s = 1.0;
+  // Scale every anchor's covariance by the map's variance factor (RadioMap::variance_factor);
+  // false: each keeps its own walks' covariance (scaled by its own disagreement only).
+  bool pool_disagreement = true;
   Status Validate() const;
 };
 
@@ -40,7 +49,8 @@ struct SurveyedAnchor {
   int walks = 0;                                         // walks whose estimate entered
   int readings = 0;                                      // their readings of it
   // Disagreement of the walks' estimates: Σ (p_w − p)ᵀ C_w⁻¹ (p_w − p) / (2 (walks − 1)); 1 when
-  // they agree as their covariances say (0 for one walk). The covariance is scaled by it when > 1.
+  // they agree as their covariances say (0 for one walk). The covariance is scaled by the larger
+  // of it and the map's variance factor.
   double disagreement = 0.0;
 };
 
@@ -48,6 +58,10 @@ struct RadioMap {
   std::vector<Anchor> anchors;          // the map (anchors.csv)
   std::vector<SurveyedAnchor> details;  // per estimated anchor, in the order of `anchors`
   int unobservable = 0;                 // (walk, anchor) estimates declared unobservable
+  // The (upper) median disagreement of the anchors placed by two or more walks, at least 1 (1 when
+  // no anchor is: nothing measures it); every placed anchor's covariance is at least this × its
+  // fused one (SurveyOptions::pool_disagreement).
+  double variance_factor = 1.0;
 };
 
 // The map is in the frame of the first walk with surveyed anchors. A walk in a frame of its own

@@ -435,8 +435,10 @@ py::array_t<double> Stack2x2(const std::vector<Eigen::Matrix2d>& v) {
 void BindSurvey(py::module_& m) {
   m.def(
       "survey",
-      [](const std::vector<Walk>& walks, double checkpoint_sigma_m, double checkpoint_spacing_s) {
+      [](const std::vector<Walk>& walks, double checkpoint_sigma_m, double checkpoint_spacing_s,
+         bool pool_disagreement) {
         SurveyOptions o;
+        o.pool_disagreement = pool_disagreement;
         o.checkpoint_sigma_m = checkpoint_sigma_m;
         o.checkpoint_spacing_s = checkpoint_spacing_s;
         for (const Walk& w : walks) Check(ValidateWalk(w));
@@ -466,12 +468,15 @@ void BindSurvey(py::module_& m) {
         d["readings"] = readings;
         d["disagreement"] = disagreement;
         d["unobservable"] = map->unobservable;
+        d["variance_factor"] = map->variance_factor;
         return d;
       },
       py::arg("walks"), py::arg("checkpoint_sigma_m") = 0.5, py::arg("checkpoint_spacing_s") = 1.0,
+      py::arg("pool_disagreement") = true,
       "A radio map from walks with truth (walkgraph survey): a dict with 'anchors' (an (N, 5) "
       "array id, x_m, y_m, z_m, sigma_m, as walk.anchors takes it) and, per placed anchor, "
-      "'placed_ids', 'covariance' (n, 2, 2), 'walks', 'readings', 'disagreement'.");
+      "'placed_ids', 'covariance' (n, 2, 2), 'walks', 'readings', 'disagreement'; "
+      "'unobservable' and 'variance_factor' (the median disagreement, survey.h).");
   m.def(
       "apply_radio_map",
       [](Walk& walk, const py::handle& anchors) {

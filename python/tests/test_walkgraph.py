@@ -185,6 +185,22 @@ def test_survey_places_unknown_anchors_and_the_map_applies():
     err = np.linalg.norm(m["anchors"][placed, 1:3] - truth[placed, 1:3], axis=1)
     assert err.mean() < 3.0  # the C++ test's figure (tests/survey_test.cc)
     assert np.all(m["anchors"][placed, 4] > 0) and np.all(m["anchors"][~placed, 4] == 0)
+    # The second walk's receiver 8 dB loud: the walks disagree, and every anchor's covariance is
+    # at least the median disagreement times its own (survey.h, variance_factor).
+    loud = [walks[0], walkgraph.simulate("tarrio-circle", 2, {"laps": 1})]
+    loud[1].anchors = walks[1].anchors
+    rss = loud[1].rss.copy()
+    rss[:, 2] += 8.0
+    loud[1].rss = rss
+    pooled, own = walkgraph.survey(loud), walkgraph.survey(loud, pool_disagreement=False)
+    both = np.asarray(pooled["walks"]) == 2
+    d, d_own = np.asarray(pooled["disagreement"]), np.asarray(own["disagreement"])
+    assert own["variance_factor"] == 1.0 and both.any()
+    assert pooled["variance_factor"] == max(1.0, np.sort(d[both])[both.sum() // 2])  # upper median
+    assert pooled["variance_factor"] > 1.0
+    scale = np.maximum(np.maximum(1.0, d_own), pooled["variance_factor"]) / np.maximum(1.0, d_own)
+    np.testing.assert_allclose(pooled["covariance"], scale[:, None, None] * own["covariance"],
+                               rtol=1e-12)
     third = walkgraph.simulate("tarrio-circle", 3, {"laps": 1})
     a = third.anchors.copy()
     a[::2, 1:3] = np.nan

@@ -7,6 +7,7 @@
 
 #include <Eigen/Eigenvalues>
 
+#include "util/median.h"
 #include "util/rigid2d.h"
 #include "util/text.h"
 #include "walkgraph/estimator.h"
@@ -100,7 +101,7 @@ struct WalkEstimate {
   int readings = 0;
 };
 
-// The information-weighted mean of `e` and its covariance, scaled by the disagreement when > 1.
+// The information-weighted mean of `e`, its covariance (not yet scaled) and the disagreement.
 SurveyedAnchor Fuse(int id, const std::vector<WalkEstimate>& e) {
   SurveyedAnchor out;
   out.id = id;
@@ -122,10 +123,17 @@ SurveyedAnchor Fuse(int id, const std::vector<WalkEstimate>& e) {
       chi2 += d.dot(w.c.inverse() * d);
     }
     out.disagreement = chi2 / (2.0 * static_cast<double>(e.size() - 1));
-    if (out.disagreement > 1.0) out.covariance *= out.disagreement;
   }
-  out.covariance = 0.5 * (out.covariance + out.covariance.transpose());
   return out;
+}
+
+// The map's variance factor (RadioMap::variance_factor) of the fused anchors.
+double VarianceFactor(const std::vector<SurveyedAnchor>& fused) {
+  std::vector<double> d;
+  for (const SurveyedAnchor& s : fused) {
+    if (s.walks > 1) d.push_back(s.disagreement);
+  }
+  return d.empty() ? 1.0 : std::max(1.0, internal::Median(std::move(d)));
 }
 
 // A covariance usable for fusion: finite and positive definite.
@@ -197,14 +205,22 @@ StatusOr<RadioMap> SurveyRadioMap(const std::vector<Walk>& walks, const SurveyOp
           {to_map(e.position_m), to_map.R * *e.covariance * to_map.R.transpose(), e.readings});
     }
   }
+  std::vector<SurveyedAnchor> fused;
+  for (const auto& [id, e] : estimates) fused.push_back(Fuse(id, e));
+  if (o.pool_disagreement) map.variance_factor = VarianceFactor(fused);
+  for (SurveyedAnchor& s : fused) {
+    s.covariance *= std::max({1.0, s.disagreement, map.variance_factor});
+    s.covariance = 0.5 * (s.covariance + s.covariance.transpose());
+  }
+  auto next = fused.begin();
   for (const auto& [id, a] : anchor_of) {
     if (a.surveyed()) {
       map.anchors.push_back(a);
       continue;
     }
-    const auto it = estimates.find(id);
-    if (it == estimates.end()) continue;
-    SurveyedAnchor s = Fuse(id, it->second);
+    while (next != fused.end() && next->id < id) ++next;
+    if (next == fused.end() || next->id != id) continue;
+    const SurveyedAnchor& s = *next;
     const double sigma =
         std::sqrt(Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(s.covariance).eigenvalues()(1));
     if (!(sigma > 0.0 && sigma <= kMaxMapSigmaM)) continue;
