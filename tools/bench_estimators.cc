@@ -10,6 +10,8 @@
 //
 //   ./build/tools/bench_estimators --benchmark_filter='fg-batch/hip-16min'
 //   ./build/tools/bench_estimators --wg_summarize DIR   # DIR/*.json → DIR/bench.json + bench.md
+//   ./build/tools/bench_estimators --wg_ipin ../shared/datasets/ipin2023_t3 \
+//       --benchmark_filter='^fg-batch/ipin'    # the IPIN trials, BLE alone and with WiFi
 #include <sys/resource.h>
 #include <sys/utsname.h>
 
@@ -32,6 +34,7 @@
 #include <yaml-cpp/yaml.h>
 #include <nlohmann/json.hpp>
 
+#include "walkgraph/convert.h"
 #include "walkgraph/estimator.h"
 #include "walkgraph/io.h"
 #include "walkgraph/logging.h"
@@ -43,10 +46,19 @@ namespace fs = std::filesystem;
 
 struct WalkSpec {
   std::string name;
-  std::string scenario;  // empty: a walk directory
+  std::string scenario;  // empty: a walk directory, or an IPIN log
   double minutes = 0.0;
   std::string dir;
+  bool ipin_wifi = false;  // dir is the IPIN 2023 Track 3 folder: `convert ipin --known-start`
+  std::string ipin_trial;  // with --wifi when ipin_wifi
 };
+
+// --wg_ipin DIR: the shared IPIN 2023 Track 3 trials as well, BLE alone and with their WiFi
+// access points (issue 44's speed target: fg-batch with WiFi under 2x its BLE-only time).
+std::string& IpinDir() {
+  static std::string dir;
+  return dir;
+}
 
 std::vector<WalkSpec> WalkSpecs() {
   std::vector<WalkSpec> specs;
@@ -56,7 +68,30 @@ std::vector<WalkSpec> WalkSpecs() {
     specs.push_back({"foot-" + m, "prieto-laps", minutes, ""});
   }
   specs.push_back({"plaza1", "", 0.0, std::string(WALKGRAPH_SOURCE_DIR) + "/datasets/plaza1"});
+  if (IpinDir().empty()) return specs;
+  for (const char* trial : {"01", "05", "21", "52"}) {
+    for (bool wifi : {false, true}) {
+      specs.push_back({std::string("ipin") + trial + (wifi ? "-wifi" : "-ble"), "", 0.0, IpinDir(),
+                       wifi, trial});
+    }
+  }
   return specs;
+}
+
+walkgraph::StatusOr<walkgraph::Walk> MakeWalk(const WalkSpec& spec) {
+  if (!spec.ipin_trial.empty()) {
+    walkgraph::ConvertOptions o;
+    o.known_start = true;
+    o.ipin_wifi = spec.ipin_wifi;
+    return walkgraph::Convert(
+        "ipin",
+        {spec.dir + "/IPIN2023_T3_TrainingTrial" + spec.ipin_trial + "_repetition01.txt",
+         spec.dir + "/BLE_Locations.csv"},
+        o);
+  }
+  if (spec.scenario.empty()) return walkgraph::ReadWalk(spec.dir);
+  return walkgraph::SimulateScenario(
+      spec.scenario, 1, YAML::Load("{duration_s: " + std::to_string(spec.minutes * 60.0) + "}"));
 }
 
 // Walks are made once per process, on first use.
@@ -66,12 +101,7 @@ const walkgraph::Walk* GetWalk(const WalkSpec& spec, std::string* error) {
   std::lock_guard<std::mutex> lock(mu);
   auto it = cache.find(spec.name);
   if (it != cache.end()) return it->second.get();
-  walkgraph::StatusOr<walkgraph::Walk> walk =
-      spec.scenario.empty()
-          ? walkgraph::ReadWalk(spec.dir)
-          : walkgraph::SimulateScenario(
-                spec.scenario, 1,
-                YAML::Load("{duration_s: " + std::to_string(spec.minutes * 60.0) + "}"));
+  walkgraph::StatusOr<walkgraph::Walk> walk = MakeWalk(spec);
   if (!walk.ok()) {
     *error = walk.status().message();
     return nullptr;
@@ -250,6 +280,13 @@ int main(int argc, char** argv) {
   walkgraph::InitLogging(argv[0]);
   for (int i = 1; i + 1 < argc; ++i) {
     if (std::strcmp(argv[i], "--wg_summarize") == 0) return Summarize(argv[i + 1]);
+  }
+  for (int i = 1; i + 1 < argc; ++i) {  // --wg_ipin DIR: taken out before Google Benchmark's
+    if (std::strcmp(argv[i], "--wg_ipin") != 0) continue;
+    IpinDir() = argv[i + 1];
+    for (int j = i; j + 2 < argc; ++j) argv[j] = argv[j + 2];
+    argc -= 2;
+    break;
   }
   for (const std::string& id : walkgraph::EstimatorRegistry::Builtin().Ids()) {
     for (const WalkSpec& spec : WalkSpecs()) {
