@@ -192,11 +192,13 @@ int RunSurvey(const std::vector<std::string>& walk_dirs, const walkgraph::Survey
   if (!s.ok()) return Fail(s);
   std::cout << "wrote " << out << ": " << map->details.size() << " anchors placed from "
             << walks.size() << " walks (" << map->anchors.size() - map->details.size()
-            << " surveyed kept; " << map->unobservable
-            << " walk estimates unobservable); variance factor "
-            << walkgraph::internal::Num(map->variance_factor)
-            << " (the walks' disagreement: every anchor's covariance at least that times its "
-               "solve's)\n";
+            << " surveyed kept; " << map->unobservable << " walk estimates unobservable); "
+            << (options.pool_disagreement
+                    ? "variance factor " + walkgraph::internal::Num(map->variance_factor) +
+                          " (the walks' disagreement: every anchor's covariance at least that "
+                          "times its solve's)"
+                    : std::string("variance factor off (--no-pool-disagreement)"))
+            << "\n";
   return 0;
 }
 
