@@ -253,4 +253,64 @@ TEST(Cli, StudyWritesCsvAndHtmlOrFailsWithTheManifestLine) {
   fs::remove_all(dir);
 }
 
+// survey and --radio-map as a user meets them: two simulated walks with every other anchor's
+// position blanked in anchors.csv give a radio map (anchors.csv, survey.csv) and its variance
+// factor; compare on a third such walk takes the map. A walk that lost its truth, and a map that is
+// not there, are errors naming the file, and leave no output.
+TEST(Cli, SurveyWritesARadioMapThatCompareTakes) {
+  const fs::path dir = fs::temp_directory_path() / ("wg_cli_survey_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  std::ofstream(dir / "laps.yaml") << "{laps: 1}\n";
+  auto simulate = [&](int seed) {
+    const fs::path w = dir / ("walk" + std::to_string(seed));
+    CliRun r = Cli("simulate --scenario tarrio-circle --seed " + std::to_string(seed) +
+                   " --config " + (dir / "laps.yaml").string() + " --out " + w.string());
+    EXPECT_EQ(r.code, 0) << r.output;
+    std::ifstream in(w / "anchors.csv");
+    std::string line, text;
+    for (int i = 0; std::getline(in, line); ++i) {
+      if (i > 0 && i % 2 == 1) {  // id,,,z_m: position unknown
+        const size_t c1 = line.find(','), c3 = line.rfind(',');
+        line = line.substr(0, c1) + ",," + line.substr(c3);
+      }
+      text += line + "\n";
+    }
+    in.close();
+    std::ofstream(w / "anchors.csv") << text;
+    return w.string();
+  };
+  const std::string w1 = simulate(1), w2 = simulate(2), w3 = simulate(3);
+  const std::string map = (dir / "map").string();
+  CliRun r = Cli("survey " + w1 + " " + w2 + " --out " + map);
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_THAT(r.output, HasSubstr("anchors placed from 2 walks"));
+  EXPECT_THAT(r.output, HasSubstr("variance factor "));
+  std::ifstream details(dir / "map" / "survey.csv");
+  std::string header;
+  std::getline(details, header);
+  EXPECT_EQ(header, "id,x_m,y_m,cov_xx,cov_xy,cov_yy,walks,readings,disagreement");
+  std::ifstream anchors(dir / "map" / "anchors.csv");
+  std::getline(anchors, header);
+  EXPECT_THAT(header, HasSubstr("sigma_m"));
+
+  const std::string out = (dir / "cmp").string();
+  r = Cli("compare " + w3 + " --radio-map " + map + " --estimators fg-batch --out " + out);
+  EXPECT_EQ(r.code, 0) << r.output;
+  EXPECT_THAT(r.output, HasSubstr("placed by the radio map"));
+  EXPECT_TRUE(fs::exists(dir / "cmp" / "results.json"));
+
+  fs::remove(fs::path(w1) / "truth.csv");
+  r = Cli("survey " + w1 + " " + w2 + " --out " + (dir / "map2").string());
+  EXPECT_EQ(r.code, 1);
+  EXPECT_THAT(r.output, HasSubstr("truth.csv is missing"));
+  EXPECT_FALSE(fs::exists(dir / "map2"));
+  r = Cli("compare " + w3 + " --radio-map " + (dir / "nomap").string() +
+          " --estimators fg-batch --out " + (dir / "cmp2").string());
+  EXPECT_EQ(r.code, 1);
+  EXPECT_THAT(r.output, HasSubstr("nomap"));
+  EXPECT_FALSE(fs::exists(dir / "cmp2"));
+  fs::remove_all(dir);
+}
+
 }  // namespace
