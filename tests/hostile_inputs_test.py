@@ -1185,6 +1185,42 @@ case("utf8-invalid-walk-name", "csv", VALIDATE, setup=utf8_setup, rc=(0, 1), che
 
 
 # =============================================================================================
+# H2. Radio maps: --radio-map MAP reads MAP/anchors.csv as strictly as a walk's anchors.csv and
+#     refuses a map whose surveyed anchors are not the walk's after a rigid motion; exit 1, the
+#     map's file named, no output folder.
+# =============================================================================================
+
+RADIO_MAP = ["compare", "w", "--radio-map", "m", "--estimators", "pdr-only", "--out", "o"]
+
+
+def radio_map(text):
+    return with_walk(lambda ctx: ctx.write("m/anchors.csv", text))
+
+
+case("radio-map-nan-sigma", "radio-map", RADIO_MAP,
+     setup=radio_map("id,x_m,y_m,z_m,sigma_m\n1,0,0,2,0\n4,5,5,2,nan\n"),
+     err=allof(r"m/anchors\.csv:3: ", r"sigma_m"), gone=["o"])
+case("radio-map-negative-sigma", "radio-map", RADIO_MAP,
+     setup=radio_map("id,x_m,y_m,z_m,sigma_m\n1,0,0,2,0\n4,5,5,2,-1\n"),
+     err=allof(r"m/anchors\.csv:3: ", r"sigma_m"), gone=["o"])
+case("radio-map-missing", "radio-map", RADIO_MAP, setup=walk(),
+     err=allof(r"m/anchors\.csv"), gone=["o"])
+case("radio-map-fifo", "radio-map", RADIO_MAP,
+     setup=with_walk(seq(lambda ctx: ctx.mkdir("m"), lambda ctx: ctx.fifo("m/anchors.csv"))),
+     timeout=QUICK,
+     err=regular_file_error("anchors.csv"), gone=["o"])
+case("radio-map-other-building", "radio-map", RADIO_MAP,
+     setup=radio_map("id,x_m,y_m,z_m\n1,0,0,2\n2,20,0,2\n3,0,10,2\n"),
+     err=allof(r"m/anchors\.csv", r"rms"), gone=["o"])
+case("survey-walk-without-truth", "radio-map", ["survey", "w", "--out", "m"],
+     setup=with_walk(lambda ctx: ctx.remove("w/truth.csv")), err=allof(r"truth\.csv"),
+     gone=["m"])
+case("survey-walks-of-two-buildings", "radio-map", ["survey", "w", "w2", "--out", "m"],
+     setup=seq(walk(), walk(dst="w2"), lambda ctx: ctx.set_line("w2/anchors.csv", 3, "2,20,0,2")),
+     err=allof(r"survey: walk 2 of 2 ", r"rms"), gone=["m"])
+
+
+# =============================================================================================
 # I. Long fields: messages never echo more than ~120 characters of one field.
 # =============================================================================================
 

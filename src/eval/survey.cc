@@ -74,19 +74,21 @@ FrameMap FrameBetween(const std::vector<Anchor>& from, const std::vector<Anchor>
 // is centimetres; converters' frames differ by a shift of metres to kilometres.
 constexpr double kMaxFrameRmsM = 0.5;
 
-// The frame map of `walk` onto the survey's reference anchors, or an error naming the walk.
-StatusOr<FrameMap> ToReference(const Walk& walk, const std::vector<Anchor>& reference) {
+// The frame map of `walk` onto the survey's reference anchors, or an error naming the walk
+// (`label`: WalkLabel).
+StatusOr<FrameMap> ToReference(const Walk& walk, const std::string& label,
+                               const std::vector<Anchor>& reference) {
   const FrameMap f = FrameBetween(walk.anchors, reference);
   const bool any_surveyed = std::any_of(walk.anchors.begin(), walk.anchors.end(),
                                         [](const Anchor& a) { return a.surveyed(); });
   if (f.shared == 0 && any_surveyed && !reference.empty()) {
-    return InvalidArgument("survey: walk '" + walk.meta.name +
-                           "' shares no surveyed anchor with the first walk: their frames cannot "
+    return InvalidArgument("survey: " + label +
+                           " shares no surveyed anchor with the first walk: their frames cannot "
                            "be related");
   }
   if (f.rms_m > kMaxFrameRmsM) {
-    return InvalidArgument("survey: walk '" + walk.meta.name +
-                           "': its surveyed anchors differ "
+    return InvalidArgument("survey: " + label +
+                           ": its surveyed anchors differ "
                            "from the first walk's by " +
                            internal::Num(f.rms_m) +
                            " m rms after the best rigid motion (not the same building?)");
@@ -175,11 +177,13 @@ StatusOr<RadioMap> SurveyRadioMap(const std::vector<Walk>& walks, const SurveyOp
     }
     if (!reference.empty()) break;
   }
-  for (const Walk& walk : walks) {
-    WG_ASSIGN_OR_RETURN(const FrameMap to_map, ToReference(walk, reference));
-    if (!walk.has_truth()) {
-      return InvalidArgument("survey: walk '" + walk.meta.name + "' has no truth.csv");
-    }
+  for (size_t i = 0; i < walks.size(); ++i) {
+    const Walk& walk = walks[i];
+    // The walks' names may repeat (copies of one recording): their place in the list as well.
+    const std::string label = "walk " + std::to_string(i + 1) + " of " +
+                              std::to_string(walks.size()) + " ('" + walk.meta.name + "')";
+    WG_ASSIGN_OR_RETURN(const FrameMap to_map, ToReference(walk, label, reference));
+    if (!walk.has_truth()) return InvalidArgument("survey: " + label + " has no truth.csv");
     for (Anchor a : walk.anchors) {
       if (a.position_known) a.position_m.head<2>() = to_map(a.position_m.head<2>());
       anchor_of.emplace(a.id, a);
@@ -190,12 +194,10 @@ StatusOr<RadioMap> SurveyRadioMap(const std::vector<Walk>& walks, const SurveyOp
     }
     const Walk w = WithTruthWaypoints(walk, o);
     if (const Status s = fg->CheckApplicable(w); !s.ok()) {
-      return Status(s.code(), "survey: walk '" + walk.meta.name + "': " + s.message());
+      return Status(s.code(), "survey: " + label + ": " + s.message());
     }
     StatusOr<EstimateResult> r = fg->Run(w);
-    if (!r.ok())
-      return Status(r.status().code(),
-                    "survey: walk '" + walk.meta.name + "': " + r.status().message());
+    if (!r.ok()) return Status(r.status().code(), "survey: " + label + ": " + r.status().message());
     for (const AnchorEstimate& e : r->anchors) {
       if (!e.observable || !e.covariance || !Usable(*e.covariance) || !e.position_m.allFinite()) {
         ++map.unobservable;
