@@ -49,8 +49,10 @@ struct WalkSpec {
   std::string scenario;  // empty: a walk directory, or an IPIN log
   double minutes = 0.0;
   std::string dir;
-  bool ipin_wifi = false;  // dir is the IPIN 2023 Track 3 folder: `convert ipin --known-start`
-  std::string ipin_trial;  // with --wifi when ipin_wifi
+  // Non-empty: dir is the IPIN 2023 Track 3 folder and this trial is converted from it
+  // (`convert ipin --known-start`, with `--wifi` when ipin_wifi).
+  std::string ipin_trial;
+  bool ipin_wifi = false;
 };
 
 // --wg_ipin DIR: the shared IPIN 2023 Track 3 trials as well, BLE alone and with their WiFi
@@ -72,7 +74,7 @@ std::vector<WalkSpec> WalkSpecs() {
   for (const char* trial : {"01", "05", "21", "52"}) {
     for (bool wifi : {false, true}) {
       specs.push_back({std::string("ipin") + trial + (wifi ? "-wifi" : "-ble"), "", 0.0, IpinDir(),
-                       wifi, trial});
+                       trial, wifi});
     }
   }
   return specs;

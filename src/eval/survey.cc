@@ -74,8 +74,8 @@ FrameMap FrameBetween(const std::vector<Anchor>& from, const std::vector<Anchor>
 // is centimetres; converters' frames differ by a shift of metres to kilometres.
 constexpr double kMaxFrameRmsM = 0.5;
 
-// The frame map of `walk` onto the survey's reference anchors, or an error naming the walk
-// (`label`: WalkLabel).
+// The frame map of `walk` onto the survey's reference anchors, or an error naming the walk by
+// `label`.
 StatusOr<FrameMap> ToReference(const Walk& walk, const std::string& label,
                                const std::vector<Anchor>& reference) {
   const FrameMap f = FrameBetween(walk.anchors, reference);
@@ -130,9 +130,9 @@ SurveyedAnchor Fuse(int id, const std::vector<WalkEstimate>& e) {
 }
 
 // The map's variance factor (RadioMap::variance_factor) of the fused anchors.
-double VarianceFactor(const std::vector<SurveyedAnchor>& fused) {
+double VarianceFactor(const std::map<int, SurveyedAnchor>& fused) {
   std::vector<double> d;
-  for (const SurveyedAnchor& s : fused) {
+  for (const auto& [id, s] : fused) {
     if (s.walks > 1) d.push_back(s.disagreement);
   }
   return d.empty() ? 1.0 : std::max(1.0, internal::Median(std::move(d)));
@@ -207,22 +207,21 @@ StatusOr<RadioMap> SurveyRadioMap(const std::vector<Walk>& walks, const SurveyOp
           {to_map(e.position_m), to_map.R * *e.covariance * to_map.R.transpose(), e.readings});
     }
   }
-  std::vector<SurveyedAnchor> fused;
-  for (const auto& [id, e] : estimates) fused.push_back(Fuse(id, e));
+  std::map<int, SurveyedAnchor> fused;
+  for (const auto& [id, e] : estimates) fused[id] = Fuse(id, e);
   if (o.pool_disagreement) map.variance_factor = VarianceFactor(fused);
-  for (SurveyedAnchor& s : fused) {
+  for (auto& [id, s] : fused) {
     s.covariance *= std::max({1.0, s.disagreement, map.variance_factor});
     s.covariance = 0.5 * (s.covariance + s.covariance.transpose());
   }
-  auto next = fused.begin();
   for (const auto& [id, a] : anchor_of) {
     if (a.surveyed()) {
       map.anchors.push_back(a);
       continue;
     }
-    while (next != fused.end() && next->id < id) ++next;
-    if (next == fused.end() || next->id != id) continue;
-    const SurveyedAnchor& s = *next;
+    const auto it = fused.find(id);
+    if (it == fused.end()) continue;
+    const SurveyedAnchor& s = it->second;
     const double sigma =
         std::sqrt(Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(s.covariance).eigenvalues()(1));
     if (!(sigma > 0.0 && sigma <= kMaxMapSigmaM)) continue;
