@@ -153,6 +153,30 @@ TEST(WriteComparison, CountsTheWalksWarningsInResultsJson) {
   EXPECT_TRUE(k["warnings"]["messages"].empty());
 }
 
+// Without a start, waypoints or two heard anchors of known position, errors against the truth
+// hold an arbitrary offset: the comparison says so (not when scored with --align-se2).
+TEST(CompareOnWalk, WarnsWhenNothingTiesTheWalkToTheTruthsFrame) {
+  CompareOptions o;  // every estimator that runs without a start
+  Walk w = SmallWalk();
+  w.meta.initial_pose.reset();
+  auto tied = CompareOnWalk(w, o);  // waypoints and three heard anchors still place it
+  ASSERT_TRUE(tied.ok()) << tied.status().message();
+  EXPECT_TRUE(tied->untied_frame.empty());
+  w.waypoints.clear();
+  for (Anchor& a : w.anchors) a.position_known = a.id == 1;  // one anchor of known position
+  for (Anchor& a : w.anchors) a.sigma_m = 0.0;
+  auto c = CompareOnWalk(w, o);
+  ASSERT_TRUE(c.ok()) << c.status().message();
+  EXPECT_THAT(c->untied_frame, HasSubstr("hears 1 anchor(s) of known position"));
+  EXPECT_EQ(c->warning_count, 1);
+  EXPECT_THAT(FormatComparisonTable(*c), HasSubstr("warning: walk.yaml has no initial_pose"));
+  o.alignment = Alignment::kSE2;
+  auto aligned = CompareOnWalk(w, o);
+  ASSERT_TRUE(aligned.ok()) << aligned.status().message();
+  EXPECT_TRUE(aligned->untied_frame.empty());
+  EXPECT_EQ(aligned->warning_count, 0);
+}
+
 TEST(CompareOnWalk, ScoreFromLeavesOutTheStart) {
   CompareOptions o;
   o.estimator_ids = {"odometry-dr"};

@@ -144,6 +144,10 @@ struct Comparison {
   // every one.
   std::vector<std::string> warnings;
   int warning_count = 0;
+  // Set (and among warnings) when nothing ties an estimate to the truth's frame: no start, no
+  // waypoints, fewer than two heard anchors of known position, scored without --align-se2; the
+  // table (FormatComparisonTable) prints it under the rows.
+  std::string untied_frame;
 };
 
 // The warning messages a Monte Carlo comparison keeps (Comparison::warnings).

@@ -11,6 +11,7 @@
 #include <limits>
 #include <mutex>
 #include <sstream>
+#include <string>
 
 #include <yaml-cpp/yaml.h>
 #include <nlohmann/json.hpp>
@@ -24,6 +25,22 @@ namespace walkgraph {
 namespace fs = std::filesystem;
 
 namespace {
+
+// A walk with truth but no start (walk.yaml initial_pose), no waypoints and fewer than two heard
+// anchors of known position (surveyed or from a radio map) gives no estimator the truth's
+// frame: its errors are scored without alignment all the same, and then hold an arbitrary shift
+// (and, without a magnetometer, turn). Empty when something ties the walk to that frame.
+std::string UntiedFrameWarning(const Walk& walk) {
+  if (walk.truth.empty() || walk.meta.initial_pose || !walk.waypoints.empty()) return "";
+  int heard = 0;
+  for (const Anchor& a : walk.anchors) heard += a.position_known && walk.AnchorReadings(a.id) > 0;
+  if (heard >= 2) return "";
+  return "walk.yaml has no initial_pose, the walk no waypoints.csv and it hears " +
+         std::to_string(heard) +
+         " anchor(s) of known position (2 or more place it): nothing ties an estimate to the "
+         "truth's frame, so these errors include an arbitrary offset; --align-se2 scores the "
+         "shape";
+}
 
 // Removes the errors before t_s (they count as skipped).
 void DropBefore(double t_s, ErrorSeries* e) {
@@ -139,6 +156,10 @@ StatusOr<Comparison> CompareOnWalk(const Walk& walk, const CompareOptions& optio
   }
   c.truth = walk.truth;
   c.warnings = PlausibilityWarnings(walk);
+  if (options.alignment == Alignment::kNone) {
+    c.untied_frame = UntiedFrameWarning(walk);
+    if (!c.untied_frame.empty()) c.warnings.push_back(c.untied_frame);
+  }
   c.warning_count = static_cast<int>(c.warnings.size());
   if (options.compact) {
     c.truth_tum = std::make_shared<internal::TextSpill>();
@@ -449,6 +470,7 @@ std::string FormatComparisonTable(const Comparison& c) {
   } else if (!c.pcrb_note.empty()) {
     out << "PCRB: " << c.pcrb_note << "\n";
   }
+  if (!c.untied_frame.empty()) out << "warning: " << c.untied_frame << "\n";
   for (const EstimatorOutcome& o : c.outcomes) {
     if (o.diverged_runs > 0 && o.Ranked()) {
       out << o.id << ": " << o.diverged_runs << " of " << c.runs << " runs diverged ("
