@@ -162,6 +162,24 @@ TEST(ReportPage, NeverMarksBestAnEstimatorScoredOnPartOfTheWalk) {
   EXPECT_THAT(r.html, Not(HasSubstr("never marked best")));  // every estimator spans the walk
 }
 
+// The walk's warnings (Comparison::warnings) stand under the table, escaped, with how many
+// more results.json counts; a walk without any has no warnings block.
+TEST(ReportPage, ShowsTheWalksWarningsUnderTheTable) {
+  Report r = MakeReport();
+  r.comparison.warnings = {"rss.csv:7: a <reading> & more", "walk.yaml: no initial_pose"};
+  r.comparison.warning_count = 5;
+  const std::string html = RenderHtmlReport(r.comparison);
+  const std::string block = Between(html, "<div id=\"warnings\"", "</div>");
+  EXPECT_THAT(block, HasSubstr("<b>Warnings</b> (5)"));
+  EXPECT_THAT(block, HasSubstr("<li>rss.csv:7: a &lt;reading&gt; &amp; more</li>"));
+  EXPECT_THAT(block, HasSubstr("<li>walk.yaml: no initial_pose</li>"));
+  EXPECT_THAT(block, HasSubstr("and 3 more (counted in results.json)"));
+  EXPECT_LT(html.find("</table>"), html.find("<div id=\"warnings\""));
+  r.comparison.warnings.clear();
+  r.comparison.warning_count = 0;
+  EXPECT_THAT(RenderHtmlReport(r.comparison), Not(HasSubstr("id=\"warnings\"")));
+}
+
 // ANEES is best closest to 2 in ratio: 1.5 (1.33x too cautious) beats 2.8 (1.4x too
 // confident), and 0.01 (a covariance that says nothing) beats nobody at 9.
 TEST(ReportPage, AneesIsBestClosestToTwoInRatio) {

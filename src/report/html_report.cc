@@ -229,6 +229,19 @@ std::string DataJson(const Comparison& c, const std::vector<LineStyle>& styles) 
   return s.str();
 }
 
+// What the walk holds that is unusual but accepted, and an estimate's frame that nothing ties
+// to the truth's (Comparison::warnings), under the table; empty when there is none.
+std::string WarningsHtml(const Comparison& c) {
+  if (c.warnings.empty()) return "";
+  std::ostringstream s;
+  s << "<div id=\"warnings\" class=\"warn\"><b>Warnings</b> (" << c.warning_count << ")<ul>\n";
+  for (const std::string& w : c.warnings) s << "<li>" << Escape(w) << "</li>\n";
+  const int more = c.warning_count - static_cast<int>(c.warnings.size());
+  if (more > 0) s << "<li>and " << more << " more (counted in results.json)</li>\n";
+  s << "</ul></div>\n";
+  return s.str();
+}
+
 }  // namespace
 
 std::string RenderHtmlReport(const Comparison& c) {
@@ -241,6 +254,7 @@ std::string RenderHtmlReport(const Comparison& c) {
     << "</style></head>\n<body>\n";
   s << "<h1>walkgraph comparison: " << Escape(c.walk_name) << "</h1>\n";
   s << report::ResultsTableHtml(c, styles);
+  s << WarningsHtml(c);
   s << report::kReportBody;
   // The series as JSON ("<" is escaped in its strings, the rest are numbers).
   s << "<script type=\"application/json\" id=\"wg-data\">" << DataJson(c, styles)

@@ -28,6 +28,7 @@ td.best{font-weight:700;background:#e6f4e6}td.best::after{content:" \2605";color
 tr.est{cursor:pointer}tr.est.hl td{background:#fff3c4}tr.off td{color:#aaa}
 .sw{display:inline-block;width:12px;height:12px;margin:0 5px -1px 3px;border:1px solid #0003}
 .summary{font-size:15px}.hint,.note{font-size:12px;color:#555}
+.warn{font-size:13px;color:#8a4b00;margin-top:8px}.warn ul{margin:2px 0 0 0}
 #plots{display:grid;grid-template-columns:210px 1fr;gap:12px;align-items:start;margin-top:12px}
 #legend{position:sticky;top:4px;font-size:12px;border:1px solid #ccc;padding:6px;background:#fff}
 #legend div.it{cursor:pointer;white-space:nowrap;line-height:18px}#legend div.it.off{opacity:.35}
