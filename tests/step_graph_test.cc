@@ -668,6 +668,8 @@ TEST(StepGraphTest, OptionsAreStrict) {
   EXPECT_TRUE(reg.Create("fg-window", YAML::Load("{window_function_tolerance: 1e-6}")).ok());
   EXPECT_FALSE(reg.Create("fg-window", YAML::Load("{window_linear_solver: cg}")).ok());
   EXPECT_TRUE(reg.Create("fg-window", YAML::Load("{window_linear_solver: sparse}")).ok());
+  EXPECT_FALSE(reg.Create("fg-batch", YAML::Load("{linear_solver: cg}")).ok());
+  EXPECT_TRUE(reg.Create("fg-batch", YAML::Load("{linear_solver: sparse}")).ok());
   EXPECT_FALSE(reg.Create("fg-batch", YAML::Load("{pdr: {detector: nope}}")).ok());
   EXPECT_FALSE(reg.Create("fg-batch", YAML::Load("{level_sigma_m: -0.1}")).ok());
   EXPECT_FALSE(reg.Create("fg-batch", YAML::Load("{floor_sigma_m: -1}")).ok());

@@ -180,6 +180,8 @@ void ReadSolverKeys(ConfigReader& r, StepGraphOptions* o) {
          "fg-batch: LM starting trust-region radius");
   r.Read("function_tolerance", &o->function_tolerance, "fg-batch: Ceres relative cost-change stop");
   r.Read("parameter_tolerance", &o->parameter_tolerance, "fg-batch: Ceres relative step-size stop");
+  r.ReadEnum("linear_solver", &o->linear_solver, WindowLinearSolverNames(),
+             "fg-batch: linear solver of its solves");
   r.Read("num_threads", &o->num_threads, "Ceres threads per solve");
   r.Read("covariance", &o->covariance,
          "compute each node's (position, heading) covariance for the output");
@@ -337,6 +339,8 @@ Status CheckStepGraphOptions(const StepGraphOptions& o, const std::string& conte
       CheckEnumOption(WindowOutputNames(), o.window_output, "window_output", context));
   WG_RETURN_IF_ERROR(CheckEnumOption(WindowLinearSolverNames(), o.window_linear_solver,
                                      "window_linear_solver", context));
+  WG_RETURN_IF_ERROR(
+      CheckEnumOption(WindowLinearSolverNames(), o.linear_solver, "linear_solver", context));
   if (o.path_loss != PathLossMode::kAuto && o.path_loss != PathLossMode::kFixed &&
       o.rss_residual != RssResidual::kDb) {
     return InvalidArgument(context + ": path-loss self-calibration needs rss_residual 'db'");

@@ -186,7 +186,14 @@ SolverOptions BatchSolverOptions(const StepGraphOptions& o) {
   so.function_tolerance = o.function_tolerance;
   so.parameter_tolerance = o.parameter_tolerance;
   so.num_threads = o.num_threads;
+  SetLinearSolver(o.linear_solver, &so);
   return so;
+}
+
+void SetLinearSolver(WindowLinearSolver choice, SolverOptions* so) {
+  so->linear_solver = choice == WindowLinearSolver::kDense ? LinearSolver::kDenseNormalCholesky
+                                                           : LinearSolver::kSparseNormalCholesky;
+  so->eigen_sparse = choice == WindowLinearSolver::kEigenSparse;
 }
 
 // The start hypotheses of StepGraphOptions::start_estimators (StepGraph::HypothesesFrom) over

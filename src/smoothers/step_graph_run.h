@@ -57,6 +57,9 @@ SearchSetup SearchOptions(const Walk& walk, const StepGraphOptions& o,
 // fg-batch's solver options (the window's first-window solve uses them too).
 SolverOptions BatchSolverOptions(const StepGraphOptions& o);
 
+// The solver options' linear solver (and sparse library) for a choice of StepGraphOptions.
+void SetLinearSolver(WindowLinearSolver choice, SolverOptions* so);
+
 // A start hypothesis: its name in the diagnostics (start_hypothesis_cost.<name>), every node's
 // initial (p, θ) (or the first nodes'), and 1 + its estimator's place in start_estimators (0:
 // not an estimator's).

@@ -68,10 +68,7 @@ FixedLagSmoother::Options WindowSmootherOptions(const StepGraphOptions& o) {
   so.marginalize_batch_s = o.window_marginalize_batch_s;
   so.solver.initial_trust_region_radius = o.window_initial_trust_region_radius;
   so.solver.max_iterations = o.window_max_iterations;
-  so.solver.linear_solver = o.window_linear_solver == WindowLinearSolver::kDense
-                                ? LinearSolver::kDenseNormalCholesky
-                                : LinearSolver::kSparseNormalCholesky;
-  so.solver.eigen_sparse = o.window_linear_solver == WindowLinearSolver::kEigenSparse;
+  internal::SetLinearSolver(o.window_linear_solver, &so.solver);
   so.solver.function_tolerance = o.window_function_tolerance;
   so.solver.parameter_tolerance = o.parameter_tolerance;
   so.solver.num_threads = o.num_threads;
