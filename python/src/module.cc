@@ -324,8 +324,9 @@ void BindCompare(py::module_& m) {
   m.def(
       "compare",
       [](const py::object& walk_or_scenario, const py::object& estimators, int runs, uint64_t seed,
-         const py::object& config, const py::object& out) {
+         const py::object& config, const py::object& out, bool align_se2) {
         CompareOptions o;
+        o.alignment = align_se2 ? Alignment::kSE2 : Alignment::kNone;
         o.estimator_ids = EstimatorIds(estimators);
         o.configs = ConfigsById(config);
         const std::optional<std::string> dir =
@@ -356,8 +357,10 @@ void BindCompare(py::module_& m) {
       },
       py::arg("walk_or_scenario"), py::arg("estimators") = py::none(), py::arg("runs") = 1,
       py::arg("seed") = 0, py::arg("config") = py::none(), py::arg("out") = py::none(),
+      py::arg("align_se2") = false,
       "Runs estimators side by side; returns results.json's content as a dict. out= also "
-      "writes the report folder.");
+      "writes the report folder. align_se2: score each estimate after the rotation and "
+      "translation that best fit it to the truth (the CLI's --align-se2).");
 }
 
 // read_walk, write_walk.

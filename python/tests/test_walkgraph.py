@@ -152,6 +152,21 @@ def test_compare_counts_the_walks_warnings():
     assert "radio: eta 7.5 outside [1.5, 6]" in res["warnings"]["messages"][1]
 
 
+def test_compare_scores_after_alignment_and_warns_of_an_untied_frame():
+    w = walkgraph.read_walk(VALID_SMALL)
+    w.initial_pose = None
+    w.waypoints = np.zeros((0, 4))
+    w.rss = w.rss[w.rss[:, 1] == 1]  # one heard anchor: nothing ties the walk to the truth's frame
+    plain = walkgraph.compare(w, ["fg-batch"])
+    assert plain["warnings"]["count"] == 1
+    assert "nothing ties an estimate to the truth's frame" in plain["warnings"]["messages"][0]
+    aligned = walkgraph.compare(w, ["fg-batch"], align_se2=True)
+    assert aligned["warnings"]["count"] == 0
+    e = walkgraph.run("fg-batch", w)
+    err = walkgraph.errors(e, w, align_se2=True)
+    assert abs(aligned["estimators"]["fg-batch"]["rmse_m"] - err["stats"]["rmse_m"]) < 1e-9
+
+
 def test_simulate_pcrb_and_monte_carlo_compare():
     w = walkgraph.simulate("tarrio-circle", 3, {"duration_s": 30})
     assert w.imu.shape[0] > 1000 and w.truth.shape[0] > 10
