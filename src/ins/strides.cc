@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <iterator>
+#include <limits>
 #include <map>
 #include <string>
 
@@ -102,10 +103,12 @@ Status CheckOptions(const StrideOptions& o) {
       o.gyro_bias_rw_radps_sqrts < 0 || !(o.zupt_sigma_mps > 0) || !(o.zaru_sigma_radps > 0) ||
       o.tilt_sigma_rad < 0 || o.min_stance_s < 0 || o.min_swing_s < 0 || o.min_sigma_length_m < 0 ||
       !(o.scale_noise >= 0 && o.scale_noise < 1) || !(o.max_median_zupt_nis > 0) ||
-      o.min_sigma_heading_rad < 0 || o.min_sigma_dheading_rad < 0) {
+      !(o.zupt_gross_gate_ratio >= 0) || o.min_sigma_heading_rad < 0 ||
+      o.min_sigma_dheading_rad < 0) {
     return InvalidArgument(
         "strides: need gravity, white noises, pseudo-measurement sigmas and "
-        "max_median_zupt_nis > 0, scale_noise in [0, 1), every other sigma and duration >= 0");
+        "max_median_zupt_nis > 0, scale_noise in [0, 1), zupt_gross_gate_ratio and every other "
+        "sigma and duration >= 0");
   }
   return Status::Ok();
 }
@@ -356,6 +359,9 @@ StatusOr<StrideOptions> StrideOptionsFromYaml(const YAML::Node& node, const Stri
   r.Read("max_median_zupt_nis", &o.max_median_zupt_nis,
          "adapted scale noise: largest median NIS of the stances' first ZUPTs");
   r.Read("zupt_sigma_mps", &o.zupt_sigma_mps, "ZUPT std-dev per axis (OpenShoe)");
+  r.Read("zupt_gross_gate_ratio", &o.zupt_gross_gate_ratio,
+         "a stance run's ZUPTs are not applied while their NIS exceeds this many times the "
+         "walk's median first-ZUPT NIS so far (0: no gate)");
   r.Read("zaru_sigma_radps", &o.zaru_sigma_radps, "ZARU std-dev per axis (the gyro's white noise)");
   r.Read("use_zaru", &o.use_zaru, "zero angular-rate updates when still");
   r.Read("tilt_sigma_rad", &o.tilt_sigma_rad, "std-dev of the levelled initial roll/pitch");
@@ -394,22 +400,23 @@ struct ZuptInsFilter {
   std::vector<Eigen::MatrixXd> bank;
 
   // The update's NIS goes to *nis, the bank's (per rung) to *bank_nis, when given.
-  // A gated update (gate_probability > 0, kalman.h) changes nothing and returns false in
-  // *accepted.
+  // A gated update (its NIS above max_nis) changes nothing and returns false in *accepted.
   Status Update(const Eigen::VectorXd& innovation, const Eigen::MatrixXd& H, double sigma,
                 double* nis = nullptr, std::vector<double>* bank_nis = nullptr,
-                double gate_probability = 0.0, bool* accepted = nullptr) {
+                double max_nis = std::numeric_limits<double>::infinity(),
+                bool* accepted = nullptr) {
     Eigen::VectorXd dx = Eigen::VectorXd::Zero(kN);
     const Eigen::MatrixXd R =
         Eigen::MatrixXd::Identity(innovation.size(), innovation.size()) * (sigma * sigma);
     if (bank_nis != nullptr) bank_nis->clear();
-    if (gate_probability > 0.0) {
+    if (std::isfinite(max_nis)) {
       Eigen::VectorXd dx_test = Eigen::VectorXd::Zero(kN);
       Eigen::MatrixXd P_test = P;
       WG_ASSIGN_OR_RETURN(const UpdateOutcome test,
-                          KalmanUpdate(innovation, H, R, gate_probability, &dx_test, &P_test));
-      if (accepted != nullptr) *accepted = test.accepted;
-      if (!test.accepted) return Status::Ok();
+                          KalmanUpdate(innovation, H, R, 0.0, &dx_test, &P_test));
+      const bool pass = test.nis <= max_nis;
+      if (accepted != nullptr) *accepted = pass;
+      if (!pass) return Status::Ok();
     }
     for (Eigen::MatrixXd& Pr : bank) {
       Eigen::VectorXd dx_r = Eigen::VectorXd::Zero(kN);
@@ -524,11 +531,19 @@ class ZuptInsModel final : public ErrorStateModel {
       double nis = 0.0;
       std::vector<double> bank_nis;
       const bool hypothesis = !out_.stance.hypothesis.empty() && out_.stance.hypothesis[k];
+      if (k == 0 || !out_.zupt[k - 1]) run_applied_ = run_gated_ = false;
       bool accepted = true;
-      WG_RETURN_IF_ERROR(f_.Update(-f_.x.v_n, H_zupt_, o_.zupt_sigma_mps, &nis, &bank_nis,
-                                   hypothesis ? kHypothesisGate : 0.0, &accepted));
-      if (!accepted) ++out_.hypotheses_gated;
+      WG_RETURN_IF_ERROR(
+          f_.Update(-f_.x.v_n, H_zupt_, o_.zupt_sigma_mps, &nis, &bank_nis,
+                    hypothesis ? ChiSquareQuantile(kHypothesisGate, 3) : GrossGate(k), &accepted));
+      if (!accepted && hypothesis) ++out_.hypotheses_gated;
+      if (!accepted && !hypothesis && !run_gated_) ++out_.runs_gated;
+      run_gated_ = run_gated_ || (!accepted && !hypothesis);
       if (accepted && k > 0 && !out_.zupt[k - 1]) FirstZupt(nis, bank_nis);
+      if (accepted) {
+        run_applied_ = true;
+        last_applied_t_ = imu_[k].t_s;
+      }
     }
     if (zaru_ && out_.stance.still[k]) {
       WG_RETURN_IF_ERROR(f_.Update(imu_[k].gyro_radps - f_.bg, H_zaru_, o_.zaru_sigma_radps));
@@ -546,6 +561,20 @@ class ZuptInsModel final : public ErrorStateModel {
   }
 
  private:
+  // The largest NIS of a ZUPT at sample k that is applied (StrideOptions::
+  // zupt_gross_gate_ratio); infinity: no gate.
+  double GrossGate(size_t k) const {
+    const double inf = std::numeric_limits<double>::infinity();
+    if (!(o_.zupt_gross_gate_ratio > 0.0) || run_applied_ ||
+        out_.first_zupt_nis.size() < kBankStances ||
+        !(imu_[k].t_s - last_applied_t_ <= o_.stance.gait_max_gap_s)) {
+      return inf;
+    }
+    constexpr double kChiSquare3Median = 2.366;
+    return o_.zupt_gross_gate_ratio *
+           std::max(kChiSquare3Median, internal::Median(out_.first_zupt_nis));
+  }
+
   // Records a first-ZUPT NIS. Causal adaptation: at each of the first kBankStances first ZUPTs,
   // the least rung whose median NIS over them so far is at most max_median_zupt_nis (from the
   // bank); after them, one rung up whenever the median of the last kCausalNisCount exceeds it.
@@ -581,6 +610,9 @@ class ZuptInsModel final : public ErrorStateModel {
   size_t rung_ = 0;        // causal adaptation: index of f_.scale_noise in kScaleNoiseLadder
   std::vector<std::vector<double>> bank_nis_;  // per rung, the first ZUPTs' NIS so far
   std::vector<double> recent_nis_;
+  bool run_applied_ = false;  // a ZUPT of the current stance run was applied
+  bool run_gated_ = false;    // one was turned down by the gross-error gate
+  double last_applied_t_ = -std::numeric_limits<double>::infinity();
   ZuptInsFilter f_;
   StrapdownOptions sd_;
   StrideEmitter strides_;
@@ -684,6 +716,7 @@ void AddFrontEndDiagnostics(const ZuptInsSolution& front,
   d["stance_cycle_minima"] = static_cast<double>(cycles);
   d["stance_hypotheses"] = static_cast<double>(hypotheses);
   d["stance_hypotheses_gated"] = static_cast<double>(front.hypotheses_gated);
+  d["stance_runs_gated"] = static_cast<double>(front.runs_gated);
   d["scale_noise"] = front.scale_noise.empty() ? 0.0 : front.scale_noise.back();
 }
 
