@@ -107,6 +107,53 @@ TEST(StanceTest, StillOnlyDuringTheStandstill) {
   EXPECT_EQ(still_standing, standing);
 }
 
+// A gyro 3.6× noisier than the presets' (0.02 rad/s per reading): ‖ω‖ at rest reaches past the
+// fixed 0.05 rad/s, so without still_adaptive no sample of the 10-s standstill the walk starts
+// with is still; with it the standstill is, and no sample of the swings.
+TEST(StanceTest, StillFollowsTheGyrosOwnNoise) {
+  auto w = SimulateScenario("jimenez-building", 1,
+                            YAML::Load("{duration_s: 60, gyro_noise_radps: 0.02}"));
+  ASSERT_TRUE(w.ok()) << w.status().ToString();
+  auto labels = StanceLabelsAtImu(*w, 0.02);
+  ASSERT_TRUE(labels.ok());
+  for (const bool causal : {false, true}) {
+    for (const bool adaptive : {true, false}) {
+      StanceOptions o = StrideOptions::DefaultStance();
+      o.still_adaptive = adaptive;
+      o.adaptive_causal = causal;
+      if (causal) o.adaptive_window_s = 60.0;
+      auto m = DetectStance(*w, o);
+      ASSERT_TRUE(m.ok()) << m.status().ToString();
+      int still_standing = 0, standing = 0, still_swing = 0;
+      for (size_t i = 0; i < w->imu.size(); ++i) {
+        const double t = w->imu[i].t_s;
+        if (t > 1.0 && t < 9.0) {
+          ++standing;
+          still_standing += m->still[i];
+        }
+        still_swing += m->still[i] && !(*labels)[i];
+      }
+      std::printf("causal %d adaptive %d: still %d of %d standstill samples, %d in swings\n",
+                  causal, adaptive, still_standing, standing, still_swing);
+      EXPECT_EQ(still_swing, 0);
+      if (adaptive) {
+        EXPECT_GT(still_standing, 0.75 * standing);  // measured 698 of 799
+      } else {
+        EXPECT_LT(still_standing, 0.1 * standing);  // the failure the adaptation is for
+      }
+    }
+  }
+  // The presets' gyro: the thresholds stay the options' (5σ ≈ 0.03 < 0.05 rad/s).
+  auto quiet = SimulateScenario("jimenez-building", 1, YAML::Load("{duration_s: 30}"));
+  ASSERT_TRUE(quiet.ok());
+  StanceOptions fixed = StrideOptions::DefaultStance();
+  fixed.still_adaptive = false;
+  auto a = DetectStance(*quiet, StrideOptions::DefaultStance());
+  auto b = DetectStance(*quiet, fixed);
+  ASSERT_TRUE(a.ok() && b.ok());
+  EXPECT_EQ(a->still, b->still);
+}
+
 TEST(StanceTest, ThresholdSearchTradesPrecisionForRecall) {
   const Walk w = MakeFootWalk(3);
   StanceOptions o;

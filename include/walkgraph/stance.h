@@ -64,7 +64,8 @@
 // arrhythmic walk (turning on the spot, single steps) has no period.
 //
 // ZARU "still" (004): the whole foot at rest — over a centred window of still_window_s,
-// max ‖ω‖ < still_gyro_radps and the std of ‖a‖ < still_acc_std_mps2.
+// max ‖ω‖ < still_gyro_radps (raised to the gyro's own noise, still_adaptive) and the std of
+// ‖a‖ < still_acc_std_mps2.
 #ifndef WALKGRAPH_STANCE_H_
 #define WALKGRAPH_STANCE_H_
 
@@ -125,6 +126,14 @@ struct StanceOptions {
   double still_window_s = 1.0;
   double still_gyro_radps = 0.05;
   double still_acc_std_mps2 = 0.1;
+  // still_gyro_radps is a floor: it is raised to 5× the gyro's white noise — the per-axis std of
+  // the rate's first differences over √2, in the walk's quietest still_window_s window (causal:
+  // the quietest so far), which a slow motion hardly changes — at most 4× still_gyro_radps.
+  // A noisier gyro than the presets' kept ‖ω‖ at rest above 0.05 rad/s, so no sample was still,
+  // no ZARU tied the gyro bias, and the foot-INS graph lost its heading: simulated
+  // jimenez-building with a gyro noise of 0.02 rad/s per reading (the presets' 0.0055), IMU
+  // alone, fg-ins-batch diverged / 1.96 m on seeds 1 / 2.
+  bool still_adaptive = true;
 
   // The threshold of the selected detector (γ, th_σ for the multi-condition detector, α =
   // adaptive_fraction for the adaptive one).

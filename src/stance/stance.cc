@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <utility>
 
 #include "config/reader.h"
 #include "stance/stance_yaml.h"
@@ -82,6 +83,46 @@ std::vector<double> LocalStd(const std::vector<double>& x, int window) {
     double v = 0.0;
     for (long j = a; j <= b; ++j) v += (x[j] - m) * (x[j] - m);
     out[i] = std::sqrt(v / static_cast<double>(b - a + 1));
+  }
+  return out;
+}
+
+// The ZARU still gyro threshold per sample (stance.h, still_adaptive): still_gyro_radps, raised
+// to kStillGyroNoiseK times the gyro's white noise, at most kStillMaxFactor times
+// still_gyro_radps. The noise of a window of `window` samples (windows every window/2) is the
+// RMS over the axes of std(ω_k − ω_{k−1})/√2: white noise's σ, while a slow motion (a foot
+// standing and swaying) adds little to it; the walk's is its quietest window's (causal: among
+// the windows that end by the sample's centred window).
+constexpr double kStillGyroNoiseK = 5.0, kStillMaxFactor = 4.0;
+std::vector<double> StillGyroThresholds(const Walk& walk, int window, const StanceOptions& o) {
+  const size_t n = walk.imu.size(), w = static_cast<size_t>(window);
+  std::vector<double> out(n, o.still_gyro_radps);
+  if (!o.still_adaptive || w < 2 || n < w + 1) return out;
+  std::vector<std::pair<size_t, double>> noise;  // (last sample, σ) per window
+  for (size_t s = 1; s + w <= n; s += std::max<size_t>(1, w / 2)) {
+    Eigen::Vector3d mean = Eigen::Vector3d::Zero(), sq = Eigen::Vector3d::Zero();
+    for (size_t j = s; j < s + w; ++j) {
+      const Eigen::Vector3d d = walk.imu[j].gyro_radps - walk.imu[j - 1].gyro_radps;
+      mean += d;
+      sq += d.cwiseProduct(d);
+    }
+    const double k = static_cast<double>(w);
+    mean /= k;
+    const double var = (sq / k - mean.cwiseProduct(mean)).cwiseMax(0.0).mean() / 2.0;
+    noise.push_back({s + w - 1, std::sqrt(var)});
+  }
+  double least = std::numeric_limits<double>::infinity();
+  if (!o.adaptive_causal) {
+    for (const auto& [end, sigma] : noise) least = std::min(least, sigma);
+  }
+  size_t next = 0;
+  for (size_t i = 0; i < n; ++i) {
+    for (; o.adaptive_causal && next < noise.size() && noise[next].first <= i + w / 2; ++next) {
+      least = std::min(least, noise[next].second);
+    }
+    if (!std::isfinite(least)) continue;  // causal: no window yet
+    out[i] = std::clamp(kStillGyroNoiseK * least, o.still_gyro_radps,
+                        kStillMaxFactor * o.still_gyro_radps);
   }
   return out;
 }
@@ -486,6 +527,9 @@ StatusOr<StanceOptions> StanceOptionsFromYaml(const YAML::Node& node, const Stan
   r.Read("still_gyro_radps", &o.still_gyro_radps, "ZARU still detection: largest angular rate");
   r.Read("still_acc_std_mps2", &o.still_acc_std_mps2,
          "ZARU still detection: largest acceleration std-dev");
+  r.Read("still_adaptive", &o.still_adaptive,
+         "ZARU still detection: raise the angular-rate threshold to 5x the gyro's white noise "
+         "(from the walk's quietest window), at most 4x still_gyro_radps");
   WG_RETURN_IF_ERROR(r.Finish());
   WG_RETURN_IF_ERROR(o.Validate());
   return o;
@@ -559,13 +603,14 @@ StatusOr<StanceMask> DetectStance(const Walk& walk, const StanceOptions& o) {
   double dt = (walk.imu.back().t_s - walk.imu.front().t_s) / static_cast<double>(n - 1);
   const int still_w = std::max(1, static_cast<int>(std::lround(o.still_window_s / dt)));
   const std::vector<double> sd = LocalStd(acc_norm, still_w);
+  const std::vector<double> still_gyro = StillGyroThresholds(walk, still_w, o);
   const long h = still_w / 2;
   m.still.resize(n);
   for (long i = 0; i < static_cast<long>(n); ++i) {
     const long a = std::max(0L, i - h), b = std::min(static_cast<long>(n) - 1, i + h);
     double max_w = 0.0;
     for (long j = a; j <= b; ++j) max_w = std::max(max_w, walk.imu[j].gyro_radps.norm());
-    m.still[i] = max_w < o.still_gyro_radps && sd[i] < o.still_acc_std_mps2;
+    m.still[i] = max_w < still_gyro[i] && sd[i] < o.still_acc_std_mps2;
   }
   return m;
 }
