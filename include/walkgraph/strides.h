@@ -112,9 +112,9 @@ struct StrideOptions {
   double zupt_sigma_mps = 0.01;
   // Gross-error gate of a stance's ZUPTs (issue 40; 0 = none): until one of a stance run's
   // samples has been applied, a ZUPT whose NIS exceeds zupt_gross_gate_ratio times the walk's
-  // median first-ZUPT NIS so far (at least χ²(3)'s median 2.366) is not applied: the filter is
-  // sure the foot moves there. Only once the walk has 10 first-ZUPT NIS, and only within
-  // stance.gait_max_gap_s of the last applied ZUPT: after longer without one the predicted
+  // median first-ZUPT NIS so far (at least χ²(3)'s median 2.366; before the walk has 10 of
+  // them, max_median_zupt_nis) is not applied: the filter is sure the foot moves there. Only
+  // within stance.gait_max_gap_s of the last applied ZUPT: after longer without one the predicted
   // velocity is no longer trusted, and the ZUPT is applied whatever its NIS. Why: the gait
   // detector puts one stance in every stride period, so a stride longer than the period (the
   // first from a standstill, a leap) gets one inside its swing, which the filter took at full

@@ -566,13 +566,16 @@ class ZuptInsModel final : public ErrorStateModel {
   double GrossGate(size_t k) const {
     const double inf = std::numeric_limits<double>::infinity();
     if (!(o_.zupt_gross_gate_ratio > 0.0) || run_applied_ ||
-        out_.first_zupt_nis.size() < kBankStances ||
         !(imu_[k].t_s - last_applied_t_ <= o_.stance.gait_max_gap_s)) {
       return inf;
     }
+    // The walk's NIS scale: its median first-ZUPT NIS once it has kBankStances of them; before,
+    // the largest median the scale-noise adaptation accepts.
     constexpr double kChiSquare3Median = 2.366;
-    return o_.zupt_gross_gate_ratio *
-           std::max(kChiSquare3Median, internal::Median(out_.first_zupt_nis));
+    const double scale = out_.first_zupt_nis.size() < kBankStances
+                             ? o_.max_median_zupt_nis
+                             : internal::Median(out_.first_zupt_nis);
+    return o_.zupt_gross_gate_ratio * std::max(kChiSquare3Median, scale);
   }
 
   // Records a first-ZUPT NIS. Causal adaptation: at each of the first kBankStances first ZUPTs,
