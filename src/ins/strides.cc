@@ -571,11 +571,10 @@ class ZuptInsModel final : public ErrorStateModel {
     }
     // The walk's NIS scale: its median first-ZUPT NIS once it has kBankStances of them; before,
     // the largest median the scale-noise adaptation accepts.
-    constexpr double kChiSquare3Median = 2.366;
     const double scale = out_.first_zupt_nis.size() < kBankStances
                              ? o_.max_median_zupt_nis
                              : internal::Median(out_.first_zupt_nis);
-    return o_.zupt_gross_gate_ratio * std::max(kChiSquare3Median, scale);
+    return o_.zupt_gross_gate_ratio * std::max(chi_square_3_median_, scale);
   }
 
   // Records a first-ZUPT NIS. Causal adaptation: at each of the first kBankStances first ZUPTs,
@@ -616,6 +615,7 @@ class ZuptInsModel final : public ErrorStateModel {
   bool run_applied_ = false;  // a ZUPT of the current stance run was applied
   bool run_gated_ = false;    // one was turned down by the gross-error gate
   double last_applied_t_ = -std::numeric_limits<double>::infinity();
+  const double chi_square_3_median_ = ChiSquareQuantile(0.5, 3);  // 2.366
   ZuptInsFilter f_;
   StrapdownOptions sd_;
   StrideEmitter strides_;
