@@ -474,10 +474,52 @@ TEST(InsGraphBatch, GapFactorsTieTheStatesEitherSideOfAnImuGap) {
   EXPECT_EQ(count(f, InsFactorKind::kGapMagneticHeading), 0);
 }
 
+// A walk with no standstill at all (jimenez-building, 40 s, start_still_s and end_still_s 0),
+// the IMU alone (magnetometer, radio and start removed, scored after SE(2) alignment): no ZARU
+// ties the gyro bias, and with one ZUPT per stance state the bias about the foot's vertical went
+// unobserved. The levelling factor at every ZUPT state (use_stance_level) observes it through
+// the tilt the stances show. Measured by the CLI, seeds 1-8 (RMSE, m): fg-ins-batch 0.006-0.028
+// with it, 0.008-1.59 without; fg-ins-window 0.011-0.034 with, 0.074-1.56 without;
+// jimenez-iez-rts 0.020-0.070.
+TEST(InsGraphBatch, LevellingAtStancesHoldsAWalkWithoutRest) {
+  const int runs = testing::kSanitized ? 1 : 3;
+  for (int seed = 1; seed <= runs; ++seed) {
+    auto w = SimulateScenario("jimenez-building", seed,
+                              YAML::Load("{duration_s: 40, start_still_s: 0, end_still_s: 0}"));
+    ASSERT_TRUE(w.ok()) << w.status().ToString();
+    for (ImuSample& s : w->imu) s.has_mag = false;
+    w->rss.clear();
+    w->anchors.clear();
+    w->meta.initial_pose.reset();
+    std::map<std::string, double> with, without;
+    for (const char* id : {"fg-ins-batch", "fg-ins-window"}) {
+      auto a = RunEstimator(id, *w);
+      auto b = RunEstimator(id, *w, "{use_stance_level: false}");
+      ASSERT_TRUE(a.ok() && b.ok()) << id;
+      with[id] = Rmse(*w, *a, Alignment::kSE2);
+      without[id] = Rmse(*w, *b, Alignment::kSE2);
+    }
+    auto rts = RunEstimator("jimenez-iez-rts", *w);
+    ASSERT_TRUE(rts.ok()) << rts.status().ToString();
+    const double r = Rmse(*w, *rts, Alignment::kSE2);
+    std::printf(
+        "no rest, seed %d: fg-ins-batch %.3f m (%.3f without levelling), fg-ins-window %.3f "
+        "(%.3f), jimenez-iez-rts %.3f\n",
+        seed, with["fg-ins-batch"], without["fg-ins-batch"], with["fg-ins-window"],
+        without["fg-ins-window"], r);
+    EXPECT_LT(with["fg-ins-batch"], 0.05) << seed;
+    EXPECT_LT(with["fg-ins-window"], 0.05) << seed;
+    EXPECT_LE(with["fg-ins-batch"], r) << seed;
+    EXPECT_GT(without["fg-ins-batch"], 0.2) << seed;  // the failure is still in the walk
+  }
+}
+
 // The stance magnetometer on running (prieto-laps, 3 laps at a run): the heading no longer
-// drifts. Measured by the CLI on seeds 1-4: fg-ins-batch 0.312/0.179/0.265/0.232 m RMSE with
-// it, 0.476/0.179/0.348/0.233 m without (mean 0.80x); 68 factors on 155 strides (stances 3 m
-// apart, none before 20 pairs). A walk without a magnetometer gets none.
+// drifts. Measured on seeds 1-4: fg-ins-batch 0.266/0.171/0.258/0.235 m RMSE with it,
+// 0.311/0.171/0.278/0.235 m without (mean 0.93x); 68 factors on 155 strides (stances 3 m
+// apart, none before 20 pairs). (Before the levelling factor at stances, use_stance_level,
+// which holds the gyro bias the heading drifts with: 0.312/0.179/0.265/0.232 with it,
+// 0.476/0.179/0.348/0.233 without, 0.80x.) A walk without a magnetometer gets none.
 TEST(InsGraphBatch, StanceMagnetometerHoldsTheHeadingOfARun) {
   const int runs = testing::kSanitized ? 1 : 4;
   double with = 0.0, without = 0.0;
@@ -504,7 +546,7 @@ TEST(InsGraphBatch, StanceMagnetometerHoldsTheHeadingOfARun) {
     with += ra / runs;
     without += rb / runs;
   }
-  if (!testing::kSanitized) EXPECT_LE(with, 0.85 * without);
+  if (!testing::kSanitized) EXPECT_LE(with, 0.96 * without);
   auto w = SimulateScenario("prieto-laps", 1, YAML::Load("{gait: run, laps: 1}"));
   ASSERT_TRUE(w.ok());
   for (ImuSample& s : w->imu) s.has_mag = false;

@@ -480,6 +480,7 @@ StatusOr<EstimateResult> SolveInsWalk(const Walk& walk, const InsGraphOptions& o
   context.walk = &walk;
   context.imu_gap_s = ImuGapThresholdS(walk.imu);
   context.still = &front.stance.still;
+  context.zupt = &front.zupt;
   context.scale_noise = &front.scale_noise;
   context.path = &front.states;
   context.options = o;

@@ -68,7 +68,8 @@ enum class InsFactorKind {
   kWaypoint,
   kGapReach,
   kGapMagneticHeading,
-  kStanceMagneticHeading
+  kStanceMagneticHeading,
+  kStanceLevel
 };
 const EnumNames<InsFactorKind>& InsFactorKindNames();
 const char* ToString(InsFactorKind k);
@@ -88,6 +89,7 @@ struct InsFactor {
 struct InsGraphContext {
   const Walk* walk = nullptr;
   const std::vector<bool>* still = nullptr;  // per IMU sample; null or empty: no ZARU
+  const std::vector<bool>* zupt = nullptr;   // per IMU sample, ZUPT applied; null: no levelling
   // Per IMU sample, the front end's path (radio interpolation); null: α = time fraction.
   const std::vector<NavState>* path = nullptr;
   InsGraphOptions options;

@@ -100,6 +100,8 @@ StatusOr<InsGraphOptions> InsGraphOptionsFromYaml(const YAML::Node& node,
   r.Read("zupt_loss_scale", &o.zupt_loss_scale,
          "scale of the ZUPT loss, in sigma of the whitened residual");
   r.Read("use_zaru", &o.use_zaru, "zero angular-rate updates when the foot is still");
+  r.Read("use_stance_level", &o.use_stance_level,
+         "levelling factor (mean specific force = gravity) at every ZUPT state");
   r.Read("use_gap_reach", &o.use_gap_reach,
          "across an IMU gap, bound the distance by how far the walker went in as long before "
          "it");

@@ -231,6 +231,7 @@ Status InsWindowRun::Start() {
   context_.walk = &walk_;
   context_.imu_gap_s = ImuGapThresholdS(walk_.imu);
   context_.still = &front_.stance.still;
+  context_.zupt = &front_.zupt;
   context_.scale_noise = &front_.scale_noise;
   context_.path = &front_.states;
   context_.options = g_;
