@@ -136,6 +136,30 @@ TEST(StridesTest, LargeGyroBiasIsCompensatedBeforeStanceDetection) {
   EXPECT_LT((end - w->truth.back().position_m.head<2>()).norm(), 0.02 * w->TruthDistance());
 }
 
+// The initial gyro bias from the first still run: for a causal estimator (Causal()) only from a
+// rest the walk starts with, never from one later in the walk.
+TEST(StridesTest, CausalFrontEndTakesTheGyroBiasOnlyFromARestAtTheStart) {
+  for (const double start_still_s : {0.0, 10.0}) {
+    YAML::Node overrides =
+        YAML::Load("{duration_s: 60, gyro_bias_dph: 3600, gyro_bias_sigma_radps: 0}");
+    overrides["start_still_s"] = start_still_s;
+    auto w = SimulateScenario("jimenez-building", 3, overrides);
+    ASSERT_TRUE(w.ok()) << w.status().ToString();
+    auto any = RunZuptIns(*w, StrideOptions());
+    auto causal = RunZuptIns(*w, StrideOptions().Causal());
+    ASSERT_TRUE(any.ok() && causal.ok());
+    const Eigen::Vector3d a = any->gyro_bias_radps.front(), c = causal->gyro_bias_radps.front();
+    std::printf("start still %.0f s: initial gyro bias %.4f / %.4f rad/s (any rest / causal)\n",
+                start_still_s, a.x(), c.x());
+    EXPECT_GT(a.cwiseAbs().minCoeff(), 0.01);  // ≈ 1 °/s per axis, from a rest
+    if (start_still_s > 0) {
+      EXPECT_EQ(c, a);  // the rest the walk starts with
+    } else {
+      EXPECT_EQ(c, Eigen::Vector3d::Zero());  // only the rest at the end: not taken
+    }
+  }
+}
+
 TEST(StridesTest, StepsForWalkReturnsStridesForFootWalks) {
   auto w = SimulateScenario("prieto-laps", 3, YAML::Load("{laps: 1}"));
   ASSERT_TRUE(w.ok());

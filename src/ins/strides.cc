@@ -26,6 +26,10 @@ WALKGRAPH_DEFINE_ENUM_NAMES(ScaleNoiseAdaptation, "scale_noise_adaptation",
 
 namespace {
 
+// A stance-compensating still run may begin this long after the walk's first sample
+// (StrideOptions::gyro_bias_start_rest_only), else anywhere.
+constexpr double kInitialRestStartS = 1.0;
+
 // Error-state layout.
 constexpr int kP = 0, kV = 3, kTh = 6, kBa = 9, kBg = 12, kN = 15;
 
@@ -113,9 +117,10 @@ Status CheckOptions(const StrideOptions& o) {
   return Status::Ok();
 }
 
-// Mean gyro over the first run of `flags` lasting at least min_s.
+// Mean gyro over the first run of `flags` lasting at least min_s; false if none, or if that
+// run begins more than start_max_s after the walk's first sample.
 bool FirstRunGyroMean(const std::vector<ImuSample>& imu, const std::vector<bool>& flags,
-                      double min_s, Eigen::Vector3d* mean) {
+                      double min_s, double start_max_s, Eigen::Vector3d* mean) {
   for (size_t i = 0; i < flags.size();) {
     if (!flags[i]) {
       ++i;
@@ -124,6 +129,7 @@ bool FirstRunGyroMean(const std::vector<ImuSample>& imu, const std::vector<bool>
     size_t j = i;
     while (j + 1 < flags.size() && flags[j + 1]) ++j;
     if (imu[j].t_s - imu[i].t_s >= min_s) {
+      if (imu[i].t_s - imu[0].t_s > start_max_s) return false;
       *mean = Eigen::Vector3d::Zero();
       for (size_t k = i; k <= j; ++k) *mean += imu[k].gyro_radps;
       *mean /= static_cast<double>(j - i + 1);
@@ -191,8 +197,12 @@ StatusOr<StanceMask> StanceWithGyroBias(const Walk& walk, const StrideOptions& o
                                         Eigen::Vector3d* bg0) {
   WG_ASSIGN_OR_RETURN(StanceMask stance, DetectStance(walk, o.stance));
   *bg0 = Eigen::Vector3d::Zero();
-  if (o.compensate_gyro_bias && (FirstRunGyroMean(walk.imu, stance.still, 0.5, bg0) ||
-                                 InitialRestGyroMean(walk.imu, o.stance, bg0))) {
+  if (o.compensate_gyro_bias &&
+      (FirstRunGyroMean(walk.imu, stance.still, 0.5,
+                        o.gyro_bias_start_rest_only ? kInitialRestStartS
+                                                    : std::numeric_limits<double>::infinity(),
+                        bg0) ||
+       InitialRestGyroMean(walk.imu, o.stance, bg0))) {
     Walk compensated;
     compensated.meta = walk.meta;
     compensated.imu = walk.imu;
@@ -322,6 +332,7 @@ StrideOptions StrideOptions::Causal() const {
   }
   o.stance.adaptive_causal = true;
   o.stance.adaptive_window_s = 60.0;
+  o.gyro_bias_start_rest_only = true;
   return o;
 }
 
@@ -337,6 +348,8 @@ StatusOr<StrideOptions> StrideOptionsFromYaml(const YAML::Node& node, const Stri
   const YAML::Node stance = r.Child("stance");
   r.Read("compensate_gyro_bias", &o.compensate_gyro_bias,
          "subtract the gyro mean of the first still run before detecting stance again");
+  r.Read("gyro_bias_start_rest_only", &o.gyro_bias_start_rest_only,
+         "that still run only if it begins within 1 s of the walk's start");
   r.Read("gravity_mps2", &o.gravity_mps2, "local gravity magnitude");
   r.Read("acc_noise_mps2", &o.acc_noise_mps2,
          "accelerometer white noise per reading (Xsens MTi, 004 Table I)");
