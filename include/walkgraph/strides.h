@@ -17,7 +17,8 @@
 //   ZARU at still samples:   ω̃ = b_g + n, H = [0 0 0 0 I],  R = σ_zaru² I
 // then p += δp, v += δv, q ← Exp(δθ)⊗q, b += δb.
 // Initial attitude: roll and pitch levelled from the mean specific force of the first stance
-// phase; yaw (the ENU angle of the body x axis) = initial_pose.heading_rad, else 0. Initial gyro
+// phase (a walk that starts in a swing starts there: wait_for_first_stance); yaw (the ENU angle
+// of the body x axis) = initial_pose.heading_rad, else 0. Initial gyro
 // bias: the mean gyro of the first still run (compensate_gyro_bias;
 // gyro_bias_start_rest_only), else 0.
 //
@@ -139,6 +140,15 @@ struct StrideOptions {
   // shorter than 0.2 s is no stride).
   double min_stance_s = 0.05;
   double min_swing_s = 0.2;
+  // A walk that starts in a swing (its first stance phase begins min_swing_s or more, and at
+  // most stance.gait_max_gap_s, after the first sample): the INS waits at its first stance
+  // phase and starts there (velocity zero, attitude levelled from that phase), its position
+  // held where it starts until then. Integrating the swing from a levelled attitude that is
+  // not the foot's (the foot is tilted mid-swing) left a velocity error the first ZUPTs put
+  // into the tilt and biases: the five PyShoe trials cut to start 3, 6 and 10 s in, zupt-ins
+  // up to 2.96 m RMSE, 0.84 m cut at a stance instead (docs/results.md). false: integrate
+  // from the first sample.
+  bool wait_for_first_stance = true;
   // Floors of the emitted σ (the filter's covariance is optimistic about unmodelled errors).
   double min_sigma_length_m = 0.01;
   double min_sigma_heading_rad = 0.002;
@@ -176,6 +186,9 @@ struct ZuptInsSolution {
   StepSequence strides;            // one per phase after the reference
   std::vector<size_t> stride_end;  // IMU index of each stride's end
   size_t reference_index = 0;      // IMU index where the first stride starts
+  // IMU index where the INS starts (StrideOptions::wait_for_first_stance: the first stance
+  // phase's begin on a walk that starts in a swing; its state held before), else 0.
+  size_t start_index = 0;
   // Per stride: Cov of (d_x, d_y, dheading) from the filter (floored σ not applied).
   std::vector<Eigen::Matrix3d> stride_increment_covariance;
   std::vector<double> scale_noise;     // per IMU sample, StrideOptions::scale_noise as adapted

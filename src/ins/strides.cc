@@ -380,6 +380,9 @@ StatusOr<StrideOptions> StrideOptionsFromYaml(const YAML::Node& node, const Stri
   r.Read("tilt_sigma_rad", &o.tilt_sigma_rad, "std-dev of the levelled initial roll/pitch");
   r.Read("min_stance_s", &o.min_stance_s, "shorter stance runs are detector blips, not stances");
   r.Read("min_swing_s", &o.min_swing_s, "shorter swings between stances are no stride");
+  r.Read("wait_for_first_stance", &o.wait_for_first_stance,
+         "a walk that starts in a swing: the INS starts at its first stance phase (position held "
+         "until then)");
   r.Read("min_sigma_length_m", &o.min_sigma_length_m,
          "floor on each stride's length std-dev (the filter is optimistic)");
   r.Read("min_sigma_heading_rad", &o.min_sigma_heading_rad,
@@ -513,11 +516,14 @@ class StrideEmitter {
 // whose output is the sample's record in the solution, then the stride reset or emission.
 class ZuptInsModel final : public ErrorStateModel {
  public:
+  // `start`: the sample the INS starts at (RunZuptInsWith); before it the state is held.
   ZuptInsModel(const std::vector<ImuSample>& imu, const StrideOptions& o, bool zaru, size_t rung,
-               ZuptInsFilter f, StrapdownOptions sd, StrideEmitter strides, ZuptInsSolution* out)
+               size_t start, ZuptInsFilter f, StrapdownOptions sd, StrideEmitter strides,
+               ZuptInsSolution* out)
       : imu_(imu),
         o_(o),
         zaru_(zaru),
+        start_(start),
         first_rung_(rung),
         rung_(rung),
         f_(std::move(f)),
@@ -532,12 +538,17 @@ class ZuptInsModel final : public ErrorStateModel {
   double Time(size_t k) const override { return imu_[k].t_s; }
 
   Status Propagate(size_t k) override {
-    f_.Predict(imu_[k - 1], imu_[k], o_, &sd_);
+    if (k <= start_) {
+      f_.x.t_s = imu_[k].t_s;  // waiting for the first stance: held
+    } else {
+      f_.Predict(imu_[k - 1], imu_[k], o_, &sd_);
+    }
     return Status::Ok();
   }
 
   // ZUPT in the kept stance runs, ZARU when still.
   Status Update(size_t k) override {
+    if (k < start_) return Status::Ok();
     if (out_.zupt[k]) {
       // The first ZUPT of a stance run tests the swing's propagation (its NIS). A stance
       // hypothesis (stance.h) only when its χ² test passes.
@@ -552,7 +563,7 @@ class ZuptInsModel final : public ErrorStateModel {
       if (!accepted && hypothesis) ++out_.hypotheses_gated;
       if (!accepted && !hypothesis && !run_gated_) ++out_.runs_gated;
       run_gated_ = run_gated_ || (!accepted && !hypothesis);
-      if (accepted && k > 0 && !out_.zupt[k - 1]) FirstZupt(nis, bank_nis);
+      if (accepted && k > start_ && !out_.zupt[k - 1]) FirstZupt(nis, bank_nis);
       if (accepted) {
         run_applied_ = true;
         last_applied_t_ = imu_[k].t_s;
@@ -621,6 +632,7 @@ class ZuptInsModel final : public ErrorStateModel {
   const std::vector<ImuSample>& imu_;
   const StrideOptions& o_;
   const bool zaru_;
+  const size_t start_;
   size_t first_rung_ = 0;  // the rung of StrideOptions::scale_noise
   size_t rung_ = 0;        // causal adaptation: index of f_.scale_noise in kScaleNoiseLadder
   std::vector<std::vector<double>> bank_nis_;  // per rung, the first ZUPTs' NIS so far
@@ -653,13 +665,21 @@ StatusOr<ZuptInsSolution> RunZuptInsWith(const Walk& walk, const StrideOptions& 
   out.phases = StancePhases(imu, out.stance, o, &out.zupt);
   const bool zaru = o.use_zaru && out.stance.still.size() == n;
 
-  // Reference: the end of a stance phase the walk starts in, else the first sample.
-  size_t first_phase = 0;
+  // Reference: the end of a stance phase the walk starts in (or, wait_for_first_stance, the
+  // one a walk that starts in a swing reaches first: the INS starts at its begin), else the
+  // first sample.
+  size_t first_phase = 0, start = 0;
   out.reference_index = 0;
-  if (!out.phases.empty() && imu[out.phases[0].begin].t_s - imu[0].t_s < o.min_swing_s) {
-    out.reference_index = out.phases[0].end;
-    first_phase = 1;
+  if (!out.phases.empty()) {
+    const double lead = imu[out.phases[0].begin].t_s - imu[0].t_s;
+    const bool waits = o.wait_for_first_stance && lead <= o.stance.gait_max_gap_s;
+    if (lead < o.min_swing_s || waits) {
+      out.reference_index = out.phases[0].end;
+      first_phase = 1;
+    }
+    if (lead >= o.min_swing_s && waits) start = out.phases[0].begin;
   }
+  out.start_index = start;
 
   WG_ASSIGN_OR_RETURN(const Eigen::Vector3d f_mean, LevellingForce(imu, out.phases));
   const InitialPose* pose0 = walk.meta.initial_pose ? &*walk.meta.initial_pose : nullptr;
@@ -688,7 +708,7 @@ StatusOr<ZuptInsSolution> RunZuptInsWith(const Walk& walk, const StrideOptions& 
   // At each sample (the first without a prediction): ZUPT and ZARU, the sample's record, then
   // the stride reset or emission.
   StrideEmitter strides(imu, o, first_phase, pose0, f.x);
-  ZuptInsModel model(imu, o, zaru, rung, std::move(f), sd, std::move(strides), &out);
+  ZuptInsModel model(imu, o, zaru, rung, start, std::move(f), sd, std::move(strides), &out);
   std::vector<TrajectoryPoint> none;  // the output epochs are recorded in `out`
   WG_RETURN_IF_ERROR(RunErrorStateFilter(&model, ErrorStateRunOptions(), &none));
   return out;
