@@ -484,13 +484,8 @@ TEST(InsGraphBatch, GapFactorsTieTheStatesEitherSideOfAnImuGap) {
 TEST(InsGraphBatch, LevellingAtStancesHoldsAWalkWithoutRest) {
   const int runs = testing::kSanitized ? 1 : 3;
   for (int seed = 1; seed <= runs; ++seed) {
-    auto w = SimulateScenario("jimenez-building", seed,
-                              YAML::Load("{duration_s: 40, start_still_s: 0, end_still_s: 0}"));
+    auto w = testing::FootWalkWithoutRest(seed);
     ASSERT_TRUE(w.ok()) << w.status().ToString();
-    for (ImuSample& s : w->imu) s.has_mag = false;
-    w->rss.clear();
-    w->anchors.clear();
-    w->meta.initial_pose.reset();
     std::map<std::string, double> with, without;
     for (const char* id : {"fg-ins-batch", "fg-ins-window"}) {
       auto a = RunEstimator(id, *w);

@@ -36,6 +36,19 @@ inline constexpr bool kSanitized =
     false;
 #endif
 
+// The simulated foot walk without any rest (jimenez-building, 40 s, no standstill at either end)
+// with the IMU alone: magnetometer, radio and start removed.
+inline StatusOr<Walk> FootWalkWithoutRest(uint64_t seed) {
+  StatusOr<Walk> w = SimulateScenario(
+      "jimenez-building", seed, YAML::Load("{duration_s: 40, start_still_s: 0, end_still_s: 0}"));
+  if (!w.ok()) return w;
+  for (ImuSample& s : w->imu) s.has_mag = false;
+  w->rss.clear();
+  w->anchors.clear();
+  w->meta.initial_pose.reset();
+  return w;
+}
+
 // Seeded Monte Carlo of estimators `ids` on a simulator preset with YAML `overrides`; every
 // estimator must run on every walk (expectations), an empty Comparison when the study fails.
 inline Comparison ScenarioMonteCarlo(const std::string& scenario, const std::string& overrides,
