@@ -415,6 +415,27 @@ struct ZuptInsFilter {
   double scale_noise = 0.0;  // StrideOptions::scale_noise as adapted for the walk
   std::vector<Eigen::MatrixXd> bank;
 
+  // The NIS an update would have with covariance `Pr` (nothing changes).
+  static StatusOr<double> Nis(const Eigen::VectorXd& innovation, const Eigen::MatrixXd& H,
+                              double sigma, Eigen::MatrixXd Pr) {
+    const Eigen::MatrixXd R =
+        Eigen::MatrixXd::Identity(innovation.size(), innovation.size()) * (sigma * sigma);
+    Eigen::VectorXd dx = Eigen::VectorXd::Zero(kN);
+    WG_ASSIGN_OR_RETURN(const UpdateOutcome o, KalmanUpdate(innovation, H, R, 0.0, &dx, &Pr));
+    return o.nis;
+  }
+
+  // The NIS an update would have at each rung of the bank (nothing changes).
+  StatusOr<std::vector<double>> BankNis(const Eigen::VectorXd& innovation, const Eigen::MatrixXd& H,
+                                        double sigma) const {
+    std::vector<double> out;
+    for (const Eigen::MatrixXd& Pr : bank) {
+      WG_ASSIGN_OR_RETURN(const double nis, Nis(innovation, H, sigma, Pr));
+      out.push_back(nis);
+    }
+    return out;
+  }
+
   // The update's NIS goes to *nis, the bank's (per rung) to *bank_nis, when given.
   // A gated update (its NIS above max_nis) changes nothing and returns false in *accepted.
   Status Update(const Eigen::VectorXd& innovation, const Eigen::MatrixXd& H, double sigma,
@@ -557,13 +578,29 @@ class ZuptInsModel final : public ErrorStateModel {
       const bool hypothesis = !out_.stance.hypothesis.empty() && out_.stance.hypothesis[k];
       if (k == 0 || !out_.zupt[k - 1]) run_applied_ = run_gated_ = false;
       bool accepted = true;
+      const bool first = k > start_ && !out_.zupt[k - 1];
+      const double gate = hypothesis ? ChiSquareQuantile(kHypothesisGate, 3) : GrossGate(k);
+      if (first && !f_.bank.empty()) {
+        // A first ZUPT the gate passes (at the rung so far) takes its update at the rung its NIS
+        // selects: at the rung before, a swing the scale noise had to explain went into the
+        // state at that rung's gains (a running walk without rest: its first ZUPT put 0.17
+        // rad/s into the gyro bias, 10σ).
+        WG_ASSIGN_OR_RETURN(const double nis_now,
+                            ZuptInsFilter::Nis(-f_.x.v_n, H_zupt_, o_.zupt_sigma_mps, f_.P));
+        if (nis_now <= gate) {
+          WG_ASSIGN_OR_RETURN(const std::vector<double> now,
+                              f_.BankNis(-f_.x.v_n, H_zupt_, o_.zupt_sigma_mps));
+          rung_ = BankRung(now);
+          f_.P = f_.bank[rung_];
+          f_.scale_noise = kScaleNoiseLadder[rung_];
+        }
+      }
       WG_RETURN_IF_ERROR(
-          f_.Update(-f_.x.v_n, H_zupt_, o_.zupt_sigma_mps, &nis, &bank_nis,
-                    hypothesis ? ChiSquareQuantile(kHypothesisGate, 3) : GrossGate(k), &accepted));
+          f_.Update(-f_.x.v_n, H_zupt_, o_.zupt_sigma_mps, &nis, &bank_nis, gate, &accepted));
       if (!accepted && hypothesis) ++out_.hypotheses_gated;
       if (!accepted && !hypothesis && !run_gated_) ++out_.runs_gated;
       run_gated_ = run_gated_ || (!accepted && !hypothesis);
-      if (accepted && k > start_ && !out_.zupt[k - 1]) FirstZupt(nis, bank_nis);
+      if (accepted && first) FirstZupt(nis, bank_nis);
       if (accepted) {
         run_applied_ = true;
         last_applied_t_ = imu_[k].t_s;
@@ -610,11 +647,7 @@ class ZuptInsModel final : public ErrorStateModel {
     if (!f_.bank.empty()) {
       bank_nis_.resize(bank_nis.size());
       for (size_t r = 0; r < bank_nis.size(); ++r) bank_nis_[r].push_back(bank_nis[r]);
-      rung_ = first_rung_;
-      while (rung_ + 1 < bank_nis_.size() &&
-             internal::Median(bank_nis_[rung_]) > o_.max_median_zupt_nis) {
-        ++rung_;
-      }
+      rung_ = BankRung({});
       f_.P = f_.bank[rung_];
       f_.scale_noise = kScaleNoiseLadder[rung_];
       if (bank_nis_[0].size() >= kBankStances) f_.bank.clear();
@@ -627,6 +660,19 @@ class ZuptInsModel final : public ErrorStateModel {
     if (median <= o_.max_median_zupt_nis || rung_ + 1 >= std::size(kScaleNoiseLadder)) return;
     f_.scale_noise = kScaleNoiseLadder[++rung_];
     recent_nis_.clear();
+  }
+
+  // The least rung from first_rung_ whose median NIS over the bank's first ZUPTs (and `now`,
+  // one more per rung, when given) is at most max_median_zupt_nis.
+  size_t BankRung(const std::vector<double>& now) const {
+    const size_t rungs = std::max(bank_nis_.size(), now.size());
+    size_t r = first_rung_;
+    for (; r + 1 < rungs; ++r) {
+      std::vector<double> nis = r < bank_nis_.size() ? bank_nis_[r] : std::vector<double>();
+      if (r < now.size()) nis.push_back(now[r]);
+      if (internal::Median(nis) <= o_.max_median_zupt_nis) break;
+    }
+    return r;
   }
 
   const std::vector<ImuSample>& imu_;
