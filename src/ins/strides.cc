@@ -447,11 +447,8 @@ struct ZuptInsFilter {
         Eigen::MatrixXd::Identity(innovation.size(), innovation.size()) * (sigma * sigma);
     if (bank_nis != nullptr) bank_nis->clear();
     if (std::isfinite(max_nis)) {
-      Eigen::VectorXd dx_test = Eigen::VectorXd::Zero(kN);
-      Eigen::MatrixXd P_test = P;
-      WG_ASSIGN_OR_RETURN(const UpdateOutcome test,
-                          KalmanUpdate(innovation, H, R, 0.0, &dx_test, &P_test));
-      const bool pass = test.nis <= max_nis;
+      WG_ASSIGN_OR_RETURN(const double test_nis, Nis(innovation, H, sigma, P));
+      const bool pass = test_nis <= max_nis;
       if (accepted != nullptr) *accepted = pass;
       if (!pass) return Status::Ok();
     }
@@ -645,11 +642,9 @@ class ZuptInsModel final : public ErrorStateModel {
     out_.first_zupt_nis.push_back(nis);
     if (o_.scale_noise_adaptation != ScaleNoiseAdaptation::kCausal) return;
     if (!f_.bank.empty()) {
+      // The rung was chosen before the update (Update), with this NIS.
       bank_nis_.resize(bank_nis.size());
       for (size_t r = 0; r < bank_nis.size(); ++r) bank_nis_[r].push_back(bank_nis[r]);
-      rung_ = BankRung({});
-      f_.P = f_.bank[rung_];
-      f_.scale_noise = kScaleNoiseLadder[rung_];
       if (bank_nis_[0].size() >= kBankStances) f_.bank.clear();
       return;
     }
@@ -662,14 +657,13 @@ class ZuptInsModel final : public ErrorStateModel {
     recent_nis_.clear();
   }
 
-  // The least rung from first_rung_ whose median NIS over the bank's first ZUPTs (and `now`,
-  // one more per rung, when given) is at most max_median_zupt_nis.
+  // The least rung from first_rung_ whose median NIS over the bank's first ZUPTs so far and
+  // `now` (this one's, per rung) is at most max_median_zupt_nis.
   size_t BankRung(const std::vector<double>& now) const {
-    const size_t rungs = std::max(bank_nis_.size(), now.size());
     size_t r = first_rung_;
-    for (; r + 1 < rungs; ++r) {
+    for (; r + 1 < now.size(); ++r) {
       std::vector<double> nis = r < bank_nis_.size() ? bank_nis_[r] : std::vector<double>();
-      if (r < now.size()) nis.push_back(now[r]);
+      nis.push_back(now[r]);
       if (internal::Median(nis) <= o_.max_median_zupt_nis) break;
     }
     return r;
